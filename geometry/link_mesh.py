@@ -34,6 +34,9 @@ class LinkMesh:
     cad_volume_m3: float  # exact solid volume from the CAD kernel
     mesh_size_m: float
     source: str  # file path, or "default" for the built-in parametric link
+    # Optional curved (isoparametric) quadratic mesh: (10, n_tets) node indices into points_m in
+    # meshio's "tetra10" order, first four columns equal to `tets`. None for a linear mesh.
+    tets10: np.ndarray | None = None
 
     @property
     def load_direction(self) -> np.ndarray:
