@@ -1,0 +1,37 @@
+"""Geometry stage: one chain link from a STEP file (or the built-in parametric link) to a tetrahedral
+mesh with its two pin bores found and tagged (`LinkMesh`)."""
+
+from geometry.bores import BoreOverride
+from geometry.dimensions import (
+    CALIBRATED_BODY_VOLUME_M3,
+    DEFAULT_HARDWARE_MASS_KG,
+    DEFAULT_LINK,
+    NEST_MASS_KG,
+    LinkDimensions,
+    nominal_volume_m3,
+)
+from geometry.errors import GeometryError
+from geometry.example import EXAMPLE_STEP
+from geometry.link_mesh import Bore, LinkMesh
+from geometry.load import load_link
+from geometry.parametric import LinkFeatures
+from geometry.step_io import write_step
+from geometry.vtu import write_vtu
+
+__all__ = [
+    "Bore",
+    "BoreOverride",
+    "CALIBRATED_BODY_VOLUME_M3",
+    "DEFAULT_HARDWARE_MASS_KG",
+    "DEFAULT_LINK",
+    "EXAMPLE_STEP",
+    "GeometryError",
+    "LinkDimensions",
+    "LinkFeatures",
+    "LinkMesh",
+    "NEST_MASS_KG",
+    "load_link",
+    "nominal_volume_m3",
+    "write_step",
+    "write_vtu",
+]

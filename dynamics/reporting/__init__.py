@@ -1,0 +1,1 @@
+"""Results for people: plots, tables and the HTML report written by `pipeline.py`."""

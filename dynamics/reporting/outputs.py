@@ -1,0 +1,404 @@
+"""Everything `pipeline.py` writes into --out: summary.json, tables, plots, images, report.html.
+
+Files are first written into a hidden staging folder inside --out and moved into place one by one
+with os.replace only when all of them exist, so a failed run leaves an existing --out as it was and
+a reader never sees half a file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from dynamics.metrics import rank_cams, rms, station_links
+from dynamics.reporting import html, plots
+from dynamics.reporting.history import CamHistory
+from dynamics.reporting.tables import Table, max_acceleration_table, rms_table
+
+RANKING_METRIC = "residual_vibration_m"
+RANKING_STATION = "tight-side"
+SUMMARY_STATION_KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2",
+                        "max_abs_acceleration_m_s2", "max_deviation_m", "max_velocity_deviation_m_s",
+                        "max_acceleration_deviation_m_s2", "residual_vibration_m")
+PER_LINK_KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2",
+                 "residual_vibration_m")
+
+
+class StagedOutput:
+    """Collects output files in a staging folder; `commit` moves them into the output folder."""
+
+    def __init__(self, out: Path):
+        self.out = out
+        self.staging = Path(tempfile.mkdtemp(dir=out, prefix=".staging-"))
+        self.names: list[str] = []
+
+    def path(self, name: str) -> Path:
+        self.names.append(name)
+        return self.staging / name
+
+    def write_text(self, name: str, text: str) -> Path:
+        p = self.path(name)
+        p.write_text(text, encoding="utf-8")
+        return p
+
+    def commit(self) -> None:
+        for name in self.names:
+            os.replace(self.staging / name, self.out / name)
+        shutil.rmtree(self.staging, ignore_errors=True)
+
+    def discard(self) -> None:
+        shutil.rmtree(self.staging, ignore_errors=True)
+
+
+def _input_rms(h: CamHistory) -> dict[str, float]:
+    return {
+        "input_rms_displacement_m": float(rms(h.z_m)),
+        "input_rms_velocity_m_s": float(rms(h.zdot_m_s)),
+        "input_rms_acceleration_m_s2": float(rms(h.zddot_m_s2)),
+    }
+
+
+def _station_dict(station) -> dict:
+    return {"link": station.link, **{k: getattr(station, k) for k in SUMMARY_STATION_KEYS}}
+
+
+def _scenario_summary(scenario, fea) -> dict:
+    tension = scenario.tension
+    peak_stress = tension.peak_N * fea.peak_von_mises_away_from_clamp_Pa_per_N if fea is not None else None
+    out = {
+        "stations": {name: _station_dict(s) for name, s in scenario.stations.items()},
+        "per_link": {k: getattr(scenario.metrics, k).tolist() for k in PER_LINK_KEYS},
+        "peak_tension_N": tension.peak_N,
+        "min_tension_N": tension.min_N,
+        "slack": tension.slack,
+    }
+    if peak_stress is not None:
+        out["peak_link_stress_Pa"] = peak_stress
+        out["yield_safety_factor"] = fea.yield_strength_Pa / peak_stress if peak_stress > 0 else None
+    return out
+
+
+def _rankings(scenarios: dict, materials, cams) -> dict:
+    result = {}
+    for material in materials:
+        by_cam = {cam: scenarios[material, cam].stations for cam in cams}
+        result[material] = {metric: [list(cv) for cv in rank_cams(by_cam, metric, RANKING_STATION).order]
+                            for metric in (RANKING_METRIC, "max_abs_acceleration_m_s2", "rms_acceleration_m_s2")}
+    return result
+
+
+def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict) -> dict:
+    first = next(iter(fea.values()))
+    return {
+        "inputs": _inputs(cfg),
+        "geometry": {
+            "source": "default" if cfg.geometry is None else str(cfg.geometry),
+            "pitch_m": first.pitch_m,
+            "body_volume_m3": first.body_volume_m3,
+            "bore_radius_m": first.bore_radius_m,
+        },
+        "stations": station_links(cfg.links),
+        "cams": {cam: _input_rms(scenarios[first.material, cam].history) for cam in cfg.cams},
+        "materials": {
+            name: {
+                "stiffness_N_per_m": r.stiffness_N_per_m,
+                "stiffness_rel_error_estimate": r.stiffness_rel_error_estimate,
+                "body_mass_kg": r.body_mass_kg,
+                "lumped_mass_kg": models[name].link_mass_kg,
+                "natural_frequencies_Hz": models[name].natural_frequencies_Hz()[:10].tolist(),
+                "peak_von_mises_Pa_per_N": r.peak_von_mises_Pa_per_N,
+                "peak_von_mises_away_from_clamp_Pa_per_N": r.peak_von_mises_away_from_clamp_Pa_per_N,
+                "yield_strength_Pa": r.yield_strength_Pa,
+                "fea_dofs": r.dofs,
+                "fea_mesh_size_m": r.mesh_size_m,
+                "fea_from_cache": r.cached,
+                "cams": {cam: _scenario_summary(scenarios[name, cam], r) for cam in cfg.cams},
+            }
+            for name, r in fea.items()
+        },
+        "ranking": {"station": RANKING_STATION, "by_material": _rankings(scenarios, fea, cfg.cams)},
+        "timing_s": timing,
+    }
+
+
+def _inputs(cfg) -> dict:
+    return {
+        "links": cfg.links, "rpm": cfg.rpm, "cams": list(cfg.cams), "materials": list(cfg.materials),
+        "friction_coefficient": cfg.friction, "damping_ratio": cfg.damping, "preload_N": cfg.preload_N,
+        "solver": cfg.solver, "preset": cfg.preset, "steady_state": cfg.steady_state,
+        "samples_per_degree": cfg.samples_per_degree, "hardware_mass_kg": cfg.hardware_mass_kg,
+        "nest_mass_kg": cfg.nest_mass_kg, "fea_order": cfg.order, "fea_mesh_size_m": cfg.mesh_size_m,
+    }
+
+
+@dataclass(frozen=True)
+class LinkRms:
+    """RMS of one link's motion and its max |acceleration|, SI."""
+
+    rms_displacement_m: float
+    rms_velocity_m_s: float
+    rms_acceleration_m_s2: float
+    max_abs_acceleration_m_s2: float
+
+
+def _tables(histories: dict, at_link: dict, rms_link: int, max_link: int) -> list[Table]:
+    """RMS (Table 1/4 layout) and max-acceleration (Table 2) tables; at_link[(material, cam)] is a LinkRms."""
+    materials = list(dict.fromkeys(m for m, _ in histories))
+    cams = list(dict.fromkeys(c for _, c in histories))
+    inputs = {cam: histories[materials[0], cam] for cam in cams}
+    input_rms = {cam: {"displacement": float(rms(h.z_m)), "velocity": float(rms(h.zdot_m_s)),
+                       "acceleration": float(rms(h.zddot_m_s2))} for cam, h in inputs.items()}
+    link_rms = {m: {cam: {"displacement": at_link[m, cam].rms_displacement_m,
+                          "velocity": at_link[m, cam].rms_velocity_m_s,
+                          "acceleration": at_link[m, cam].rms_acceleration_m_s2} for cam in cams}
+                for m in materials}
+    max_acc = {m: {cam: at_link[m, cam].max_abs_acceleration_m_s2 for cam in cams} for m in materials}
+    return [rms_table(input_rms, link_rms, rms_link), max_acceleration_table(max_acc, max_link)]
+
+
+def _link_rms(station) -> LinkRms:
+    return LinkRms(station.rms_displacement_m, station.rms_velocity_m_s, station.rms_acceleration_m_s2,
+                   station.max_abs_acceleration_m_s2)
+
+
+def _ranking_table(rankings: dict) -> Table:
+    rows = []
+    for material, by_metric in rankings.items():
+        for rank, (cam, value) in enumerate(by_metric[RANKING_METRIC], start=1):
+            rows.append((material, rank, cam, value * 1e3, dict(by_metric["max_abs_acceleration_m_s2"])[cam]))
+    return Table(f"Cam laws ranked by residual vibration in the dwell at the {RANKING_STATION} station (best first)",
+                 ("material", "rank", "cam law", "residual vibration (mm)", "max |acceleration| (m/s²)"), tuple(rows))
+
+
+def _write_tables(staged: StagedOutput, tables: dict[str, Table]) -> str:
+    for stem, table in tables.items():
+        staged.write_text(f"{stem}.csv", table.to_csv())
+        staged.write_text(f"{stem}.md", table.to_markdown())
+    return "\n".join(t.to_markdown() for t in tables.values())
+
+
+def _material_plots(staged: StagedOutput, histories: list[CamHistory], links: dict[str, int]) -> dict[str, Path]:
+    m = histories[0].material
+    n = histories[0].n_links
+    tight = links["tight-side"]
+    figures = {
+        "three links": plots.plot_three_links(histories, [1, links["idler-end"], n], staged.path(f"{m}_three_links.png")),
+        "vs input": plots.plot_link_vs_input(histories, tight, staged.path(f"{m}_link{tight}_vs_input.png")),
+        "differences": plots.plot_differences(histories, tight, staged.path(f"{m}_link{tight}_differences.png")),
+        "dwell": plots.plot_dwell_vibration(histories, tight, staged.path(f"{m}_link{tight}_dwell_vibration.png")),
+    }
+    if np.any(histories[0].tension_N):
+        figures["tension"] = plots.plot_tension(histories, staged.path(f"{m}_tension.png"))
+    return figures
+
+
+def _fea_table(fea: dict, models: dict) -> Table:
+    rows = tuple((name, r.stiffness_N_per_m, 100 * r.stiffness_rel_error_estimate, r.body_mass_kg,
+                  models[name].link_mass_kg, float(models[name].natural_frequencies_Hz()[0]),
+                  r.peak_von_mises_away_from_clamp_Pa_per_N * 1e3 / 1e6, r.dofs, "yes" if r.cached else "no")
+                 for name, r in fea.items())
+    return Table("Link stiffness and mass (FEA) and the chain they make",
+                 ("material", "k (N/m)", "k error estimate (%)", "body mass (kg)", "lumped mass (kg)",
+                  "chain f1 (Hz)", "peak von Mises per kN (MPa)", "FEA DOFs", "from cache"), rows)
+
+
+def _station_table(scenarios: dict) -> Table:
+    rows = []
+    for (material, cam), sc in scenarios.items():
+        for station, s in sc.stations.items():
+            rows.append((material, cam, station, s.link, s.rms_acceleration_m_s2, s.max_abs_acceleration_m_s2,
+                         s.residual_vibration_m * 1e3, s.max_deviation_m * 1e3))
+    return Table("Accelerometer stations", ("material", "cam law", "station", "link", "RMS acceleration (m/s²)",
+                                            "max |acceleration| (m/s²)", "residual vibration (mm)",
+                                            "max |x − z| (mm)"), tuple(rows))
+
+
+def _tension_table(summary_materials: dict) -> Table:
+    rows = []
+    for material, data in summary_materials.items():
+        for cam, c in data["cams"].items():
+            rows.append((material, cam, c["peak_tension_N"] / 1e3, c["min_tension_N"] / 1e3,
+                         "SLACK" if c["slack"] else "taut", c["peak_link_stress_Pa"] / 1e6,
+                         c["yield_safety_factor"]))
+    return Table("Link tension and stress (stress = peak tension x FEA peak von Mises per newton, away from the "
+                 "clamped bore)", ("material", "cam law", "peak tension (kN)", "min tension (kN)", "chain",
+                                   "peak stress (MPa)", "safety factor on yield"), tuple(rows))
+
+
+def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing: dict, progress) -> None:
+    staged = StagedOutput(cfg.out)
+    try:
+        progress("outputs: tables, plots and report")
+        links = station_links(cfg.links)
+        tight = links["tight-side"]
+        histories = {key: sc.history for key, sc in scenarios.items()}
+        at_link = {key: _link_rms(sc.stations["tight-side"]) for key, sc in scenarios.items()}
+        summary = default_summary(cfg, fea, models, scenarios, timing)
+        ranking = _ranking_table(summary["ranking"]["by_material"])
+        report_tables = dict(zip(("rms_table", "max_acceleration_table"), _tables(histories, at_link, tight, tight)))
+        tables = {**report_tables, "ranking": ranking, "stations": _station_table(scenarios),
+                  "tension": _tension_table(summary["materials"])}
+        staged.write_text("tables.md", _write_tables(staged, tables))
+        residual = {m: {c: scenarios[m, c].stations[RANKING_STATION].residual_vibration_m for c in cfg.cams}
+                    for m in fea}
+        residual_png = plots.plot_residual_vibration(residual, RANKING_STATION, staged.path("residual_vibration.png"))
+        figures = {m: _material_plots(staged, [histories[m, c] for c in cfg.cams], links) for m in fea}
+        images = {}
+        for m, r in fea.items():
+            if r.image is not None:
+                images[m] = staged.path(f"{m}_deformed.png")
+                shutil.copyfile(r.image, images[m])
+        timing["outputs"] = progress.elapsed() - sum(timing.values())
+        timing["total"] = progress.elapsed()
+        staged.write_text("summary.json", json.dumps(summary, indent=1))
+        sections = _default_sections(cfg, summary, tables, fea, models, residual_png, figures, images)
+        staged.write_text("report.html", html.render_page("link-conveyor: chain vibration report", sections))
+        staged.commit()
+    except BaseException:
+        staged.discard()
+        raise
+    progress(f"done in {timing['total']:.1f} s: {len(staged.names)} files in {cfg.out}/")
+    if not cfg.quiet:
+        print(ranking.to_markdown())
+
+
+def _default_sections(cfg, summary, tables, fea, models, residual_png, figures, images) -> list[html.Section]:
+    inputs = summary["inputs"]
+    geo = summary["geometry"]
+    intro = html.paragraph(
+        f"Link: {geo['source']} (pitch {geo['pitch_m'] * 1e3:.2f} mm, body volume {geo['body_volume_m3'] * 1e6:.2f} cm³). "
+        f"Chain of {inputs['links']} links, cam at {inputs['rpm']:g} rpm, "
+        f"{'periodic steady state of continuous indexing' if inputs['steady_state'] else 'start from rest'}, "
+        f"friction μ = {inputs['friction_coefficient']:g}, damping ζ = {inputs['damping_ratio']:g}, "
+        f"preload {inputs['preload_N']:g} N, solver {inputs['solver']}. Stations: "
+        + ", ".join(f"{k} = link {v}" for k, v in summary["stations"].items()) + ".")
+    slack = [f"{m} / {c}" for m, d in summary["materials"].items() for c, x in d["cams"].items() if x["slack"]]
+    warn = html.paragraph("The chain goes slack (link tension below zero) for: " + ", ".join(slack)
+                          + ". The model is linear, so there it lets links push; treat those results as a bound.",
+                          "warn") if slack else ""
+    sections = [
+        html.Section("Run", intro + warn),
+        html.Section("Link stiffness and mass", html.table_html(_fea_table(fea, models))
+                     + "".join(html.image_html(p, f"{m}: deformed link (exaggerated), von Mises stress")
+                               for m, p in images.items())),
+        html.Section("Which cam law", html.table_html(tables["ranking"])
+                     + html.image_html(residual_png, "Residual vibration in the dwell per cam law and material")),
+        html.Section("Accelerometer stations", html.table_html(tables["stations"])),
+        html.Section("The report's tables", html.table_html(tables["rms_table"])
+                     + html.table_html(tables["max_acceleration_table"])),
+        html.Section("Link tension and stress", html.table_html(tables["tension"])
+                     + "".join(html.image_html(f["tension"], f"{m}: link tension extremes")
+                               for m, f in figures.items() if "tension" in f)),
+    ]
+    for m, f in figures.items():
+        sections.append(html.Section(f"Time histories: {m}", "".join(
+            html.image_html(p, f"{m}: {label}") for label, p in f.items() if label != "tension")))
+    sections.append(html.Section("Timing", html.table_html(
+        Table("Wall time per stage (s)", ("stage", "seconds"), tuple(summary["timing_s"].items())))))
+    return sections
+
+
+def replica_summary(cfg, replicas: dict, timing: dict) -> dict:
+    from dynamics.mqp2012 import REPORT_TABLE1, REPORT_TABLE2
+
+    from dynamics.metrics import link_metrics, station_metrics
+
+    materials = {}
+    for name, r in replicas.items():
+        cams = {}
+        for cam, c in r.cams.items():
+            metrics = link_metrics(c.x_m, c.v_m_s, c.a_m_s2, c.z_m, c.zdot_m_s, c.zddot_m_s2, c.dwell_mask)
+            x, v, a = r.table1_si()[cam]["link"]
+            cams[cam] = {
+                "stations": {s: _station_dict(st) for s, st in station_metrics(metrics).items()},
+                "per_link": {k: getattr(metrics, k).tolist() for k in PER_LINK_KEYS},
+                "table1_link": r.table_link,
+                "table1_rms_displacement_m": x, "table1_rms_velocity_m_s": v, "table1_rms_acceleration_m_s2": a,
+                "table2_link": r.table2_link,
+                "table2_max_abs_acceleration_m_s2": r.table2_si()[cam],
+                "report_table1_rms_m": [q * 1e-3 for q in REPORT_TABLE1[name][cam]],
+                "report_table2_max_abs_acceleration_m_s2": REPORT_TABLE2[name][cam] * 1e-3,
+            }
+        materials[name] = {"stiffness_N_per_m": r.stiffness_N_per_m, "lumped_mass_kg": r.lumped_mass_kg,
+                           "natural_frequencies_Hz": (np.sort(r.natural_frequencies_rad_s)[:10] / (2 * np.pi)).tolist(),
+                           "stable": r.stable, "cams": cams}
+    first = next(iter(replicas.values()))
+    return {
+        "inputs": _inputs(cfg),
+        "preset": "mqp2012",
+        "cams": {cam: {"input_rms_displacement_m": float(rms(c.z_m)), "input_rms_velocity_m_s": float(rms(c.zdot_m_s)),
+                       "input_rms_acceleration_m_s2": float(rms(c.zddot_m_s2))} for cam, c in first.cams.items()},
+        "materials": materials,
+        "timing_s": timing,
+    }
+
+
+def _replica_comparison_table(replicas: dict) -> Table:
+    from dynamics.mqp2012 import REPORT_TABLE1, REPORT_TABLE2
+
+    rows = []
+    quantities = (("RMS displacement (mm)", 0), ("RMS velocity (mm/s)", 1), ("RMS acceleration (mm/s²)", 2))
+    for name, r in replicas.items():
+        table1 = r.table1()
+        for label, i in quantities:
+            for cam in r.cams:
+                ours, report = table1[cam]["link"][i], REPORT_TABLE1[name][cam][i]
+                rows.append((name, label, cam, ours, report, round((ours - report) / report * 100, 3)))
+        for cam, ours in r.table2().items():
+            report = REPORT_TABLE2[name][cam]
+            rows.append((name, f"max |acceleration| link {r.table2_link} (mm/s²)", cam, ours, report,
+                         round((ours - report) / report * 100, 3)))
+    return Table("Replica against the report's Tables 1 and 2", ("material", "quantity", "cam law", "replica",
+                                                                  "report", "difference (%)"), tuple(rows))
+
+
+def write_replica_outputs(cfg, replicas: dict, timing: dict, progress) -> None:
+    staged = StagedOutput(cfg.out)
+    try:
+        progress("outputs: tables, plots and report (mqp2012 preset)")
+        first = next(iter(replicas.values()))
+        link = first.table_link
+        histories, at_link = {}, {}
+        for name, r in replicas.items():
+            for cam, c in r.cams.items():
+                histories[name, cam] = CamHistory(name, cam, c.t_s, c.z_m, c.zdot_m_s, c.zddot_m_s2, c.x_m, c.v_m_s,
+                                                  c.a_m_s2, np.zeros_like(c.x_m), c.dwell_mask)
+                rx, rv, ra = r.table1_si()[cam]["link"]
+                at_link[name, cam] = LinkRms(rx, rv, ra, r.table2_si()[cam])
+        comparison = _replica_comparison_table(replicas)
+        report_tables = dict(zip(("rms_table", "max_acceleration_table"), _tables(histories, at_link, link,
+                                                                                        first.table2_link)))
+        tables = {**report_tables, "report_comparison": comparison}
+        staged.write_text("tables.md", _write_tables(staged, tables))
+        links = station_links(cfg.links)
+        cams = list(first.cams)
+        figures = {m: _material_plots(staged, [histories[m, c] for c in cams], links) for m in replicas}
+        timing["outputs"] = progress.elapsed() - sum(timing.values())
+        timing["total"] = progress.elapsed()
+        summary = replica_summary(cfg, replicas, timing)
+        staged.write_text("summary.json", json.dumps(summary, indent=1))
+        sections = [html.Section("Run", html.paragraph(
+            f"Preset mqp2012: the 2012 report's MATLAB model, quirks included (mm units inside, K(1,1) = 3k, "
+            f"damping vector from sorted eigenfrequencies, preload acting as 2.224 N, friction ~500x too small). "
+            f"N = {cfg.links}, {cfg.rpm:g} rpm, friction {cfg.friction:g}, from rest, 181 one-degree samples. "
+            "Table 1's link is round(3N/4); Table 2's is floor(3N/4), as the report printed them."))]
+        sections.append(html.Section("Against the report", html.table_html(comparison)))
+        sections.append(html.Section("Tables 1 and 2", html.table_html(tables["rms_table"])
+                                     + html.table_html(tables["max_acceleration_table"])))
+        for m, f in figures.items():
+            sections.append(html.Section(f"Time histories: {m}", "".join(
+                html.image_html(p, f"{m}: {label}") for label, p in f.items())))
+        staged.write_text("report.html", html.render_page("link-conveyor: mqp2012 replica", sections))
+        staged.commit()
+    except BaseException:
+        staged.discard()
+        raise
+    progress(f"done in {timing['total']:.1f} s: {len(staged.names)} files in {cfg.out}/")
+    if not cfg.quiet:
+        print(comparison.to_markdown())

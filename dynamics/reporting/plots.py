@@ -1,0 +1,140 @@
+"""Matplotlib figures of the chain response: the 2012 report's figures plus residual vibration and tension.
+
+Displacements are drawn in mm (cam lifts are tens of mm), velocities in m/s, accelerations in m/s^2,
+tensions in kN. Every function writes one PNG and returns its path.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from dynamics.reporting.history import CamHistory  # noqa: E402
+
+CAM_COLOURS = {
+    "modified-sine": "tab:red",
+    "modified-trapezoid": "tab:blue",
+    "cycloidal": "tab:purple",
+    "poly-345": "tab:green",
+    "poly-4567": "black",
+    "simple-harmonic": "tab:orange",
+}
+QUANTITIES = (
+    ("displacement (mm)", lambda h: h.x_m * 1e3, lambda h: h.z_m * 1e3),
+    ("velocity (m/s)", lambda h: h.v_m_s, lambda h: h.zdot_m_s),
+    ("acceleration (m/s²)", lambda h: h.a_m_s2, lambda h: h.zddot_m_s2),
+)
+
+
+def _colour(cam: str) -> str:
+    return CAM_COLOURS.get(cam, "tab:gray")
+
+
+def _save(fig, path: Path) -> Path:
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def plot_three_links(histories: list[CamHistory], links: list[int], path: Path) -> Path:
+    """Displacement, velocity and acceleration of several links (1-based), every cam law."""
+    fig, axes = plt.subplots(3, len(links), figsize=(4.2 * len(links), 8), sharex=True, squeeze=False)
+    for col, link in enumerate(links):
+        axes[0, col].set_title(f"link {link}")
+        for row, (label, link_value, _) in enumerate(QUANTITIES):
+            ax = axes[row, col]
+            for h in histories:
+                ax.plot(h.t_s, link_value(h)[:, link - 1], color=_colour(h.cam), lw=0.9, label=h.cam)
+            ax.set_ylabel(label)
+            ax.grid(alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)")
+    axes[0, -1].legend(fontsize=8)
+    fig.suptitle(f"{histories[0].material}: links {', '.join(map(str, links))}, all cam laws")
+    return _save(fig, path)
+
+
+def plot_link_vs_input(histories: list[CamHistory], link: int, path: Path) -> Path:
+    """One column per cam law: the link's motion over the cam input it follows."""
+    fig, axes = plt.subplots(3, len(histories), figsize=(3.6 * len(histories), 8), sharex=True, squeeze=False)
+    for col, h in enumerate(histories):
+        axes[0, col].set_title(h.cam)
+        for row, (label, link_value, input_value) in enumerate(QUANTITIES):
+            ax = axes[row, col]
+            ax.plot(h.t_s, input_value(h), color="0.4", lw=1.4, label="cam input")
+            ax.plot(h.t_s, link_value(h)[:, link - 1], color=_colour(h.cam), lw=0.9, label=f"link {link}")
+            if col == 0:
+                ax.set_ylabel(label)
+            ax.grid(alpha=0.3)
+        axes[-1, col].set_xlabel("time (s)")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(f"{histories[0].material}: link {link} against the cam input")
+    return _save(fig, path)
+
+
+def plot_differences(histories: list[CamHistory], link: int, path: Path) -> Path:
+    """Link motion minus cam input (x - z, v - z', a - z'') for every cam law at one link."""
+    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    for row, (label, link_value, input_value) in enumerate(QUANTITIES):
+        for h in histories:
+            axes[row].plot(h.t_s, link_value(h)[:, link - 1] - input_value(h), color=_colour(h.cam),
+                           lw=0.9, label=h.cam)
+        axes[row].set_ylabel(f"link − input\n{label}")
+        axes[row].grid(alpha=0.3)
+    axes[0].legend(fontsize=8)
+    axes[-1].set_xlabel("time (s)")
+    fig.suptitle(f"{histories[0].material}: link {link} minus cam input")
+    return _save(fig, path)
+
+
+def plot_residual_vibration(residual_m: dict[str, dict[str, float]], station: str, path: Path) -> Path:
+    """Grouped bars: residual vibration in the dwell (max |x - z| inside dwells) per material and cam."""
+    materials = list(residual_m)
+    cams = list(next(iter(residual_m.values())))
+    width = 0.8 / len(materials)
+    fig, ax = plt.subplots(figsize=(max(6, 1.5 * len(cams)), 4.5))
+    x = np.arange(len(cams))
+    for i, material in enumerate(materials):
+        values = [residual_m[material][c] * 1e3 for c in cams]
+        ax.bar(x + (i - (len(materials) - 1) / 2) * width, values, width, label=material)
+    ax.set_xticks(x, cams, rotation=20)
+    ax.set_ylabel("residual vibration in dwell (mm)")
+    ax.set_title(f"Residual vibration at the {station} station (max |x − z| inside dwells)")
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend()
+    return _save(fig, path)
+
+
+def plot_dwell_vibration(histories: list[CamHistory], link: int, path: Path) -> Path:
+    """x - z during the dwells only, so the residual vibration is visible at its own scale."""
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for h in histories:
+        dev_mm = (h.x_m[:, link - 1] - h.z_m) * 1e3
+        ax.plot(h.t_s, np.where(h.dwell_mask, dev_mm, np.nan), color=_colour(h.cam), lw=0.9, label=h.cam)
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("x − z in dwell (mm)")
+    ax.set_title(f"{histories[0].material}: link {link} vibration during the dwells")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    return _save(fig, path)
+
+
+def plot_tension(histories: list[CamHistory], path: Path) -> Path:
+    """Peak and minimum tension of every link over the window, per cam law; zero line marks slack."""
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    for h in histories:
+        links = np.arange(1, h.n_links + 1)
+        ax.plot(links, h.tension_N.max(axis=0) / 1e3, color=_colour(h.cam), lw=1.0, label=f"{h.cam} max")
+        ax.plot(links, h.tension_N.min(axis=0) / 1e3, color=_colour(h.cam), lw=1.0, ls="--")
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xlabel("link")
+    ax.set_ylabel("link tension (kN); dashed = minimum")
+    ax.set_title(f"{histories[0].material}: link tension extremes (below zero the chain would go slack)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, ncol=2)
+    return _save(fig, path)

@@ -1,0 +1,76 @@
+"""On-disk cache of FEA results, so a run that changes only the cam, speed or chain does not re-solve.
+
+An entry is keyed by everything the FEA result depends on: the geometry file's bytes (or the
+default link's dimensions), the material's properties, the mesh and element settings, and the
+cache format version. It holds the result as JSON and, when made, the rendered image.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+CACHE_FORMAT = 1
+
+
+def default_cache_dir() -> Path:
+    root = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(root) / "link-conveyor" / "fea"
+
+
+def geometry_fingerprint(geometry_path: Path | None, default_description: str) -> str:
+    """Content hash of the geometry file, or of the default link's description."""
+    h = hashlib.sha256()
+    if geometry_path is None:
+        h.update(default_description.encode())
+    else:
+        with open(geometry_path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                h.update(block)
+    return h.hexdigest()
+
+
+def cache_key(geometry_fingerprint: str, settings: dict) -> str:
+    payload = json.dumps(
+        {"format": CACHE_FORMAT, "geometry": geometry_fingerprint, "settings": settings},
+        sort_keys=True,
+    )
+    return hashlib.sha256(payload.encode()).hexdigest()[:32]
+
+
+@dataclass(frozen=True)
+class FeaCache:
+    directory: Path
+
+    def _entry(self, key: str) -> Path:
+        return self.directory / key
+
+    def load(self, key: str) -> dict | None:
+        try:
+            return json.loads((self._entry(key) / "result.json").read_text())
+        except (OSError, ValueError):
+            return None
+
+    def image_path(self, key: str) -> Path:
+        return self._entry(key) / "deformed.png"
+
+    def store(self, key: str, result: dict) -> None:
+        entry = self._entry(key)
+        entry.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(entry / "result.json", json.dumps(result, indent=1, sort_keys=True))
+
+
+def write_text_atomic(path: Path, text: str) -> None:
+    """Write via a temporary file in the same folder and rename, so no reader sees half a file."""
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

@@ -1,0 +1,141 @@
+"""`python -m fem`: axial stiffness, mass and peak stress of a link from a STEP file or the default."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from .errors import FemError
+from .materials import get_material, load_materials
+from .study import DEFAULT_MESH_SIZES_M, StiffnessEstimate, levels_for_finest, stiffness_study
+
+DESCRIPTION = """\
+Axial stiffness k (N/m), mass (kg) and peak von Mises stress per newton (Pa/N) of one chain link.
+The fixed bore is clamped; the other carries a cosine bearing pressure pulling the link apart.
+k comes from the finest of three meshes, with a Richardson estimate of its discretisation error.
+Output is in SI units (the text report adds mm and MPa for reading)."""
+
+
+class _OneLineParser(argparse.ArgumentParser):
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _OneLineParser(prog="python -m fem", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("step", nargs="?", help="STEP file of one link (any unit the file declares); default: the built-in link")
+    parser.add_argument("--material", default="al6061-t6", help="material id from the materials table (default: %(default)s)")
+    parser.add_argument("--materials-file", help="TOML file of extra materials (SI units: youngs_modulus_Pa, poisson_ratio, density_kg_per_m3)")
+    finest_mm = DEFAULT_MESH_SIZES_M[-1] * 1e3
+    parser.add_argument(
+        "--mesh-size",
+        type=str,
+        metavar="MM",
+        help=f"finest element size in millimetres; two coarser levels (x4/3, x16/9) are added (default: {finest_mm:g} mm "
+        f"with levels {', '.join(f'{h * 1e3:g}' for h in DEFAULT_MESH_SIZES_M)} mm)",
+    )
+    parser.add_argument("--order", type=int, choices=(1, 2), default=2, help="element order: 1 = linear, 2 = quadratic (default)")
+    parser.add_argument("--load", type=str, default="1000", metavar="N", help="pin load in newtons for the image and fields (default: %(default)s); k is linear")
+    parser.add_argument("--solver", default="auto", help="linear solver: auto, pardiso, amg or spsolve (default: %(default)s)")
+    parser.add_argument("--json", action="store_true", help="print one JSON object (SI units) instead of text")
+    parser.add_argument("--image", metavar="PNG", help="write an off-screen picture of the deformed link to this .png")
+    parser.add_argument("--scalar", choices=("von_mises", "displacement"), default="von_mises", help="colouring of --image (default: %(default)s)")
+    return parser
+
+
+def _positive(text: str, what: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise FemError(f"{what}: expected a positive number, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise FemError(f"{what}: expected a positive number, got {text!r}")
+    return value
+
+
+def report(estimate: StiffnessEstimate) -> dict:
+    """The JSON-able summary of a stiffness study (SI units)."""
+    s = estimate.finest
+    return {
+        "source": s.link.source,
+        "material": s.material.name,
+        "order": s.order,
+        "curved_elements": s.curved,
+        "stiffness_N_per_m": estimate.stiffness_N_per_m,
+        "stiffness_rel_error_estimate": estimate.stiffness_rel_error_estimate,
+        "stiffness_extrapolated_N_per_m": estimate.stiffness_extrapolated_N_per_m,
+        "convergence_rate": estimate.convergence_rate,
+        "observed_convergence_rate": estimate.observed_convergence_rate,
+        "levels": [{"mesh_size_m": h, "dofs": n, "stiffness_N_per_m": k} for h, n, k in estimate.levels],
+        "volume_m3": s.volume_m3,
+        "mass_kg": s.mass_kg,
+        "density_kg_per_m3": s.material.density_kg_per_m3,
+        "pitch_m": s.pitch_m,
+        "bore_radius_m": s.bore_radius_m,
+        "peak_von_mises_Pa_per_N": s.peak_von_mises_Pa_per_N,
+        "peak_von_mises_away_from_clamp_Pa_per_N": s.peak_von_mises_away_from_clamp_Pa_per_N,
+        "clamp_exclusion_radius_m": s.clamp_exclusion_radius_m,
+        "mesh_size_m": s.mesh_size_m,
+        "tets": s.n_tets,
+        "dofs": s.dofs,
+        "solver": s.solver,
+        "timing_s": estimate.timing_s,
+    }
+
+
+def _text(r: dict) -> str:
+    levels = "; ".join(f"{lv['mesh_size_m'] * 1e3:g} mm: {lv['dofs']} DOFs, k = {lv['stiffness_N_per_m']:.5e}" for lv in r["levels"])
+    t = r["timing_s"]
+    lines = [
+        f"link            {r['source']}",
+        f"material        {r['material']} (rho = {r['density_kg_per_m3']:g} kg/m^3)",
+        f"pitch           {r['pitch_m'] * 1e3:.3f} mm",
+        f"bore radius     {r['bore_radius_m'] * 1e3:.3f} mm",
+        f"volume          {r['volume_m3'] * 1e6:.3f} cm^3",
+        f"mass            {r['mass_kg']:.4f} kg (link body only)",
+        f"stiffness k     {r['stiffness_N_per_m']:.5e} N/m  (estimated discretisation error {r['stiffness_rel_error_estimate'] * 100:.2f} %)",
+        f"  extrapolated  {r['stiffness_extrapolated_N_per_m']:.5e} N/m  (rate h^{r['convergence_rate']:.2f})",
+        f"peak von Mises  {r['peak_von_mises_Pa_per_N'] * 1e3:.4g} MPa per kN overall (clamp rim is singular)",
+        f"  away from clamp {r['peak_von_mises_away_from_clamp_Pa_per_N'] * 1e3:.4g} MPa per kN "
+        f"(beyond {r['clamp_exclusion_radius_m'] * 1e3:.2f} mm of the clamped bore's rims)",
+        f"mesh            finest {r['mesh_size_m'] * 1e3:g} mm, {r['tets']} tets, P{r['order']}{' curved' if r['curved_elements'] else ''}, {r['dofs']} DOFs, solver {r['solver']}",
+        f"levels          {levels}",
+        "timing          " + ", ".join(f"{k} {v:.2f} s" for k, v in t.items()),
+    ]
+    if "image" in r:
+        lines.append(f"image           {r['image']} (deformation x{r['exaggeration']:g})")
+    return "\n".join(lines)
+
+
+def run(argv: list[str] | None = None) -> dict:
+    args = build_parser().parse_args(argv)
+    materials = load_materials(args.materials_file)
+    material = get_material(args.material, materials)
+    load_N = _positive(args.load, "--load")
+    sizes = None
+    if args.mesh_size is not None:
+        sizes = levels_for_finest(_positive(args.mesh_size, "--mesh-size") * 1e-3)
+    if args.image is not None and Path(args.image).suffix.lower() != ".png":
+        raise FemError(f"--image {args.image!r}: expected a .png path")
+    estimate = stiffness_study(args.step, material, mesh_sizes_m=sizes, order=args.order, load_N=load_N, solver=args.solver)
+    result = report(estimate)
+    if args.image is not None:
+        from .render import render_deformed
+
+        result["exaggeration"] = render_deformed(estimate.finest, args.image, scalar=args.scalar)
+        result["image"] = str(args.image)
+    print(json.dumps(result, indent=2) if args.json else _text(result))
+    return result
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        run(argv)
+    except (ValueError, OSError) as exc:  # FemError, GeometryError and file-system errors
+        message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        print(f"python -m fem: error: {message}", file=sys.stderr)
+        return 2
+    return 0

@@ -1,0 +1,5 @@
+"""The error the FEA stage raises for bad input (unknown material, invalid mesh or options)."""
+
+
+class FemError(ValueError):
+    """Bad input to the FEA stage; the message names the input and what was expected."""

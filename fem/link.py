@@ -1,0 +1,204 @@
+"""Axial stiffness, mass and peak stress of one pin-loaded link (`analyse_link`).
+
+Load case: the whole fixed-bore surface is clamped (u = 0). The loaded bore carries a bearing
+pressure p0 max(0, cos phi) acting along the outward radial direction e_r (from the bore axis into
+the material), phi measured about the bore axis from the load direction d (fixed axis -> loaded
+axis), uniform along the bore. p0 is set so that the discrete resultant along d equals F exactly.
+k = F / delta with the work-conjugate displacement delta = (1/F) integral(t . u dA) = f . u / F.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+from skfem import Basis, MeshTet1, MeshTet2
+
+from geometry.link_mesh import Bore, LinkMesh
+
+from . import problem, solvers
+from .assembly import elasticity_matrix
+from .errors import FemError
+from .materials import Material
+
+# "Away from the clamp": element nodes farther than this fraction of the fixed bore's radius from
+# the rim curves where the clamped bore surface ends. The clamp's rim is a stress singularity
+# (the peak there grows without bound under refinement); outside this distance the stress
+# converges, so this is the number to compare with a yield strength.
+CLAMP_EXCLUSION_RADIUS_FRACTION = 0.25
+
+
+@dataclass(frozen=True, eq=False)
+class LinkSolution:
+    """Result of one solve. Per-newton quantities scale linearly; fields are at `load_N`."""
+
+    material: Material
+    order: int  # 1 (P1) or 2 (P2)
+    curved: bool  # isoparametric quadratic cells (P2 on the link's tets10)
+    load_N: float
+    stiffness_N_per_m: float  # F / delta, delta = integral(t . u dA) / F
+    stiffness_from_energy_N_per_m: float  # F^2 / (2 U), U = u.K.u / 2; equals the above up to solver round-off
+    volume_m3: float  # CAD volume
+    mesh_volume_m3: float  # volume of the meshed domain
+    mass_kg: float  # density * CAD volume
+    peak_von_mises_Pa_per_N: float  # overall, includes the clamp-rim singularity
+    peak_von_mises_away_from_clamp_Pa_per_N: float
+    clamp_exclusion_radius_m: float
+    pitch_m: float
+    bore_radius_m: float  # loaded bore
+    mesh_size_m: float
+    n_tets: int
+    dofs: int  # vector DOFs, constrained ones included
+    solver: str
+    timing_s: dict[str, float]
+    link: LinkMesh
+    basis: Basis  # scalar basis; displacement component c is displacement_m[c] in it
+    displacement_m: np.ndarray  # (3, basis.N) at load_N
+    von_mises_at_dofs_Pa: np.ndarray  # (basis.N,) element-node values averaged per DOF, at load_N
+
+
+def skfem_mesh(link: LinkMesh, order: int) -> tuple[MeshTet1, np.ndarray]:
+    """scikit-fem mesh of the link and the map from LinkMesh point index to mesh vertex index.
+
+    Vertices are renumbered to those used by `tets` in increasing order, which is also how
+    scikit-fem renumbers a quadratic mesh; unused points (edge nodes of tets10) map to -1.
+    """
+    used = np.unique(link.tets)
+    index = np.full(link.points_m.shape[1], -1, dtype=np.int64)
+    index[used] = np.arange(len(used))
+    if order == 2 and link.tets10 is not None:
+        if not np.array_equal(link.tets10[:4], link.tets):
+            raise FemError("LinkMesh.tets10: first four rows must equal tets")
+        # Compact the points first: scikit-fem keeps unreferenced points as spurious DOF locations.
+        used10, compact = np.unique(link.tets10, return_inverse=True)
+        points = np.ascontiguousarray(link.points_m[:, used10], dtype=float)
+        mesh = MeshTet2(points, compact.reshape(link.tets10.shape))
+    else:
+        mesh = MeshTet1(np.ascontiguousarray(link.points_m[:, used], dtype=float), index[link.tets])
+    return mesh, index
+
+
+def _facets(mesh, index: np.ndarray, triangles: np.ndarray, name: str) -> np.ndarray:
+    triangles = np.asarray(triangles)
+    if triangles.ndim != 2 or triangles.shape[0] != 3 or triangles.shape[1] == 0:
+        raise FemError(f"LinkMesh.{name}: expected a non-empty (3, n) triangle array, got shape {triangles.shape}")
+    mapped = index[triangles]
+    if (mapped < 0).any():
+        raise FemError(f"LinkMesh.{name}: triangles use points that are not tetrahedron vertices")
+    facets = problem.facet_indices(mesh, mapped)
+    if (mesh.f2t[1, facets] != -1).any():
+        raise FemError(f"LinkMesh.{name}: some triangles are interior faces, expected boundary facets of the mesh")
+    return facets
+
+
+def bearing_traction(bore: Bore, direction: np.ndarray, p0_Pa: float):
+    """t(x) = p0 max(0, cos phi) e_r on a bore, phi from `direction` about the bore axis."""
+    center = np.asarray(bore.center_m, dtype=float)
+    axis = np.asarray(bore.axis, dtype=float) / np.linalg.norm(bore.axis)
+    direction = np.asarray(direction, dtype=float)
+
+    def traction(x: np.ndarray) -> np.ndarray:
+        rel = x - center.reshape(3, *([1] * (x.ndim - 1)))
+        radial = rel - np.einsum("i,i...->...", axis, rel) * axis.reshape(3, *([1] * (x.ndim - 1)))
+        e_r = radial / np.linalg.norm(radial, axis=0)
+        cos_phi = np.einsum("i,i...->...", direction, e_r)
+        return p0_Pa * np.maximum(cos_phi, 0.0) * e_r
+
+    return traction
+
+
+def _rim_points(mesh, facets: np.ndarray, samples_per_edge: int = 4) -> np.ndarray:
+    """Points (n, 3) along the boundary curves of a facet set (edges used by one facet only)."""
+    tri = mesh.facets[:, facets]
+    edges = np.sort(np.hstack([tri[[0, 1]], tri[[1, 2]], tri[[0, 2]]]), axis=0)
+    unique, counts = np.unique(edges, axis=1, return_counts=True)
+    rim = unique[:, counts == 1]
+    s = np.linspace(0.0, 1.0, samples_per_edge + 1)
+    a, b = mesh.p[:, rim[0]], mesh.p[:, rim[1]]
+    return (a[:, :, None] * (1 - s) + b[:, :, None] * s).reshape(3, -1).T
+
+
+def analyse_link(
+    mesh: LinkMesh,
+    material: Material,
+    *,
+    order: int = 2,
+    load_N: float = 1000.0,
+    solver: str = "auto",
+    nthreads: int = 2,
+) -> LinkSolution:
+    """Solve the link's load case; see the module docstring. SI units in and out."""
+    problem.element(order)
+    if not (np.isfinite(load_N) and load_N > 0):
+        raise FemError(f"load_N must be a positive number, got {load_N!r}")
+    method = solvers.resolve(solver)
+    timing: dict[str, float] = {}
+    lam, mu = material.lame_Pa
+
+    start = time.perf_counter()
+    sk_mesh, index = skfem_mesh(mesh, order)
+    fixed = _facets(sk_mesh, index, mesh.fixed_bore_facets, "fixed_bore_facets")
+    loaded = _facets(sk_mesh, index, mesh.loaded_bore_facets, "loaded_bore_facets")
+    basis = problem.scalar_basis(sk_mesh, order)
+    K = elasticity_matrix(basis, lam, mu, nthreads=nthreads)
+    timing["assembly"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    direction = mesh.load_direction
+    unit = problem.traction_load(basis, loaded, bearing_traction(mesh.loaded_bore, direction, 1.0))
+    resultant_per_Pa = float(direction @ problem.as_components(unit).sum(axis=1))
+    if not resultant_per_Pa > 0:
+        raise FemError("LinkMesh.loaded_bore_facets: the bearing pressure has no resultant along the load direction")
+    f = unit * (load_N / resultant_per_Pa)
+    clamped = problem.fixed_vector_dofs(basis, fixed)
+    timing["load"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    u = problem.solve_displacement(K, f, clamped, problem.dof_locations(basis), solver=method)
+    timing["solve"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    work = float(f @ u)
+    if not work > 0:
+        raise FemError("the link did not deform under the load: check the bore facet sets")
+    stiffness = load_N**2 / work
+    stiffness_energy = load_N**2 / float(u @ (K @ u))
+    local = basis.elem.doflocs.T
+    grads = problem.displacement_gradients(basis, u, local)
+    vm = problem.von_mises_Pa(grads, lam, mu)  # (n_elements, n_local)
+    where = np.asarray(basis.mapping.F(local))  # (3, n_elements, n_local)
+    radius = CLAMP_EXCLUSION_RADIUS_FRACTION * mesh.fixed_bore.radius_m
+    distance, _ = cKDTree(_rim_points(sk_mesh, fixed)).query(where.reshape(3, -1).T)
+    away = distance.reshape(vm.shape) > radius
+    dofs = basis.element_dofs.T  # (n_elements, n_local)
+    at_dofs = np.bincount(dofs.ravel(), vm.ravel(), basis.N) / np.bincount(dofs.ravel(), minlength=basis.N)
+    mesh_volume = float(np.sum(basis.dx))
+    timing["post"] = time.perf_counter() - start
+
+    return LinkSolution(
+        material=material,
+        order=order,
+        curved=not sk_mesh.affine,
+        load_N=float(load_N),
+        stiffness_N_per_m=stiffness,
+        stiffness_from_energy_N_per_m=stiffness_energy,
+        volume_m3=float(mesh.cad_volume_m3),
+        mesh_volume_m3=mesh_volume,
+        mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),
+        peak_von_mises_Pa_per_N=float(vm.max()) / load_N,
+        peak_von_mises_away_from_clamp_Pa_per_N=float(vm[away].max()) / load_N if away.any() else float("nan"),
+        clamp_exclusion_radius_m=radius,
+        pitch_m=mesh.pitch_m,
+        bore_radius_m=float(mesh.loaded_bore.radius_m),
+        mesh_size_m=float(mesh.mesh_size_m),
+        n_tets=int(mesh.tets.shape[1]),
+        dofs=int(3 * basis.N),
+        solver=method,
+        timing_s=timing,
+        link=mesh,
+        basis=basis,
+        displacement_m=problem.as_components(u).copy(),
+        von_mises_at_dofs_Pa=at_dofs,
+    )

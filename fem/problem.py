@@ -1,0 +1,148 @@
+"""Small building blocks of a 3D linear-elastic solve with scikit-fem: basis, loads, solve, stress.
+
+Vector fields are stored interleaved (see `assembly`); as arrays for people they are (3, N).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+import scipy.sparse as sp
+from skfem import Basis, ElementTetP1, ElementTetP2, FacetBasis, LinearForm, Mesh
+
+from . import solvers
+from .assembly import DIM, rigid_body_modes, vector_dofs
+from .errors import FemError
+
+ELEMENTS = {1: ElementTetP1, 2: ElementTetP2}
+# Facet quadrature for tractions: the link's bearing pressure max(0, cos phi) has a kink at
+# |phi| = 90 deg, so no rule is exact there; degree 4 keeps that error far below the
+# discretisation error (and the resultant is normalised exactly anyway).
+TRACTION_INTORDER = 4
+CURVED_INTORDER = 4  # isoparametric P2: the Jacobian varies, degree 4 matches skfem's own default
+
+
+def element(order: int):
+    if order not in ELEMENTS:
+        raise FemError(f"element order must be 1 or 2, got {order!r}")
+    return ELEMENTS[order]()
+
+
+def scalar_basis(mesh: Mesh, order: int) -> Basis:
+    """Scalar Lagrange basis of the given order, with a quadrature exact for its stiffness.
+
+    On straight tetrahedra the stiffness integrand is a polynomial of degree 2 (order - 1), so
+    that rule integrates it exactly; curved (isoparametric) cells get a degree-4 rule.
+    """
+    intorder = max(1, 2 * (order - 1)) if mesh.affine else CURVED_INTORDER
+    return Basis(mesh, element(order), intorder=intorder)
+
+
+def traction_load(
+    basis: Basis,
+    facets: np.ndarray,
+    traction_Pa: Callable[[np.ndarray], np.ndarray],
+) -> np.ndarray:
+    """Interleaved load vector (N) of a traction t(x) (Pa, shape (3, ...) from x (3, ...)) on facets."""
+    fbasis = FacetBasis(basis.mesh, basis.elem, facets=np.asarray(facets), intorder=TRACTION_INTORDER)
+    parts = []
+    for c in range(DIM):
+        form = LinearForm(lambda v, w, c=c: traction_Pa(np.asarray(w.x))[c] * v)
+        parts.append(form.assemble(fbasis))
+    return np.column_stack(parts).ravel()
+
+
+def solve_displacement(
+    K: sp.csr_matrix,
+    f: np.ndarray,
+    fixed_dofs: np.ndarray,
+    dof_points_m: np.ndarray,
+    *,
+    fixed_values_m: np.ndarray | None = None,
+    solver: str = "auto",
+) -> np.ndarray:
+    """Interleaved displacement solving K u = f with u[fixed_dofs] = fixed_values (default 0)."""
+    n = K.shape[0]
+    u = np.zeros(n)
+    fixed = np.unique(np.asarray(fixed_dofs, dtype=np.int64))
+    if fixed_values_m is not None:
+        u[np.asarray(fixed_dofs)] = fixed_values_m
+    free = np.setdiff1d(np.arange(n), fixed)
+    rhs = f[free] - K[free][:, fixed] @ u[fixed] if fixed_values_m is not None else f[free]
+    K_free = K[free][:, free]
+    modes = rigid_body_modes(dof_points_m)[free] if solvers.resolve(solver) == "amg" else None
+    u[free] = solvers.solve(K_free, rhs, solver, near_nullspace=modes)
+    return u
+
+
+def as_components(u: np.ndarray) -> np.ndarray:
+    """(3N,) interleaved -> (3, N)."""
+    return u.reshape(-1, DIM).T
+
+
+def displacement_gradients(basis: Basis, u: np.ndarray, local_points: np.ndarray) -> np.ndarray:
+    """Displacement gradient du_i/dx_j (3, 3, n_elements, n_points) at reference-element points."""
+    at_points = Basis(
+        basis.mesh, basis.elem, quadrature=(local_points, np.ones(local_points.shape[1]))
+    )
+    components = as_components(u)
+    return np.array([np.asarray(at_points.interpolate(components[c]).grad) for c in range(DIM)])
+
+
+def von_mises_Pa(grad_u: np.ndarray, lam_Pa: float, mu_Pa: float) -> np.ndarray:
+    """Von Mises stress from displacement gradients (3, 3, ...) of an isotropic material."""
+    strain = 0.5 * (grad_u + np.swapaxes(grad_u, 0, 1))
+    trace = np.einsum("ii...->...", strain)
+    stress = 2 * mu_Pa * strain
+    for i in range(DIM):
+        stress[i, i] += lam_Pa * trace
+    deviator = stress - np.eye(DIM).reshape(DIM, DIM, *([1] * trace.ndim)) * np.einsum("ii...->...", stress) / 3
+    return np.sqrt(1.5 * np.einsum("ij...,ij...->...", deviator, deviator))
+
+
+def facet_indices(mesh: Mesh, triangles: np.ndarray) -> np.ndarray:
+    """Indices into mesh.facets of the given vertex triangles (3, n); all must be mesh facets."""
+    n_vertices = mesh.p.shape[1]
+    if float(n_vertices) ** 3 >= 2.0**62:
+        raise FemError(f"mesh too large for facet lookup: {n_vertices} vertices")
+
+    def keys(tri: np.ndarray) -> np.ndarray:
+        s = np.sort(tri.astype(np.int64), axis=0)
+        return (s[0] * n_vertices + s[1]) * n_vertices + s[2]
+
+    mesh_keys = keys(mesh.facets)
+    order = np.argsort(mesh_keys)
+    wanted = keys(np.asarray(triangles))
+    pos = np.searchsorted(mesh_keys, wanted, sorter=order)
+    pos = np.minimum(pos, len(order) - 1)
+    found = mesh_keys[order[pos]] == wanted
+    if not found.all():
+        raise FemError(f"{int((~found).sum())} of {len(wanted)} tagged triangles are not facets of the mesh")
+    return order[pos]
+
+
+def dof_locations(basis: Basis) -> np.ndarray:
+    """Coordinates (3, N) of the scalar DOFs."""
+    return np.asarray(basis.doflocs)
+
+
+def fixed_vector_dofs(basis: Basis, facets: np.ndarray, components=(0, 1, 2)) -> np.ndarray:
+    """Interleaved DOFs of the given components on the given facets (all nodes of the facets)."""
+    scalar = basis.get_dofs(facets=np.asarray(facets)).flatten()
+    return (DIM * scalar[:, None] + np.asarray(components)).ravel()
+
+
+__all__ = [
+    "as_components",
+    "displacement_gradients",
+    "dof_locations",
+    "element",
+    "facet_indices",
+    "fixed_vector_dofs",
+    "scalar_basis",
+    "solve_displacement",
+    "traction_load",
+    "vector_dofs",
+    "von_mises_Pa",
+]

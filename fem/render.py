@@ -1,0 +1,115 @@
+"""Off-screen pictures of a solved link: the deformed shape, coloured by stress or displacement."""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from .errors import FemError
+from .link import LinkSolution
+
+# Without a display VTK first tries X, warns, then falls back to EGL; asking for EGL directly
+# skips that attempt. Must be set before VTK creates its first render window.
+os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+
+SCALARS = ("von_mises", "displacement")
+DEFORMATION_FRACTION = 0.06  # exaggerated peak displacement as a fraction of the part's size
+
+
+def nice_factor(raw: float) -> float:
+    """The largest of 1, 2, 5 x 10^n not above `raw` (so the factor reads cleanly)."""
+    exponent = math.floor(math.log10(raw))
+    for mantissa in (5, 2, 1):
+        if mantissa * 10.0**exponent <= raw:
+            return mantissa * 10.0**exponent
+    return 10.0**exponent
+
+
+def exaggeration_factor(solution: LinkSolution) -> float:
+    points = solution.basis.doflocs
+    size = float(np.linalg.norm(points.max(axis=1) - points.min(axis=1)))
+    peak = float(np.max(np.linalg.norm(solution.displacement_m, axis=0)))
+    return nice_factor(DEFORMATION_FRACTION * size / peak) if peak > 0 else 1.0
+
+
+def _grid(solution: LinkSolution):
+    import pyvista as pv
+
+    cells = solution.basis.element_dofs.T  # scikit-fem's P1/P2 node order is VTK's
+    cell_type = pv.CellType.QUADRATIC_TETRA if cells.shape[1] == 10 else pv.CellType.TETRA
+    return pv.UnstructuredGrid({cell_type: cells}, np.ascontiguousarray(solution.basis.doflocs.T))
+
+
+def render_deformed(
+    solution: LinkSolution,
+    path: str | Path,
+    *,
+    scalar: str = "von_mises",
+    title: str | None = None,
+    window_size: tuple[int, int] = (1400, 900),
+) -> float:
+    """Write a PNG of the exaggerated deformed link; returns the exaggeration factor used."""
+    if scalar not in SCALARS:
+        raise FemError(f"scalar must be one of {', '.join(SCALARS)}, got {scalar!r}")
+    path = Path(path)
+    if path.suffix.lower() != ".png":
+        raise FemError(f"image path {str(path)!r}: expected a .png file")
+    import pyvista as pv
+
+    factor = exaggeration_factor(solution)
+    load = solution.load_N
+    grid = _grid(solution)
+    if scalar == "von_mises":
+        grid.point_data["value"] = solution.von_mises_at_dofs_Pa / 1e6
+        bar = f"von Mises stress [MPa] at {load:g} N"
+        # The clamp rim is singular; scale the colours to the converged peak away from it.
+        upper = solution.peak_von_mises_away_from_clamp_Pa_per_N * load / 1e6
+        clim = (0.0, upper if np.isfinite(upper) and upper > 0 else float(grid.point_data["value"].max()))
+    else:
+        grid.point_data["value"] = np.linalg.norm(solution.displacement_m, axis=0) * 1e6
+        bar = f"displacement [um] at {load:g} N"
+        clim = (0.0, float(grid.point_data["value"].max()))
+    grid.point_data["u"] = np.ascontiguousarray(solution.displacement_m.T)
+    subdivision = 2 if grid.celltypes[0] == pv.CellType.QUADRATIC_TETRA else 0
+    undeformed = grid.extract_surface(algorithm="dataset_surface", nonlinear_subdivision=subdivision)
+    deformed = grid.warp_by_vector("u", factor=factor).extract_surface(algorithm="dataset_surface", nonlinear_subdivision=subdivision)
+    if title is None:
+        material = solution.material.name
+        title = f"{material}: k = {solution.stiffness_N_per_m:.4g} N/m, deformation x{factor:g}"
+    else:
+        title = f"{title} (deformation x{factor:g})"
+
+    plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+    try:
+        plotter.set_background("white")
+        plotter.add_mesh(
+            deformed,
+            scalars="value",
+            cmap="turbo",
+            clim=clim,
+            above_color="magenta" if scalar == "von_mises" else None,
+            scalar_bar_args={
+                "title": bar,
+                "color": "black",
+                "fmt": "%.3g",
+                "vertical": False,
+                "position_x": 0.2,
+                "position_y": 0.04,
+                "width": 0.6,
+                "title_font_size": 16,
+                "label_font_size": 14,
+            },
+        )
+        plotter.add_mesh(undeformed.extract_feature_edges(30.0), color="black", line_width=1, opacity=0.5)
+        plotter.add_text(title, position="upper_edge", font_size=11, color="black")
+        plotter.view_isometric()
+        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
+        path.parent.mkdir(parents=True, exist_ok=True)
+        plotter.screenshot(str(tmp))
+    finally:
+        plotter.close()
+    os.replace(tmp, path)
+    return factor

@@ -1,0 +1,98 @@
+"""Link stiffness with a discretisation-error estimate: 2-3 mesh levels + Richardson extrapolation."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from .errors import FemError
+from .link import LinkSolution, analyse_link
+from .materials import Material
+from .richardson import Extrapolation, extrapolate
+
+# Chosen by measurement on the default link (see the report / README): three curved-P2 levels
+# whose total wall time (meshing + assembly + solve) stays well under 20 s on 2 cores.
+DEFAULT_MESH_SIZES_M = (0.008, 0.006, 0.0045)
+
+
+@dataclass(frozen=True, eq=False)
+class StiffnessEstimate:
+    """k of the finest level with its estimated relative discretisation error."""
+
+    stiffness_N_per_m: float  # finest mesh (FE stiffness is an upper bound: too stiff)
+    stiffness_extrapolated_N_per_m: float
+    stiffness_rel_error_estimate: float  # |k_finest - k_extrapolated| / k_extrapolated
+    convergence_rate: float  # p used in k(h) = k_inf + C h^p, h = DOFs^(-1/3)
+    observed_convergence_rate: float | None
+    monotone: bool
+    levels: tuple[tuple[float, int, float], ...]  # (mesh_size_m, dofs, stiffness_N_per_m), coarse to fine
+    finest: LinkSolution
+    timing_s: dict[str, float]  # summed over levels: mesh, assembly, load, solve, post, total
+
+
+def _check_sizes(sizes: Sequence[float]) -> tuple[float, ...]:
+    sizes = tuple(float(h) for h in sizes)
+    if len(sizes) not in (2, 3):
+        raise FemError(f"mesh_sizes_m: expected 2 or 3 sizes, got {len(sizes)}")
+    if not all(np.isfinite(h) and h > 0 for h in sizes):
+        raise FemError(f"mesh_sizes_m: sizes must be positive numbers in metres, got {list(sizes)}")
+    if any(b >= a for a, b in zip(sizes, sizes[1:])):
+        raise FemError(f"mesh_sizes_m: sizes must decrease (coarse to fine), got {list(sizes)}")
+    return sizes
+
+
+def levels_for_finest(finest_m: float, n_levels: int = 3, ratio: float = 4 / 3) -> tuple[float, ...]:
+    """Mesh sizes coarse to fine ending at `finest_m`, successive ratio `ratio`."""
+    return tuple(finest_m * ratio**i for i in reversed(range(n_levels)))
+
+
+def stiffness_study(
+    source: str | Path | None = None,
+    material: Material | None = None,
+    *,
+    mesh_sizes_m: Sequence[float] | None = None,
+    order: int = 2,
+    load_N: float = 1000.0,
+    solver: str = "auto",
+    curved: bool = True,
+    bore_refinement: float = 0.4,
+) -> StiffnessEstimate:
+    """Mesh the link (None = built-in default) at 2-3 sizes, solve each, extrapolate k.
+
+    `curved` asks geometry for isoparametric quadratic cells when order == 2.
+    """
+    import geometry
+
+    if material is None:
+        raise FemError("stiffness_study: a material is required")
+    sizes = _check_sizes(DEFAULT_MESH_SIZES_M if mesh_sizes_m is None else mesh_sizes_m)
+    mesh_order = 2 if (order == 2 and curved) else 1
+    timing: dict[str, float] = {"mesh": 0.0}
+    start_all = time.perf_counter()
+    solutions: list[LinkSolution] = []
+    for h in sizes:
+        start = time.perf_counter()
+        link = geometry.load_link(source, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
+        timing["mesh"] += time.perf_counter() - start
+        solution = analyse_link(link, material, order=order, load_N=load_N, solver=solver)
+        for key, value in solution.timing_s.items():
+            timing[key] = timing.get(key, 0.0) + value
+        solutions.append(solution)
+    timing["total"] = time.perf_counter() - start_all
+    k = [s.stiffness_N_per_m for s in solutions]
+    fit: Extrapolation = extrapolate(k, [s.dofs for s in solutions])
+    return StiffnessEstimate(
+        stiffness_N_per_m=k[-1],
+        stiffness_extrapolated_N_per_m=fit.extrapolated,
+        stiffness_rel_error_estimate=fit.rel_error_estimate,
+        convergence_rate=fit.rate,
+        observed_convergence_rate=fit.observed_rate,
+        monotone=fit.monotone,
+        levels=tuple((h, s.dofs, s.stiffness_N_per_m) for h, s in zip(sizes, solutions)),
+        finest=solutions[-1],
+        timing_s=timing,
+    )

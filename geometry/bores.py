@@ -1,0 +1,243 @@
+"""Find the two pin bores of a solid: concave, full-circle cylindrical surfaces.
+
+A bore may be one cylinder face or several (exporters split bores into halves), analytic or
+B-spline; chamfers (cones), fillets (tori) and the rounded lug ends around it (convex cylinders on
+the same axis) are not part of it. Each boundary face is sampled on a grid of its parameters; a
+face is a cylinder candidate if gmsh types it 'Cylinder' or if a cylinder fits its sample points
+and normals. Candidates on one axis with one radius are grouped; a group is a bore if the material
+lies outside the radius (a hole, not a boss) and its faces go all the way round the axis (not a
+concave fillet).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import gmsh
+import numpy as np
+
+from geometry.errors import GeometryError
+from geometry.link_mesh import Bore
+
+_ANGULAR_BINS = 12  # a bore's faces must reach every 30 degree sector around the axis
+_SAMPLES_U, _SAMPLES_V = 48, 5  # u samples closer than one sector even on a half-cylinder face
+_FIT_TOL = 1e-4  # relative radius scatter of a fitted cylinder (B-spline bores fit to ~1e-15)
+_SAME_BORE_TOL = 1e-3  # relative: two faces on one bore share axis and radius to this
+
+
+@dataclass(frozen=True)
+class BoreOverride:
+    """Bores given by hand for parts where detection fails or is ambiguous (metres).
+
+    fixed_axis_point_m and loaded_axis_point_m are points on the axes of the fixed and the loaded
+    bore, `axis` their common direction, `radius_m` their radius. The bore surfaces are the faces of
+    the solid that lie on these cylinders.
+    """
+
+    fixed_axis_point_m: tuple[float, float, float]
+    loaded_axis_point_m: tuple[float, float, float]
+    axis: tuple[float, float, float]
+    radius_m: float
+
+    def __post_init__(self) -> None:
+        vectors = (self.fixed_axis_point_m, self.loaded_axis_point_m, self.axis)
+        if any(np.shape(v) != (3,) or not np.all(np.isfinite(v)) for v in vectors):
+            raise GeometryError(f"{self}: expected finite 3-vectors for the axis points and the axis")
+        if not (math.isfinite(self.radius_m) and self.radius_m > 0):
+            raise GeometryError(f"BoreOverride.radius_m={self.radius_m!r}: expected a positive radius in metres")
+        axis = _unit(np.asarray(self.axis, float), "BoreOverride.axis")
+        offset = np.subtract(self.loaded_axis_point_m, self.fixed_axis_point_m)
+        if np.linalg.norm(offset - np.dot(offset, axis) * axis) <= 2 * self.radius_m:
+            raise GeometryError(f"{self}: expected the two bore axes more than two radii apart")
+
+
+@dataclass(frozen=True)
+class Cylinder:
+    point_m: np.ndarray  # (3,) a point on the axis
+    axis: np.ndarray  # (3,) unit vector
+    radius_m: float
+
+    def distance_to_axis(self, points: np.ndarray) -> np.ndarray:
+        rel = points - self.point_m
+        return np.linalg.norm(rel - np.outer(rel @ self.axis, self.axis), axis=1)
+
+    def same_as(self, other: Cylinder, tol: float = _SAME_BORE_TOL) -> bool:
+        return (
+            abs(abs(float(self.axis @ other.axis)) - 1) < tol**2
+            and abs(self.radius_m - other.radius_m) < tol * self.radius_m
+            and float(self.distance_to_axis(other.point_m[None])[0]) < tol * self.radius_m
+        )
+
+
+@dataclass(frozen=True)
+class DetectedBore:
+    bore: Bore
+    faces: tuple[int, ...]  # gmsh surface tags of the bore's cylindrical surface
+
+
+def detect_bores(volumes: list[int], source: str) -> tuple[DetectedBore, DetectedBore]:
+    """The fixed and the loaded bore of the solid; GeometryError unless exactly two are found."""
+    groups: list[tuple[Cylinder, list[int], list[np.ndarray]]] = []
+    for face in _boundary_faces(volumes):
+        points, normals = _face_samples(face)
+        cylinder = _analytic_cylinder(face) or fit_cylinder(points, normals)
+        if cylinder is None:
+            continue
+        for group_cylinder, faces, samples in groups:
+            if group_cylinder.same_as(cylinder):
+                faces.append(face)
+                samples.append(points)
+                break
+        else:
+            groups.append((cylinder, [face], [points]))
+    bores = []
+    for cylinder, faces, samples in groups:
+        points = np.vstack(samples)
+        if _goes_round(cylinder, points) and _is_hole(volumes, cylinder, points):
+            bores.append(DetectedBore(_bore_from_samples(cylinder, points), tuple(faces)))
+    if len(bores) != 2:
+        radii = ", ".join(f"{b.bore.radius_m * 1e3:.3f} mm" for b in bores)
+        raise GeometryError(
+            f"{source}: found {len(bores)} pin bores (full concave cylinders{': radii ' + radii if radii else ''}); "
+            "expected exactly 2 (pass bores=BoreOverride(...) for odd parts)"
+        )
+    return order_pair(bores[0], bores[1], source)
+
+
+def bores_from_override(volumes: list[int], override: BoreOverride, source: str) -> tuple[DetectedBore, DetectedBore]:
+    """The two bores given by `override`, with their faces and extent taken from the solid."""
+    axis = _canonical(_unit(np.asarray(override.axis, float), "BoreOverride.axis"))
+    found = []
+    for name, point in (("fixed", override.fixed_axis_point_m), ("loaded", override.loaded_axis_point_m)):
+        cylinder = Cylinder(np.asarray(point, float), axis, float(override.radius_m))
+        faces, samples = faces_on_cylinder(volumes, cylinder)
+        if not faces:
+            raise GeometryError(f"{source}: no face lies on the {name} bore of {override}; expected the bore surface there")
+        found.append(DetectedBore(_bore_from_samples(cylinder, np.vstack(samples)), tuple(faces)))
+    return found[0], found[1]
+
+
+def order_pair(a: DetectedBore, b: DetectedBore, source: str) -> tuple[DetectedBore, DetectedBore]:
+    """(fixed, loaded): the fixed bore has the lower coordinate along the pitch line's main axis."""
+    if abs(abs(float(a.bore.axis @ b.bore.axis)) - 1) > _SAME_BORE_TOL**2:
+        raise GeometryError(f"{source}: the two pin bores are not parallel (axes {a.bore.axis}, {b.bore.axis}); expected parallel pins")
+    offset = b.bore.center_m - a.bore.center_m
+    offset = offset - (offset @ a.bore.axis) * a.bore.axis
+    main = int(np.argmax(np.abs(offset)))
+    return (a, b) if offset[main] > 0 else (b, a)
+
+
+def faces_on_bore(volumes: list[int], bore: Bore) -> list[int]:
+    """Surface tags of the solid's faces lying on the bore's cylinder, within its length."""
+    faces, _ = faces_on_cylinder(volumes, Cylinder(bore.center_m, bore.axis, bore.radius_m), bore)
+    return faces
+
+
+def faces_on_cylinder(volumes: list[int], cylinder: Cylinder, within: Bore | None = None) -> tuple[list[int], list[np.ndarray]]:
+    faces, samples = [], []
+    tol = _SAME_BORE_TOL * cylinder.radius_m
+    for face in _boundary_faces(volumes):
+        points, _ = _face_samples(face)
+        if np.max(np.abs(cylinder.distance_to_axis(points) - cylinder.radius_m)) > tol:
+            continue
+        if within is not None:
+            along = (points - within.center_m) @ within.axis
+            if np.max(np.abs(along)) > within.length_m / 2 + tol:
+                continue
+        faces.append(face)
+        samples.append(points)
+    return faces, samples
+
+
+def fit_cylinder(points: np.ndarray, normals: np.ndarray) -> Cylinder | None:
+    """The cylinder through sampled surface points with these normals, or None if none fits.
+
+    A cylinder's normals are all perpendicular to its axis, so the axis is the direction the normals
+    do not span; the points projected along it then lie on a circle.
+    """
+    _, s, vt = np.linalg.svd(normals, full_matrices=False)
+    if s[1] < 1e-3 * s[0] or s[2] > 1e-3 * s[0]:  # planar (normals span a line) or doubly curved
+        return None
+    axis = vt[2]
+    basis = np.linalg.svd(np.eye(3) - np.outer(axis, axis))[0][:, :2]
+    xy = points @ basis
+    # Kasa fit: x^2 + y^2 = 2 a x + 2 b y + c, linear least squares in (a, b, c).
+    design = np.column_stack([2 * xy, np.ones(len(xy))])
+    (a, b, c), *_ = np.linalg.lstsq(design, (xy**2).sum(axis=1), rcond=None)
+    radius_sq = c + a * a + b * b
+    if radius_sq <= 0:
+        return None
+    radius = math.sqrt(radius_sq)
+    distances = np.linalg.norm(xy - [a, b], axis=1)
+    if np.max(np.abs(distances - radius)) > _FIT_TOL * radius:
+        return None
+    centre = basis @ np.array([a, b])
+    return Cylinder(centre, _canonical(axis), radius)
+
+
+def _analytic_cylinder(face: int) -> Cylinder | None:
+    if gmsh.model.getType(2, face) != "Cylinder":
+        return None
+    _, reals = gmsh.model.getEntityProperties(2, face)
+    return Cylinder(np.array(reals[:3]), _canonical(_unit(np.array(reals[3:6]), f"surface {face} axis")), float(reals[6]))
+
+
+def _boundary_faces(volumes: list[int]) -> list[int]:
+    faces = gmsh.model.getBoundary([(3, v) for v in volumes], combined=True, oriented=False, recursive=False)
+    return sorted({abs(tag) for _, tag in faces})
+
+
+def _face_samples(face: int) -> tuple[np.ndarray, np.ndarray]:
+    lo, hi = gmsh.model.getParametrizationBounds(2, face)
+    u = np.linspace(lo[0], hi[0], _SAMPLES_U)
+    v = np.linspace(lo[1], hi[1], _SAMPLES_V)
+    uv = np.column_stack([np.repeat(u, len(v)), np.tile(v, len(u))]).ravel()
+    points = np.reshape(gmsh.model.getValue(2, face, uv), (-1, 3))
+    normals = np.reshape(gmsh.model.getNormal(face, uv), (-1, 3))
+    return points, normals
+
+
+def _goes_round(cylinder: Cylinder, points: np.ndarray) -> bool:
+    basis = np.linalg.svd(np.eye(3) - np.outer(cylinder.axis, cylinder.axis))[0][:, :2]
+    xy = (points - cylinder.point_m) @ basis
+    sectors = np.floor((np.arctan2(xy[:, 1], xy[:, 0]) + math.pi) / (2 * math.pi) * _ANGULAR_BINS)
+    return len(np.unique(np.clip(sectors, 0, _ANGULAR_BINS - 1))) == _ANGULAR_BINS
+
+
+def _is_hole(volumes: list[int], cylinder: Cylinder, points: np.ndarray) -> bool:
+    """Material just outside the radius and none just inside, at most sample points."""
+    rel = points - cylinder.point_m
+    radial = rel - np.outer(rel @ cylinder.axis, cylinder.axis)
+    radial /= np.linalg.norm(radial, axis=1)[:, None]
+    step = 0.02 * cylinder.radius_m
+    picks = np.linspace(0, len(points) - 1, 16).astype(int)
+    votes = 0
+    for p, e in zip(points[picks], radial[picks]):
+        outside_in_material = any(gmsh.model.isInside(3, v, list(p + step * e)) for v in volumes)
+        inside_in_material = any(gmsh.model.isInside(3, v, list(p - step * e)) for v in volumes)
+        votes += 1 if outside_in_material and not inside_in_material else -1
+    return votes > 0
+
+
+def _bore_from_samples(cylinder: Cylinder, points: np.ndarray) -> Bore:
+    along = (points - cylinder.point_m) @ cylinder.axis
+    lo, hi = float(along.min()), float(along.max())
+    return Bore(
+        center_m=cylinder.point_m + (lo + hi) / 2 * cylinder.axis,
+        axis=cylinder.axis,
+        radius_m=cylinder.radius_m,
+        length_m=hi - lo,
+    )
+
+
+def _canonical(axis: np.ndarray) -> np.ndarray:
+    """The axis direction with its largest component positive, so parallel bores agree in sign."""
+    return axis if axis[np.argmax(np.abs(axis))] > 0 else -axis
+
+
+def _unit(v: np.ndarray, name: str) -> np.ndarray:
+    n = float(np.linalg.norm(v))
+    if not (math.isfinite(n) and n > 0):
+        raise GeometryError(f"{name}={v}: expected a non-zero direction")
+    return v / n

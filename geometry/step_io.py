@@ -1,0 +1,102 @@
+"""STEP files in and out of the current gmsh model, with explicit units.
+
+The model is always in metres (`session.gmsh_model` sets Geometry.OCCTargetUnit = "M" before any
+use): OpenCASCADE converts whatever length unit a file declares to metres on import, and gmsh's
+STEP writer scales the model's metres to the millimetre header it always writes. A file in metres
+is written with the target unit set to millimetres (so the metre values go out unscaled) and its
+header's length unit then rewritten to metres.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import tempfile
+from pathlib import Path
+
+import gmsh
+
+from geometry.dimensions import LinkDimensions
+from geometry.errors import GeometryError
+from geometry.parametric import LinkFeatures, add_link
+from geometry.session import gmsh_model, quiet_stdout
+
+_STEP_MAGIC = b"ISO-10303-21"
+_MILLIMETRE_UNIT = "SI_UNIT(.MILLI.,.METRE.)"
+_METRE_UNIT = "SI_UNIT($,.METRE.)"
+_UNITS = ("mm", "m")
+
+
+def import_step(path: str | os.PathLike) -> list[int]:
+    """Import a STEP file into the current model (in metres); return its volume tags.
+
+    Files that hold only faces are sewn and turned into solids. Raises GeometryError for a file that
+    is missing, unreadable, not STEP, or holds no solid.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise GeometryError(f"{path}: no such file; expected a STEP file (.step/.stp)")
+    try:
+        with path.open("rb") as f:
+            head = f.read(256)
+    except OSError as exc:
+        raise GeometryError(f"{path}: cannot be read ({exc.strerror}); expected a readable STEP file") from exc
+    if not head.lstrip().startswith(_STEP_MAGIC):
+        raise GeometryError(f"{path}: not a STEP file (no ISO-10303-21 header); expected a STEP AP203/AP214/AP242 file")
+    gmsh.option.setString("Geometry.OCCTargetUnit", "M")
+    try:
+        with quiet_stdout():
+            gmsh.model.occ.importShapes(str(path), highestDimOnly=True, format="step")
+            gmsh.model.occ.synchronize()
+    except Exception as exc:  # gmsh reports every failure as a bare Exception
+        raise GeometryError(f"{path}: OpenCASCADE could not read it ({exc}); expected a valid STEP file") from exc
+    volumes = [tag for _, tag in gmsh.model.getEntities(3)]
+    if not volumes and gmsh.model.getEntities(2):
+        gmsh.model.occ.healShapes(gmsh.model.getEntities(2), sewFaces=True, makeSolids=True)
+        gmsh.model.occ.synchronize()
+        volumes = [tag for _, tag in gmsh.model.getEntities(3)]
+    if not volumes:
+        raise GeometryError(f"{path}: holds no solid (and its faces, if any, do not close one); expected one solid link")
+    return volumes
+
+
+def write_model_step(path: str | os.PathLike, *, unit: str = "mm") -> Path:
+    """Write the current model (in metres) to a STEP file in `unit` ("mm" or "m"), atomically."""
+    if unit not in _UNITS:
+        raise GeometryError(f"unit={unit!r}: expected one of {_UNITS}")
+    path = Path(path)
+    # The writer converts model units (the target unit) to millimetres; declaring the model in
+    # millimetres writes its metre values unscaled, under a header then corrected to metres.
+    gmsh.option.setString("Geometry.OCCTargetUnit", "MM" if unit == "m" else "M")
+    fd, tmp = tempfile.mkstemp(suffix=".step", dir=path.parent)
+    os.close(fd)
+    os.chmod(tmp, 0o644)  # mkstemp creates 0600; the result is an ordinary shared file
+    try:
+        with quiet_stdout():
+            gmsh.write(tmp)
+        if unit == "m":
+            _declare_metres(Path(tmp))
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        gmsh.option.setString("Geometry.OCCTargetUnit", "M")
+    return path
+
+
+def _declare_metres(path: Path) -> None:
+    text = path.read_text()
+    if text.count(_MILLIMETRE_UNIT) != 1:
+        raise RuntimeError(f"{path}: gmsh's STEP writer no longer writes one {_MILLIMETRE_UNIT} length unit")
+    path.write_text(text.replace(_MILLIMETRE_UNIT, _METRE_UNIT))
+
+
+def write_step(
+    dims: LinkDimensions, path: str | os.PathLike, *, unit: str = "mm", features: LinkFeatures = LinkFeatures()
+) -> Path:
+    """Write the parametric link to a STEP file whose coordinates are in `unit` ("mm" or "m")."""
+    if unit not in _UNITS:
+        raise GeometryError(f"unit={unit!r}: expected one of {_UNITS}")
+    with gmsh_model("write_step"):
+        add_link(dims, features)
+        return write_model_step(path, unit=unit)

@@ -1,0 +1,370 @@
+"""link-conveyor: from one link's CAD file to the vibration of the whole cam-indexed chain.
+
+    python pipeline.py [--geometry LINK.step] [--materials al6061-t6,ti-grade2] [--links 85] ...
+
+Stages: geometry (gmsh) -> FEA per material (scikit-fem: stiffness, mass, stress per newton) ->
+chain dynamics per material x cam law -> summary.json, tables, plots, report.html in --out.
+Everything inside is SI; tables and plots for people show mm where that reads better.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+CAM_IDS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
+DEFAULT_MATERIALS = ("al6061-t6", "ti-grade2")
+
+
+class InputError(ValueError):
+    """A command-line value that cannot be used; the message names it and what was expected."""
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    geometry: Path | None
+    materials: tuple[str, ...]
+    materials_file: Path | None
+    links: int
+    rpm: float
+    cams: tuple[str, ...]
+    friction: float
+    damping: float
+    preload_N: float
+    solver: str
+    preset: str | None
+    out: Path
+    images: bool
+    quiet: bool
+    mesh_size_m: float | None
+    order: int
+    hardware_mass_kg: float
+    nest_mass_kg: float
+    cache_dir: Path
+    steady_state: bool
+    samples_per_degree: int
+
+
+class Progress:
+    """Stage lines with elapsed time on stderr, so stdout stays clean for the final summary."""
+
+    def __init__(self, quiet: bool):
+        self.quiet = quiet
+        self.start = time.perf_counter()
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.start
+
+    def __call__(self, message: str) -> None:
+        if not self.quiet:
+            print(f"[{self.elapsed():7.1f} s] {message}", file=sys.stderr, flush=True)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from fem.cache import default_cache_dir
+    from geometry import DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG
+
+    p = argparse.ArgumentParser(
+        prog="pipeline.py",
+        description=(
+            "Mesh a chain link, solve its axial stiffness and mass per material with linear "
+            "elasticity, and simulate the closed chain driven by a cam indexer. Units: SI inside "
+            "and in summary.json (m, kg, s, N, Pa); options state their units."
+        ),
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    p.add_argument("--geometry", type=Path, default=None,
+                   help="STEP file of one link with two pin bores (default: the built-in parametric link)")
+    p.add_argument("--materials", default=",".join(DEFAULT_MATERIALS),
+                   help="comma-separated material ids from the materials library (or --materials-file)")
+    p.add_argument("--materials-file", type=Path, default=None,
+                   help="TOML file of extra user-defined materials (E in Pa, rho in kg/m^3)")
+    p.add_argument("--links", type=int, default=85, help="number of links N in the closed chain")
+    p.add_argument("--rpm", type=float, default=180.0, help="cam speed in rev/min")
+    p.add_argument("--cams", default="all",
+                   help=f"comma-separated cam laws or 'all' ({', '.join(CAM_IDS)})")
+    p.add_argument("--friction", type=float, default=0.35,
+                   help="Coulomb friction coefficient mu between links and guide (force mu*m*g per link)")
+    p.add_argument("--damping", type=float, default=0.13, help="modal damping ratio zeta of every chain mode")
+    p.add_argument("--preload", type=float, default=2224.0,
+                   help="static chain tension from the idler tensioner, N")
+    p.add_argument("--solver", default="exact", help="dynamics method (see dynamics.solvers.METHODS)")
+    p.add_argument("--preset", choices=["mqp2012"], default=None,
+                   help="mqp2012: replicate the 2012 report's MATLAB model, quirks included (see README)")
+    p.add_argument("--out", type=Path, default=Path("results"), help="output folder")
+    p.add_argument("--no-images", action="store_true", help="skip the pyvista images of the deformed link")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--mesh-size", type=float, default=None,
+                   help="FEA element size in mm on the finest level (default: chosen for <1%% error in k)")
+    p.add_argument("--order", type=int, choices=[1, 2], default=2, help="FEA element order (P1 or P2 tetrahedra)")
+    p.add_argument("--hardware-mass", type=float, default=DEFAULT_HARDWARE_MASS_KG,
+                   help="mass per link of pins, bushings and rollers, kg")
+    p.add_argument("--nest-mass", type=float, default=NEST_MASS_KG, help="mass of the nest carried by each link, kg")
+    p.add_argument("--cache-dir", type=Path, default=default_cache_dir(), help="FEA result cache folder")
+    p.add_argument("--from-rest", action="store_true",
+                   help="start the chain from rest at t=0 instead of the periodic steady state of continuous indexing")
+    p.add_argument("--samples-per-degree", type=int, default=4,
+                   help="output samples per degree of cam rotation")
+    return p
+
+
+def _split_ids(text: str, name: str) -> tuple[str, ...]:
+    ids = tuple(s.strip() for s in text.split(",") if s.strip())
+    if not ids:
+        raise InputError(f"{name}: expected a comma-separated list of ids, got {text!r}")
+    return ids
+
+
+def _require(condition: bool, message: str) -> None:
+    if not condition:
+        raise InputError(message)
+
+
+def parse_cli(argv: list[str] | None) -> RunConfig:
+    args = build_parser().parse_args(argv)
+    cams = CAM_IDS if args.cams.strip() == "all" else _split_ids(args.cams, "--cams")
+    unknown = [c for c in cams if c not in CAM_IDS]
+    if unknown:
+        raise InputError(f"--cams: unknown cam law {unknown[0]!r}; expected one of {', '.join(CAM_IDS)} or 'all'")
+    _require(args.links >= 2, f"--links: expected a whole number of links >= 2, got {args.links}")
+    _require(args.rpm > 0, f"--rpm: expected a cam speed > 0 rev/min, got {args.rpm:g}")
+    _require(0.0 <= args.friction <= 1.0, f"--friction: expected a coefficient in [0, 1], got {args.friction:g}")
+    _require(0.0 <= args.damping < 1.0, f"--damping: expected a damping ratio in [0, 1), got {args.damping:g}")
+    _require(args.preload >= 0, f"--preload: expected a tension >= 0 N, got {args.preload:g}")
+    _require(args.hardware_mass >= 0, f"--hardware-mass: expected a mass >= 0 kg, got {args.hardware_mass:g}")
+    _require(args.nest_mass >= 0, f"--nest-mass: expected a mass >= 0 kg, got {args.nest_mass:g}")
+    _require(args.mesh_size is None or args.mesh_size > 0,
+             f"--mesh-size: expected an element size > 0 mm, got {args.mesh_size}")
+    _require(args.samples_per_degree >= 1,
+             f"--samples-per-degree: expected a whole number >= 1, got {args.samples_per_degree}")
+    if args.preset == "mqp2012":
+        _require(args.links >= 8, f"--links: the mqp2012 preset needs >= 8 links (its preload positions), got {args.links}")
+    if args.geometry is not None:
+        _require(args.geometry.is_file(), f"--geometry: no such file {str(args.geometry)!r}; expected a STEP file of one link")
+    if args.materials_file is not None:
+        _require(args.materials_file.is_file(), f"--materials-file: no such file {str(args.materials_file)!r}")
+    return RunConfig(
+        geometry=args.geometry,
+        materials=_split_ids(args.materials, "--materials"),
+        materials_file=args.materials_file,
+        links=args.links,
+        rpm=args.rpm,
+        cams=cams,
+        friction=args.friction,
+        damping=args.damping,
+        preload_N=args.preload,
+        solver=args.solver,
+        preset=args.preset,
+        out=args.out,
+        images=not args.no_images,
+        quiet=args.quiet,
+        mesh_size_m=None if args.mesh_size is None else args.mesh_size / 1000.0,
+        order=args.order,
+        hardware_mass_kg=args.hardware_mass,
+        nest_mass_kg=args.nest_mass,
+        cache_dir=args.cache_dir,
+        steady_state=not args.from_rest,
+        samples_per_degree=args.samples_per_degree,
+    )
+
+
+def check_writable_out(out: Path) -> None:
+    """Fail before any work if --out cannot be created or written."""
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--out: {str(out)!r} exists and is not a folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out, prefix=".write-test-"):
+            pass
+    except OSError as e:
+        raise InputError(f"--out: cannot write to {str(out)!r} ({e.strerror or e})") from None
+
+
+@dataclass(frozen=True)
+class MaterialFea:
+    """What the dynamics and the outputs need of one material's FEA (SI)."""
+
+    material: str
+    stiffness_N_per_m: float
+    stiffness_rel_error_estimate: float
+    body_mass_kg: float
+    body_volume_m3: float
+    pitch_m: float
+    bore_radius_m: float
+    peak_von_mises_Pa_per_N: float
+    peak_von_mises_away_from_clamp_Pa_per_N: float
+    yield_strength_Pa: float
+    dofs: int
+    mesh_size_m: float
+    timing_s: dict
+    cached: bool
+    image: Path | None
+
+
+def fea_cache_settings(cfg: RunConfig, material) -> dict:
+    from dataclasses import asdict
+
+    return {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order}
+
+
+def run_fea(cfg: RunConfig, progress: Progress) -> dict[str, MaterialFea]:
+    """Stiffness, mass and stress per material, from the cache when nothing they depend on changed."""
+    from fem import load_materials, render_deformed, stiffness_study
+    from fem.cache import FeaCache, cache_key, geometry_fingerprint
+    from fem.study import levels_for_finest
+    from geometry import DEFAULT_LINK
+
+    library = load_materials(cfg.materials_file)
+    unknown = [m for m in cfg.materials if m not in library]
+    if unknown:
+        raise InputError(f"--materials: unknown material {unknown[0]!r}; expected one of {', '.join(library)}")
+    cache = FeaCache(cfg.cache_dir)
+    fingerprint = geometry_fingerprint(cfg.geometry, repr(DEFAULT_LINK))
+    sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
+    source = "built-in default link" if cfg.geometry is None else str(cfg.geometry)
+    out: dict[str, MaterialFea] = {}
+    for name in cfg.materials:
+        material = library[name]
+        key = cache_key(fingerprint, fea_cache_settings(cfg, material))
+        image = cache.image_path(key) if cfg.images else None
+        stored = cache.load(key)
+        if stored is not None and (image is None or image.exists()):
+            progress(f"FEA {name}: cached result (k = {stored['stiffness_N_per_m']:.4g} N/m)")
+            out[name] = MaterialFea(**stored, cached=True, image=image)
+            continue
+        progress(f"FEA {name}: meshing and solving {source} on 3 mesh levels (P{cfg.order})")
+        study = stiffness_study(cfg.geometry, material, mesh_sizes_m=sizes, order=cfg.order)
+        fine = study.finest
+        stored = {
+            "material": name,
+            "stiffness_N_per_m": study.stiffness_N_per_m,
+            "stiffness_rel_error_estimate": study.stiffness_rel_error_estimate,
+            "body_mass_kg": fine.mass_kg,
+            "body_volume_m3": fine.volume_m3,
+            "pitch_m": fine.pitch_m,
+            "bore_radius_m": fine.bore_radius_m,
+            "peak_von_mises_Pa_per_N": fine.peak_von_mises_Pa_per_N,
+            "peak_von_mises_away_from_clamp_Pa_per_N": fine.peak_von_mises_away_from_clamp_Pa_per_N,
+            "yield_strength_Pa": material.yield_strength_Pa,
+            "dofs": fine.dofs,
+            "mesh_size_m": fine.mesh_size_m,
+            "timing_s": study.timing_s,
+        }
+        progress(f"FEA {name}: k = {study.stiffness_N_per_m:.4g} N/m "
+                 f"(estimated error {100 * study.stiffness_rel_error_estimate:.2g} %, {fine.dofs} DOFs)")
+        if image is not None:
+            image.parent.mkdir(parents=True, exist_ok=True)
+            render_deformed(fine, image, title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
+        cache.store(key, stored)
+        out[name] = MaterialFea(**stored, cached=False, image=image)
+    return out
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One material x cam law: its histories (for plots) and its metrics."""
+
+    history: object  # dynamics.reporting.history.CamHistory
+    metrics: object  # dynamics.metrics.LinkMetrics
+    stations: dict
+    tension: object  # dynamics.metrics.TensionExtremes
+
+
+def output_times_s(cfg: RunConfig, window_deg: float = 180.0) -> "np.ndarray":
+    """Output samples over the report's 180 deg window (two index cycles), at --samples-per-degree."""
+    import numpy as np
+
+    degrees = np.arange(int(round(window_deg * cfg.samples_per_degree)) + 1) / cfg.samples_per_degree
+    return degrees / (6.0 * cfg.rpm)
+
+
+def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress):
+    """Simulate every material x cam law; returns the chain models and the scenarios."""
+    import warnings
+
+    from dynamics.cams import CamProgram
+    from dynamics.chain import ChainModel
+    from dynamics.metrics import link_metrics, station_metrics, tension_extremes
+    from dynamics.reporting.history import CamHistory
+    from dynamics.simulate import SlackChainWarning, simulate
+
+    t = output_times_s(cfg)
+    models, scenarios = {}, {}
+    for name, result in fea.items():
+        model = ChainModel(
+            n_links=cfg.links,
+            link_mass_kg=result.body_mass_kg + cfg.hardware_mass_kg + cfg.nest_mass_kg,
+            stiffness_N_per_m=result.stiffness_N_per_m,
+            damping_ratio=cfg.damping,
+            preload_N=cfg.preload_N,
+            friction_coefficient=cfg.friction,
+        )
+        models[name] = model
+        for cam_id in cfg.cams:
+            cam = CamProgram.indexing(cam_id, pitch_m=result.pitch_m, rpm=cfg.rpm)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", SlackChainWarning)  # reported via min tension instead
+                response = simulate(model, cam, t, method=cfg.solver, steady_state=cfg.steady_state)
+            history = CamHistory(name, cam_id, t, response.z_m, response.zdot_m_s, response.zddot_m_s2,
+                                 response.x_m, response.v_m_s, response.a_m_s2, response.tension_N,
+                                 cam.dwell_mask(t))
+            metrics = link_metrics(response.x_m, response.v_m_s, response.a_m_s2, response.z_m,
+                                   response.zdot_m_s, response.zddot_m_s2, history.dwell_mask)
+            scenarios[name, cam_id] = Scenario(history, metrics, station_metrics(metrics),
+                                               tension_extremes(response.tension_N))
+        progress(f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
+                 f"f1 = {model.natural_frequencies_Hz()[0]:.1f} Hz")
+    return models, scenarios
+
+
+def run(cfg: RunConfig, progress: Progress) -> None:
+    from dynamics.reporting.outputs import write_default_outputs, write_replica_outputs
+
+    timing: dict[str, float] = {}
+    if cfg.preset == "mqp2012":
+        from dynamics.mqp2012 import run_mqp2012
+
+        replicas = {}
+        for material in cfg.materials:
+            _require(material in ("al6061-t6", "ti-grade2"),
+                     f"--materials: the mqp2012 preset knows al6061-t6 and ti-grade2, got {material!r}")
+            progress(f"mqp2012 replica {material}: RK45 restarted every degree, N = {cfg.links}")
+            replicas[material] = run_mqp2012(material, n_links=cfg.links, rpm=cfg.rpm, friction=cfg.friction,
+                                             cams=cfg.cams)
+            if not replicas[material].stable:
+                progress(f"warning: the script's model is unstable for N = {cfg.links} ({material}): its damping "
+                         "matrix feeds energy in below N = 24, so its numbers grow without bound (as the script's did)")
+        timing["dynamics"] = progress.elapsed()
+        write_replica_outputs(cfg, replicas, timing, progress)
+        return
+    fea = run_fea(cfg, progress)
+    timing["fea"] = progress.elapsed()
+    models, scenarios = run_dynamics(cfg, fea, progress)
+    timing["dynamics"] = progress.elapsed() - timing["fea"]
+    write_default_outputs(cfg, fea, models, scenarios, timing, progress)
+
+
+def main(argv: list[str] | None = None) -> int:
+    from dynamics.errors import DynamicsError
+    from fem.errors import FemError
+    from geometry.errors import GeometryError
+
+    try:
+        cfg = parse_cli(argv)
+        check_writable_out(cfg.out)
+        run(cfg, Progress(cfg.quiet))
+    except (InputError, GeometryError, FemError, DynamicsError) as e:
+        print(f"pipeline.py: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("pipeline.py: interrupted; nothing in --out was changed", file=sys.stderr)
+        return 130
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,39 @@
+"""Off-screen rendering of a solved link (no display needed)."""
+
+import matplotlib.image
+import numpy as np
+import pytest
+
+from fem import FemError, analyse_link, get_material, render_deformed
+from fem.render import nice_factor
+from fem_plate import plate_link
+
+
+@pytest.fixture(scope="module", params=[1, 2], ids=["P1", "P2-curved"])
+def solution(request):
+    order = request.param
+    return analyse_link(plate_link(0.01, order=order), get_material("ti-grade2"), order=order)
+
+
+@pytest.mark.parametrize("scalar", ["von_mises", "displacement"])
+def test_png_is_written_with_a_coloured_link(tmp_path, solution, scalar):
+    path = tmp_path / "link.png"
+    factor = render_deformed(solution, path, scalar=scalar)
+    image = matplotlib.image.imread(path)[..., :3]
+    not_background = np.any(image < 0.98, axis=-1).mean()
+    saturated = (image.max(axis=-1) - image.min(axis=-1) > 0.3).mean()  # colour-mapped pixels
+    assert not_background > 0.05 and saturated > 0.02
+    assert factor >= 1 and factor == nice_factor(factor)
+    assert not list(tmp_path.glob(".*tmp*"))  # written atomically, no leftovers
+
+
+def test_bad_scalar_and_suffix_are_fem_errors(tmp_path, solution):
+    with pytest.raises(FemError, match="scalar"):
+        render_deformed(solution, tmp_path / "a.png", scalar="strain")
+    with pytest.raises(FemError, match=".png"):
+        render_deformed(solution, tmp_path / "a.jpg")
+
+
+@pytest.mark.parametrize("raw, nice", [(1234.0, 1000.0), (0.37, 0.2), (5.0, 5.0), (99.0, 50.0), (1.0, 1.0)])
+def test_nice_factor(raw, nice):
+    assert nice_factor(raw) == pytest.approx(nice)

@@ -1,0 +1,204 @@
+"""`python pipeline.py` end to end on coarse settings: outputs, JSON keys, cache, bad input."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from html.parser import HTMLParser
+from pathlib import Path
+
+import pytest
+
+import pipeline
+from geometry import EXAMPLE_STEP
+
+ROOT = Path(__file__).resolve().parents[1]
+# Coarse on purpose: 3 FEA levels ending at 10 mm and a short chain keep one run to seconds.
+COARSE = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "-q"]
+STATIONS = ("drive-end", "tight-side", "idler-end", "slack-side")
+STATION_KEYS = ("link", "rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2",
+                "max_abs_acceleration_m_s2", "max_deviation_m", "residual_vibration_m")
+PER_LINK_KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2")
+
+
+@pytest.fixture(scope="module")
+def cache_dir(tmp_path_factory) -> Path:
+    return tmp_path_factory.mktemp("fea-cache")
+
+
+@pytest.fixture(scope="module")
+def default_run(tmp_path_factory, cache_dir) -> Path:
+    out = tmp_path_factory.mktemp("results")
+    assert pipeline.main([*COARSE, "--out", str(out), "--cache-dir", str(cache_dir)]) == 0
+    return out
+
+
+def _summary(out: Path) -> dict:
+    return json.loads((out / "summary.json").read_text())
+
+
+def test_summary_has_the_documented_keys_in_si(default_run):
+    s = _summary(default_run)
+    assert s["geometry"]["source"] == "default"
+    assert 0.11 < s["geometry"]["pitch_m"] < 0.115  # the default link's 112.5 mm pitch, in metres
+    assert 1e-4 < s["geometry"]["body_volume_m3"] < 2e-4
+    assert set(s["cams"]) == set(pipeline.CAM_IDS)
+    for cam in s["cams"].values():
+        assert set(cam) == {"input_rms_displacement_m", "input_rms_velocity_m_s", "input_rms_acceleration_m_s2"}
+    assert set(s["materials"]) == {"al6061-t6", "ti-grade2"}
+    for m in s["materials"].values():
+        for key in ("stiffness_N_per_m", "body_mass_kg", "lumped_mass_kg"):
+            assert m[key] > 0
+        assert len(m["natural_frequencies_Hz"]) == 10
+        assert m["lumped_mass_kg"] > m["body_mass_kg"]
+        for cam in m["cams"].values():
+            assert set(cam["stations"]) == set(STATIONS)
+            for station in cam["stations"].values():
+                assert all(k in station for k in STATION_KEYS)
+            for k in PER_LINK_KEYS:
+                assert len(cam["per_link"][k]) == 12
+            assert cam["peak_tension_N"] >= cam["min_tension_N"]
+    assert {"fea", "dynamics", "outputs", "total"} <= set(s["timing_s"])
+
+
+def test_stations_follow_matlab_rounding(default_run):
+    stations = _summary(default_run)["materials"]["al6061-t6"]["cams"]["modified-sine"]["stations"]
+    assert {k: v["link"] for k, v in stations.items()} == {
+        "drive-end": 1, "tight-side": 9, "idler-end": 6, "slack-side": 3}
+
+
+def test_titanium_link_is_stiffer_and_heavier(default_run):
+    m = _summary(default_run)["materials"]
+    assert m["ti-grade2"]["stiffness_N_per_m"] > m["al6061-t6"]["stiffness_N_per_m"]
+    assert m["ti-grade2"]["body_mass_kg"] > m["al6061-t6"]["body_mass_kg"]
+
+
+class _Collector(HTMLParser):
+    def __init__(self):
+        super().__init__()
+        self.images, self.tables = [], 0
+
+    def handle_starttag(self, tag, attrs):
+        if tag == "img":
+            self.images.append(dict(attrs)["src"])
+        self.tables += tag == "table"
+
+
+def test_outputs_tables_plots_and_a_self_contained_report(default_run):
+    names = {p.name for p in default_run.iterdir()}
+    for expected in ("summary.json", "report.html", "rms_table.csv", "rms_table.md", "max_acceleration_table.csv",
+                     "ranking.csv", "ranking.md", "stations.csv", "tension.csv", "residual_vibration.png",
+                     "al6061-t6_deformed.png", "ti-grade2_deformed.png", "al6061-t6_tension.png"):
+        assert expected in names
+    assert not [n for n in names if n.startswith(".staging")]
+    page = _Collector()
+    page.feed((default_run / "report.html").read_text())
+    assert page.tables >= 5
+    assert len(page.images) >= 8
+    assert all(src.startswith("data:image/png;base64,") for src in page.images)
+    header = (default_run / "rms_table.csv").read_text().splitlines()[0]
+    assert "cam input" in header and "al6061-t6 % difference" in header
+
+
+def test_second_run_with_another_cam_and_speed_reuses_the_fea(default_run, cache_dir, tmp_path):
+    out = tmp_path / "again"
+    assert pipeline.main([*COARSE, "--out", str(out), "--cache-dir", str(cache_dir), "--cams", "cycloidal",
+                          "--rpm", "120"]) == 0
+    s = _summary(out)
+    first = _summary(default_run)
+    for name, m in s["materials"].items():
+        assert m["fea_from_cache"] is True
+        assert m["stiffness_N_per_m"] == first["materials"][name]["stiffness_N_per_m"]
+    assert list(s["cams"]) == ["cycloidal"]
+    # Slower cam, same lift: the input's RMS velocity scales with speed.
+    ratio = s["cams"]["cycloidal"]["input_rms_velocity_m_s"] / first["cams"]["cycloidal"]["input_rms_velocity_m_s"]
+    assert ratio == pytest.approx(120 / 180, rel=1e-9)
+
+
+def test_another_geometry_file_changes_the_results(default_run, cache_dir, tmp_path):
+    out = tmp_path / "example"
+    assert pipeline.main([*COARSE, "--no-images", "--materials", "al6061-t6", "--cams", "modified-sine",
+                          "--geometry", str(EXAMPLE_STEP), "--out", str(out), "--cache-dir", str(cache_dir)]) == 0
+    s, first = _summary(out), _summary(default_run)
+    assert s["geometry"]["source"] == str(EXAMPLE_STEP)
+    assert s["materials"]["al6061-t6"]["fea_from_cache"] is False
+    k_example = s["materials"]["al6061-t6"]["stiffness_N_per_m"]
+    assert k_example != first["materials"]["al6061-t6"]["stiffness_N_per_m"]
+    a_example = s["materials"]["al6061-t6"]["cams"]["modified-sine"]["stations"]["tight-side"]
+    a_default = first["materials"]["al6061-t6"]["cams"]["modified-sine"]["stations"]["tight-side"]
+    assert a_example["rms_acceleration_m_s2"] != a_default["rms_acceleration_m_s2"]
+
+
+def test_preset_mqp2012_runs_for_a_short_chain_and_stays_si(tmp_path):
+    out = tmp_path / "replica"
+    assert pipeline.main(["--preset", "mqp2012", "--links", "24", "--cams", "modified-sine", "-q",
+                          "--out", str(out)]) == 0
+    s = _summary(out)
+    ms = s["materials"]["al6061-t6"]["cams"]["modified-sine"]
+    # Report-scale numbers in SI: ~0.16 m RMS displacement, not ~160 (mm).
+    assert 0.1 < ms["table1_rms_displacement_m"] < 0.2
+    assert s["materials"]["al6061-t6"]["stiffness_N_per_m"] == 92696969.7
+    assert (out / "report_comparison.csv").exists()
+
+
+def _cli(*args, cwd=ROOT) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(ROOT / "pipeline.py"), *args], capture_output=True, text=True,
+                          cwd=cwd, timeout=600)
+
+
+@pytest.fixture
+def existing_out(tmp_path) -> Path:
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "summary.json").write_text('{"earlier": true}')
+    return out
+
+
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (["--geometry", "no/such/link.step"], "--geometry"),
+        (["--materials", "unobtainium"], "--materials"),
+        (["--cams", "modified-sine,square-wave"], "--cams"),
+        (["--links", "0"], "--links"),
+        (["--rpm", "-5"], "--rpm"),
+        (["--friction", "1.5"], "--friction"),
+        (["--damping", "1.0"], "--damping"),
+        (["--preload", "-1"], "--preload"),
+        (["--nest-mass", "-0.1"], "--nest-mass"),
+        (["--mesh-size", "0"], "--mesh-size"),
+        (["--preset", "mqp2012", "--links", "5"], "--links"),
+    ],
+)
+def test_bad_input_is_one_line_exit_2_and_out_untouched(args, named, existing_out):
+    r = _cli(*args, "--out", str(existing_out))
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and named in lines[0] and "Traceback" not in r.stderr
+    assert (existing_out / "summary.json").read_text() == '{"earlier": true}'
+    assert sorted(p.name for p in existing_out.iterdir()) == ["summary.json"]
+
+
+def test_a_geometry_file_that_is_not_step_is_refused(tmp_path, existing_out):
+    fake = tmp_path / "link.step"
+    fake.write_text("this is not a STEP file\n")
+    r = _cli("--geometry", str(fake), "--out", str(existing_out), "--cache-dir", str(tmp_path / "c"), "-q")
+    assert r.returncode == 2
+    assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+    assert sorted(p.name for p in existing_out.iterdir()) == ["summary.json"]
+
+
+def test_unwritable_out_is_refused(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    r = _cli("--out", str(blocker / "results"))
+    assert r.returncode == 2
+    assert "--out" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_help_explains_units():
+    r = _cli("--help")
+    assert r.returncode == 0
+    for unit in ("rev/min", "N", "kg", "mm"):
+        assert unit in r.stdout

@@ -1,0 +1,174 @@
+"""The exact (first-order-hold matrix exponential) solver against independent closed forms."""
+
+import numpy as np
+import pytest
+
+from dynamics.errors import DynamicsError
+from dynamics.solvers import METHODS, solve, solve_with_diagnostics
+from dynamics.solvers.exact import _cache, foh_matrices
+from dynamics.system import SampledForce, SecondOrderSystem
+
+
+def sdof_foh_closed_form(m, c, k, t, f, x0=0.0, v0=0.0):
+    """Underdamped single DOF under a piecewise-linear force, interval by interval in closed form:
+    x = x_p + e^(-zeta w tau) (A cos wd tau + B sin wd tau), x_p the ramp's particular solution."""
+    w = np.sqrt(k / m)
+    zeta = c / (2 * np.sqrt(k * m))
+    wd = w * np.sqrt(1 - zeta**2)
+    x, v = [x0], [v0]
+    for i in range(t.size - 1):
+        h = t[i + 1] - t[i]
+        s = (f[i + 1] - f[i]) / h
+        xp0 = f[i] / k - s * c / k**2
+        vp = s / k
+        a_ = x[-1] - xp0
+        b_ = (v[-1] - vp + zeta * w * a_) / wd
+        e = np.exp(-zeta * w * h)
+        cs, sn = np.cos(wd * h), np.sin(wd * h)
+        x.append(xp0 + s * h / k + e * (a_ * cs + b_ * sn))
+        v.append(vp + e * ((-zeta * w * a_ + wd * b_) * cs + (-zeta * w * b_ - wd * a_) * sn))
+    return np.array(x), np.array(v)
+
+
+@pytest.mark.parametrize("k", [1e5, 1e8, 1e10])
+@pytest.mark.parametrize("zeta", [0.0, 0.05, 0.13])
+def test_single_dof_matches_closed_form_under_foh_force(k, zeta):
+    m = 2.0
+    c = 2 * zeta * np.sqrt(k * m)
+    rng = np.random.default_rng(1)
+    t = np.cumsum(np.r_[0.0, rng.uniform(0.5, 1.5, 60)]) * 1e-3  # uneven steps: several matrix sets
+    f = rng.normal(0.0, 1e3, t.size)
+    sys = SecondOrderSystem(np.array([[m]]), np.array([[c]]), np.array([[k]]))
+    r = solve(sys, SampledForce(t, f[:, None]), t, x0=[1e-4], v0=[0.01])
+    x_ref, v_ref = sdof_foh_closed_form(m, c, k, t, f, 1e-4, 0.01)
+    # Both are exact; the only error is rounding in expm and in the trigonometric recurrences,
+    # which grows with w*t (up to 1e4 rad here): 1e-9 of the response scale.
+    assert np.max(np.abs(r.x[:, 0] - x_ref)) < 1e-9 * np.max(np.abs(x_ref))
+    assert np.max(np.abs(r.v[:, 0] - v_ref)) < 1e-9 * np.max(np.abs(v_ref))
+    # the reported acceleration satisfies the equation of motion at the samples
+    np.testing.assert_allclose(m * r.a[:, 0], f - c * r.v[:, 0] - k * r.x[:, 0], rtol=0, atol=1e-9 * np.abs(f).max())
+
+
+def ring(n, k, m, drive_k=None):
+    """Closed ring of n masses m and springs k; drive_k grounds mass 0 (None: free ring)."""
+    kk = np.zeros((n, n))
+    for i in range(n):
+        j = (i + 1) % n
+        kk[i, i] += k
+        kk[j, j] += k
+        kk[i, j] -= k
+        kk[j, i] -= k
+    if drive_k is not None:
+        kk[0, 0] += drive_k
+    return kk
+
+
+@pytest.mark.parametrize("n, j", [(8, 1), (85, 1), (85, 3), (20, 7)])
+def test_free_ring_mode_oscillates_at_closed_form_frequency(n, j):
+    k, m = 1e8, 2.0
+    omega = 2 * np.sqrt(k / m) * np.sin(j * np.pi / n)
+    shape = np.cos(2 * np.pi * j * np.arange(n) / n)
+    sys = SecondOrderSystem(m * np.eye(n), np.zeros((n, n)), ring(n, k, m))
+    t = np.linspace(0.0, 20 * 2 * np.pi / omega, 401)
+    r = solve(sys, SampledForce(t, np.zeros((t.size, n))), t, x0=shape)
+    # x(t) = shape cos(w t) exactly; rounding only (1e-9 of the amplitude after 20 periods)
+    np.testing.assert_allclose(r.x, np.outer(np.cos(omega * t), shape), atol=1e-9)
+
+
+@pytest.mark.parametrize("n, j", [(85, 1), (85, 84), (12, 5)])
+def test_ring_with_held_driven_link_has_closed_form_frequencies(n, j):
+    k, m = 1e8, 2.0
+    omega = 2 * np.sqrt(k / m) * np.sin(j * np.pi / (2 * n))
+    free = ring(n, k, m)[1:, 1:]  # link 0 held: the rest is a fixed-fixed line of n - 1 masses
+    shape = np.sin(j * np.pi * np.arange(1, n) / n)
+    sys = SecondOrderSystem(m * np.eye(n - 1), np.zeros((n - 1, n - 1)), free)
+    t = np.linspace(0.0, 5 * 2 * np.pi / omega, 301)
+    r = solve(sys, SampledForce(t, np.zeros((t.size, n - 1))), t, x0=shape)
+    np.testing.assert_allclose(r.x, np.outer(np.cos(omega * t), shape), atol=1e-9)
+
+
+def test_field_note_frequencies_n85_k1e8_m2():
+    n, k, m = 85, 1e8, 2.0
+    lam = np.linalg.eigvalsh(ring(n, k, m)[1:, 1:] / m)
+    f_hz = np.sqrt(lam) / (2 * np.pi)
+    assert f_hz[0] == pytest.approx(41.6, abs=0.05)  # field notes: f1 = 41.6 Hz
+    assert f_hz[-1] == pytest.approx(2250, rel=2e-3)  # field notes: fmax about 2250 Hz
+
+
+def test_matrices_are_cached_per_system_and_step():
+    n = 6
+    sys = SecondOrderSystem(np.eye(n), 0.01 * np.eye(n), ring(n, 1e4, 1.0, 1e4))
+    a = foh_matrices(sys, 1e-3)
+    assert foh_matrices(sys, 1e-3) is a
+    assert foh_matrices(SecondOrderSystem(np.eye(n), 0.01 * np.eye(n), ring(n, 1e4, 1.0, 1e4)), 1e-3) is a
+    assert foh_matrices(sys, 2e-3) is not a
+    assert len(_cache) <= 32
+
+
+def test_force_knots_between_outputs_are_honoured():
+    """A force sampled more finely than the outputs: the solver steps through every knot, so the
+    result equals the run that outputs at every knot."""
+    m, c, k = 1.0, 0.2, 100.0
+    sys = SecondOrderSystem(np.array([[m]]), np.array([[c]]), np.array([[k]]))
+    t_f = np.linspace(0, 2, 81)
+    f = SampledForce(t_f, np.sin(3 * t_f)[:, None] + (t_f > 1)[:, None])
+    fine = solve(sys, f, t_f)
+    coarse = solve(sys, f, t_f[::8])
+    np.testing.assert_allclose(coarse.x, fine.x[::8], atol=1e-13)
+
+
+def test_nonlinear_force_splitting_is_second_order():
+    """Heun splitting for a smooth nonlinear force (cubic spring): error falls about 4x per halving
+    of the step (second order); the reference is the same scheme at a 16x finer step."""
+    m, c, k = 1.0, 0.5, 400.0
+    sys = SecondOrderSystem(np.array([[m]]), np.array([[c]]), np.array([[k]]), lambda x, v: -4e4 * x**3)
+    t = np.linspace(0, 1, 51)
+    f = SampledForce(t, np.full((t.size, 1), 10.0))
+    ref = solve(sys, f, t, substeps=64).x
+    errs = [np.max(np.abs(solve(sys, f, t, substeps=s).x - ref)) for s in (2, 4, 8)]
+    rates = np.log2(np.array(errs[:-1]) / np.array(errs[1:]))
+    assert np.all((rates > 1.8) & (rates < 2.3))
+
+
+def test_bad_inputs_raise_dynamics_error():
+    sys = SecondOrderSystem(np.eye(2), np.zeros((2, 2)), np.eye(2))
+    t = np.linspace(0, 1, 5)
+    f = SampledForce(t, np.zeros((5, 2)))
+    with pytest.raises(DynamicsError, match="t_eval_s"):
+        solve(sys, f, t[::-1])
+    with pytest.raises(DynamicsError, match="force.values"):
+        solve(sys, SampledForce(t, np.zeros((5, 3))), t)
+    with pytest.raises(DynamicsError, match="x0"):
+        solve(sys, f, t, x0=[1.0])
+    with pytest.raises(DynamicsError, match="method"):
+        solve(sys, f, t, method="euler")
+    with pytest.raises(DynamicsError, match="options for exact"):
+        solve(sys, f, t, rtol=1e-3)
+    with pytest.raises(DynamicsError, match="substeps"):
+        solve(sys, f, t, substeps=0)
+    with pytest.raises(DynamicsError, match="system.mass"):
+        solve(SecondOrderSystem(-np.eye(2), np.zeros((2, 2)), np.eye(2)), f, t)
+
+
+def test_registry_describes_every_method():
+    assert {"exact", "modal", "newmark", "hht", "central-difference", "rk45", "dop853", "radau", "bdf",
+            "lsoda", "report-rk45"} <= set(METHODS)
+    for name, info in METHODS.items():
+        assert info.id == name and info.description
+    assert METHODS["exact"].handles_nonlinear_force
+    assert METHODS["report-rk45"].handles_nonlinear_force
+    assert not METHODS["modal"].handles_nonlinear_force
+
+
+def test_linear_only_methods_refuse_a_nonlinear_force():
+    sys = SecondOrderSystem(np.eye(1), np.zeros((1, 1)), np.eye(1), lambda x, v: -np.sign(v))
+    t = np.linspace(0, 1, 5)
+    with pytest.raises(DynamicsError, match="cannot take a nonlinear force"):
+        solve(sys, SampledForce(t, np.zeros((5, 1))), t, method="newmark")
+
+
+def test_diagnostics_report_steps():
+    sys = SecondOrderSystem(np.eye(1), np.zeros((1, 1)), np.eye(1))
+    t = np.linspace(0, 1, 5)
+    _, diag = solve_with_diagnostics(sys, SampledForce(t, np.zeros((5, 1))), t, substeps=3)
+    assert diag["n_steps"] == 12
