@@ -42,7 +42,7 @@ from scipy.linalg import eigh
 
 from dynamics.errors import DynamicsError
 from dynamics.friction import regularised_coulomb_N
-from dynamics.system import SecondOrderSystem
+from dynamics.system import SampledForce, SecondOrderSystem
 
 
 @dataclass(frozen=True)
@@ -135,6 +135,11 @@ class ChainModel:
     def coulomb_force_N(self) -> float:
         """mu m g: the friction force on one sliding link."""
         return self.friction_coefficient * self.link_mass_kg * self.gravity_m_s2
+
+    def base_excitation(self, cam, t_s: np.ndarray) -> SampledForce:
+        """The relative-coordinate force -M 1 z''(t) of `cam` sampled at t_s, held linearly between."""
+        t = np.asarray(t_s, dtype=float)
+        return SampledForce(t, self.base_excitation_force(cam.svaj(t)[2]))
 
     def friction_force_N(self, v_abs_m_s: np.ndarray) -> np.ndarray:
         """Regularised Coulomb friction on every link from its absolute velocity (N)."""

@@ -2,10 +2,11 @@
 
 Law: F = -F_c tanh(v / v_s), F_c = mu m g (newtons), v the link's absolute velocity, v_s a stated
 velocity scale. Above ~2 v_s it is the Coulomb force; below v_s it is a steep viscous branch of slope
-F_c / v_s that stands in for sticking. Why regularised rather than event-driven stick-slip: the
-85-link chain changes direction of relative motion thousands of times per cycle, and a smooth law
-keeps every solver (exact splitting, RK, BDF) usable with a known cost: the splitting needs
-h F_c / (m v_s) <= 1, i.e. h <= v_s / (mu g) (0.15 ms at 5 mm/s and mu 0.35).
+F_c / v_s that stands in for sticking. Why regularised rather than event-driven stick-slip: every
+link starts, stops and reverses many times per cycle (residual vibration in the dwell), and a smooth
+law keeps every solver (exact splitting, RK, BDF) usable at a known cost. The splitting needs
+h F_c / (m v_s) <= 1, i.e. h <= v_s / (mu g): 1.5 ms at 5 mm/s and mu 0.35, against 0.93 ms for
+one cam degree at 180 rpm.
 """
 
 from __future__ import annotations

@@ -13,7 +13,11 @@ output step (so the two coincide when the period is a whole number of output ste
 steady_state=False starts from rest at t_eval_s[0]: every link at the cam's position, motionless.
 
 With the default method `exact` and friction, the Heun splitting needs h mu g / v_s <= 1 for the
-friction's steep branch; each output interval is split into as many sub-steps as that requires.
+friction's steep branch; each output interval is split into as many sub-steps as that requires
+(one at one-degree steps, 180 rpm, mu 0.35, v_s 5 mm/s). Accuracy is second order in the step, for
+the cam's sampling and for friction alike: at one-degree steps the friction's contribution to the
+motion (about 3 % of the deflection for a 16-link chain) is right to about 15 % of itself; pass
+`substeps=4` for about 1 %.
 """
 
 from __future__ import annotations

@@ -11,9 +11,11 @@ and the state found by Newton shooting with the linear monodromy as the Jacobian
 
     y0 <- y0 + (I - Phi_T)^-1 (P(y0) - y0),
 
-started from the linear periodic state. For the linear model and `exact` this stops at once; for a
-friction force that is small next to the elastic forces each iteration cuts the residual by roughly
-the ratio of the friction's effect to the elastic response. Converged when the period residual is
+started from the periodic state of the linear model under the nonlinear force evaluated along the
+linear model's periodic motion (a cheap, vectorised first correction). For the linear model and
+`exact` this stops at once; for a friction force that is small next to the elastic forces each
+iteration cuts the residual by roughly the ratio of the friction's effect to the elastic response
+(3-4 period runs for the 85-link chain at mu = 0.35). Converged when the period residual is
 below `tol` times the state's scale (largest |x| and |v| over the period); otherwise
 SolverFailedError.
 """
@@ -27,7 +29,7 @@ from scipy.linalg import lu_factor, lu_solve
 
 from dynamics.errors import DynamicsError, SolverFailedError
 from dynamics.solvers import solve_with_diagnostics
-from dynamics.solvers._common import serial_blas
+from dynamics.solvers._common import _combined_force, serial_blas
 from dynamics.solvers.exact import _steps, foh_matrices, propagate
 from dynamics.system import SampledForce, SecondOrderSystem
 
@@ -97,6 +99,14 @@ def periodic_initial_state(
     kwargs = dict(options)
     if time_dependent_force is not None:
         kwargs["time_dependent_force"] = time_dependent_force
+    extra = _combined_force(system, time_dependent_force)
+    if extra is not None:
+        # cheap first correction: the nonlinear force along the linear periodic motion, applied as a
+        # known force, gives a periodic state that already carries most of its effect
+        g = extra.batch(grid, y_lin[:, :n], y_lin[:, n:])
+        g[-1] = g[0]
+        with serial_blas(), np.errstate(over="ignore", invalid="ignore"):
+            y0 = lu_solve(lu, propagate(system, grid, f + g, np.zeros(2 * n))[-1])
     for it in range(1, max_iterations + 1):
         residual = _one_period(system, force_over_period, method, y0, kwargs) - y0
         err = float(np.max(np.abs(residual) / scale))

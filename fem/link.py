@@ -10,11 +10,12 @@ k = F / delta with the work-conjugate displacement delta = (1/F) integral(t . u 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
 from skfem import Basis, MeshTet1, MeshTet2
+from skfem.quadrature import get_quadrature
 
 from geometry.link_mesh import Bore, LinkMesh
 
@@ -22,12 +23,17 @@ from . import problem, solvers
 from .assembly import elasticity_matrix
 from .errors import FemError
 from .materials import Material
+from .problem import CURVED_INTORDER
 
 # "Away from the clamp": element nodes farther than this fraction of the fixed bore's radius from
 # the rim curves where the clamped bore surface ends. The clamp's rim is a stress singularity
 # (the peak there grows without bound under refinement); outside this distance the stress
 # converges, so this is the number to compare with a yield strength.
 CLAMP_EXCLUSION_RADIUS_FRACTION = 0.25
+# Curved cells whose Jacobian anywhere falls below this fraction of their straight-sided Jacobian
+# (negative: inverted) are straightened (see straighten_distorted). At 0.2 scikit-fem's inverse
+# facet map still failed on the 1 mm edge-break example; 0.5 fixed it, touching a few cells only.
+MIN_CURVED_JACOBIAN_RATIO = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,6 +50,7 @@ class LinkSolution:
     mesh_volume_m3: float  # volume of the meshed domain
     mass_kg: float  # density * CAD volume
     peak_von_mises_Pa_per_N: float  # overall, includes the clamp-rim singularity
+    peak_von_mises_location_m: list[float]  # where the overall peak is (an element node)
     peak_von_mises_away_from_clamp_Pa_per_N: float
     clamp_exclusion_radius_m: float
     pitch_m: float
@@ -59,7 +66,7 @@ class LinkSolution:
     von_mises_at_dofs_Pa: np.ndarray  # (basis.N,) element-node values averaged per DOF, at load_N
 
 
-def skfem_mesh(link: LinkMesh, order: int) -> tuple[MeshTet1, np.ndarray]:
+def skfem_mesh(link: LinkMesh, order: int, curved: bool = True) -> tuple[MeshTet1, np.ndarray]:
     """scikit-fem mesh of the link and the map from LinkMesh point index to mesh vertex index.
 
     Vertices are renumbered to those used by `tets` in increasing order, which is also how
@@ -68,16 +75,44 @@ def skfem_mesh(link: LinkMesh, order: int) -> tuple[MeshTet1, np.ndarray]:
     used = np.unique(link.tets)
     index = np.full(link.points_m.shape[1], -1, dtype=np.int64)
     index[used] = np.arange(len(used))
-    if order == 2 and link.tets10 is not None:
+    if order == 2 and curved and link.tets10 is not None:
         if not np.array_equal(link.tets10[:4], link.tets):
             raise FemError("LinkMesh.tets10: first four rows must equal tets")
         # Compact the points first: scikit-fem keeps unreferenced points as spurious DOF locations.
         used10, compact = np.unique(link.tets10, return_inverse=True)
         points = np.ascontiguousarray(link.points_m[:, used10], dtype=float)
-        mesh = MeshTet2(points, compact.reshape(link.tets10.shape))
+        mesh = straighten_distorted(MeshTet2(points, compact.reshape(link.tets10.shape)))
     else:
         mesh = MeshTet1(np.ascontiguousarray(link.points_m[:, used], dtype=float), index[link.tets])
     return mesh, index
+
+
+def _curved_jacobian_ratio(mesh: MeshTet2) -> np.ndarray:
+    """Per element: min over quadrature points and vertices of det J (curved) / det J (straight)."""
+    points = np.hstack([get_quadrature(mesh.elem.refdom, CURVED_INTORDER)[0], np.eye(3, 4, 1)])
+    curved = mesh._mapping().detDF(points)
+    straight = MeshTet1(np.ascontiguousarray(mesh.p[:, : mesh.nvertices]), mesh.t)._mapping().detDF(points[:, :1])
+    return curved.min(axis=1) / straight[:, 0]
+
+
+def straighten_distorted(mesh: MeshTet2, min_ratio: float = MIN_CURVED_JACOBIAN_RATIO) -> MeshTet2:
+    """Move the mid-edge nodes of badly distorted curved cells back onto their chords.
+
+    gmsh's order-2 meshes can hold inverted cells next to small fillets or chamfers (seen on a
+    1 mm edge break); those break the isoparametric map. Straightening a few cells costs only a
+    local O(h^2) geometry error there.
+    """
+    for _ in range(3):
+        bad = np.flatnonzero(_curved_jacobian_ratio(mesh) < min_ratio)
+        if len(bad) == 0:
+            return mesh
+        edges = np.unique(mesh.t2e[:, bad])
+        doflocs = mesh.doflocs.copy()
+        doflocs[:, mesh.nvertices + edges] = 0.5 * (mesh.p[:, mesh.edges[0, edges]] + mesh.p[:, mesh.edges[1, edges]])
+        mesh = replace(mesh, doflocs=doflocs)
+    if len(np.flatnonzero(_curved_jacobian_ratio(mesh) < min_ratio)):
+        raise FemError("LinkMesh.tets10: inverted curved cells remain after straightening")
+    return mesh
 
 
 def _facets(mesh, index: np.ndarray, triangles: np.ndarray, name: str) -> np.ndarray:
@@ -91,6 +126,15 @@ def _facets(mesh, index: np.ndarray, triangles: np.ndarray, name: str) -> np.nda
     if (mesh.f2t[1, facets] != -1).any():
         raise FemError(f"LinkMesh.{name}: some triangles are interior faces, expected boundary facets of the mesh")
     return facets
+
+
+def _discretise(link: LinkMesh, sk_mesh, index: np.ndarray, order: int):
+    """Basis, clamped facets and the load vector of a unit bearing pressure p0 = 1 Pa."""
+    fixed = _facets(sk_mesh, index, link.fixed_bore_facets, "fixed_bore_facets")
+    loaded = _facets(sk_mesh, index, link.loaded_bore_facets, "loaded_bore_facets")
+    basis = problem.scalar_basis(sk_mesh, order)
+    unit = problem.traction_load(basis, loaded, bearing_traction(link.loaded_bore, link.load_direction, 1.0))
+    return basis, fixed, unit
 
 
 def bearing_traction(bore: Bore, direction: np.ndarray, p0_Pa: float):
@@ -139,21 +183,25 @@ def analyse_link(
 
     start = time.perf_counter()
     sk_mesh, index = skfem_mesh(mesh, order)
-    fixed = _facets(sk_mesh, index, mesh.fixed_bore_facets, "fixed_bore_facets")
-    loaded = _facets(sk_mesh, index, mesh.loaded_bore_facets, "loaded_bore_facets")
-    basis = problem.scalar_basis(sk_mesh, order)
-    K = elasticity_matrix(basis, lam, mu, nthreads=nthreads)
-    timing["assembly"] = time.perf_counter() - start
-
-    start = time.perf_counter()
+    try:
+        basis, fixed, unit = _discretise(mesh, sk_mesh, index, order)
+    except Exception as exc:  # scikit-fem raises a bare Exception when its inverse map fails
+        if sk_mesh.affine or "Newton iteration" not in str(exc):
+            raise
+        # Some curved cells too distorted for the isoparametric facet map: use straight cells.
+        sk_mesh, index = skfem_mesh(mesh, order, curved=False)
+        basis, fixed, unit = _discretise(mesh, sk_mesh, index, order)
     direction = mesh.load_direction
-    unit = problem.traction_load(basis, loaded, bearing_traction(mesh.loaded_bore, direction, 1.0))
     resultant_per_Pa = float(direction @ problem.as_components(unit).sum(axis=1))
     if not resultant_per_Pa > 0:
         raise FemError("LinkMesh.loaded_bore_facets: the bearing pressure has no resultant along the load direction")
     f = unit * (load_N / resultant_per_Pa)
     clamped = problem.fixed_vector_dofs(basis, fixed)
     timing["load"] = time.perf_counter() - start
+
+    start = time.perf_counter()
+    K = elasticity_matrix(basis, lam, mu, nthreads=nthreads)
+    timing["assembly"] = time.perf_counter() - start
 
     start = time.perf_counter()
     u = problem.solve_displacement(K, f, clamped, problem.dof_locations(basis), solver=method)
@@ -188,6 +236,7 @@ def analyse_link(
         mesh_volume_m3=mesh_volume,
         mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),
         peak_von_mises_Pa_per_N=float(vm.max()) / load_N,
+        peak_von_mises_location_m=where.reshape(3, -1)[:, int(np.argmax(vm))].tolist(),
         peak_von_mises_away_from_clamp_Pa_per_N=float(vm[away].max()) / load_N if away.any() else float("nan"),
         clamp_exclusion_radius_m=radius,
         pitch_m=mesh.pitch_m,

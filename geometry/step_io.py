@@ -10,7 +10,6 @@ header's length unit then rewritten to metres.
 from __future__ import annotations
 
 import os
-import re
 import tempfile
 from pathlib import Path
 
@@ -52,7 +51,8 @@ def import_step(path: str | os.PathLike) -> list[int]:
         raise GeometryError(f"{path}: OpenCASCADE could not read it ({exc}); expected a valid STEP file") from exc
     volumes = [tag for _, tag in gmsh.model.getEntities(3)]
     if not volumes and gmsh.model.getEntities(2):
-        gmsh.model.occ.healShapes(gmsh.model.getEntities(2), sewFaces=True, makeSolids=True)
+        # Heal the whole model: listing the faces sews them but makes no solid (gmsh 4.15).
+        gmsh.model.occ.healShapes([], sewFaces=True, makeSolids=True)
         gmsh.model.occ.synchronize()
         volumes = [tag for _, tag in gmsh.model.getEntities(3)]
     if not volumes:

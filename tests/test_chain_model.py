@@ -99,3 +99,15 @@ def test_bad_model_inputs_raise(kwargs, name):
     base.update(kwargs)
     with pytest.raises(DynamicsError, match=name):
         ChainModel(**base)
+
+
+def test_base_excitation_is_minus_mass_times_cam_acceleration():
+    class Cam:
+        def svaj(self, t):
+            return t**3, 3 * t**2, 6 * t, 6 + 0 * t
+
+    model = ChainModel(4, 2.5, 1e8)
+    t = np.linspace(0, 1, 5)
+    f = model.base_excitation(Cam(), t)
+    np.testing.assert_allclose(f.values, -2.5 * np.outer(6 * t, np.ones(4)))
+    np.testing.assert_array_equal(f.t_s, t)

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from fem import FemError, extrapolate
-from fem.richardson import SINGULAR_RATE, observed_rate
+from fem.richardson import ASSUMED_RATE, observed_rate
 
 
 def levels(k_inf, c, p, dofs):
@@ -10,33 +10,29 @@ def levels(k_inf, c, p, dofs):
     return k_inf + c * h**p
 
 
-def test_three_levels_recover_rate_and_limit_exactly():
+def test_model_data_at_the_assumed_rate_extrapolate_exactly():
     dofs = [40_000, 90_000, 200_000]
-    k = levels(9.0e7, 4.0e9, 1.2, dofs)
+    k = levels(9.0e7, 4.0e9, ASSUMED_RATE, dofs)
     fit = extrapolate(k, dofs)
-    assert fit.observed_rate == pytest.approx(1.2, abs=1e-8)
-    assert fit.rate == pytest.approx(1.2, abs=1e-8)
-    assert fit.extrapolated == pytest.approx(9.0e7, rel=1e-10)
-    assert fit.rel_error_estimate == pytest.approx((k[-1] - 9.0e7) / 9.0e7, rel=1e-6)
+    assert fit.extrapolated == pytest.approx(9.0e7, rel=1e-12)
+    assert fit.observed_rate == pytest.approx(ASSUMED_RATE, abs=1e-8)
+    assert fit.finest_rel_error_estimate == pytest.approx((k[-1] - 9.0e7) / 9.0e7, rel=1e-9)
+    assert 0 < fit.rel_error_estimate < fit.finest_rel_error_estimate
 
 
-def test_observed_rate_above_the_singular_rate_is_capped():
-    # A faster observed rate is pre-asymptotic on a part with singular edges: the cap makes the
-    # error estimate larger (safer), not smaller.
+@pytest.mark.parametrize("true_rate", [1.0, 1.09, 1.3, 1.8, 2.0])
+@pytest.mark.parametrize("n_levels", [2, 3])
+def test_error_estimate_bounds_the_true_error_for_any_rate_in_the_bracket(true_rate, n_levels):
+    dofs = [30_000, 70_000, 160_000][-n_levels:]
+    k = levels(9.0e7, 6.0e9, true_rate, dofs)
+    fit = extrapolate(k, dofs)
+    assert abs(fit.extrapolated - 9.0e7) / fit.extrapolated <= fit.rel_error_estimate * (1 + 1e-9)
+
+
+def test_observed_rate_is_recovered_from_three_levels():
     dofs = [40_000, 90_000, 200_000]
-    k = levels(9.0e7, 4.0e9, 3.0, dofs)
-    fit = extrapolate(k, dofs)
-    assert fit.observed_rate == pytest.approx(3.0, abs=1e-8)
-    assert fit.rate == SINGULAR_RATE
-    assert fit.rel_error_estimate > (k[-1] - 9.0e7) / 9.0e7
-
-
-def test_two_levels_use_the_singular_rate():
-    dofs = [50_000, 150_000]
-    k = levels(1.0e8, 1.0e10, SINGULAR_RATE, dofs)
-    fit = extrapolate(k, dofs)
-    assert fit.observed_rate is None
-    assert fit.extrapolated == pytest.approx(1.0e8, rel=1e-12)
+    assert extrapolate(levels(1.0, 30.0, 1.2, dofs), dofs).observed_rate == pytest.approx(1.2, abs=1e-8)
+    assert extrapolate(levels(1.0, 30.0, 1.2, dofs[:2]), dofs[:2]).observed_rate is None
 
 
 def test_oscillating_levels_report_their_scatter():

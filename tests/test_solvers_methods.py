@@ -113,7 +113,7 @@ def test_divergence_of_an_unstable_nonlinear_force_is_reported_not_returned():
     sys = SecondOrderSystem(np.eye(1), np.array([[0.1]]), np.array([[100.0]]), lambda x, v: 40.0 * v)
     t = np.linspace(0, 20, 401)
     f = SampledForce(t, np.zeros((t.size, 1)))
-    for method in ("exact", "report-rk45", "rk45"):
+    for method in ("exact", "report-rk45", "rk45", "central-difference"):
         with pytest.raises(SolverDivergedError, match=method):
             solve(sys, f, t, method=method, x0=[1e-3])
 
@@ -176,3 +176,24 @@ def test_central_difference_reports_its_limit_in_diagnostics():
     sys, _, t, f, _ = setup(8, 1e8, 0.13)
     _, diag = solve_with_diagnostics(sys, f, t, method="central-difference", dt=0.5 * stability_limit(sys))
     assert diag["stability_limit"] == pytest.approx(stability_limit(sys))
+
+
+@pytest.mark.parametrize("method, opts, rel_tol", [
+    ("rk45", {}, 1e-6),  # rtol 1e-8, tolerance-bounded (measured 2e-8)
+    ("dop853", {}, 1e-6),
+    ("radau", {}, 1e-6),
+    ("bdf", {}, 1e-6),  # measured 8e-8
+    ("lsoda", {}, 1e-6),
+    ("report-rk45", {}, 1e-8),  # MaxStep 0.1 h: w h = 0.02 per step (measured 1e-10)
+    ("central-difference", {"dt": 1e-4}, 5e-6),  # second order: measured 1.6e-6, 4.1e-7 at half dt
+])
+def test_nonlinear_force_methods_agree_on_a_duffing_oscillator(method, opts, rel_tol):
+    """Hardening spring g = -4e4 x^3 with damping under a step force. Reference: the exact method's
+    second-order splitting at 128 and 64 sub-steps, Richardson-extrapolated (changes by 8e-11 of
+    the response when both step counts double)."""
+    sys = SecondOrderSystem(np.array([[1.0]]), np.array([[0.5]]), np.array([[400.0]]), lambda x, v: -4e4 * x**3)
+    t = np.linspace(0, 1, 101)
+    f = SampledForce(t, np.full((t.size, 1), 10.0))
+    ref = (4 * solve(sys, f, t, substeps=128).x - solve(sys, f, t, substeps=64).x) / 3
+    r = solve(sys, f, t, method=method, **opts)
+    assert np.max(np.abs(r.x - ref)) < rel_tol * np.max(np.abs(ref))

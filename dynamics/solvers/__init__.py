@@ -39,8 +39,9 @@ class Method:
     run: Callable = field(repr=False)
 
 
-def _method(id_, description, nonlinear, module, run=None) -> Method:
-    return Method(id_, description, nonlinear, MappingProxyType(dict(module.OPTIONS)), run or module.solve)
+def _method(id_, description, nonlinear, module, run=None, options=None) -> Method:
+    opts = module.OPTIONS if options is None else options
+    return Method(id_, description, nonlinear, MappingProxyType(dict(opts)), run or module.solve)
 
 
 def _ivp(name):
@@ -66,9 +67,9 @@ METHODS: MappingProxyType = MappingProxyType(
                 modal,
             ),
             _method("newmark", "Newmark average acceleration, fixed step dt (implicit, linear)", False, newmark,
-                    newmark.solve_newmark),
+                    newmark.solve_newmark, newmark.NEWMARK_OPTIONS),
             _method("hht", "HHT-alpha, fixed step dt, alpha in [-1/3, 0] (implicit, linear)", False, newmark,
-                    newmark.solve_hht),
+                    newmark.solve_hht, newmark.HHT_OPTIONS),
             _method(
                 "central-difference",
                 "explicit central difference, fixed step dt; refused above the stability limit 2/omega_max",

@@ -129,6 +129,9 @@ def solve(problem: Problem, *, substeps: int = 1) -> tuple[np.ndarray, np.ndarra
     y = propagate(problem.system, grid, forces, y0, problem.extra_force)
     n = problem.n
     h_max = float(np.max(np.diff(grid)))
-    check_finite("exact", grid, y[:, :n], y[:, n:], divergence_bounds(problem), f"step {h_max:.3g}")
+    step = f"step {h_max:.3g}"
+    if problem.extra_force is not None:
+        step += "; the nonlinear splitting is stable for h * |dg/dv| / m < 2: raise `substeps`"
+    check_finite("exact", grid, y[:, :n], y[:, n:], divergence_bounds(problem), step)
     y = y[out]
     return y[:, :n], y[:, n:], {"n_steps": grid.size - 1, "max_step": h_max}

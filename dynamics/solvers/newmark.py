@@ -19,10 +19,8 @@ from scipy.linalg import lu_factor, lu_solve
 from dynamics.errors import DynamicsError
 from dynamics.solvers._common import Problem, check_finite, divergence_bounds, force_at
 
-OPTIONS = {
-    "dt": "largest step (default: the largest output interval)",
-    "alpha": "HHT alpha in [-1/3, 0] (hht only; default -0.05)",
-}
+NEWMARK_OPTIONS = {"dt": "largest step (default: the largest output interval)"}
+HHT_OPTIONS = {**NEWMARK_OPTIONS, "alpha": "HHT alpha in [-1/3, 0] (default -0.05)"}
 
 
 def fixed_step_grid(t_eval: np.ndarray, dt: float | None) -> tuple[np.ndarray, np.ndarray]:

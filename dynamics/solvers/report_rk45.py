@@ -114,8 +114,8 @@ def _ode45(rhs, t0, tfinal, y0, rtol, atol, max_step_fraction, nip):
             for s in range(1, 6):
                 k[s] = rhs(t + _C[s] * h, y + h * (_A[s] @ k[:s]))
             tnew = tfinal if done else t + h
+            ynew = y + h * (_A[6] @ k[:6])  # MATLAB uses the step before "purifying" h = tnew - t
             h = tnew - t
-            ynew = y + h * (_A[6] @ k[:6])
             k[6] = rhs(tnew, ynew)
             errwt = np.maximum(np.maximum(np.abs(y), np.abs(ynew)), threshold)
             err = absh * np.max(np.abs(_E @ k) / errwt)
