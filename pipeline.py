@@ -47,6 +47,7 @@ class RunConfig:
     cache_dir: Path
     steady_state: bool
     samples_per_degree: int
+    tolerance: float | None
 
 
 class Progress:
@@ -75,40 +76,42 @@ def build_parser() -> argparse.ArgumentParser:
             "elasticity, and simulate the closed chain driven by a cam indexer. Units: SI inside "
             "and in summary.json (m, kg, s, N, Pa); options state their units."
         ),
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
     p.add_argument("--geometry", type=Path, default=None,
-                   help="STEP file of one link with two pin bores (default: the built-in parametric link)")
+                   help="STEP file of one link with two pin bores, any length unit the file declares (default: the built-in parametric link)")
     p.add_argument("--materials", default=",".join(DEFAULT_MATERIALS),
-                   help="comma-separated material ids from the materials library (or --materials-file)")
+                   help="comma-separated material ids (default: %(default)s); see fem/data/materials.toml or --materials-file")
     p.add_argument("--materials-file", type=Path, default=None,
-                   help="TOML file of extra user-defined materials (E in Pa, rho in kg/m^3)")
-    p.add_argument("--links", type=int, default=85, help="number of links N in the closed chain")
-    p.add_argument("--rpm", type=float, default=180.0, help="cam speed in rev/min")
+                   help="TOML file of extra user-defined materials (E in Pa, density in kg/m^3, yield in Pa)")
+    p.add_argument("--links", type=int, default=85, help="number of links N in the closed chain (default: %(default)s)")
+    p.add_argument("--rpm", type=float, default=180.0, help="cam speed in rev/min (default: %(default)s)")
     p.add_argument("--cams", default="all",
-                   help=f"comma-separated cam laws or 'all' ({', '.join(CAM_IDS)})")
+                   help=f"comma-separated cam laws or 'all' (default): {', '.join(CAM_IDS)}")
     p.add_argument("--friction", type=float, default=0.35,
-                   help="Coulomb friction coefficient mu between links and guide (force mu*m*g per link)")
-    p.add_argument("--damping", type=float, default=0.13, help="modal damping ratio zeta of every chain mode")
+                   help="Coulomb friction coefficient mu between links and guide, force mu*m*g per link (default: %(default)s)")
+    p.add_argument("--damping", type=float, default=0.13, help="modal damping ratio zeta of every chain mode (default: %(default)s, the sponsor's figure)")
     p.add_argument("--preload", type=float, default=2224.0,
-                   help="static chain tension from the idler tensioner, N")
-    p.add_argument("--solver", default="exact", help="dynamics method (see dynamics.solvers.METHODS)")
+                   help="static chain tension from the idler tensioner in N (default: %(default)s)")
+    p.add_argument("--solver", default="exact", help="dynamics method (default: %(default)s, exact for the linear model); see README, Solvers")
     p.add_argument("--preset", choices=["mqp2012"], default=None,
                    help="mqp2012: replicate the 2012 report's MATLAB model, quirks included (see README)")
-    p.add_argument("--out", type=Path, default=Path("results"), help="output folder")
+    p.add_argument("--out", type=Path, default=Path("results"), help="output folder (default: %(default)s); existing files of the same name are replaced only when the run succeeds")
     p.add_argument("--no-images", action="store_true", help="skip the pyvista images of the deformed link")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     p.add_argument("--mesh-size", type=float, default=None,
-                   help="FEA element size in mm on the finest level (default: chosen for <1%% error in k)")
-    p.add_argument("--order", type=int, choices=[1, 2], default=2, help="FEA element order (P1 or P2 tetrahedra)")
+                   help="FEA element size in mm on the finest of 3 mesh levels (default: chosen for < 1%% error in k)")
+    p.add_argument("--order", type=int, choices=[1, 2], default=2, help="FEA element order: 1 or 2 (P1/P2 tetrahedra; default: %(default)s)")
     p.add_argument("--hardware-mass", type=float, default=DEFAULT_HARDWARE_MASS_KG,
-                   help="mass per link of pins, bushings and rollers, kg")
-    p.add_argument("--nest-mass", type=float, default=NEST_MASS_KG, help="mass of the nest carried by each link, kg")
-    p.add_argument("--cache-dir", type=Path, default=default_cache_dir(), help="FEA result cache folder")
+                   help="mass per link of pins, bushings and rollers in kg (default: %(default).4g)")
+    p.add_argument("--nest-mass", type=float, default=NEST_MASS_KG, help="mass of the nest carried by each link in kg (default: %(default)s)")
+    p.add_argument("--cache-dir", type=Path, default=default_cache_dir(), help="FEA result cache folder (default: %(default)s)")
     p.add_argument("--from-rest", action="store_true",
                    help="start the chain from rest at t=0 instead of the periodic steady state of continuous indexing")
     p.add_argument("--samples-per-degree", type=int, default=4,
-                   help="output samples per degree of cam rotation")
+                   help="output samples per degree of cam rotation (default: %(default)s)")
+    p.add_argument("--tolerance", type=float, default=None,
+                   help="relative tolerance on the reported metrics (e.g. 0.01): picks the FEA mesh and the "
+                        "time step for it and reports the achieved error estimate (default: fixed settings)")
     return p
 
 
@@ -141,6 +144,9 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
              f"--mesh-size: expected an element size > 0 mm, got {args.mesh_size}")
     _require(args.samples_per_degree >= 1,
              f"--samples-per-degree: expected a whole number >= 1, got {args.samples_per_degree}")
+    _require(args.tolerance is None or 0 < args.tolerance < 1,
+             f"--tolerance: expected a relative tolerance in (0, 1), e.g. 0.01, got {args.tolerance}")
+    _check_solver(args.solver, args.friction)
     if args.preset == "mqp2012":
         _require(args.links >= 8, f"--links: the mqp2012 preset needs >= 8 links (its preload positions), got {args.links}")
     if args.geometry is not None:
@@ -169,7 +175,20 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         cache_dir=args.cache_dir,
         steady_state=not args.from_rest,
         samples_per_degree=args.samples_per_degree,
+        tolerance=args.tolerance,
     )
+
+
+def _check_solver(method: str, friction: float) -> None:
+    """Refuse a method that does not exist or cannot model friction before any FEA is spent."""
+    from dynamics.solvers import METHODS
+
+    if method not in METHODS:
+        raise InputError(f"--solver: unknown method {method!r}; expected one of {', '.join(METHODS)}")
+    if friction > 0 and not METHODS[method].handles_nonlinear_force:
+        capable = ", ".join(m for m, info in METHODS.items() if info.handles_nonlinear_force)
+        raise InputError(f"--solver: {method} cannot model friction (--friction {friction:g} > 0); "
+                         f"use one of {capable} or --friction 0")
 
 
 def check_writable_out(out: Path) -> None:
@@ -266,58 +285,97 @@ def run_fea(cfg: RunConfig, progress: Progress) -> dict[str, MaterialFea]:
 
 @dataclass(frozen=True)
 class Scenario:
-    """One material x cam law: its histories (for plots) and its metrics."""
+    """One material x cam law: its histories (for plots), its metrics and their error estimate."""
 
     history: object  # dynamics.reporting.history.CamHistory
     metrics: object  # dynamics.metrics.LinkMetrics
     stations: dict
     tension: object  # dynamics.metrics.TensionExtremes
+    samples_per_degree: int
+    rel_error_estimate: dict | None  # {"time_step", "stiffness", "total"} when --tolerance is given
 
 
-def output_times_s(cfg: RunConfig, window_deg: float = 180.0) -> "np.ndarray":
-    """Output samples over the report's 180 deg window (two index cycles), at --samples-per-degree."""
+def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> "np.ndarray":
+    """Output samples over the report's 180 deg window (two index cycles)."""
     import numpy as np
 
-    degrees = np.arange(int(round(window_deg * cfg.samples_per_degree)) + 1) / cfg.samples_per_degree
-    return degrees / (6.0 * cfg.rpm)
+    degrees = np.arange(int(round(window_deg * samples_per_degree)) + 1) / samples_per_degree
+    return degrees / (6.0 * rpm)
 
 
-def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress):
-    """Simulate every material x cam law; returns the chain models and the scenarios."""
+def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None):
+    from dynamics.chain import ChainModel
+
+    return ChainModel(
+        n_links=cfg.links,
+        link_mass_kg=result.body_mass_kg + cfg.hardware_mass_kg + cfg.nest_mass_kg,
+        stiffness_N_per_m=result.stiffness_N_per_m if stiffness_N_per_m is None else stiffness_N_per_m,
+        damping_ratio=cfg.damping,
+        preload_N=cfg.preload_N,
+        friction_coefficient=cfg.friction,
+    )
+
+
+def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m: float,
+                      samples_per_degree: int) -> Scenario:
     import warnings
 
     from dynamics.cams import CamProgram
-    from dynamics.chain import ChainModel
     from dynamics.metrics import link_metrics, station_metrics, tension_extremes
     from dynamics.reporting.history import CamHistory
     from dynamics.simulate import SlackChainWarning, simulate
 
-    t = output_times_s(cfg)
+    t = output_times_s(cfg.rpm, samples_per_degree)
+    cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SlackChainWarning)  # reported through the minimum tension
+        r = simulate(model, cam, t, method=cfg.solver, steady_state=cfg.steady_state)
+    history = CamHistory(material, cam_id, t, r.z_m, r.zdot_m_s, r.zddot_m_s2, r.x_m, r.v_m_s, r.a_m_s2,
+                         r.tension_N, cam.dwell_mask(t))
+    metrics = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, history.dwell_mask)
+    return Scenario(history, metrics, station_metrics(metrics), tension_extremes(r.tension_N),
+                    samples_per_degree, None)
+
+
+def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, cam_id: str) -> Scenario:
+    """Finest sampling the tolerance needs, with the error estimate from the step and from k."""
+    from dataclasses import replace
+
+    from dynamics.fidelity import choose_samples_per_degree, stiffness_sensitivity
+
+    model = chain_model(cfg, result)
+    runs: dict[int, Scenario] = {}
+
+    def stations_at(spd: int):
+        runs[spd] = simulate_scenario(cfg, model, material, cam_id, result.pitch_m, spd)
+        return runs[spd].stations
+
+    choice, stations = choose_samples_per_degree(stations_at, cfg.tolerance / 2)
+    spd = choice.samples_per_degree
+    k_error = stiffness_sensitivity(
+        lambda k: simulate_scenario(cfg, chain_model(cfg, result, k), material, cam_id, result.pitch_m,
+                                    spd).stations,
+        result.stiffness_N_per_m, result.stiffness_rel_error_estimate, stations)
+    estimate = {"time_step": choice.rel_error_estimate, "stiffness": k_error,
+                "total": choice.rel_error_estimate + k_error}
+    return replace(runs[spd], rel_error_estimate=estimate)
+
+
+def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress):
+    """Simulate every material x cam law; returns the chain models and the scenarios."""
     models, scenarios = {}, {}
     for name, result in fea.items():
-        model = ChainModel(
-            n_links=cfg.links,
-            link_mass_kg=result.body_mass_kg + cfg.hardware_mass_kg + cfg.nest_mass_kg,
-            stiffness_N_per_m=result.stiffness_N_per_m,
-            damping_ratio=cfg.damping,
-            preload_N=cfg.preload_N,
-            friction_coefficient=cfg.friction,
-        )
-        models[name] = model
+        models[name] = chain_model(cfg, result)
         for cam_id in cfg.cams:
-            cam = CamProgram.indexing(cam_id, pitch_m=result.pitch_m, rpm=cfg.rpm)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", SlackChainWarning)  # reported via min tension instead
-                response = simulate(model, cam, t, method=cfg.solver, steady_state=cfg.steady_state)
-            history = CamHistory(name, cam_id, t, response.z_m, response.zdot_m_s, response.zddot_m_s2,
-                                 response.x_m, response.v_m_s, response.a_m_s2, response.tension_N,
-                                 cam.dwell_mask(t))
-            metrics = link_metrics(response.x_m, response.v_m_s, response.a_m_s2, response.z_m,
-                                   response.zdot_m_s, response.zddot_m_s2, history.dwell_mask)
-            scenarios[name, cam_id] = Scenario(history, metrics, station_metrics(metrics),
-                                               tension_extremes(response.tension_N))
+            if cfg.tolerance is None:
+                scenarios[name, cam_id] = simulate_scenario(cfg, models[name], name, cam_id, result.pitch_m,
+                                                            cfg.samples_per_degree)
+            else:
+                scenarios[name, cam_id] = sc = scenario_to_tolerance(cfg, result, name, cam_id)
+                progress(f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
+                         f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %")
         progress(f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
-                 f"f1 = {model.natural_frequencies_Hz()[0]:.1f} Hz")
+                 f"f1 = {models[name].natural_frequencies_Hz()[0]:.1f} Hz")
     return models, scenarios
 
 

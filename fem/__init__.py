@@ -1,6 +1,7 @@
 """FEA stage: link stiffness, mass and stress with scikit-fem linear elasticity (SI units)."""
 
 from .errors import FemError
+from .export import write_solution_vtu
 from .link import LinkSolution, analyse_link
 from .materials import Material, get_material, load_materials
 from .render import render_deformed
@@ -19,4 +20,5 @@ __all__ = [
     "load_materials",
     "render_deformed",
     "stiffness_study",
+    "write_solution_vtu",
 ]

@@ -131,7 +131,11 @@ def run(argv: list[str] | None = None) -> dict:
     if args.image is not None:
         from .render import render_deformed
 
-        result["exaggeration"] = render_deformed(estimate.finest, args.image, scalar=args.scalar)
+        title = (
+            f"{material.name}: k = {estimate.stiffness_N_per_m:.4g} N/m "
+            f"(+/- {estimate.stiffness_rel_error_estimate * 100:.1f} %), P{args.order}"
+        )
+        result["exaggeration"] = render_deformed(estimate.finest, args.image, scalar=args.scalar, title=title)
         result["image"] = str(args.image)
     print(json.dumps(result, indent=2) if args.json else _text(result))
     return result

@@ -34,7 +34,9 @@ def _pardiso(A: sp.csr_matrix, b: np.ndarray, near_nullspace: np.ndarray | None)
 def _amg(A: sp.csr_matrix, b: np.ndarray, near_nullspace: np.ndarray | None) -> np.ndarray:
     import pyamg
 
-    ml = pyamg.smoothed_aggregation_solver(A.tocsr(), B=near_nullspace, symmetry="symmetric")
+    # improve_candidates=None: on the link's P2 systems the default candidate smoothing cost 3.3 s
+    # of setup at 34k DOFs (0.2 s without) for the same CG iteration count (measured).
+    ml = pyamg.smoothed_aggregation_solver(A.tocsr(), B=near_nullspace, symmetry="symmetric", improve_candidates=None)
     residuals: list[float] = []
     x = ml.solve(b, tol=AMG_RELATIVE_TOLERANCE, accel="cg", maxiter=1000, residuals=residuals)
     if residuals[-1] > AMG_RELATIVE_TOLERANCE * np.linalg.norm(b) * 10:

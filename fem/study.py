@@ -12,7 +12,9 @@ import numpy as np
 from .errors import FemError
 from .link import LinkSolution, analyse_link
 from .materials import Material
+from .problem import element
 from .richardson import Extrapolation, extrapolate
+from .solvers import resolve
 
 # Chosen by measurement on the default link (see the report / README): three curved-P2 levels
 # whose total wall time (meshing + assembly + solve) stays under 20 s on 2 cores.
@@ -74,6 +76,8 @@ def stiffness_study(
 
     if material is None:
         raise FemError("stiffness_study: a material is required")
+    element(order)  # validate before meshing
+    resolve(solver)
     sizes = _check_sizes(DEFAULT_MESH_SIZES_M if mesh_sizes_m is None else mesh_sizes_m)
     mesh_order = 2 if (order == 2 and curved) else 1
     timing: dict[str, float] = {"mesh": 0.0}

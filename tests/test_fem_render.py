@@ -37,3 +37,17 @@ def test_bad_scalar_and_suffix_are_fem_errors(tmp_path, solution):
 @pytest.mark.parametrize("raw, nice", [(1234.0, 1000.0), (0.37, 0.2), (5.0, 5.0), (99.0, 50.0), (1.0, 1.0)])
 def test_nice_factor(raw, nice):
     assert nice_factor(raw) == pytest.approx(nice)
+
+
+def test_solution_vtu_round_trips_through_meshio(tmp_path, solution):
+    import meshio
+
+    from fem.export import write_solution_vtu
+
+    path = write_solution_vtu(solution, tmp_path / "link.vtu")
+    back = meshio.read(path)
+    assert np.allclose(back.point_data["displacement_m"], solution.displacement_m.T, rtol=0, atol=1e-15)
+    assert np.allclose(back.points, solution.basis.doflocs.T)
+    assert back.cells[0].type == ("tetra10" if solution.order == 2 else "tetra")
+    with pytest.raises(FemError, match=".vtu"):
+        write_solution_vtu(solution, tmp_path / "link.vtk")

@@ -168,6 +168,8 @@ def existing_out(tmp_path) -> Path:
         (["--preload", "-1"], "--preload"),
         (["--nest-mass", "-0.1"], "--nest-mass"),
         (["--mesh-size", "0"], "--mesh-size"),
+        (["--solver", "euler"], "--solver"),
+        (["--solver", "newmark"], "--solver"),
         (["--preset", "mqp2012", "--links", "5"], "--links"),
     ],
 )

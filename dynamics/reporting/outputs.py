@@ -55,6 +55,27 @@ class StagedOutput:
     def discard(self) -> None:
         shutil.rmtree(self.staging, ignore_errors=True)
 
+    def __enter__(self) -> StagedOutput:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc_type is None:
+            self.commit()
+        else:
+            self.discard()
+        return False
+
+
+def _close_timing(timing: dict, progress) -> None:
+    timing["outputs"] = progress.elapsed() - sum(timing.values())
+    timing["total"] = progress.elapsed()
+
+
+def _announce(cfg, staged: StagedOutput, timing: dict, progress, table: Table) -> None:
+    progress(f"done in {timing['total']:.1f} s: {len(staged.names)} files in {cfg.out}/")
+    if not cfg.quiet:
+        print(table.to_markdown())
+
 
 def _input_rms(h: CamHistory) -> dict[str, float]:
     return {
@@ -77,7 +98,10 @@ def _scenario_summary(scenario, fea) -> dict:
         "peak_tension_N": tension.peak_N,
         "min_tension_N": tension.min_N,
         "slack": tension.slack,
+        "samples_per_degree": scenario.samples_per_degree,
     }
+    if scenario.rel_error_estimate is not None:
+        out["rel_error_estimate"] = scenario.rel_error_estimate
     if peak_stress is not None:
         out["peak_link_stress_Pa"] = peak_stress
         out["yield_safety_factor"] = fea.yield_strength_Pa / peak_stress if peak_stress > 0 else None
@@ -123,7 +147,23 @@ def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict)
             for name, r in fea.items()
         },
         "ranking": {"station": RANKING_STATION, "by_material": _rankings(scenarios, fea, cfg.cams)},
+        "fidelity": _fidelity(cfg, fea, scenarios),
         "timing_s": timing,
+    }
+
+
+def _fidelity(cfg, fea: dict, scenarios: dict) -> dict:
+    """What resolution each stage used and the error it is estimated to leave in the metrics."""
+    estimates = [sc.rel_error_estimate["total"] for sc in scenarios.values() if sc.rel_error_estimate]
+    return {
+        "tolerance": cfg.tolerance,
+        "fea": {m: {"mesh_size_m": r.mesh_size_m, "order": cfg.order, "dofs": r.dofs,
+                    "stiffness_rel_error_estimate": r.stiffness_rel_error_estimate} for m, r in fea.items()},
+        "dynamics": {
+            "solver": cfg.solver,
+            "samples_per_degree": max(sc.samples_per_degree for sc in scenarios.values()),
+            "metrics_rel_error_estimate": max(estimates) if estimates else None,
+        },
     }
 
 
@@ -232,8 +272,7 @@ def _tension_table(summary_materials: dict) -> Table:
 
 
 def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing: dict, progress) -> None:
-    staged = StagedOutput(cfg.out)
-    try:
+    with StagedOutput(cfg.out) as staged:
         progress("outputs: tables, plots and report")
         links = station_links(cfg.links)
         tight = links["tight-side"]
@@ -254,18 +293,11 @@ def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing:
             if r.image is not None:
                 images[m] = staged.path(f"{m}_deformed.png")
                 shutil.copyfile(r.image, images[m])
-        timing["outputs"] = progress.elapsed() - sum(timing.values())
-        timing["total"] = progress.elapsed()
+        _close_timing(timing, progress)
         staged.write_text("summary.json", json.dumps(summary, indent=1))
         sections = _default_sections(cfg, summary, tables, fea, models, residual_png, figures, images)
         staged.write_text("report.html", html.render_page("link-conveyor: chain vibration report", sections))
-        staged.commit()
-    except BaseException:
-        staged.discard()
-        raise
-    progress(f"done in {timing['total']:.1f} s: {len(staged.names)} files in {cfg.out}/")
-    if not cfg.quiet:
-        print(ranking.to_markdown())
+    _announce(cfg, staged, timing, progress, ranking)
 
 
 def _default_sections(cfg, summary, tables, fea, models, residual_png, figures, images) -> list[html.Section]:
@@ -359,8 +391,7 @@ def _replica_comparison_table(replicas: dict) -> Table:
 
 
 def write_replica_outputs(cfg, replicas: dict, timing: dict, progress) -> None:
-    staged = StagedOutput(cfg.out)
-    try:
+    with StagedOutput(cfg.out) as staged:
         progress("outputs: tables, plots and report (mqp2012 preset)")
         first = next(iter(replicas.values()))
         link = first.table_link
@@ -379,8 +410,7 @@ def write_replica_outputs(cfg, replicas: dict, timing: dict, progress) -> None:
         links = station_links(cfg.links)
         cams = list(first.cams)
         figures = {m: _material_plots(staged, [histories[m, c] for c in cams], links) for m in replicas}
-        timing["outputs"] = progress.elapsed() - sum(timing.values())
-        timing["total"] = progress.elapsed()
+        _close_timing(timing, progress)
         summary = replica_summary(cfg, replicas, timing)
         staged.write_text("summary.json", json.dumps(summary, indent=1))
         sections = [html.Section("Run", html.paragraph(
@@ -395,10 +425,4 @@ def write_replica_outputs(cfg, replicas: dict, timing: dict, progress) -> None:
             sections.append(html.Section(f"Time histories: {m}", "".join(
                 html.image_html(p, f"{m}: {label}") for label, p in f.items())))
         staged.write_text("report.html", html.render_page("link-conveyor: mqp2012 replica", sections))
-        staged.commit()
-    except BaseException:
-        staged.discard()
-        raise
-    progress(f"done in {timing['total']:.1f} s: {len(staged.names)} files in {cfg.out}/")
-    if not cfg.quiet:
-        print(comparison.to_markdown())
+    _announce(cfg, staged, timing, progress, comparison)

@@ -1,0 +1,53 @@
+"""The chart command: runs every benchmarks/chart_*.py and writes its PNGs into docs/charts/.
+
+    python benchmarks/charts.py [--quick] [--only NAME] [--out DIR]
+
+Each chart module offers `make(out_dir: pathlib.Path, quick: bool) -> list[str]`: it measures, writes
+its PNG(s) into out_dir and returns lines stating what it measured (fits, limits, figures). Charts are
+saved at dpi 100 so they stay commit-sized.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(HERE.parent))
+
+from run import load, machine_lines, modules  # noqa: E402  (benchmarks/ is not a package)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="coarse settings (a smoke run, minutes less)")
+    parser.add_argument("--only", help="run only the chart modules whose name contains this")
+    parser.add_argument("--out", type=Path, default=HERE.parent / "docs" / "charts", help="output directory")
+    args = parser.parse_args(argv)
+    args.out.mkdir(parents=True, exist_ok=True)
+    for line in machine_lines():
+        print(line)
+    found = modules("chart_", args.only)
+    if not found:
+        print(f"no benchmarks/chart_*.py module matches {args.only!r}")
+        return 1
+    total = time.perf_counter()
+    for path in found:
+        start = time.perf_counter()
+        print(f"\n== {path.stem} ==", flush=True)
+        for line in load(path).make(args.out, args.quick):
+            print(line, flush=True)
+        print(f"({path.stem}: {time.perf_counter() - start:.1f} s)", flush=True)
+    print(f"\nall charts: {time.perf_counter() - total:.1f} s, written to {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,77 @@
+"""The benchmark command: runs every benchmarks/bench_*.py and prints what each measured.
+
+    python benchmarks/run.py [--quick] [--only NAME]
+
+Each bench module offers `run(quick: bool) -> list[str]` (its table lines; ratios are measured within
+one run of that module). The machine is printed first: figures are only comparable on the same one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def modules(prefix: str, only: str | None = None) -> list[Path]:
+    """benchmarks/<prefix>*.py, sorted, optionally those whose name contains `only`."""
+    found = sorted(HERE.glob(f"{prefix}*.py"))
+    return [p for p in found if only is None or only in p.stem]
+
+
+def load(path: Path):
+    spec = importlib.util.spec_from_file_location(f"benchmarks_{path.stem}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def cpu_model() -> str:
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def machine_lines() -> list[str]:
+    import numpy
+    import scipy
+
+    return [
+        f"machine: {cpu_model()}, {os.cpu_count()} logical cores, {platform.system()} {platform.release()}",
+        f"python {platform.python_version()}, numpy {numpy.__version__}, scipy {scipy.__version__}",
+    ]
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer scenarios and repeats (a smoke run)")
+    parser.add_argument("--only", help="run only the bench modules whose name contains this")
+    args = parser.parse_args(argv)
+    sys.path.insert(0, str(HERE.parent))
+    for line in machine_lines():
+        print(line)
+    found = modules("bench_", args.only)
+    if not found:
+        print(f"no benchmarks/bench_*.py module matches {args.only!r}")
+        return 1
+    for path in found:
+        start = time.perf_counter()
+        print(f"\n== {path.stem} ==", flush=True)
+        for line in load(path).run(args.quick):
+            print(line, flush=True)
+        print(f"({path.stem}: {time.perf_counter() - start:.1f} s)", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,37 @@
+"""Write a solved link to VTU (ParaView) with meshio: displacement and von Mises stress per node."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import meshio
+import numpy as np
+
+from .errors import FemError
+from .link import LinkSolution
+
+
+def write_solution_vtu(solution: LinkSolution, path: str | Path) -> Path:
+    """Quadratic (P2) or linear (P1) tetrahedra in metres; point data in m and Pa at `load_N`.
+
+    scikit-fem's P1/P2 node order is meshio's "tetra"/"tetra10" (VTK) order. Written atomically.
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".vtu":
+        raise FemError(f"solution path {str(path)!r}: expected a .vtu file")
+    cells = solution.basis.element_dofs.T
+    mesh = meshio.Mesh(
+        points=np.ascontiguousarray(solution.basis.doflocs.T),
+        cells=[("tetra10" if cells.shape[1] == 10 else "tetra", cells)],
+        point_data={
+            "displacement_m": np.ascontiguousarray(solution.displacement_m.T),
+            "von_mises_Pa": solution.von_mises_at_dofs_Pa,
+        },
+        field_data={"load_N": np.array([solution.load_N]), "stiffness_N_per_m": np.array([solution.stiffness_N_per_m])},
+    )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.vtu")
+    meshio.write(tmp, mesh, file_format="vtu")
+    os.replace(tmp, path)
+    return path
