@@ -224,17 +224,56 @@ class MaterialFea:
     image: Path | None
 
 
-def fea_cache_settings(cfg: RunConfig, material) -> dict:
+def fea_cache_settings(cfg: RunConfig, material, stiffness_tolerance: float | None) -> dict:
     from dataclasses import asdict
 
-    return {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order}
+    return {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order,
+            "stiffness_tolerance": stiffness_tolerance}
 
 
-def run_fea(cfg: RunConfig, progress: Progress) -> dict[str, MaterialFea]:
-    """Stiffness, mass and stress per material, from the cache when nothing they depend on changed."""
-    from fem import load_materials, render_deformed, stiffness_study
-    from fem.cache import FeaCache, cache_key, geometry_fingerprint
+def _fea_record(name: str, material, study) -> dict:
+    fine = study.finest
+    return {
+        "material": name,
+        "stiffness_N_per_m": study.stiffness_N_per_m,
+        "stiffness_rel_error_estimate": study.stiffness_rel_error_estimate,
+        "body_mass_kg": fine.mass_kg,
+        "body_volume_m3": fine.volume_m3,
+        "pitch_m": fine.pitch_m,
+        "bore_radius_m": fine.bore_radius_m,
+        "peak_von_mises_Pa_per_N": fine.peak_von_mises_Pa_per_N,
+        "peak_von_mises_away_from_clamp_Pa_per_N": fine.peak_von_mises_away_from_clamp_Pa_per_N,
+        "yield_strength_Pa": material.yield_strength_Pa,
+        "dofs": fine.dofs,
+        "mesh_size_m": fine.mesh_size_m,
+        "timing_s": study.timing_s,
+    }
+
+
+def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress) -> dict:
+    """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance."""
+    from fem import stiffness_studies
+    from fem.adaptive import stiffness_to_tolerance
     from fem.study import levels_for_finest
+
+    source = "built-in default link" if cfg.geometry is None else str(cfg.geometry)
+    if stiffness_tolerance is None:
+        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 3 mesh levels")
+        sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
+        return stiffness_studies(cfg.geometry, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
+    studies = {}
+    for material in materials:
+        progress(f"FEA {material.name}: {source}, P{cfg.order}, refining to a k error <= "
+                 f"{100 * stiffness_tolerance:.2g} %")
+        studies[material.name] = stiffness_to_tolerance(cfg.geometry, material, stiffness_tolerance,
+                                                        order=cfg.order, progress=progress)
+    return studies
+
+
+def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None) -> dict[str, MaterialFea]:
+    """Stiffness, mass and stress per material, from the cache when nothing they depend on changed."""
+    from fem import load_materials, render_deformed
+    from fem.cache import FeaCache, cache_key, geometry_fingerprint
     from geometry import DEFAULT_LINK
 
     library = load_materials(cfg.materials_file)
@@ -243,44 +282,28 @@ def run_fea(cfg: RunConfig, progress: Progress) -> dict[str, MaterialFea]:
         raise InputError(f"--materials: unknown material {unknown[0]!r}; expected one of {', '.join(library)}")
     cache = FeaCache(cfg.cache_dir)
     fingerprint = geometry_fingerprint(cfg.geometry, repr(DEFAULT_LINK))
-    sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
-    source = "built-in default link" if cfg.geometry is None else str(cfg.geometry)
+    keys = {name: cache_key(fingerprint, fea_cache_settings(cfg, library[name], stiffness_tolerance))
+            for name in cfg.materials}
+    images = {name: cache.image_path(key) if cfg.images else None for name, key in keys.items()}
     out: dict[str, MaterialFea] = {}
-    for name in cfg.materials:
-        material = library[name]
-        key = cache_key(fingerprint, fea_cache_settings(cfg, material))
-        image = cache.image_path(key) if cfg.images else None
+    for name, key in keys.items():
         stored = cache.load(key)
-        if stored is not None and (image is None or image.exists()):
-            progress(f"FEA {name}: cached result (k = {stored['stiffness_N_per_m']:.4g} N/m)")
-            out[name] = MaterialFea(**stored, cached=True, image=image)
-            continue
-        progress(f"FEA {name}: meshing and solving {source} on 3 mesh levels (P{cfg.order})")
-        study = stiffness_study(cfg.geometry, material, mesh_sizes_m=sizes, order=cfg.order)
-        fine = study.finest
-        stored = {
-            "material": name,
-            "stiffness_N_per_m": study.stiffness_N_per_m,
-            "stiffness_rel_error_estimate": study.stiffness_rel_error_estimate,
-            "body_mass_kg": fine.mass_kg,
-            "body_volume_m3": fine.volume_m3,
-            "pitch_m": fine.pitch_m,
-            "bore_radius_m": fine.bore_radius_m,
-            "peak_von_mises_Pa_per_N": fine.peak_von_mises_Pa_per_N,
-            "peak_von_mises_away_from_clamp_Pa_per_N": fine.peak_von_mises_away_from_clamp_Pa_per_N,
-            "yield_strength_Pa": material.yield_strength_Pa,
-            "dofs": fine.dofs,
-            "mesh_size_m": fine.mesh_size_m,
-            "timing_s": study.timing_s,
-        }
-        progress(f"FEA {name}: k = {study.stiffness_N_per_m:.4g} N/m "
-                 f"(estimated error {100 * study.stiffness_rel_error_estimate:.2g} %, {fine.dofs} DOFs)")
-        if image is not None:
-            image.parent.mkdir(parents=True, exist_ok=True)
-            render_deformed(fine, image, title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
-        cache.store(key, stored)
-        out[name] = MaterialFea(**stored, cached=False, image=image)
-    return out
+        if stored is not None and (images[name] is None or images[name].exists()):
+            progress(f"FEA {name}: cached result (k = {stored['stiffness_N_per_m']:.5g} N/m)")
+            out[name] = MaterialFea(**stored, cached=True, image=images[name])
+    missing = [library[name] for name in cfg.materials if name not in out]
+    studies = _solve_fea(cfg, missing, stiffness_tolerance, progress) if missing else {}
+    for material in missing:
+        name, study = material.name, studies[material.name]
+        stored = _fea_record(name, material, study)
+        progress(f"FEA {name}: k = {study.stiffness_N_per_m:.5g} N/m "
+                 f"(estimated error {100 * study.stiffness_rel_error_estimate:.2g} %)")
+        if images[name] is not None:
+            images[name].parent.mkdir(parents=True, exist_ok=True)
+            render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
+        cache.store(keys[name], stored)
+        out[name] = MaterialFea(**stored, cached=False, image=images[name])
+    return {name: out[name] for name in cfg.materials}
 
 
 @dataclass(frozen=True)
@@ -399,11 +422,39 @@ def run(cfg: RunConfig, progress: Progress) -> None:
         timing["dynamics"] = progress.elapsed()
         write_replica_outputs(cfg, replicas, timing, progress)
         return
-    fea = run_fea(cfg, progress)
-    timing["fea"] = progress.elapsed()
-    models, scenarios = run_dynamics(cfg, fea, progress)
-    timing["dynamics"] = progress.elapsed() - timing["fea"]
+    if cfg.tolerance is None:
+        fea = _timed(timing, "fea", progress, run_fea, cfg, progress)
+        models, scenarios = _timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
+    else:
+        fea, models, scenarios = run_to_tolerance(cfg, progress, timing)
     write_default_outputs(cfg, fea, models, scenarios, timing, progress)
+
+
+def _timed(timing: dict, stage: str, progress: Progress, stage_function, *args):
+    """Run one stage and add its wall time to timing[stage] (a stage may run more than once)."""
+    start = progress.elapsed()
+    result = stage_function(*args)
+    timing[stage] = timing.get(stage, 0.0) + progress.elapsed() - start
+    return result
+
+
+def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict):
+    """Half the tolerance goes to the time step, half to the FEA stiffness. How much a k error moves
+    the metrics is measured (not assumed) after a first FEA pass; if it moves them by more than its
+    half, the FEA is refined once more to the k accuracy that the measured sensitivity asks for."""
+    budget = cfg.tolerance / 2
+    stiffness_tolerance = budget
+    fea = _timed(timing, "fea", progress, run_fea, cfg, progress, stiffness_tolerance)
+    models, scenarios = _timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
+    from_k = max(sc.rel_error_estimate["stiffness"] for sc in scenarios.values())
+    if from_k > budget:
+        worst_k_error = max(r.stiffness_rel_error_estimate for r in fea.values())
+        stiffness_tolerance = 0.8 * worst_k_error * budget / from_k
+        progress(f"a {100 * worst_k_error:.2g} % error in k moves the metrics by {100 * from_k:.2g} %: "
+                 f"refining the FEA to {100 * stiffness_tolerance:.2g} %")
+        fea = _timed(timing, "fea", progress, run_fea, cfg, progress, stiffness_tolerance)
+        models, scenarios = _timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
+    return fea, models, scenarios
 
 
 def main(argv: list[str] | None = None) -> int:

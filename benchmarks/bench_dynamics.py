@@ -12,6 +12,11 @@ Linear (friction 0) so that the reference is exact: the exact method with every 
 (different rounding). Errors are max |x - x_ref| over links and outputs, converted to metres (the
 script works in mm). A second table runs the report's own friction (0.35, sign law) for report-rk45
 and exact; its reference is exact with 16 sub-steps (an estimate: the sign law is discontinuous).
+A third table asks the pipeline's question, the periodic steady state of continuous indexing, on the
+default SI chain (85 links, each material's k and m, modal damping 0.13, 5 cams, one-degree samples of
+one index cycle, every link): simulate() with the default solver; the modal sweep engine
+(dynamics.sweep, one eigensolve per material, the 5 cams in one batch); and the report's scheme, which
+has no periodic solver, integrating from rest until the transient has died (its last cycle is compared).
 Peak memory: tracemalloc peak of one scenario's solve (numpy/scipy arrays; LAPACK's internal
 workspace is not counted), in a separate run from the timings.
 """
@@ -20,17 +25,25 @@ from __future__ import annotations
 
 import time
 import tracemalloc
+import warnings
 
 import numpy as np
 
+from dynamics import simulate as simulate_module
+from dynamics import steady_state
+from dynamics.cams.program import CamProgram
+from dynamics.chain import ChainModel
 from dynamics.mqp2012 import CAMS, MATERIALS, dynacam_table, preload_vector, replica_system
 from dynamics.solvers import exact as exact_solver
 from dynamics.solvers import solve
+from dynamics.simulate import SlackChainWarning, simulate
+from dynamics.sweep import cam_cycle_samples, chain_modes, modal_periodic_response
 from dynamics.system import SampledForce
 
 N_LINKS = 85
 RPM = 180.0
 MM = 1e-3
+REPEATS = 3  # passes of the fast methods (from empty caches each time); the fastest is reported
 
 
 def report_case(material: str, cam: str, friction: float):
@@ -76,6 +89,7 @@ def run(quick: bool) -> list[str]:
     scenarios, n_slow = _scenarios(quick)
     lines += _linear_table(scenarios, n_slow)
     lines += _friction_table(scenarios[:1] if quick else scenarios[:2])
+    lines += _steady_state_table(quick)
     return lines
 
 
@@ -83,16 +97,21 @@ def _linear_table(scenarios, n_slow: int) -> list[str]:
     cases = {s: report_case(*s, friction=0.0) for s in scenarios}
     refs = {s: _solve(cases[s], "exact", substeps=4) for s in scenarios}
 
-    # default solver: cold = first cam of each material (set-up included), then warm from the cache
-    exact_solver._cache.clear()
-    exact_times, exact_errs, cold, warm = [], [], [], []
-    seen = set()
-    for s in scenarios:
-        x, wall = _timed(cases[s], "exact")
-        exact_times.append(wall)
-        exact_errs.append(np.max(np.abs(x - refs[s])) * MM)
-        (warm if s[0] in seen else cold).append(wall)
-        seen.add(s[0])
+    # default solver: cold = first cam of each material (set-up included), then warm from the cache;
+    # the whole pass is repeated from empty caches and the fastest pass kept (shared-machine noise)
+    def exact_pass():
+        exact_solver._cache.clear()
+        times, errs = [], []
+        for s in scenarios:
+            x, wall = _timed(cases[s], "exact")
+            times.append(wall)
+            errs.append(np.max(np.abs(x - refs[s])) * MM)
+        return times, errs
+
+    exact_times, exact_errs = min((exact_pass() for _ in range(REPEATS)), key=lambda p: sum(p[0]))
+    firsts = {s[0]: i for i, s in reversed(list(enumerate(scenarios)))}
+    cold = [exact_times[i] for i in firsts.values()]
+    warm = [w for i, w in enumerate(exact_times) if i not in firsts.values()]
     amortised = sum(exact_times) / len(exact_times)
 
     # the slow methods on the first n_slow scenarios (each is a separate, uncached computation)
@@ -153,3 +172,81 @@ def _friction_table(scenarios) -> list[str]:
     out.append(f"{'report-rk45':34s} {rep * 1e3:11.2f} ms {max(rep_errs):14.3g}")
     out.append(f"{'exact (Heun splitting), cold':34s} {ex * 1e3:11.2f} ms {max(exact_errs):14.3g} {rep / ex:18.1f}x")
     return out
+
+
+STEADY_CYCLES = 8  # from rest, the slowest mode (zeta 0.13, ~38 Hz) decays by ~1e-8 in 8 index cycles
+
+
+def _steady_state_table(quick: bool) -> list[str]:
+    materials = {"al6061-t6": MATERIALS["al6061-t6"], "ti-grade2": MATERIALS["ti-grade2"]}
+    n = 90  # one-degree samples of the 90-degree index cycle
+    out = [f"\nPipeline question: periodic steady state, default SI chain, 85 links, "
+           f"{len(materials)} materials x {len(CAMS)} cams, all links"]
+    def simulate_pass():
+        simulate_module._system.cache_clear()
+        exact_solver._cache.clear()
+        steady_state._lu_cache.clear()
+        times, ys = [], {}
+        for material, (k, m) in materials.items():
+            model = ChainModel(N_LINKS, m, k)
+            for cam in CAMS:
+                program = CamProgram.indexing(cam)
+                t = program.cycle_s * np.arange(n + 1) / n
+                start = time.perf_counter()
+                r = simulate(model, program, t)
+                times.append(time.perf_counter() - start)
+                ys[material, cam] = (r.x_m - r.z_m[:, None])[:-1]
+        return times, ys
+
+    def engine_pass():
+        times, ys = [], {}
+        for material, (k, m) in materials.items():
+            model = ChainModel(N_LINKS, m, k)
+            start = time.perf_counter()
+            modes = chain_modes(model)
+            zdd = np.array([cam_cycle_samples(cam, n, pitch_m=0.1125, index_deg=45.0, dwell_deg=45.0, rpm=RPM)[1]
+                            for cam in CAMS])
+            y, _ = modal_periodic_response(modes, zdd, (60.0 / RPM) / 4 / n, np.arange(N_LINKS))
+            times.append(time.perf_counter() - start)
+            ys.update({(material, cam): y[i] for i, cam in enumerate(CAMS)})
+        return times, ys
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SlackChainWarning)
+        sim_times, sims = min((simulate_pass() for _ in range(REPEATS)), key=lambda p: sum(p[0]))
+    engine_times, engine_ys = min((engine_pass() for _ in range(REPEATS)), key=lambda p: sum(p[0]))
+    diffs = [np.max(np.abs(engine_ys[key] - sims[key])) for key in sims]
+    n_scen = len(materials) * len(CAMS)
+    sim_amortised = sum(sim_times) / n_scen
+    engine_amortised = sum(engine_times) / n_scen
+    rep_time, rep_err = _report_scheme_to_steady_state(materials, sims, 1 if quick else 2)
+    out.append(f"{'method':34s} {'time/scenario':>14s} {'max error (m)':>14s} {'speed-up vs report':>19s}")
+    out.append(f"{f'report-rk45 from rest, {STEADY_CYCLES} cycles':34s} {rep_time * 1e3:11.2f} ms {rep_err:14.3g} "
+               f"{1.0:18.1f}x")
+    out.append(f"{'simulate(exact), amortised':34s} {sim_amortised * 1e3:11.2f} ms {'(reference)':>14s} "
+               f"{rep_time / sim_amortised:18.1f}x")
+    out.append(f"{'simulate(exact), cold (1st cam)':34s} {sim_times[0] * 1e3:11.2f} ms {'(reference)':>14s} "
+               f"{rep_time / sim_times[0]:18.1f}x")
+    out.append(f"{'simulate(exact), warm (mean)':34s} {np.mean(sim_times[1:len(CAMS)]) * 1e3:11.2f} ms "
+               f"{'(reference)':>14s} {rep_time / np.mean(sim_times[1:len(CAMS)]):18.1f}x")
+    out.append(f"{'modal engine, 5 cams batched':34s} {engine_amortised * 1e3:11.2f} ms {max(diffs):14.3g} "
+               f"{rep_time / engine_amortised:18.1f}x")
+    out.append("(errors against simulate(exact); the report scheme's error is its last cycle against it)")
+    return out
+
+
+def _report_scheme_to_steady_state(materials, sims, n_runs: int) -> tuple[float, float]:
+    times, errs = [], []
+    for material, (k, m) in list(materials.items())[:n_runs]:
+        model = ChainModel(N_LINKS, m, k)
+        program = CamProgram.indexing(CAMS[0])
+        n = 90
+        t = STEADY_CYCLES * program.cycle_s * np.arange(STEADY_CYCLES * n + 1) / (STEADY_CYCLES * n)
+        start = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SlackChainWarning)
+            r = simulate(model, program, t, method="report-rk45", steady_state=False)
+        times.append(time.perf_counter() - start)
+        last = (r.x_m - r.z_m[:, None])[-n - 1 : -1]
+        errs.append(np.max(np.abs(last - sims[material, CAMS[0]])))
+    return float(np.mean(times)), float(max(errs))

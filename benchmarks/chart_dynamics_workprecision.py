@@ -40,7 +40,7 @@ def sweep(n_links: int, quick: bool):
 def make(out_dir: Path, quick: bool) -> list[str]:
     sizes = (85, 400) if not quick else (85, 200)
     fig, axes = plt.subplots(1, len(sizes), figsize=(14, 6.2), dpi=100)
-    colors = {m: ("k" if m == "exact" else plt.get_cmap("tab10")(i % 10)) for i, m in enumerate(ALL_METHODS[1:])}
+    colors = {"exact": "k", **{m: plt.get_cmap("tab10")(i) for i, m in enumerate(ALL_METHODS[1:])}}
     markers = dict(zip(ALL_METHODS, "*osD^vP<>Xh"))
     lines = []
     for ax, n in zip(axes, sizes):

@@ -22,7 +22,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-from run import load, machine_lines, modules  # noqa: E402  (benchmarks/ is not a package)
+from run import load, machine_lines, modules, single_threaded_blas  # noqa: E402  (benchmarks/ is not a package)
 
 
 def main(argv=None) -> int:
@@ -32,6 +32,11 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=Path, default=HERE.parent / "docs" / "charts", help="output directory")
     args = parser.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
+    with single_threaded_blas():
+        return _make(args)
+
+
+def _make(args) -> int:
     for line in machine_lines():
         print(line)
     found = modules("chart_", args.only)

@@ -9,6 +9,7 @@ one run of that module). The machine is printed first: figures are only comparab
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib.util
 import os
 import platform
@@ -42,14 +43,30 @@ def cpu_model() -> str:
     return platform.processor() or "unknown"
 
 
+def _has_threadpoolctl() -> bool:
+    return importlib.util.find_spec("threadpoolctl") is not None
+
+
 def machine_lines() -> list[str]:
     import numpy
     import scipy
 
     return [
         f"machine: {cpu_model()}, {os.cpu_count()} logical cores, {platform.system()} {platform.release()}",
+        "BLAS limited to 1 thread for every measurement" if _has_threadpoolctl() else
+        "BLAS threads NOT limited (threadpoolctl missing): timings are noisier",
         f"python {platform.python_version()}, numpy {numpy.__version__}, scipy {scipy.__version__}",
     ]
+
+
+def single_threaded_blas():
+    """BLAS limited to one thread: the default solver runs that way anyway (dynamics.solvers'
+    serial_blas), and on a shared 2-core machine threaded BLAS timings swing by 10x."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:  # optional: without it BLAS keeps its own threading (noted in the header)
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def main(argv=None) -> int:
@@ -58,6 +75,11 @@ def main(argv=None) -> int:
     parser.add_argument("--only", help="run only the bench modules whose name contains this")
     args = parser.parse_args(argv)
     sys.path.insert(0, str(HERE.parent))
+    with single_threaded_blas():
+        return _run(args)
+
+
+def _run(args) -> int:
     for line in machine_lines():
         print(line)
     found = modules("bench_", args.only)

@@ -45,9 +45,9 @@ from dynamics.chain import ChainModel
 from dynamics.errors import DynamicsError
 from dynamics.metrics import STATIONS, station_links
 
-# Above this many links a truncated mode set comes from sparse shift-invert Lanczos (O(N r)) rather
+# Above this many links a truncated mode set (at most N/4 modes) comes from sparse shift-invert Lanczos (O(N r)) rather
 # than a dense eigensolve (O(N^3)); below it the dense solve is faster and simpler.
-_DENSE_LIMIT = 1500
+_DENSE_LIMIT = 400
 
 
 @dataclass(frozen=True)

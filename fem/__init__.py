@@ -6,7 +6,7 @@ from .link import LinkSolution, analyse_link
 from .materials import Material, get_material, load_materials
 from .render import render_deformed
 from .richardson import Extrapolation, extrapolate
-from .study import StiffnessEstimate, stiffness_study
+from .study import StiffnessEstimate, stiffness_studies, stiffness_study
 
 __all__ = [
     "Extrapolation",
@@ -19,6 +19,7 @@ __all__ = [
     "get_material",
     "load_materials",
     "render_deformed",
+    "stiffness_studies",
     "stiffness_study",
     "write_solution_vtu",
 ]

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -67,31 +67,66 @@ def stiffness_study(
     solver: str = "auto",
     curved: bool = True,
     bore_refinement: float = DEFAULT_BORE_REFINEMENT,
+    progress: Callable[[str], None] | None = None,
 ) -> StiffnessEstimate:
     """Mesh the link (None = built-in default) at 2-3 sizes, solve each, extrapolate k.
 
     `curved` asks geometry for isoparametric quadratic cells when order == 2.
     """
-    import geometry
-
     if material is None:
         raise FemError("stiffness_study: a material is required")
+    return stiffness_studies(source, [material], mesh_sizes_m=mesh_sizes_m, order=order, load_N=load_N,
+                             solver=solver, curved=curved, bore_refinement=bore_refinement,
+                             progress=progress)[material.name]
+
+
+def stiffness_studies(
+    source: str | Path | None,
+    materials: Sequence[Material],
+    *,
+    mesh_sizes_m: Sequence[float] | None = None,
+    order: int = 2,
+    load_N: float = 1000.0,
+    solver: str = "auto",
+    curved: bool = True,
+    bore_refinement: float = DEFAULT_BORE_REFINEMENT,
+    progress: Callable[[str], None] | None = None,
+) -> dict[str, StiffnessEstimate]:
+    """`stiffness_study` for several materials, meshing each level once for all of them.
+
+    `progress`, if given, gets one line per solve (level, material, DOFs, k, seconds).
+    """
+    import geometry
+
+    if not materials:
+        raise FemError("stiffness_studies: expected at least one material")
     element(order)  # validate before meshing
     resolve(solver)
     sizes = _check_sizes(DEFAULT_MESH_SIZES_M if mesh_sizes_m is None else mesh_sizes_m)
     mesh_order = 2 if (order == 2 and curved) else 1
-    timing: dict[str, float] = {"mesh": 0.0}
-    start_all = time.perf_counter()
-    solutions: list[LinkSolution] = []
-    for h in sizes:
+    mesh_time = 0.0
+    solutions: dict[str, list[LinkSolution]] = {m.name: [] for m in materials}
+    for level, h in enumerate(sizes, start=1):
         start = time.perf_counter()
         link = geometry.load_link(source, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
-        timing["mesh"] += time.perf_counter() - start
-        solution = analyse_link(link, material, order=order, load_N=load_N, solver=solver)
+        mesh_time += time.perf_counter() - start
+        for material in materials:
+            solution = analyse_link(link, material, order=order, load_N=load_N, solver=solver)
+            solutions[material.name].append(solution)
+            if progress is not None:
+                progress(f"FEA level {level}/{len(sizes)}, {material.name}: h = {h * 1e3:.2f} mm, "
+                         f"{solution.dofs} DOFs, k = {solution.stiffness_N_per_m:.5g} N/m, "
+                         f"{sum(solution.timing_s.values()):.1f} s")
+    # Meshing is shared: each material's timing carries its share of it.
+    return {name: _estimate(sizes, sols, mesh_time / len(materials)) for name, sols in solutions.items()}
+
+
+def _estimate(sizes: Sequence[float], solutions: list[LinkSolution], mesh_time_s: float) -> StiffnessEstimate:
+    timing: dict[str, float] = {"mesh": mesh_time_s}
+    for solution in solutions:
         for key, value in solution.timing_s.items():
             timing[key] = timing.get(key, 0.0) + value
-        solutions.append(solution)
-    timing["total"] = time.perf_counter() - start_all
+    timing["total"] = sum(timing.values())
     k = [s.stiffness_N_per_m for s in solutions]
     fit: Extrapolation = extrapolate(k, [s.dofs for s in solutions])
     return StiffnessEstimate(

@@ -124,3 +124,14 @@ def test_bad_inputs_are_fem_errors(plate):
     not_faces = replace(plate, fixed_bore_facets=np.array([[0], [1], [2]]) + plate.tets[0, 0])
     with pytest.raises(FemError, match="not facets|not tetrahedron vertices"):
         analyse_link(not_faces, ALUMINIUM)
+
+
+@pytest.mark.parametrize(
+    "sizes, fragment",
+    [((0.004, 0.006), "decrease"), ((0.006,), "2 or 3"), ((0.008, -0.004), "positive"), ((0.01, 0.008, 0.006, 0.004), "2 or 3")],
+)
+def test_study_rejects_bad_mesh_sizes_before_meshing(sizes, fragment):
+    from fem import stiffness_study
+
+    with pytest.raises(FemError, match=fragment):
+        stiffness_study(None, ALUMINIUM, mesh_sizes_m=sizes)

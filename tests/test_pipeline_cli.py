@@ -204,3 +204,16 @@ def test_help_explains_units():
     assert r.returncode == 0
     for unit in ("rev/min", "N", "kg", "mm"):
         assert unit in r.stdout
+
+
+def test_tolerance_picks_the_resolution_and_reports_an_estimate_within_it(cache_dir, tmp_path):
+    out = tmp_path / "tol"
+    assert pipeline.main(["--links", "12", "--cams", "modified-sine", "--materials", "al6061-t6", "--no-images",
+                          "-q", "--tolerance", "0.2", "--out", str(out), "--cache-dir", str(cache_dir)]) == 0
+    s = _summary(out)
+    fidelity = s["fidelity"]
+    assert fidelity["tolerance"] == 0.2
+    assert fidelity["fea"]["al6061-t6"]["stiffness_rel_error_estimate"] <= 0.1
+    assert fidelity["dynamics"]["metrics_rel_error_estimate"] <= 0.2
+    estimate = s["materials"]["al6061-t6"]["cams"]["modified-sine"]["rel_error_estimate"]
+    assert estimate["total"] == pytest.approx(estimate["time_step"] + estimate["stiffness"])

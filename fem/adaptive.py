@@ -1,0 +1,202 @@
+"""Link stiffness to a requested accuracy: refine the mesh until the Richardson estimate is small enough.
+
+`stiffness_to_tolerance` solves the link at mesh sizes h0, h0/r, h0/r^2, ... (r = 4/3: each level
+has about r^3 = 2.4x the DOFs of the one before), one solve per new level, and after every level
+from the third on extrapolates k from the last three levels (`richardson.extrapolate`, the same
+estimate `stiffness_study` reports). It stops at the first level whose estimated relative error of
+the extrapolated k is <= the tolerance. Before meshing a level it predicts that level's DOFs from
+the growth between the last two; a level above `max_dofs` (or a mesh size geometry refuses) ends
+the refinement with a FemError that states the best estimate reached, so a caller never waits for
+a solve the machine cannot afford.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Callable, Sequence
+
+from .errors import FemError
+from .link import LinkSolution, analyse_link
+from .materials import Material
+from .problem import element
+from .richardson import extrapolate
+from .solvers import resolve
+from .study import DEFAULT_BORE_REFINEMENT, StiffnessEstimate
+
+REFINEMENT_RATIO = 4 / 3
+# Start at the part's bounding-box diagonal / 14 (12 mm on the default link: about 11k P2 DOFs,
+# 1 s): three such levels already give k to a few per cent there, and coarser meshes no longer
+# resolve the link's rails (k then stops behaving like C h^p).
+START_SIZE_FRACTION = 1 / 14
+# About 20 s and 3 GB for a P2 solve with PARDISO on 2 cores (field notes: 381k DOFs, 25 s).
+DEFAULT_MAX_DOFS = 400_000
+MIN_LEVELS = 3  # the error estimate uses three levels (two for q_inf, the third checks the pair)
+
+
+def bounding_diagonal_m(source: str | Path | None) -> float:
+    """Diagonal of the link's CAD bounding box in metres (the built-in link when None)."""
+    import gmsh
+
+    from geometry.dimensions import DEFAULT_LINK
+    from geometry.parametric import add_link
+    from geometry.session import gmsh_model, quiet_stdout
+    from geometry.step_io import import_step
+
+    with gmsh_model("bounding-box"):
+        if source is None:
+            add_link(DEFAULT_LINK)
+        else:
+            with quiet_stdout():
+                import_step(source)
+        xmin, ymin, zmin, xmax, ymax, zmax = gmsh.model.getBoundingBox(-1, -1)
+    return math.dist((xmin, ymin, zmin), (xmax, ymax, zmax))
+
+
+def _check(rel_tolerance: float, start_mesh_size_m: float | None, max_dofs: int, ratio: float) -> None:
+    if not (isinstance(rel_tolerance, (int, float)) and math.isfinite(rel_tolerance) and 0 < rel_tolerance < 1):
+        raise FemError(f"rel_tolerance={rel_tolerance!r}: expected a relative error in (0, 1), e.g. 0.01")
+    if start_mesh_size_m is not None and not (math.isfinite(start_mesh_size_m) and start_mesh_size_m > 0):
+        raise FemError(f"start_mesh_size_m={start_mesh_size_m!r}: expected a positive element size in metres")
+    if not (isinstance(max_dofs, int) and max_dofs > 0):
+        raise FemError(f"max_dofs={max_dofs!r}: expected a positive integer")
+    if not (isinstance(ratio, (int, float)) and 1.05 <= ratio <= 2):
+        raise FemError(f"ratio={ratio!r}: expected a mesh-size ratio between levels in [1.05, 2]")
+
+
+def stiffness_to_tolerance(
+    source: str | Path | None,
+    material: Material,
+    rel_tolerance: float,
+    *,
+    order: int = 2,
+    solver: str = "auto",
+    start_mesh_size_m: float | None = None,
+    progress: Callable[[str], None] | None = None,
+    curved: bool = True,
+    load_N: float = 1000.0,
+    bore_refinement: float = DEFAULT_BORE_REFINEMENT,
+    max_dofs: int = DEFAULT_MAX_DOFS,
+    ratio: float = REFINEMENT_RATIO,
+) -> StiffnessEstimate:
+    """k of the link (None = built-in default) with estimated relative error <= rel_tolerance.
+
+    Levels are solved coarse to fine, mesh size divided by `ratio` each time, starting at
+    `start_mesh_size_m` (None: bounding-box diagonal x START_SIZE_FRACTION). `progress`, if given,
+    receives one line per level. Raises FemError when the next level would exceed `max_dofs`
+    DOFs (or geometry refuses its size) before the tolerance is met.
+    """
+    if not isinstance(material, Material):
+        raise FemError(f"material: expected a fem.Material, got {type(material).__name__}")
+    return stiffnesses_to_tolerance(
+        source, [material], rel_tolerance, order=order, solver=solver, start_mesh_size_m=start_mesh_size_m,
+        progress=progress, curved=curved, load_N=load_N, bore_refinement=bore_refinement, max_dofs=max_dofs,
+        ratio=ratio,
+    )[material.name]
+
+
+def stiffnesses_to_tolerance(
+    source: str | Path | None,
+    materials: Sequence[Material],
+    rel_tolerance: float,
+    *,
+    order: int = 2,
+    solver: str = "auto",
+    start_mesh_size_m: float | None = None,
+    progress: Callable[[str], None] | None = None,
+    curved: bool = True,
+    load_N: float = 1000.0,
+    bore_refinement: float = DEFAULT_BORE_REFINEMENT,
+    max_dofs: int = DEFAULT_MAX_DOFS,
+    ratio: float = REFINEMENT_RATIO,
+) -> dict[str, StiffnessEstimate]:
+    """`stiffness_to_tolerance` for several materials (keyed by name), meshing each level once.
+
+    Refinement goes on until every material's estimate meets the tolerance (Poisson's ratio
+    changes k(h) a little, so one material may need a level more than another).
+    """
+    import geometry
+
+    if not materials or not all(isinstance(m, Material) for m in materials):
+        raise FemError(f"materials: expected a non-empty sequence of fem.Material, got {materials!r}")
+    _check(rel_tolerance, start_mesh_size_m, max_dofs, ratio)
+    element(order)
+    resolve(solver)
+    mesh_order = 2 if (order == 2 and curved) else 1
+    h = START_SIZE_FRACTION * bounding_diagonal_m(source) if start_mesh_size_m is None else float(start_mesh_size_m)
+    mesh_time = 0.0
+    sizes: list[float] = []
+    solutions: dict[str, list[LinkSolution]] = {m.name: [] for m in materials}
+    first = solutions[materials[0].name]
+    while True:
+        if len(first) >= 2:
+            predicted = first[-1].dofs * first[-1].dofs / first[-2].dofs
+            if predicted > max_dofs:
+                raise FemError(_unreached(rel_tolerance, sizes, solutions, f"the next level (h = {h * 1e3:.3g} mm) would have about {predicted:.3g} DOFs, above max_dofs = {max_dofs}"))
+        level_start = time.perf_counter()
+        try:
+            link = geometry.load_link(source, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
+        except geometry.GeometryError as exc:
+            if not sizes:
+                raise
+            raise FemError(_unreached(rel_tolerance, sizes, solutions, f"geometry refused the next level: {exc}")) from None
+        mesh_time += time.perf_counter() - level_start
+        for material in materials:
+            solution = analyse_link(link, material, order=order, load_N=load_N, solver=solver)
+            previous = solutions[material.name]
+            if previous and solution.dofs <= previous[-1].dofs:
+                raise FemError(f"mesh_size_m={h:.4g}: refining gave {solution.dofs} DOFs, not more than {previous[-1].dofs}; the mesh does not follow the size")
+            previous.append(solution)
+        sizes.append(h)
+        errors = {name: _error(sols) for name, sols in solutions.items()}
+        if progress is not None:
+            ks = ", ".join(f"{name} {sols[-1].stiffness_N_per_m:.6e}" for name, sols in solutions.items())
+            worst = None if None in errors.values() else max(errors.values())
+            progress(
+                f"FEA level {len(sizes)}: h = {h * 1e3:.3g} mm, {first[-1].dofs} DOFs, k = {ks} N/m, "
+                f"estimated error {'n/a (needs 3 levels)' if worst is None else f'{worst:.2e}'}, {time.perf_counter() - level_start:.1f} s"
+            )
+        if None not in errors.values() and max(errors.values()) <= rel_tolerance:
+            break
+        if first[-1].dofs > max_dofs:
+            raise FemError(_unreached(rel_tolerance, sizes, solutions, f"this level already has {first[-1].dofs} DOFs, above max_dofs = {max_dofs}"))
+        h /= ratio
+    return {name: _estimate(sizes, sols, mesh_time / len(materials)) for name, sols in solutions.items()}
+
+
+def _error(solutions: list[LinkSolution]) -> float | None:
+    if len(solutions) < MIN_LEVELS:
+        return None
+    last = solutions[-MIN_LEVELS:]
+    return extrapolate([s.stiffness_N_per_m for s in last], [s.dofs for s in last]).rel_error_estimate
+
+
+def _unreached(rel_tolerance: float, sizes: list[float], solutions: dict[str, list[LinkSolution]], why: str) -> str:
+    errors = [_error(sols) for sols in solutions.values()]
+    error = None if None in errors else max(errors)
+    reached = "fewer than 3 levels solved" if error is None else f"best estimated error {error:.2e} at h = {sizes[-1] * 1e3:.3g} mm"
+    return f"rel_tolerance={rel_tolerance:g} not reached: {why} ({reached}); expected a looser tolerance or a larger max_dofs"
+
+
+def _estimate(sizes: list[float], solutions: list[LinkSolution], mesh_time_s: float) -> StiffnessEstimate:
+    timing: dict[str, float] = {"mesh": mesh_time_s}
+    for solution in solutions:
+        for key, value in solution.timing_s.items():
+            timing[key] = timing.get(key, 0.0) + value
+    timing["total"] = sum(timing.values())
+    last = solutions[-MIN_LEVELS:]
+    k = [s.stiffness_N_per_m for s in last]
+    fit = extrapolate(k, [s.dofs for s in last])
+    return StiffnessEstimate(
+        stiffness_N_per_m=fit.extrapolated,
+        stiffness_rel_error_estimate=fit.rel_error_estimate,
+        stiffness_finest_N_per_m=k[-1],
+        finest_rel_error_estimate=fit.finest_rel_error_estimate,
+        convergence_rate=fit.rate,
+        observed_convergence_rate=fit.observed_rate,
+        monotone=fit.monotone,
+        levels=tuple((h, s.dofs, s.stiffness_N_per_m) for h, s in zip(sizes, solutions)),
+        finest=solutions[-1],
+        timing_s=timing,
+    )

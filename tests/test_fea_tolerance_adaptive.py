@@ -1,0 +1,94 @@
+"""stiffness_to_tolerance: refines until the Richardson estimate meets the tolerance, honestly."""
+
+from __future__ import annotations
+
+import pytest
+
+import fem
+from fem.adaptive import stiffness_to_tolerance, stiffnesses_to_tolerance
+from fem.richardson import extrapolate
+
+ALUMINIUM = fem.get_material("al6061-t6")
+TITANIUM = fem.get_material("ti-grade2")
+START_M = 0.012  # the default start on the default link; fixed here so the level sizes are known
+
+
+@pytest.fixture(scope="module")
+def coarse_and_tighter():
+    """Runs on the default link: loose (5 %, aluminium and titanium on shared meshes) and tighter (2 %)."""
+    lines_loose: list[str] = []
+    both = stiffnesses_to_tolerance(None, [ALUMINIUM, TITANIUM], 0.05, start_mesh_size_m=START_M, progress=lines_loose.append)
+    tighter = stiffness_to_tolerance(None, ALUMINIUM, 0.02, start_mesh_size_m=START_M)
+    return both[ALUMINIUM.name], tighter, lines_loose, both[TITANIUM.name]
+
+
+def test_estimate_meets_the_tolerance(coarse_and_tighter):
+    loose, tighter, _, titanium = coarse_and_tighter
+    assert loose.stiffness_rel_error_estimate <= 0.05
+    assert titanium.stiffness_rel_error_estimate <= 0.05
+    assert tighter.stiffness_rel_error_estimate <= 0.02
+
+
+def test_tighter_tolerance_needs_more_levels_each_one_solve(coarse_and_tighter):
+    loose, tighter, lines, _ = coarse_and_tighter
+    assert len(tighter.levels) > len(loose.levels) >= 3
+    # The levels of the loose run are reused, not re-solved: the tighter run extends the same
+    # sequence (same sizes, same meshes, so the same k to solver round-off).
+    for a, b in zip(loose.levels, tighter.levels):
+        assert a[0] == pytest.approx(b[0], rel=1e-12)
+        assert a[1] == b[1]
+        assert a[2] == pytest.approx(b[2], rel=1e-9)  # direct solver round-off on ~1e4-1e5 DOFs
+    sizes = [level[0] for level in tighter.levels]
+    for coarse, fine in zip(sizes, sizes[1:]):
+        assert coarse / fine == pytest.approx(4 / 3, rel=1e-12)
+    assert len(lines) == len(loose.levels)
+    assert all("DOFs" in line and "k =" in line for line in lines)
+
+
+def test_extrapolation_uses_the_last_three_levels(coarse_and_tighter):
+    _, tighter, _, _ = coarse_and_tighter
+    last = tighter.levels[-3:]
+    fit = extrapolate([k for _, _, k in last], [dofs for _, dofs, _ in last])
+    assert tighter.stiffness_N_per_m == fit.extrapolated
+    assert tighter.stiffness_rel_error_estimate == fit.rel_error_estimate
+    assert tighter.stiffness_finest_N_per_m == last[-1][2]
+    assert tighter.finest.dofs == last[-1][1]
+
+
+def test_materials_share_the_meshes(coarse_and_tighter):
+    aluminium, _, _, titanium = coarse_and_tighter
+    assert [level[:2] for level in aluminium.levels] == [level[:2] for level in titanium.levels]
+    # Titanium is stiffer (E 105 vs 69 GPa); k is not exactly proportional to E (nu differs).
+    assert titanium.stiffness_N_per_m > aluminium.stiffness_N_per_m
+
+
+def test_cap_on_dofs_is_a_clear_error():
+    # 12 mm and 9 mm give about 11k and 18k DOFs, so the third level (~29k) is above 20k.
+    with pytest.raises(fem.FemError, match=r"rel_tolerance=0\.001 not reached.*max_dofs = 20000"):
+        stiffness_to_tolerance(None, ALUMINIUM, 0.001, start_mesh_size_m=START_M, max_dofs=20_000)
+
+
+@pytest.mark.parametrize("tolerance", [0.0, -0.01, 1.5, float("nan")])
+def test_bad_tolerance_is_rejected(tolerance):
+    with pytest.raises(fem.FemError, match="rel_tolerance"):
+        stiffness_to_tolerance(None, ALUMINIUM, tolerance)
+
+
+def test_bad_start_size_is_rejected():
+    with pytest.raises(fem.FemError, match="start_mesh_size_m"):
+        stiffness_to_tolerance(None, ALUMINIUM, 0.05, start_mesh_size_m=-1.0)
+
+
+@pytest.mark.slow
+def test_estimate_is_honest_against_a_finer_reference(coarse_and_tighter):
+    """The actual error of the returned k is at most 2x its estimate (the estimate is not overconfident).
+
+    Reference: Richardson from three curved-P2 levels each finer than any level of the runs above
+    (3.8, 2.85, 2.5 mm; ~116k-330k DOFs); its own estimated error must be well below the errors
+    being checked, else the comparison would mean nothing.
+    """
+    reference = fem.stiffness_study(None, ALUMINIUM, mesh_sizes_m=(0.0038, 0.00285, 0.0025))
+    for estimate in coarse_and_tighter[:2]:
+        assert reference.stiffness_rel_error_estimate < 0.5 * estimate.stiffness_rel_error_estimate
+        actual = abs(estimate.stiffness_N_per_m - reference.stiffness_N_per_m) / reference.stiffness_N_per_m
+        assert actual <= 2 * estimate.stiffness_rel_error_estimate
