@@ -48,6 +48,7 @@ class RunConfig:
     steady_state: bool
     samples_per_degree: int
     tolerance: float | None
+    rpm_sweep: str | None
 
 
 class Progress:
@@ -112,6 +113,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--tolerance", type=float, default=None,
                    help="relative tolerance on the reported metrics (e.g. 0.01): picks the FEA mesh and the "
                         "time step for it and reports the achieved error estimate (default: fixed settings)")
+    p.add_argument("--rpm-sweep", metavar="FROM:TO:STEP", default=None,
+                   help="also sweep the cam speed (rev/min): residual vibration and peak acceleration at the "
+                        "tight-side station per cam law, critical speeds marked (linear model, friction left out)")
     return p
 
 
@@ -147,6 +151,13 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
     _require(args.tolerance is None or 0 < args.tolerance < 1,
              f"--tolerance: expected a relative tolerance in (0, 1), e.g. 0.01, got {args.tolerance}")
     _check_solver(args.solver, args.friction)
+    if args.rpm_sweep is not None:
+        from dynamics.sweep import parse_rpm_range
+
+        try:
+            parse_rpm_range(args.rpm_sweep)
+        except ValueError as e:
+            raise InputError(f"--rpm-sweep: {e}") from None
     if args.preset == "mqp2012":
         _require(args.links >= 8, f"--links: the mqp2012 preset needs >= 8 links (its preload positions), got {args.links}")
     if args.geometry is not None:
@@ -176,6 +187,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         steady_state=not args.from_rest,
         samples_per_degree=args.samples_per_degree,
         tolerance=args.tolerance,
+        rpm_sweep=args.rpm_sweep,
     )
 
 
@@ -427,7 +439,25 @@ def run(cfg: RunConfig, progress: Progress) -> None:
         models, scenarios = _timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     else:
         fea, models, scenarios = run_to_tolerance(cfg, progress, timing)
-    write_default_outputs(cfg, fea, models, scenarios, timing, progress)
+    sweeps = _timed(timing, "rpm_sweep", progress, run_rpm_sweeps, cfg, fea, progress) if cfg.rpm_sweep else {}
+    write_default_outputs(cfg, fea, models, scenarios, timing, progress, sweeps)
+
+
+def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress) -> dict:
+    """Speed sweep per material on the linear chain (the fast modal path cannot carry friction)."""
+    from dataclasses import replace
+
+    from dynamics.sweep import parse_rpm_range, rpm_sweep
+
+    rpms = parse_rpm_range(cfg.rpm_sweep)
+    sweeps = {}
+    for name, result in fea.items():
+        model = replace(chain_model(cfg, result), friction_coefficient=0.0)
+        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m)
+        progress(f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws, "
+                 f"{len(sweeps[name].critical_speeds)} critical speeds in range"
+                 + (" (friction left out of the sweep)" if cfg.friction > 0 else ""))
+    return sweeps
 
 
 def _timed(timing: dict, stage: str, progress: Progress, stage_function, *args):

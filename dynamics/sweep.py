@@ -45,8 +45,9 @@ from dynamics.chain import ChainModel
 from dynamics.errors import DynamicsError
 from dynamics.metrics import STATIONS, station_links
 
-# Above this many links a truncated mode set (at most N/4 modes) comes from sparse shift-invert Lanczos (O(N r)) rather
-# than a dense eigensolve (O(N^3)); below it the dense solve is faster and simpler.
+# Above this many links, a truncated mode set of at most N/10 modes comes from sparse shift-invert
+# Lanczos (cost ~ N r^2, ARPACK keeps ~2r vectors) rather than a dense eigensolve (~ N^3); below
+# either bound the dense solve is faster and simpler.
 _DENSE_LIMIT = 400
 
 
@@ -110,7 +111,7 @@ def chain_modes(model: ChainModel, n_modes: int | None = None) -> ChainModes:
         raise DynamicsError(f"n_modes: got {n_modes!r}; expected an integer in 1..{n}")
     m = model.link_mass_kg  # the chain's mass matrix is m I
     k_sparse = stiffness_matrix_sparse(model)
-    if n <= _DENSE_LIMIT or n_modes > n // 4:
+    if n <= _DENSE_LIMIT or n_modes > n // 10:
         lam, vec = eigh(k_sparse.toarray() / m, subset_by_index=[0, n_modes - 1])
     else:
         lam, vec = eigsh((k_sparse / m).tocsc(), k=n_modes, sigma=0.0, which="LM")
@@ -323,12 +324,10 @@ def rpm_sweep(
         raise DynamicsError(f"modes: computed for {modes.n_links} links; expected {model.n_links}")
 
     ref_rpm = 60.0  # samples sit at the same cam angles at every speed: z'' scales with rpm^2, h with 1/rpm
-    zdd = []
-    for cam in cam_ids:
-        t_ref, a_ref, program = cam_cycle_samples(
-            cam, samples_per_cycle, pitch_m=pitch_m, index_deg=index_deg, dwell_deg=dwell_deg, rpm=ref_rpm
-        )
-        zdd.append(a_ref)
+    samples = [cam_cycle_samples(cam, samples_per_cycle, pitch_m=pitch_m, index_deg=index_deg, dwell_deg=dwell_deg,
+                                 rpm=ref_rpm) for cam in cam_ids]
+    t_ref, _, program = samples[0]  # every cam shares the index/dwell layout, so the grid and dwells
+    zdd = [a for _, a, _ in samples]
     dwell = program.dwell_mask(t_ref)
     scale = (r / ref_rpm) ** 2
     zddot = np.asarray(zdd)[:, None, :] * scale[None, :, None]  # (cams, speeds, n)

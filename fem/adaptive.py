@@ -154,7 +154,7 @@ def stiffnesses_to_tolerance(
             ks = ", ".join(f"{name} {sols[-1].stiffness_N_per_m:.6e}" for name, sols in solutions.items())
             worst = None if None in errors.values() else max(errors.values())
             progress(
-                f"FEA level {len(sizes)}: h = {h * 1e3:.3g} mm, {first[-1].dofs} DOFs, k = {ks} N/m, "
+                f"FEA level {len(sizes)}: h = {h * 1e3:.3g} mm, {first[-1].dofs} DOFs, k (N/m) {ks}, "
                 f"estimated error {'n/a (needs 3 levels)' if worst is None else f'{worst:.2e}'}, {time.perf_counter() - level_start:.1f} s"
             )
         if None not in errors.values() and max(errors.values()) <= rel_tolerance:

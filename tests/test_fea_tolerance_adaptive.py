@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 import fem
-from fem.adaptive import stiffness_to_tolerance, stiffnesses_to_tolerance
+import geometry
+from fem.adaptive import bounding_diagonal_m, stiffness_to_tolerance, stiffnesses_to_tolerance
 from fem.richardson import extrapolate
 
 ALUMINIUM = fem.get_material("al6061-t6")
@@ -42,7 +43,7 @@ def test_tighter_tolerance_needs_more_levels_each_one_solve(coarse_and_tighter):
     for coarse, fine in zip(sizes, sizes[1:]):
         assert coarse / fine == pytest.approx(4 / 3, rel=1e-12)
     assert len(lines) == len(loose.levels)
-    assert all("DOFs" in line and "k =" in line for line in lines)
+    assert all("DOFs" in line and f"{ALUMINIUM.name} " in line and f"{TITANIUM.name} " in line for line in lines)
 
 
 def test_extrapolation_uses_the_last_three_levels(coarse_and_tighter):
@@ -72,6 +73,13 @@ def test_cap_on_dofs_is_a_clear_error():
 def test_bad_tolerance_is_rejected(tolerance):
     with pytest.raises(fem.FemError, match="rel_tolerance"):
         stiffness_to_tolerance(None, ALUMINIUM, tolerance)
+
+
+def test_default_start_size_comes_from_the_cad_bounding_box():
+    # Measured 167.87 mm for the default link (geometry's default element size, 4.2 mm, is this
+    # diagonal / 40); the example STEP file is the same link, so the same diagonal to CAD tolerance.
+    assert bounding_diagonal_m(None) == pytest.approx(0.1679, abs=1e-4)
+    assert bounding_diagonal_m(geometry.EXAMPLE_STEP) == pytest.approx(bounding_diagonal_m(None), rel=1e-5)
 
 
 def test_bad_start_size_is_rejected():

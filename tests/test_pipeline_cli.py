@@ -171,6 +171,8 @@ def existing_out(tmp_path) -> Path:
         (["--solver", "euler"], "--solver"),
         (["--solver", "newmark"], "--solver"),
         (["--preset", "mqp2012", "--links", "5"], "--links"),
+        (["--rpm-sweep", "300:60:1"], "--rpm-sweep"),
+        (["--tolerance", "2"], "--tolerance"),
     ],
 )
 def test_bad_input_is_one_line_exit_2_and_out_untouched(args, named, existing_out):
@@ -217,3 +219,15 @@ def test_tolerance_picks_the_resolution_and_reports_an_estimate_within_it(cache_
     assert fidelity["dynamics"]["metrics_rel_error_estimate"] <= 0.2
     estimate = s["materials"]["al6061-t6"]["cams"]["modified-sine"]["rel_error_estimate"]
     assert estimate["total"] == pytest.approx(estimate["time_step"] + estimate["stiffness"])
+
+
+def test_rpm_sweep_writes_curves_with_critical_speeds(cache_dir, tmp_path):
+    out = tmp_path / "sweep"
+    assert pipeline.main([*COARSE, "--no-images", "--materials", "al6061-t6", "--cams", "modified-sine,poly-345",
+                          "--rpm-sweep", "60:240:10", "--out", str(out), "--cache-dir", str(cache_dir)]) == 0
+    sweep = _summary(out)["rpm_sweep"]["al6061-t6"]
+    assert sweep["rpm"][0] == 60 and sweep["rpm"][-1] == 240 and len(sweep["rpm"]) == 19
+    assert set(sweep["cams"]) == {"modified-sine", "poly-345"}
+    assert all(len(c["residual_vibration_m"]) == 19 for c in sweep["cams"].values())
+    assert all(60 <= c["rpm"] <= 240 for c in sweep["critical_speeds"])
+    assert (out / "al6061-t6_rpm_sweep.png").exists() and (out / "rpm_sweep.csv").exists()

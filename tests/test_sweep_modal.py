@@ -83,9 +83,9 @@ def test_modal_truncation_converges_in_relative_coordinates():
 
 
 def test_sparse_mode_set_matches_dense_eigensolve():
-    # Above 400 links a truncated set comes from sparse shift-invert Lanczos; eigenvalues agree with a
-    # dense solve to near rounding (ARPACK's default tol is machine precision). Participations of the
-    # symmetric modes are zero, so they are compared with an absolute floor of the largest one.
+    # Above 400 links (and up to N/10 modes) a truncated set comes from sparse shift-invert Lanczos;
+    # eigenvalues agree with a dense solve to near rounding (ARPACK's default tol is machine precision).
+    # Participations of the symmetric modes are zero, so they get an absolute floor of the largest one.
     model = ChainModel(600, 2.0, 9e7)
     sparse = chain_modes(model, n_modes=6)
     lam, vec = eigh(model.stiffness_matrix() / 2.0, subset_by_index=[0, 5])

@@ -271,7 +271,36 @@ def _tension_table(summary_materials: dict) -> Table:
                                    "peak stress (MPa)", "safety factor on yield"), tuple(rows))
 
 
-def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing: dict, progress) -> None:
+def _sweep_summary(sweep) -> dict:
+    return {
+        "station": sweep.station,
+        "link": sweep.station_link,
+        "rpm": sweep.rpm.tolist(),
+        "friction_coefficient": 0.0,
+        "cams": {cam: {"residual_vibration_m": sweep.residual_vibration_m[i].tolist(),
+                       "peak_abs_acceleration_m_s2": sweep.peak_acceleration_m_s2[i].tolist()}
+                 for i, cam in enumerate(sweep.cam_ids)},
+        "critical_speeds": [{"rpm": c.rpm, "mode": c.mode, "harmonic": c.harmonic} for c in sweep.critical_speeds],
+        "critical_speed_definition": sweep.definition,
+    }
+
+
+def _sweep_table(sweeps: dict) -> Table:
+    rows = []
+    for material, sweep in sweeps.items():
+        for i, cam in enumerate(sweep.cam_ids):
+            for j, rpm in enumerate(sweep.rpm):
+                rows.append((material, cam, float(rpm), float(sweep.residual_vibration_m[i, j]),
+                             float(sweep.peak_acceleration_m_s2[i, j])))
+    return Table("Speed sweep", ("material", "cam law", "rpm", "residual_vibration_m", "peak_abs_acceleration_m_s2"),
+                 tuple(rows))
+
+
+def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing: dict, progress,
+                          sweeps: dict | None = None) -> None:
+    from dynamics.sweep import plot_rpm_sweep
+
+    sweeps = sweeps or {}
     with StagedOutput(cfg.out) as staged:
         progress("outputs: tables, plots and report")
         links = station_links(cfg.links)
@@ -293,9 +322,22 @@ def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing:
             if r.image is not None:
                 images[m] = staged.path(f"{m}_deformed.png")
                 shutil.copyfile(r.image, images[m])
+        sweep_pngs = {}
+        for m, sweep in sweeps.items():
+            sweep_pngs[m] = staged.path(f"{m}_rpm_sweep.png")
+            plot_rpm_sweep(sweep, sweep_pngs[m])
+        if sweeps:
+            staged.write_text("rpm_sweep.csv", _sweep_table(sweeps).to_csv())
+            summary["rpm_sweep"] = {m: _sweep_summary(sweep) for m, sweep in sweeps.items()}
         _close_timing(timing, progress)
         staged.write_text("summary.json", json.dumps(summary, indent=1))
         sections = _default_sections(cfg, summary, tables, fea, models, residual_png, figures, images)
+        if sweeps:
+            sections.insert(3, html.Section("Speed sweep", html.paragraph(
+                "Periodic steady state at the tight-side station versus cam speed, on the linear chain (friction "
+                "left out of the sweep); dashed lines: critical speeds, where a harmonic of the index frequency "
+                "meets a natural frequency of the chain.") + "".join(
+                html.image_html(p, f"{m}: speed sweep") for m, p in sweep_pngs.items())))
         staged.write_text("report.html", html.render_page("link-conveyor: chain vibration report", sections))
     _announce(cfg, staged, timing, progress, ranking)
 
