@@ -232,6 +232,7 @@ class MaterialFea:
     dofs: int
     mesh_size_m: float
     timing_s: dict
+    warnings: list
     cached: bool
     image: Path | None
 
@@ -259,13 +260,14 @@ def _fea_record(name: str, material, study) -> dict:
         "dofs": fine.dofs,
         "mesh_size_m": fine.mesh_size_m,
         "timing_s": study.timing_s,
+        "warnings": [],
     }
 
 
 def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress) -> dict:
     """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance."""
     from fem import stiffness_studies
-    from fem.adaptive import stiffness_to_tolerance
+    from fem.adaptive import stiffnesses_to_tolerance
     from fem.study import levels_for_finest
 
     source = "built-in default link" if cfg.geometry is None else str(cfg.geometry)
@@ -273,19 +275,18 @@ def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | Non
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 3 mesh levels")
         sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
         return stiffness_studies(cfg.geometry, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
-    studies = {}
-    for material in materials:
-        progress(f"FEA {material.name}: {source}, P{cfg.order}, refining to a k error <= "
-                 f"{100 * stiffness_tolerance:.2g} %")
-        studies[material.name] = stiffness_to_tolerance(cfg.geometry, material, stiffness_tolerance,
-                                                        order=cfg.order, progress=progress)
-    return studies
+    progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
+             f"{100 * stiffness_tolerance:.2g} %")
+    return stiffnesses_to_tolerance(cfg.geometry, materials, stiffness_tolerance, order=cfg.order, progress=progress)
 
 
 def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None) -> dict[str, MaterialFea]:
     """Stiffness, mass and stress per material, from the cache when nothing they depend on changed."""
+    import warnings
+
     from fem import load_materials, render_deformed
     from fem.cache import FeaCache, cache_key, geometry_fingerprint
+    from fem.errors import FemWarning
     from geometry import DEFAULT_LINK
 
     library = load_materials(cfg.materials_file)
@@ -304,10 +305,15 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
             progress(f"FEA {name}: cached result (k = {stored['stiffness_N_per_m']:.5g} N/m)")
             out[name] = MaterialFea(**stored, cached=True, image=images[name])
     missing = [library[name] for name in cfg.materials if name not in out]
-    studies = _solve_fea(cfg, missing, stiffness_tolerance, progress) if missing else {}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FemWarning)
+        studies = _solve_fea(cfg, missing, stiffness_tolerance, progress) if missing else {}
+    cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
+    for message in cautions:
+        print(f"pipeline.py: warning: {message}", file=sys.stderr)
     for material in missing:
         name, study = material.name, studies[material.name]
-        stored = _fea_record(name, material, study)
+        stored = {**_fea_record(name, material, study), "warnings": cautions}
         progress(f"FEA {name}: k = {study.stiffness_N_per_m:.5g} N/m "
                  f"(estimated error {100 * study.stiffness_rel_error_estimate:.2g} %)")
         if images[name] is not None:

@@ -169,6 +169,10 @@ def modal_periodic_response(
     n = z.shape[-1]
     h = np.asarray(step_s, dtype=float)
     cols = np.asarray(links, dtype=int).reshape(-1)
+    if cols.size == 0 or cols.min() < 0 or cols.max() >= modes.n_links:
+        raise DynamicsError(f"links: got {links!r}; expected 0-based link indices in 0..{modes.n_links - 1}")
+    if h.size == 0 or not np.all(np.isfinite(h)) or np.any(h <= 0):
+        raise DynamicsError(f"step_s: got {step_s!r}; expected positive sample spacings in seconds")
     h_x, h_a = _transfer(modes, h.reshape(-1), n, cols)
     h_x = h_x.reshape(*h.shape, n, cols.size)
     h_a = h_a.reshape(*h.shape, n, cols.size)

@@ -14,7 +14,7 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-CACHE_FORMAT = 2  # 2: k is the Richardson-extrapolated value
+CACHE_FORMAT = 3  # 2: k is the Richardson-extrapolated value; 3: FEA warnings stored
 
 
 def default_cache_dir() -> Path:

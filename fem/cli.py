@@ -6,6 +6,7 @@ import argparse
 import json
 import math
 import sys
+import warnings
 from pathlib import Path
 
 from .errors import FemError
@@ -141,7 +142,12 @@ def run(argv: list[str] | None = None) -> dict:
     return result
 
 
+def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    print(f"python -m fem: warning: {message}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
+    warnings.showwarning = _one_line_warning
     try:
         run(argv)
     except (ValueError, OSError) as exc:  # FemError, GeometryError and file-system errors

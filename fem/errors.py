@@ -3,3 +3,7 @@
 
 class FemError(ValueError):
     """Bad input to the FEA stage; the message names the input and what was expected."""
+
+
+class FemWarning(UserWarning):
+    """A result that stands but deserves a caution (poor elements, a locking-prone material)."""

@@ -10,6 +10,7 @@ k = F / delta with the work-conjugate displacement delta = (1/F) integral(t . u 
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -19,9 +20,9 @@ from skfem.quadrature import get_quadrature
 
 from geometry.link_mesh import Bore, LinkMesh
 
-from . import problem, solvers
+from . import locking, problem, quality, solvers
 from .assembly import elasticity_matrix
-from .errors import FemError
+from .errors import FemError, FemWarning
 from .materials import Material
 from .problem import CURVED_INTORDER
 
@@ -65,6 +66,16 @@ class LinkSolution:
     basis: Basis  # scalar basis; displacement component c is displacement_m[c] in it
     displacement_m: np.ndarray  # (3, basis.N) at load_N
     von_mises_at_dofs_Pa: np.ndarray  # (basis.N,) element-node values averaged per DOF, at load_N
+
+
+def _check_mesh_and_material(mesh: LinkMesh, material: Material, order: int) -> None:
+    """Refuse numerically flat elements (the solver would fail obscurely) and warn about slivers and
+    about P1 near incompressibility (volumetric locking), one line each."""
+    q = quality.link_quality(mesh)
+    quality.require_valid(q)
+    for message in (quality.quality_warning(q), locking.locking_warning(material, order)):
+        if message:
+            warnings.warn(message, FemWarning, stacklevel=3)
 
 
 def skfem_mesh(link: LinkMesh, order: int, curved: bool = True) -> tuple[MeshTet1, np.ndarray]:
@@ -183,6 +194,7 @@ def analyse_link(
     lam, mu = material.lame_Pa
 
     start = time.perf_counter()
+    _check_mesh_and_material(mesh, material, order)
     sk_mesh, index = skfem_mesh(mesh, order)
     try:
         basis, fixed, unit = _discretise(mesh, sk_mesh, index, order)

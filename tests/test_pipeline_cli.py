@@ -231,3 +231,17 @@ def test_rpm_sweep_writes_curves_with_critical_speeds(cache_dir, tmp_path):
     assert all(len(c["residual_vibration_m"]) == 19 for c in sweep["cams"].values())
     assert all(60 <= c["rpm"] <= 240 for c in sweep["critical_speeds"])
     assert (out / "al6061-t6_rpm_sweep.png").exists() and (out / "rpm_sweep.csv").exists()
+
+
+def test_a_locking_prone_material_with_p1_is_warned_about_in_one_line(tmp_path):
+    rubbery = tmp_path / "materials.toml"
+    rubbery.write_text('[nearly-incompressible]\nyoungs_modulus_Pa = 70e9\npoisson_ratio = 0.49\n'
+                       'density_kg_per_m3 = 2700.0\nyield_strength_Pa = 200e6\n')
+    out = tmp_path / "p1"
+    r = _cli("--materials-file", str(rubbery), "--materials", "nearly-incompressible", "--order", "1",
+             "--mesh-size", "10", "--links", "12", "--cams", "modified-sine", "--no-images", "-q",
+             "--out", str(out), "--cache-dir", str(tmp_path / "cache"))
+    assert r.returncode == 0, r.stderr
+    warning_lines = [line for line in r.stderr.splitlines() if "warning" in line]
+    assert len(warning_lines) == 1 and "P1" in warning_lines[0] and "Traceback" not in r.stderr
+    assert _summary(out)["materials"]["nearly-incompressible"]["fea_warnings"]

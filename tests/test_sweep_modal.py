@@ -148,6 +148,14 @@ def test_rpm_sweep_input_validation(kwargs, match):
         rpm_sweep(ChainModel(20, 2.0, 9e7), args.pop("cam_ids"), args.pop("rpms"), **args)
 
 
+def test_modal_periodic_response_checks_links_and_step():
+    modes = chain_modes(ChainModel(10, 2.0, 9e7))
+    with pytest.raises(DynamicsError, match="links"):
+        modal_periodic_response(modes, np.zeros(16), 1e-3, [10])
+    with pytest.raises(DynamicsError, match="step_s"):
+        modal_periodic_response(modes, np.zeros(16), -1e-3, [0])
+
+
 def test_rpm_sweep_refuses_friction():
     with pytest.raises(DynamicsError, match="friction"):
         rpm_sweep(ChainModel(20, 2.0, 9e7, friction_coefficient=0.3), "modified-sine", [180.0])

@@ -142,6 +142,7 @@ def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict)
                 "fea_dofs": r.dofs,
                 "fea_mesh_size_m": r.mesh_size_m,
                 "fea_from_cache": r.cached,
+                "fea_warnings": r.warnings,
                 "cams": {cam: _scenario_summary(scenarios[name, cam], r) for cam in cfg.cams},
             }
             for name, r in fea.items()
