@@ -62,6 +62,8 @@ def machine_lines() -> list[str]:
 def single_threaded_blas():
     """BLAS limited to one thread: the default solver runs that way anyway (dynamics.solvers'
     serial_blas), and on a shared 2-core machine threaded BLAS timings swing by 10x."""
+    import scipy.linalg  # noqa: F401  (load scipy's own BLAS first: limits apply to loaded libraries only)
+
     try:
         from threadpoolctl import threadpool_limits
     except ImportError:  # optional: without it BLAS keeps its own threading (noted in the header)

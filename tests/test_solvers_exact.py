@@ -200,3 +200,28 @@ def test_too_coarse_a_step_for_a_stiff_nonlinear_force_is_reported_with_the_reme
     fine = solve(split, f, t, x0=[0.0], v0=[1.0], substeps=16)
     # second-order splitting at h * slope = 0.6 on a 1e-4 s time constant: 1 % of the response
     assert np.max(np.abs(fine.x - linear.x)) < 1e-2 * np.max(np.abs(linear.x))
+
+
+def test_modal_construction_of_the_foh_matrices_equals_van_loan():
+    # Classical (modal) damping takes the per-mode route; both are exact discretisations of the same
+    # system, so they agree to rounding (the per-mode exponentials are of 4x4 matrices, the augmented
+    # one of 3N x 3N: a few ulps times N).
+    from dynamics.chain import ChainModel
+    from dynamics.solvers.exact import _modal_foh, _van_loan, classical_modes
+
+    for n, k, zeta in ((2, 1e5, 0.02), (40, 9e7, 0.13), (12, 1e10, 0.05)):
+        system = ChainModel(n, 2.0, k, damping_ratio=zeta).system()
+        modes = classical_modes(system)
+        assert modes is not None
+        for h in (1e-5, 2.3e-4):
+            for a, b in zip(_van_loan(system, h), _modal_foh(*modes, h)):
+                assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max()
+
+
+def test_non_classical_damping_is_not_taken_for_classical():
+    from dynamics.mqp2012 import replica_system
+
+    system, _ = replica_system("al6061-t6", 30, 0.0)  # the script's asymmetric damping
+    from dynamics.solvers.exact import classical_modes
+
+    assert classical_modes(system) is None
