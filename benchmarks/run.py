@@ -29,6 +29,8 @@ def modules(prefix: str, only: str | None = None) -> list[Path]:
 def load(path: Path):
     spec = importlib.util.spec_from_file_location(f"benchmarks_{path.stem}", path)
     module = importlib.util.module_from_spec(spec)
+    # dataclasses look their module up in sys.modules while the module body runs
+    sys.modules[spec.name] = module
     spec.loader.exec_module(module)
     return module
 
