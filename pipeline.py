@@ -49,6 +49,7 @@ class RunConfig:
     samples_per_degree: int
     tolerance: float | None
     rpm_sweep: str | None
+    settling_band_m: float
 
 
 class Progress:
@@ -116,6 +117,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rpm-sweep", metavar="FROM:TO:STEP", default=None,
                    help="also sweep the cam speed (rev/min): residual vibration and peak acceleration at the "
                         "tight-side station per cam law, critical speeds marked (linear model, friction left out)")
+    p.add_argument("--settling-band", type=float, default=0.5, metavar="MM",
+                   help="band for the settling time after each index: |x - z| within it, in mm (default: %(default)s)")
     return p
 
 
@@ -150,6 +153,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
              f"--samples-per-degree: expected a whole number >= 1, got {args.samples_per_degree}")
     _require(args.tolerance is None or 0 < args.tolerance < 1,
              f"--tolerance: expected a relative tolerance in (0, 1), e.g. 0.01, got {args.tolerance}")
+    _require(args.settling_band > 0, f"--settling-band: expected a band > 0 mm, got {args.settling_band:g}")
     _check_solver(args.solver, args.friction)
     if args.rpm_sweep is not None:
         from dynamics.sweep import parse_rpm_range
@@ -188,6 +192,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         samples_per_degree=args.samples_per_degree,
         tolerance=args.tolerance,
         rpm_sweep=args.rpm_sweep,
+        settling_band_m=args.settling_band / 1000.0,
     )
 
 
@@ -334,6 +339,7 @@ class Scenario:
     tension: object  # dynamics.metrics.TensionExtremes
     samples_per_degree: int
     rel_error_estimate: dict | None  # {"time_step", "stiffness", "total"} when --tolerance is given
+    settling_time_s: "np.ndarray"  # per link, the longest settling into --settling-band over the dwells (NaN: never)
 
 
 def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> "np.ndarray":
@@ -362,7 +368,9 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
     import warnings
 
     from dynamics.cams import CamProgram
-    from dynamics.metrics import link_metrics, station_metrics, tension_extremes
+    import numpy as np
+
+    from dynamics.metrics import link_metrics, settling_times, station_metrics, tension_extremes
     from dynamics.reporting.history import CamHistory
     from dynamics.simulate import SlackChainWarning, simulate
 
@@ -374,8 +382,11 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
     history = CamHistory(material, cam_id, t, r.z_m, r.zdot_m_s, r.zddot_m_s2, r.x_m, r.v_m_s, r.a_m_s2,
                          r.tension_N, cam.dwell_mask(t))
     metrics = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, history.dwell_mask)
+    settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
+    # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
+    worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
     return Scenario(history, metrics, station_metrics(metrics), tension_extremes(r.tension_N),
-                    samples_per_degree, None)
+                    samples_per_degree, None, worst)
 
 
 def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, cam_id: str) -> Scenario:

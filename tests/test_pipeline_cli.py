@@ -56,6 +56,8 @@ def test_summary_has_the_documented_keys_in_si(default_run):
             assert set(cam["stations"]) == set(STATIONS)
             for station in cam["stations"].values():
                 assert all(k in station for k in STATION_KEYS)
+                assert station["settling_band_m"] == 0.0005
+                assert station["settling_time_s"] is None or 0 <= station["settling_time_s"] <= 0.042
             for k in PER_LINK_KEYS:
                 assert len(cam["per_link"][k]) == 12
             assert cam["peak_tension_N"] >= cam["min_tension_N"]
@@ -173,6 +175,7 @@ def existing_out(tmp_path) -> Path:
         (["--preset", "mqp2012", "--links", "5"], "--links"),
         (["--rpm-sweep", "300:60:1"], "--rpm-sweep"),
         (["--tolerance", "2"], "--tolerance"),
+        (["--settling-band", "0"], "--settling-band"),
     ],
 )
 def test_bad_input_is_one_line_exit_2_and_out_untouched(args, named, existing_out):

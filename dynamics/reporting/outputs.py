@@ -89,11 +89,17 @@ def _station_dict(station) -> dict:
     return {"link": station.link, **{k: getattr(station, k) for k in SUMMARY_STATION_KEYS}}
 
 
-def _scenario_summary(scenario, fea) -> dict:
+def _settling(value: float) -> float | None:
+    return None if np.isnan(value) else float(value)
+
+
+def _scenario_summary(scenario, fea, band_m: float) -> dict:
     tension = scenario.tension
     peak_stress = tension.peak_N * fea.peak_von_mises_away_from_clamp_Pa_per_N if fea is not None else None
     out = {
-        "stations": {name: _station_dict(s) for name, s in scenario.stations.items()},
+        "stations": {name: {**_station_dict(s), "settling_time_s": _settling(scenario.settling_time_s[s.link - 1]),
+                            "settling_band_m": band_m}
+                     for name, s in scenario.stations.items()},
         "per_link": {k: getattr(scenario.metrics, k).tolist() for k in PER_LINK_KEYS},
         "peak_tension_N": tension.peak_N,
         "min_tension_N": tension.min_N,
@@ -143,7 +149,7 @@ def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict)
                 "fea_mesh_size_m": r.mesh_size_m,
                 "fea_from_cache": r.cached,
                 "fea_warnings": r.warnings,
-                "cams": {cam: _scenario_summary(scenarios[name, cam], r) for cam in cfg.cams},
+                "cams": {cam: _scenario_summary(scenarios[name, cam], r, cfg.settling_band_m) for cam in cfg.cams},
             }
             for name, r in fea.items()
         },
@@ -230,6 +236,8 @@ def _material_plots(staged: StagedOutput, histories: list[CamHistory], links: di
     tight = links["tight-side"]
     figures = {
         "three links": plots.plot_three_links(histories, [1, links["idler-end"], n], staged.path(f"{m}_three_links.png")),
+        "middle link, all cams": plots.plot_three_links(histories, [links["idler-end"]],
+                                                         staged.path(f"{m}_link{links['idler-end']}_all_cams.png")),
         "vs input": plots.plot_link_vs_input(histories, tight, staged.path(f"{m}_link{tight}_vs_input.png")),
         "differences": plots.plot_differences(histories, tight, staged.path(f"{m}_link{tight}_differences.png")),
         "dwell": plots.plot_dwell_vibration(histories, tight, staged.path(f"{m}_link{tight}_dwell_vibration.png")),
@@ -249,15 +257,17 @@ def _fea_table(fea: dict, models: dict) -> Table:
                   "chain f1 (Hz)", "peak von Mises per kN (MPa)", "FEA DOFs", "from cache"), rows)
 
 
-def _station_table(scenarios: dict) -> Table:
+def _station_table(scenarios: dict, band_m: float) -> Table:
     rows = []
     for (material, cam), sc in scenarios.items():
         for station, s in sc.stations.items():
+            settle = sc.settling_time_s[s.link - 1]
             rows.append((material, cam, station, s.link, s.rms_acceleration_m_s2, s.max_abs_acceleration_m_s2,
-                         s.residual_vibration_m * 1e3, s.max_deviation_m * 1e3))
-    return Table("Accelerometer stations", ("material", "cam law", "station", "link", "RMS acceleration (m/s²)",
-                                            "max |acceleration| (m/s²)", "residual vibration (mm)",
-                                            "max |x − z| (mm)"), tuple(rows))
+                         s.residual_vibration_m * 1e3, s.max_deviation_m * 1e3,
+                         "not within the dwell" if np.isnan(settle) else settle * 1e3))
+    return Table(f"Accelerometer stations (settling: |x − z| within {band_m * 1e3:g} mm to the dwell's end)",
+                 ("material", "cam law", "station", "link", "RMS acceleration (m/s²)", "max |acceleration| (m/s²)",
+                  "residual vibration (mm)", "max |x − z| (mm)", "settling time (ms)"), tuple(rows))
 
 
 def _tension_table(summary_materials: dict) -> Table:
@@ -311,7 +321,7 @@ def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing:
         summary = default_summary(cfg, fea, models, scenarios, timing)
         ranking = _ranking_table(summary["ranking"]["by_material"])
         report_tables = dict(zip(("rms_table", "max_acceleration_table"), _tables(histories, at_link, tight, tight)))
-        tables = {**report_tables, "ranking": ranking, "stations": _station_table(scenarios),
+        tables = {**report_tables, "ranking": ranking, "stations": _station_table(scenarios, cfg.settling_band_m),
                   "tension": _tension_table(summary["materials"])}
         staged.write_text("tables.md", _write_tables(staged, tables))
         residual = {m: {c: scenarios[m, c].stations[RANKING_STATION].residual_vibration_m for c in cfg.cams}
