@@ -23,7 +23,7 @@ from .materials import Material
 from .problem import element
 from .richardson import extrapolate
 from .solvers import resolve
-from .study import DEFAULT_BORE_REFINEMENT, StiffnessEstimate
+from .study import DEFAULT_BORE_REFINEMENT, StiffnessEstimate, estimate_from_levels
 
 REFINEMENT_RATIO = 4 / 3
 # Start at the part's bounding-box diagonal / 14 (12 mm on the default link: about 11k P2 DOFs,
@@ -162,7 +162,8 @@ def stiffnesses_to_tolerance(
         if first[-1].dofs > max_dofs:
             raise FemError(_unreached(rel_tolerance, sizes, solutions, f"this level already has {first[-1].dofs} DOFs, above max_dofs = {max_dofs}"))
         h /= ratio
-    return {name: _estimate(sizes, sols, mesh_time / len(materials)) for name, sols in solutions.items()}
+    return {name: estimate_from_levels(sizes, sols, mesh_time / len(materials), fit_last=MIN_LEVELS)
+            for name, sols in solutions.items()}
 
 
 def _error(solutions: list[LinkSolution]) -> float | None:
@@ -179,24 +180,3 @@ def _unreached(rel_tolerance: float, sizes: list[float], solutions: dict[str, li
     return f"rel_tolerance={rel_tolerance:g} not reached: {why} ({reached}); expected a looser tolerance or a larger max_dofs"
 
 
-def _estimate(sizes: list[float], solutions: list[LinkSolution], mesh_time_s: float) -> StiffnessEstimate:
-    timing: dict[str, float] = {"mesh": mesh_time_s}
-    for solution in solutions:
-        for key, value in solution.timing_s.items():
-            timing[key] = timing.get(key, 0.0) + value
-    timing["total"] = sum(timing.values())
-    last = solutions[-MIN_LEVELS:]
-    k = [s.stiffness_N_per_m for s in last]
-    fit = extrapolate(k, [s.dofs for s in last])
-    return StiffnessEstimate(
-        stiffness_N_per_m=fit.extrapolated,
-        stiffness_rel_error_estimate=fit.rel_error_estimate,
-        stiffness_finest_N_per_m=k[-1],
-        finest_rel_error_estimate=fit.finest_rel_error_estimate,
-        convergence_rate=fit.rate,
-        observed_convergence_rate=fit.observed_rate,
-        monotone=fit.monotone,
-        levels=tuple((h, s.dofs, s.stiffness_N_per_m) for h, s in zip(sizes, solutions)),
-        finest=solutions[-1],
-        timing_s=timing,
-    )

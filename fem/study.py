@@ -118,17 +118,21 @@ def stiffness_studies(
                          f"{solution.dofs} DOFs, k = {solution.stiffness_N_per_m:.5g} N/m, "
                          f"{sum(solution.timing_s.values()):.1f} s")
     # Meshing is shared: each material's timing carries its share of it.
-    return {name: _estimate(sizes, sols, mesh_time / len(materials)) for name, sols in solutions.items()}
+    return {name: estimate_from_levels(sizes, sols, mesh_time / len(materials)) for name, sols in solutions.items()}
 
 
-def _estimate(sizes: Sequence[float], solutions: list[LinkSolution], mesh_time_s: float) -> StiffnessEstimate:
+def estimate_from_levels(sizes: Sequence[float], solutions: list[LinkSolution], mesh_time_s: float,
+                         fit_last: int | None = None) -> StiffnessEstimate:
+    """The estimate from solved levels (coarse to fine); k is extrapolated from the last `fit_last`
+    levels (all when None), every level is recorded."""
     timing: dict[str, float] = {"mesh": mesh_time_s}
     for solution in solutions:
         for key, value in solution.timing_s.items():
             timing[key] = timing.get(key, 0.0) + value
     timing["total"] = sum(timing.values())
-    k = [s.stiffness_N_per_m for s in solutions]
-    fit: Extrapolation = extrapolate(k, [s.dofs for s in solutions])
+    fitted = solutions if fit_last is None else solutions[-fit_last:]
+    k = [s.stiffness_N_per_m for s in fitted]
+    fit: Extrapolation = extrapolate(k, [s.dofs for s in fitted])
     return StiffnessEstimate(
         stiffness_N_per_m=fit.extrapolated,
         stiffness_rel_error_estimate=fit.rel_error_estimate,
