@@ -225,3 +225,4 @@ def test_non_classical_damping_is_not_taken_for_classical():
     from dynamics.solvers.exact import classical_modes
 
     assert classical_modes(system) is None
+

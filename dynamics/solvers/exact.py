@@ -41,21 +41,36 @@ _CACHE_SIZE = 32
 _cache: OrderedDict = OrderedDict()
 
 
-def foh_matrices(system: SecondOrderSystem, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Phi, G0, G1) with y_k+1 = Phi y_k + G0 f_k + G1 f_k+1 over a step h; cached."""
-    # the step is keyed to 12 significant digits: a period grid and an output grid with the same
-    # nominal step (differing in the last bits) share one exponential
-    key = (system.mass.tobytes(), system.damping.tobytes(), system.stiffness.tobytes(), float(f"{h:.12e}"))
+def _cached(key, compute):
     hit = _cache.get(key)
     if hit is not None:
         _cache.move_to_end(key)
         return hit
-    modes = classical_modes(system)
-    result = _van_loan(system, h) if modes is None else _modal_foh(*modes, h)
+    result = compute()
     _cache[key] = result
     if len(_cache) > _CACHE_SIZE:
         _cache.popitem(last=False)
     return result
+
+
+def _system_key(system: SecondOrderSystem) -> tuple:
+    return system.mass.tobytes(), system.damping.tobytes(), system.stiffness.tobytes()
+
+
+def system_modes(system: SecondOrderSystem):
+    """`classical_modes` of the system (None if not classical), cached per system."""
+    return _cached(("modes", *_system_key(system)), lambda: classical_modes(system))
+
+
+def foh_matrices(system: SecondOrderSystem, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(Phi, G0, G1) with y_k+1 = Phi y_k + G0 f_k + G1 f_k+1 over a step h; cached."""
+    # the step is keyed to 12 significant digits: a period grid and an output grid with the same
+    # nominal step (differing in the last bits) share one exponential
+    def compute():
+        modes = system_modes(system)
+        return _van_loan(system, h) if modes is None else _modal_foh(*modes, h)
+
+    return _cached(("foh", *_system_key(system), float(f"{h:.12e}")), compute)
 
 
 def _van_loan(system: SecondOrderSystem, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
