@@ -43,6 +43,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--solver", default="auto", help="linear solver: auto, pardiso, amg or spsolve (default: %(default)s)")
     parser.add_argument("--json", action="store_true", help="print one JSON object (SI units) instead of text")
     parser.add_argument("--image", metavar="PNG", help="write an off-screen picture of the deformed link to this .png")
+    parser.add_argument("--vtu", metavar="VTU", help="write the finest level's mesh with displacement (m) and von Mises stress (Pa) at --load, for ParaView")
     parser.add_argument("--scalar", choices=("von_mises", "displacement"), default="von_mises", help="colouring of --image (default: %(default)s)")
     return parser
 
@@ -114,6 +115,8 @@ def _text(r: dict) -> str:
     ]
     if "image" in r:
         lines.append(f"image           {r['image']} (deformation x{r['exaggeration']:g})")
+    if "vtu" in r:
+        lines.append(f"vtu             {r['vtu']} (displacement m, von Mises Pa)")
     return "\n".join(lines)
 
 
@@ -127,6 +130,8 @@ def run(argv: list[str] | None = None) -> dict:
         sizes = levels_for_finest(_positive(args.mesh_size, "--mesh-size") * 1e-3)
     if args.image is not None and Path(args.image).suffix.lower() != ".png":
         raise FemError(f"--image {args.image!r}: expected a .png path")
+    if args.vtu is not None and Path(args.vtu).suffix.lower() != ".vtu":
+        raise FemError(f"--vtu {args.vtu!r}: expected a .vtu path")
     estimate = stiffness_study(args.step, material, mesh_sizes_m=sizes, order=args.order, load_N=load_N, solver=args.solver)
     result = report(estimate)
     if args.image is not None:
@@ -138,6 +143,10 @@ def run(argv: list[str] | None = None) -> dict:
         )
         result["exaggeration"] = render_deformed(estimate.finest, args.image, scalar=args.scalar, title=title)
         result["image"] = str(args.image)
+    if args.vtu is not None:
+        from .export import write_solution_vtu
+
+        result["vtu"] = str(write_solution_vtu(estimate.finest, args.vtu))
     print(json.dumps(result, indent=2) if args.json else _text(result))
     return result
 

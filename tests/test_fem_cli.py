@@ -6,6 +6,7 @@ import sys
 from pathlib import Path
 
 import gmsh
+import meshio
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
@@ -82,8 +83,8 @@ def test_bad_option_is_one_line_error_exit_2(args, fragment):
 
 
 def test_json_report_and_image_on_a_coarse_default_link(tmp_path):
-    image = tmp_path / "link.png"
-    result = run_cli("--mesh-size", "9", "--json", "--image", image, "--material", "ti-grade2")
+    image, vtu = tmp_path / "link.png", tmp_path / "link.vtu"
+    result = run_cli("--mesh-size", "9", "--json", "--image", image, "--vtu", vtu, "--material", "ti-grade2")
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)  # stdout holds the JSON object only (no CAD-kernel banners)
     for key in (
@@ -96,6 +97,9 @@ def test_json_report_and_image_on_a_coarse_default_link(tmp_path):
     assert [level["mesh_size_m"] for level in report["levels"]] == pytest.approx([0.016, 0.012, 0.009])
     assert report["material"] == "ti-grade2"
     assert image.stat().st_size > 10_000
+    written = meshio.read(vtu)  # the finest level, curved P2 cells, fields at the 1 kN default load
+    assert written.cells[0].type == "tetra10"
+    assert {"displacement_m", "von_mises_Pa"} <= set(written.point_data)
 
 
 def test_text_report_names_the_quantities_and_units(tmp_path):
