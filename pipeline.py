@@ -53,6 +53,7 @@ class RunConfig:
     tolerance: float | None
     rpm_sweep: str | None
     settling_band_m: float
+    station: str | None
 
 
 class Progress:
@@ -120,7 +121,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "time step for it and reports the achieved error estimate (default: fixed settings)")
     p.add_argument("--rpm-sweep", metavar="FROM:TO:STEP", default=None,
                    help="also sweep the cam speed (rev/min): residual vibration and peak acceleration at the "
-                        "tight-side station per cam law, critical speeds marked (linear model, friction left out)")
+                        "tight-side station (or --station) per cam law, critical speeds marked (linear model, "
+                        "friction left out)")
+    p.add_argument("--station", choices=["drive-end", "tight-side", "idler-end", "slack-side"], default=None,
+                   help="answer for one accelerometer station only: keep only that link's history (default: every "
+                        "link, with tables and plots at the tight side)")
     p.add_argument("--settling-band", type=float, default=0.5, metavar="MM",
                    help="band for the settling time after each index: |x - z| within it, in mm (default: %(default)s)")
     return p
@@ -207,6 +212,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         tolerance=args.tolerance,
         rpm_sweep=args.rpm_sweep,
         settling_band_m=args.settling_band / 1000.0,
+        station=args.station,
     )
 
 
@@ -382,25 +388,32 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
     import warnings
 
     from dynamics.cams import CamProgram
+    from dataclasses import replace
+
     import numpy as np
 
-    from dynamics.metrics import link_metrics, settling_times, station_metrics, tension_extremes
+    from dynamics.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
     from dynamics.reporting.history import CamHistory
     from dynamics.simulate import SlackChainWarning, simulate
 
     t = output_times_s(cfg.rpm, samples_per_degree)
     cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
+    # a one-station question keeps one link's history (the spring tensions are kept whole: they are
+    # what the slack check and the stress need)
+    kept = None if cfg.station is None else (station_links(cfg.links)[cfg.station],)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SlackChainWarning)  # reported through the minimum tension
-        r = simulate(model, cam, t, method=cfg.solver, steady_state=cfg.steady_state)
+        r = simulate(model, cam, t, method=cfg.solver, steady_state=cfg.steady_state,
+                     links=None if kept is None else [link - 1 for link in kept])
     history = CamHistory(material, cam_id, t, r.z_m, r.zdot_m_s, r.zddot_m_s2, r.x_m, r.v_m_s, r.a_m_s2,
-                         r.tension_N, cam.dwell_mask(t))
+                         r.tension_N, cam.dwell_mask(t), kept)
     metrics = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, history.dwell_mask)
+    stations = (station_metrics(metrics) if kept is None
+                else {cfg.station: replace(metrics.at_link(1), link=kept[0])})
     settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
     # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
-    return Scenario(history, metrics, station_metrics(metrics), tension_extremes(r.tension_N),
-                    samples_per_degree, None, worst)
+    return Scenario(history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst)
 
 
 def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, cam_id: str) -> Scenario:
@@ -482,7 +495,7 @@ def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progre
     sweeps = {}
     for name, result in fea.items():
         model = replace(chain_model(cfg, result), friction_coefficient=0.0)
-        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m)
+        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.station or "tight-side")
         progress(f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws, "
                  f"{len(sweeps[name].critical_speeds)} critical speeds in range"
                  + (" (friction left out of the sweep)" if cfg.friction > 0 else ""))

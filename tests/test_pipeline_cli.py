@@ -251,3 +251,21 @@ def test_a_locking_prone_material_with_p1_is_warned_about_in_one_line(tmp_path):
     warning_lines = [line for line in r.stderr.splitlines() if "warning" in line]
     assert len(warning_lines) == 1 and "P1" in warning_lines[0] and "Traceback" not in r.stderr
     assert _summary(out)["materials"]["nearly-incompressible"]["fea_warnings"]
+
+
+def test_a_one_station_question_keeps_one_link_and_gives_the_same_numbers(default_run, cache_dir, tmp_path):
+    out = tmp_path / "station"
+    assert pipeline.main([*COARSE, "--no-images", "--station", "idler-end", "--out", str(out),
+                          "--cache-dir", str(cache_dir)]) == 0
+    one, full = _summary(out), _summary(default_run)
+    assert one["stations"] == {"idler-end": 6} and one["ranking"]["station"] == "idler-end"
+    for material, data in one["materials"].items():
+        for cam, result in data["cams"].items():
+            assert list(result["stations"]) == ["idler-end"]
+            assert all(len(values) == 1 for values in result["per_link"].values())
+            mine = result["stations"]["idler-end"]
+            everyone = full["materials"][material]["cams"][cam]["stations"]["idler-end"]
+            for key, value in everyone.items():
+                # Same solver, same grid: only the stored columns differ, so the numbers agree to rounding.
+                assert mine[key] == (value if value is None or isinstance(value, int) else pytest.approx(value, rel=1e-9))
+    assert not list(out.glob("*three_links.png"))

@@ -20,9 +20,10 @@ class CamHistory:
     x_m: np.ndarray
     v_m_s: np.ndarray
     a_m_s2: np.ndarray
-    tension_N: np.ndarray
+    tension_N: np.ndarray  # (n_times, n_springs), every spring of the chain
     dwell_mask: np.ndarray  # (n_times,) True inside dwells
+    links: tuple[int, ...] | None = None  # 1-based link of each column of x/v/a; None: every link in order
 
-    @property
-    def n_links(self) -> int:
-        return self.x_m.shape[1]
+    def column(self, link: int) -> int:
+        """Column of the 1-based `link` in x_m, v_m_s, a_m_s2."""
+        return link - 1 if self.links is None else self.links.index(link)

@@ -22,7 +22,7 @@ from dynamics.reporting.history import CamHistory
 from dynamics.reporting.tables import Table, max_acceleration_table, rms_table
 
 RANKING_METRIC = "residual_vibration_m"
-RANKING_STATION = "tight-side"
+DEFAULT_STATION = "tight-side"  # where tables, rankings and plots look unless --station says otherwise
 SUMMARY_STATION_KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2",
                         "max_abs_acceleration_m_s2", "max_deviation_m", "max_velocity_deviation_m_s",
                         "max_acceleration_deviation_m_s2", "residual_vibration_m")
@@ -93,11 +93,15 @@ def _settling(value: float) -> float | None:
     return None if np.isnan(value) else float(value)
 
 
+def _focus(cfg) -> str:
+    return cfg.station or DEFAULT_STATION
+
+
 def _scenario_summary(scenario, fea, band_m: float) -> dict:
     tension = scenario.tension
     peak_stress = tension.peak_N * fea.peak_von_mises_away_from_clamp_Pa_per_N if fea is not None else None
     out = {
-        "stations": {name: {**_station_dict(s), "settling_time_s": _settling(scenario.settling_time_s[s.link - 1]),
+        "stations": {name: {**_station_dict(s), "settling_time_s": _settling(scenario.settling_time_s[scenario.history.column(s.link)]),
                             "settling_band_m": band_m}
                      for name, s in scenario.stations.items()},
         "per_link": {k: getattr(scenario.metrics, k).tolist() for k in PER_LINK_KEYS},
@@ -114,11 +118,11 @@ def _scenario_summary(scenario, fea, band_m: float) -> dict:
     return out
 
 
-def _rankings(scenarios: dict, materials, cams) -> dict:
+def _rankings(scenarios: dict, materials, cams, station: str) -> dict:
     result = {}
     for material in materials:
         by_cam = {cam: scenarios[material, cam].stations for cam in cams}
-        result[material] = {metric: [list(cv) for cv in rank_cams(by_cam, metric, RANKING_STATION).order]
+        result[material] = {metric: [list(cv) for cv in rank_cams(by_cam, metric, station).order]
                             for metric in (RANKING_METRIC, "max_abs_acceleration_m_s2", "rms_acceleration_m_s2")}
     return result
 
@@ -133,7 +137,8 @@ def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict)
             "body_volume_m3": first.body_volume_m3,
             "bore_radius_m": first.bore_radius_m,
         },
-        "stations": station_links(cfg.links),
+        "stations": {name: link for name, link in station_links(cfg.links).items()
+                     if cfg.station is None or name == cfg.station},
         "cams": {cam: _input_rms(scenarios[first.material, cam].history) for cam in cfg.cams},
         "materials": {
             name: {
@@ -153,7 +158,7 @@ def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict)
             }
             for name, r in fea.items()
         },
-        "ranking": {"station": RANKING_STATION, "by_material": _rankings(scenarios, fea, cfg.cams)},
+        "ranking": {"station": _focus(cfg), "by_material": _rankings(scenarios, fea, cfg.cams, _focus(cfg))},
         "fidelity": _fidelity(cfg, fea, scenarios),
         "timing_s": timing,
     }
@@ -178,7 +183,7 @@ def _inputs(cfg) -> dict:
     return {
         "links": cfg.links, "rpm": cfg.rpm, "cams": list(cfg.cams), "materials": list(cfg.materials),
         "friction_coefficient": cfg.friction, "damping_ratio": cfg.damping, "preload_N": cfg.preload_N,
-        "solver": cfg.solver, "preset": cfg.preset, "steady_state": cfg.steady_state,
+        "solver": cfg.solver, "preset": cfg.preset, "steady_state": cfg.steady_state, "station": cfg.station,
         "samples_per_degree": cfg.samples_per_degree, "hardware_mass_kg": cfg.hardware_mass_kg,
         "nest_mass_kg": cfg.nest_mass_kg, "fea_order": cfg.order, "fea_mesh_size_m": cfg.mesh_size_m,
     }
@@ -214,12 +219,12 @@ def _link_rms(station) -> LinkRms:
                    station.max_abs_acceleration_m_s2)
 
 
-def _ranking_table(rankings: dict) -> Table:
+def _ranking_table(rankings: dict, station: str) -> Table:
     rows = []
     for material, by_metric in rankings.items():
         for rank, (cam, value) in enumerate(by_metric[RANKING_METRIC], start=1):
             rows.append((material, rank, cam, value * 1e3, dict(by_metric["max_abs_acceleration_m_s2"])[cam]))
-    return Table(f"Cam laws ranked by residual vibration in the dwell at the {RANKING_STATION} station (best first)",
+    return Table(f"Cam laws ranked by residual vibration in the dwell at the {station} station (best first)",
                  ("material", "rank", "cam law", "residual vibration (mm)", "max |acceleration| (m/s²)"), tuple(rows))
 
 
@@ -230,17 +235,21 @@ def _write_tables(staged: StagedOutput, tables: dict[str, Table]) -> str:
     return "\n".join(t.to_markdown() for t in tables.values())
 
 
-def _material_plots(staged: StagedOutput, histories: list[CamHistory], links: dict[str, int]) -> dict[str, Path]:
+def _material_plots(staged: StagedOutput, histories: list[CamHistory], links: dict[str, int],
+                    focus: int) -> dict[str, Path]:
+    """The report's figures; links = the stations whose histories exist, focus = the link they centre on."""
     m = histories[0].material
-    n = histories[0].n_links
-    tight = links["tight-side"]
-    figures = {
-        "three links": plots.plot_three_links(histories, [1, links["idler-end"], n], staged.path(f"{m}_three_links.png")),
-        "middle link, all cams": plots.plot_three_links(histories, [links["idler-end"]],
-                                                         staged.path(f"{m}_link{links['idler-end']}_all_cams.png")),
-        "vs input": plots.plot_link_vs_input(histories, tight, staged.path(f"{m}_link{tight}_vs_input.png")),
-        "differences": plots.plot_differences(histories, tight, staged.path(f"{m}_link{tight}_differences.png")),
-        "dwell": plots.plot_dwell_vibration(histories, tight, staged.path(f"{m}_link{tight}_dwell_vibration.png")),
+    figures = {}
+    if histories[0].links is None:
+        n = histories[0].x_m.shape[1]
+        figures["three links"] = plots.plot_three_links(histories, [1, links["idler-end"], n],
+                                                        staged.path(f"{m}_three_links.png"))
+        figures["middle link, all cams"] = plots.plot_three_links(
+            histories, [links["idler-end"]], staged.path(f"{m}_link{links['idler-end']}_all_cams.png"))
+    figures |= {
+        "vs input": plots.plot_link_vs_input(histories, focus, staged.path(f"{m}_link{focus}_vs_input.png")),
+        "differences": plots.plot_differences(histories, focus, staged.path(f"{m}_link{focus}_differences.png")),
+        "dwell": plots.plot_dwell_vibration(histories, focus, staged.path(f"{m}_link{focus}_dwell_vibration.png")),
     }
     if np.any(histories[0].tension_N):
         figures["tension"] = plots.plot_tension(histories, staged.path(f"{m}_tension.png"))
@@ -261,7 +270,7 @@ def _station_table(scenarios: dict, band_m: float) -> Table:
     rows = []
     for (material, cam), sc in scenarios.items():
         for station, s in sc.stations.items():
-            settle = sc.settling_time_s[s.link - 1]
+            settle = sc.settling_time_s[sc.history.column(s.link)]
             rows.append((material, cam, station, s.link, s.rms_acceleration_m_s2, s.max_abs_acceleration_m_s2,
                          s.residual_vibration_m * 1e3, s.max_deviation_m * 1e3,
                          "not within the dwell" if np.isnan(settle) else settle * 1e3))
@@ -315,19 +324,20 @@ def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing:
     with StagedOutput(cfg.out) as staged:
         progress("outputs: tables, plots and report")
         links = station_links(cfg.links)
-        tight = links["tight-side"]
+        focus = _focus(cfg)
+        focus_link = links[focus]
         histories = {key: sc.history for key, sc in scenarios.items()}
-        at_link = {key: _link_rms(sc.stations["tight-side"]) for key, sc in scenarios.items()}
+        at_link = {key: _link_rms(sc.stations[focus]) for key, sc in scenarios.items()}
         summary = default_summary(cfg, fea, models, scenarios, timing)
-        ranking = _ranking_table(summary["ranking"]["by_material"])
-        report_tables = dict(zip(("rms_table", "max_acceleration_table"), _tables(histories, at_link, tight, tight)))
+        ranking = _ranking_table(summary["ranking"]["by_material"], focus)
+        report_tables = dict(zip(("rms_table", "max_acceleration_table"),
+                                 _tables(histories, at_link, focus_link, focus_link)))
         tables = {**report_tables, "ranking": ranking, "stations": _station_table(scenarios, cfg.settling_band_m),
                   "tension": _tension_table(summary["materials"])}
         staged.write_text("tables.md", _write_tables(staged, tables))
-        residual = {m: {c: scenarios[m, c].stations[RANKING_STATION].residual_vibration_m for c in cfg.cams}
-                    for m in fea}
-        residual_png = plots.plot_residual_vibration(residual, RANKING_STATION, staged.path("residual_vibration.png"))
-        figures = {m: _material_plots(staged, [histories[m, c] for c in cfg.cams], links) for m in fea}
+        residual = {m: {c: scenarios[m, c].stations[focus].residual_vibration_m for c in cfg.cams} for m in fea}
+        residual_png = plots.plot_residual_vibration(residual, focus, staged.path("residual_vibration.png"))
+        figures = {m: _material_plots(staged, [histories[m, c] for c in cfg.cams], links, focus_link) for m in fea}
         images = {}
         for m, r in fea.items():
             if r.image is not None:
@@ -345,7 +355,7 @@ def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing:
         sections = _default_sections(cfg, summary, tables, fea, models, residual_png, figures, images)
         if sweeps:
             sections.insert(3, html.Section("Speed sweep", html.paragraph(
-                "Periodic steady state at the tight-side station versus cam speed, on the linear chain (friction "
+                f"Periodic steady state at the {focus} station versus cam speed, on the linear chain (friction "
                 "left out of the sweep); dashed lines: critical speeds, where a harmonic of the index frequency "
                 "meets a natural frequency of the chain.") + "".join(
                 html.image_html(p, f"{m}: speed sweep") for m, p in sweep_pngs.items())))
@@ -462,7 +472,7 @@ def write_replica_outputs(cfg, replicas: dict, timing: dict, progress) -> None:
         staged.write_text("tables.md", _write_tables(staged, tables))
         links = station_links(cfg.links)
         cams = list(first.cams)
-        figures = {m: _material_plots(staged, [histories[m, c] for c in cams], links) for m in replicas}
+        figures = {m: _material_plots(staged, [histories[m, c] for c in cams], links, link) for m in replicas}
         _close_timing(timing, progress)
         summary = replica_summary(cfg, replicas, timing)
         staged.write_text("summary.json", json.dumps(summary, indent=1))

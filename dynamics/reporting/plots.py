@@ -49,7 +49,7 @@ def plot_three_links(histories: list[CamHistory], links: list[int], path: Path) 
         for row, (label, link_value, _) in enumerate(QUANTITIES):
             ax = axes[row, col]
             for h in histories:
-                ax.plot(h.t_s, link_value(h)[:, link - 1], color=_colour(h.cam), lw=0.9, label=h.cam)
+                ax.plot(h.t_s, link_value(h)[:, h.column(link)], color=_colour(h.cam), lw=0.9, label=h.cam)
             ax.set_ylabel(label)
             ax.grid(alpha=0.3)
     for ax in axes[-1]:
@@ -67,7 +67,7 @@ def plot_link_vs_input(histories: list[CamHistory], link: int, path: Path) -> Pa
         for row, (label, link_value, input_value) in enumerate(QUANTITIES):
             ax = axes[row, col]
             ax.plot(h.t_s, input_value(h), color="0.4", lw=1.4, label="cam input")
-            ax.plot(h.t_s, link_value(h)[:, link - 1], color=_colour(h.cam), lw=0.9, label=f"link {link}")
+            ax.plot(h.t_s, link_value(h)[:, h.column(link)], color=_colour(h.cam), lw=0.9, label=f"link {link}")
             if col == 0:
                 ax.set_ylabel(label)
             ax.grid(alpha=0.3)
@@ -82,7 +82,7 @@ def plot_differences(histories: list[CamHistory], link: int, path: Path) -> Path
     fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
     for row, (label, link_value, input_value) in enumerate(QUANTITIES):
         for h in histories:
-            axes[row].plot(h.t_s, link_value(h)[:, link - 1] - input_value(h), color=_colour(h.cam),
+            axes[row].plot(h.t_s, link_value(h)[:, h.column(link)] - input_value(h), color=_colour(h.cam),
                            lw=0.9, label=h.cam)
         axes[row].set_ylabel(f"link − input\n{label}")
         axes[row].grid(alpha=0.3)
@@ -114,7 +114,7 @@ def plot_dwell_vibration(histories: list[CamHistory], link: int, path: Path) -> 
     """x - z during the dwells only, so the residual vibration is visible at its own scale."""
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for h in histories:
-        dev_mm = (h.x_m[:, link - 1] - h.z_m) * 1e3
+        dev_mm = (h.x_m[:, h.column(link)] - h.z_m) * 1e3
         ax.plot(h.t_s, np.where(h.dwell_mask, dev_mm, np.nan), color=_colour(h.cam), lw=0.9, label=h.cam)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("x − z in dwell (mm)")
@@ -128,7 +128,7 @@ def plot_tension(histories: list[CamHistory], path: Path) -> Path:
     """Peak and minimum tension of every link over the window, per cam law; zero line marks slack."""
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for h in histories:
-        links = np.arange(1, h.n_links + 1)
+        links = np.arange(1, h.tension_N.shape[1] + 1)
         ax.plot(links, h.tension_N.max(axis=0) / 1e3, color=_colour(h.cam), lw=1.0, label=f"{h.cam} max")
         ax.plot(links, h.tension_N.min(axis=0) / 1e3, color=_colour(h.cam), lw=1.0, ls="--")
     ax.axhline(0.0, color="k", lw=0.8)
