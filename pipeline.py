@@ -18,8 +18,8 @@ from pathlib import Path
 
 CAM_IDS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
 EXTRA_CAM_IDS = ("simple-harmonic",)  # accepted by name, not in 'all' (infinite jerk at the joints)
-# The default solver's propagator is dense in 2N states: memory ~N^2, time ~N^2.65 (4 s at N = 1000).
-MAX_LINKS = 2000
+# Chains above dynamics.reduction.DENSE_LINK_LIMIT links are solved in their lowest modes.
+MAX_LINKS = 10_000
 DEFAULT_MATERIALS = ("al6061-t6", "ti-grade2")
 
 
@@ -150,8 +150,8 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
     if unknown:
         raise InputError(f"--cams: unknown cam law {unknown[0]!r}; expected one of "
                          f"{', '.join(CAM_IDS + EXTRA_CAM_IDS)} or 'all'")
-    _require(2 <= args.links <= MAX_LINKS, f"--links: expected a whole number of links from 2 to {MAX_LINKS} "
-             f"(the dense exact solver's memory grows as N^2), got {args.links}")
+    _require(2 <= args.links <= MAX_LINKS, f"--links: expected a whole number of links from 2 to {MAX_LINKS}, "
+             f"got {args.links}")
     _require(args.rpm > 0, f"--rpm: expected a cam speed > 0 rev/min, got {args.rpm:g}")
     _require(0.0 <= args.friction <= 1.0, f"--friction: expected a coefficient in [0, 1], got {args.friction:g}")
     _require(0.0 <= args.damping < 1.0, f"--damping: expected a damping ratio in [0, 1), got {args.damping:g}")
@@ -393,6 +393,7 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
     import numpy as np
 
     from dynamics.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
+    from dynamics.reduction import modes_to_keep
     from dynamics.reporting.history import CamHistory
     from dynamics.simulate import SlackChainWarning, simulate
 
@@ -404,7 +405,8 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SlackChainWarning)  # reported through the minimum tension
         r = simulate(model, cam, t, method=cfg.solver, steady_state=cfg.steady_state,
-                     links=None if kept is None else [link - 1 for link in kept])
+                     links=None if kept is None else [link - 1 for link in kept],
+                     n_modes=modes_to_keep(cfg.links))
     history = CamHistory(material, cam_id, t, r.z_m, r.zdot_m_s, r.zddot_m_s2, r.x_m, r.v_m_s, r.a_m_s2,
                          r.tension_N, cam.dwell_mask(t), kept)
     metrics = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, history.dwell_mask)
@@ -442,6 +444,8 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
 
 def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress):
     """Simulate every material x cam law; returns the chain models and the scenarios."""
+    from dynamics.reduction import lowest_natural_frequencies_Hz, modes_to_keep
+
     models, scenarios = {}, {}
     for name, result in fea.items():
         models[name] = chain_model(cfg, result)
@@ -454,7 +458,8 @@ def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress
                 progress(f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
                          f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %")
         progress(f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
-                 f"f1 = {models[name].natural_frequencies_Hz()[0]:.1f} Hz")
+                 f"f1 = {lowest_natural_frequencies_Hz(models[name], 1)[0]:.1f} Hz"
+                 + ("" if modes_to_keep(cfg.links) is None else f", solved in its {modes_to_keep(cfg.links)} lowest modes"))
     return models, scenarios
 
 
@@ -489,13 +494,15 @@ def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progre
     """Speed sweep per material on the linear chain (the fast modal path cannot carry friction)."""
     from dataclasses import replace
 
+    from dynamics.reduction import modes_to_keep
     from dynamics.sweep import parse_rpm_range, rpm_sweep
 
     rpms = parse_rpm_range(cfg.rpm_sweep)
     sweeps = {}
     for name, result in fea.items():
         model = replace(chain_model(cfg, result), friction_coefficient=0.0)
-        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.station or "tight-side")
+        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.station or "tight-side",
+                                 n_modes=modes_to_keep(cfg.links))
         progress(f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws, "
                  f"{len(sweeps[name].critical_speeds)} critical speeds in range"
                  + (" (friction left out of the sweep)" if cfg.friction > 0 else ""))

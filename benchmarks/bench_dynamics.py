@@ -91,7 +91,32 @@ def run(quick: bool) -> list[str]:
     lines += _default_model_table(scenarios, n_slow)
     lines += _friction_table(scenarios[:1] if quick else scenarios[:2])
     lines += _steady_state_table(quick)
+    lines += _long_chain_table(quick)
     return lines
+
+
+def _long_chain_table(quick: bool) -> list[str]:
+    """The pipeline's path for long chains: simulate in the 400 lowest modes, periodic steady state."""
+    import warnings
+
+    from dynamics.cams import CamProgram
+    from dynamics.chain import ChainModel
+    from dynamics.reduction import MODES_FOR_LONG_CHAINS
+    from dynamics.simulate import SlackChainWarning, simulate
+
+    cam = CamProgram.indexing("modified-sine", rpm=RPM)
+    t = np.arange(721) / (4 * 6.0 * RPM)  # 180 deg at 4 samples per degree, as the pipeline
+    out = [f"\nLong chains: simulate(exact, steady state) in the {MODES_FOR_LONG_CHAINS} lowest modes, "
+           "721 samples, one cam"]
+    for n_links in (1000,) if quick else (1000, 3000, 10_000):
+        for mu in (0.0, 0.35):
+            model = ChainModel(n_links, 2.03, 92696969.7, friction_coefficient=mu)
+            start = time.perf_counter()
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", SlackChainWarning)
+                simulate(model, cam, t, n_modes=min(MODES_FOR_LONG_CHAINS, n_links))
+            out.append(f"N = {n_links:6d}, friction {mu:4.2f}: {time.perf_counter() - start:7.2f} s")
+    return out
 
 
 def _linear_table(scenarios, n_slow: int) -> list[str]:

@@ -31,10 +31,11 @@ import numpy as np
 from dynamics.chain import ChainModel
 from dynamics.errors import DynamicsError
 from dynamics.friction import CamFrameFriction
+from dynamics.reduction import ProjectedForce, modal_basis
 from dynamics.solvers import METHODS, solve_with_diagnostics
 from dynamics.solvers._common import serial_blas
 from dynamics.steady_state import periodic_initial_state
-from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.system import Response, SampledForce, SecondOrderSystem
 
 DEFAULT_METHOD = "exact"
 
@@ -76,14 +77,18 @@ def simulate(
     method: str = DEFAULT_METHOD,
     steady_state: bool = True,
     links=None,
+    n_modes: int | None = None,
     **options,
 ) -> ChainResponse:
-    """Motion of every link (or of `links`) and every spring tension at t_eval_s (s)."""
+    """Motion of every link (or of `links`) and every spring tension at t_eval_s (s).
+
+    `n_modes` solves in the chain's lowest n_modes modes (dynamics.reduction) instead of all N
+    link coordinates: for long chains, whose dense matrices would not fit."""
     with serial_blas():  # small dense matrices: a threaded BLAS only adds hand-off cost (see _common)
-        return _simulate(model, cam, t_eval_s, method, steady_state, links, options)
+        return _simulate(model, cam, t_eval_s, method, steady_state, links, n_modes, options)
 
 
-def _simulate(model, cam, t_eval_s, method, steady_state, links, options) -> ChainResponse:
+def _simulate(model, cam, t_eval_s, method, steady_state, links, n_modes, options) -> ChainResponse:
     t = np.asarray(t_eval_s, dtype=float)
     if t.ndim != 1 or t.size < 2 or np.any(np.diff(t) <= 0.0):
         raise DynamicsError("t_eval_s: expected at least two strictly increasing times")
@@ -97,32 +102,42 @@ def _simulate(model, cam, t_eval_s, method, steady_state, links, options) -> Cha
             f"method {method}: cannot model friction (friction_coefficient > 0); use one of {', '.join(capable)}"
         )
     selected = _links(links, model.n_links)
-    system = _system(model)
+    basis = None if n_modes is None else modal_basis(model, n_modes)
+    system = _system(model) if basis is None else basis.system
     s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
+
+    def excitation(zddot: np.ndarray) -> np.ndarray:
+        if basis is None:
+            return model.base_excitation_force(zddot)
+        return -np.outer(zddot, basis.participation)
 
     period_grid = _period_grid(cam, t) if steady_state else None
     t_table = t if period_grid is None else np.union1d(t, period_grid)
     zdot_table = np.asarray(cam.svaj(t_table)[1], dtype=float) if period_grid is not None else v
     opts = dict(options)
     if friction:
-        opts["time_dependent_force"] = CamFrameFriction(
-            model.coulomb_force_N, model.friction_velocity_scale_m_s, t_table, zdot_table
-        )
+        friction_force = CamFrameFriction(model.coulomb_force_N, model.friction_velocity_scale_m_s, t_table, zdot_table)
+        opts["time_dependent_force"] = (friction_force if basis is None
+                                        else ProjectedForce(friction_force, basis.shapes))
         if method == "exact":
             h = float(np.max(np.diff(t)))
             needed = int(np.ceil(h * model.friction_slope_per_s()))
             opts["substeps"] = max(int(opts.get("substeps", 1)), needed, 1)
 
-    force = SampledForce(t, model.base_excitation_force(a))
+    force = SampledForce(t, excitation(a))
     steady_info = None
     if steady_state:
         zdd_p = np.asarray(cam.svaj(period_grid)[2], dtype=float)
-        force_p = SampledForce(period_grid, model.base_excitation_force(zdd_p))
+        force_p = SampledForce(period_grid, excitation(zdd_p))
         y0, yd0, steady_info = periodic_initial_state(system, force_p, method=method, **opts)
     else:
-        y0 = np.zeros(model.n_links)
-        yd0 = -v[0] * np.ones(model.n_links)
+        y0 = np.zeros(system.n_dof)
+        # every link at the cam's speed: y' = -z'(0) 1, whose modal coordinates are -z'(0) shapes^T M 1
+        yd0 = -v[0] * (np.ones(model.n_links) if basis is None else basis.participation)
     resp, solver_info = solve_with_diagnostics(system, force, t, method=method, x0=y0, v0=yd0, **opts)
+    if basis is not None:
+        resp = Response(resp.t_s, resp.x @ basis.shapes.T, resp.v @ basis.shapes.T, resp.a @ basis.shapes.T,
+                        resp.method)
 
     tension = model.tension_N(resp.x)
     min_tension = float(tension.min())

@@ -269,3 +269,14 @@ def test_a_one_station_question_keeps_one_link_and_gives_the_same_numbers(defaul
                 # Same solver, same grid: only the stored columns differ, so the numbers agree to rounding.
                 assert mine[key] == (value if value is None or isinstance(value, int) else pytest.approx(value, rel=1e-9))
     assert not list(out.glob("*three_links.png"))
+
+
+def test_a_long_chain_is_solved_in_its_lowest_modes(cache_dir, tmp_path):
+    out = tmp_path / "long"
+    r = _cli(*COARSE, "--no-images", "--links", "1200", "--materials", "al6061-t6", "--cams", "modified-sine",
+             "--out", str(out), "--cache-dir", str(cache_dir))
+    assert r.returncode == 0, r.stderr
+    m = _summary(out)["materials"]["al6061-t6"]
+    assert len(m["natural_frequencies_Hz"]) == 10 and m["natural_frequencies_Hz"][0] > 0
+    assert len(m["cams"]["modified-sine"]["per_link"]["rms_acceleration_m_s2"]) == 1200
+    assert m["cams"]["modified-sine"]["stations"]["tight-side"]["link"] == 900

@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from dynamics.metrics import rank_cams, rms, station_links
+from dynamics.reduction import lowest_natural_frequencies_Hz
 from dynamics.reporting import html, plots
 from dynamics.reporting.history import CamHistory
 from dynamics.reporting.tables import Table, max_acceleration_table, rms_table
@@ -146,7 +147,7 @@ def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict)
                 "stiffness_rel_error_estimate": r.stiffness_rel_error_estimate,
                 "body_mass_kg": r.body_mass_kg,
                 "lumped_mass_kg": models[name].link_mass_kg,
-                "natural_frequencies_Hz": models[name].natural_frequencies_Hz()[:10].tolist(),
+                "natural_frequencies_Hz": lowest_natural_frequencies_Hz(models[name], 10).tolist(),
                 "peak_von_mises_Pa_per_N": r.peak_von_mises_Pa_per_N,
                 "peak_von_mises_away_from_clamp_Pa_per_N": r.peak_von_mises_away_from_clamp_Pa_per_N,
                 "yield_strength_Pa": r.yield_strength_Pa,
@@ -258,7 +259,7 @@ def _material_plots(staged: StagedOutput, histories: list[CamHistory], links: di
 
 def _fea_table(fea: dict, models: dict) -> Table:
     rows = tuple((name, r.stiffness_N_per_m, 100 * r.stiffness_rel_error_estimate, r.body_mass_kg,
-                  models[name].link_mass_kg, float(models[name].natural_frequencies_Hz()[0]),
+                  models[name].link_mass_kg, float(lowest_natural_frequencies_Hz(models[name], 1)[0]),
                   r.peak_von_mises_away_from_clamp_Pa_per_N * 1e3 / 1e6, r.dofs, "yes" if r.cached else "no")
                  for name, r in fea.items())
     return Table("Link stiffness and mass (FEA) and the chain they make",

@@ -1,0 +1,71 @@
+"""Truncated modal coordinates for long chains: y = shapes q with the r lowest modes.
+
+The chain's dense matrices grow as N^2 (N = 10,000 links: 800 MB each, and a dense eigensolve of
+minutes), so for long chains `simulate(..., n_modes=r)` solves the same model in its r lowest
+mass-normalised modes: M_r = I, C_r = diag(c_j), K_r = diag(w_j^2), modal forces shapes^T f. The
+modes come from a sparse eigensolve (`dynamics.sweep.chain_modes`), the damping is the model's
+modal damping, and friction is projected (shapes^T g(shapes q, shapes q')), so the same solvers and
+the same steady-state iteration run on an r-DOF system. Truncation converges in these relative
+coordinates (the cam's rigid motion is exact; the first mode carries ~82 % of the effective mass).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from dynamics.chain import ChainModel
+from dynamics.system import SecondOrderSystem
+
+
+@dataclass(frozen=True, eq=False)
+class ModalBasis:
+    shapes: np.ndarray  # (N, r) mass-normalised mode shapes
+    system: SecondOrderSystem  # the r-DOF modal system
+    participation: np.ndarray  # (r,) shapes^T M 1: the modal weight of the base excitation -M 1 z''
+
+
+def modal_basis(model: ChainModel, n_modes: int) -> ModalBasis:
+    from dynamics.sweep import chain_modes
+
+    # the modes of the linear chain; friction enters later as a projected force
+    modes = chain_modes(replace(model, friction_coefficient=0.0), n_modes)
+    system = SecondOrderSystem(np.eye(modes.n_modes), np.diag(modes.damping_1_s), np.diag(modes.omega_rad_s**2))
+    return ModalBasis(modes.shapes, system, modes.participation)
+
+
+class ProjectedForce:
+    """A force g(t, y, y') on the links, seen by the modal coordinates: shapes^T g(t, shapes q, shapes q')."""
+
+    def __init__(self, force, shapes: np.ndarray):
+        self.force = force
+        self.shapes = shapes
+
+    def __call__(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        return self.shapes.T @ self.force(t, self.shapes @ q, self.shapes @ qd)
+
+    def batch(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        return self.force.batch(t, q @ self.shapes.T, qd @ self.shapes.T) @ self.shapes
+
+
+# Above this many links the pipeline solves in the lowest MODES_FOR_LONG_CHAINS modes: the dense
+# path's cost grows as N^2.65 (4 s per scenario at N = 1000) and its memory as N^2. 400 modes put
+# the truncation error of a 10,000-link chain at 6e-6 (residual vibration) and 1e-4 (peak
+# acceleration) relative to 800 modes (benchmarks/chart_dynamics_cost.py).
+DENSE_LINK_LIMIT = 400
+MODES_FOR_LONG_CHAINS = 400
+
+
+def modes_to_keep(n_links: int) -> int | None:
+    """None (all link coordinates) for short chains, else the number of modes to solve in."""
+    return None if n_links <= DENSE_LINK_LIMIT else MODES_FOR_LONG_CHAINS
+
+
+def lowest_natural_frequencies_Hz(model: ChainModel, count: int) -> np.ndarray:
+    """The `count` lowest undamped natural frequencies, without a dense eigensolve for long chains."""
+    if model.n_links <= DENSE_LINK_LIMIT:
+        return model.natural_frequencies_Hz()[:count]
+    from dynamics.sweep import chain_modes
+
+    return chain_modes(replace(model, friction_coefficient=0.0), min(count, model.n_links)).natural_frequencies_Hz
