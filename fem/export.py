@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import meshio
 import numpy as np
+
+from geometry.atomic import atomic_target
 
 from .errors import FemError
 from .link import LinkSolution
@@ -31,7 +32,6 @@ def write_solution_vtu(solution: LinkSolution, path: str | Path) -> Path:
         field_data={"load_N": np.array([solution.load_N]), "stiffness_N_per_m": np.array([solution.stiffness_N_per_m])},
     )
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.vtu")
-    meshio.write(tmp, mesh, file_format="vtu")
-    os.replace(tmp, path)
+    with atomic_target(path) as tmp:
+        meshio.write(tmp, mesh, file_format="vtu")
     return path

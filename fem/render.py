@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from geometry.atomic import atomic_target
+
 from .errors import FemError
 from .link import LinkSolution
 
@@ -106,10 +108,9 @@ def render_deformed(
         plotter.add_mesh(undeformed.extract_feature_edges(30.0), color="black", line_width=1, opacity=0.5)
         plotter.add_text(title, position="upper_edge", font_size=11, color="black")
         plotter.view_isometric()
-        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp.png")
         path.parent.mkdir(parents=True, exist_ok=True)
-        plotter.screenshot(str(tmp))
+        with atomic_target(path) as tmp:
+            plotter.screenshot(str(tmp))
     finally:
         plotter.close()
-    os.replace(tmp, path)
     return factor

@@ -10,11 +10,11 @@ header's length unit then rewritten to metres.
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import gmsh
 
+from geometry.atomic import atomic_target
 from geometry.dimensions import LinkDimensions
 from geometry.errors import GeometryError
 from geometry.parametric import LinkFeatures, add_link
@@ -68,18 +68,13 @@ def write_model_step(path: str | os.PathLike, *, unit: str = "mm") -> Path:
     # The writer converts model units (the target unit) to millimetres; declaring the model in
     # millimetres writes its metre values unscaled, under a header then corrected to metres.
     gmsh.option.setString("Geometry.OCCTargetUnit", "MM" if unit == "m" else "M")
-    fd, tmp = tempfile.mkstemp(suffix=".step", dir=path.parent)
-    os.close(fd)
-    os.chmod(tmp, 0o644)  # mkstemp creates 0600; the result is an ordinary shared file
     try:
-        with quiet_stdout():
-            gmsh.write(tmp)
-        if unit == "m":
-            _declare_metres(Path(tmp))
-        os.replace(tmp, path)
+        with atomic_target(path) as tmp:
+            with quiet_stdout():
+                gmsh.write(str(tmp))
+            if unit == "m":
+                _declare_metres(tmp)
     finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
         gmsh.option.setString("Geometry.OCCTargetUnit", "M")
     return path
 

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import meshio
 import numpy as np
 
+from geometry.atomic import atomic_target
 from geometry.errors import GeometryError
 from geometry.link_mesh import LinkMesh
 
@@ -40,13 +40,6 @@ def write_vtu(
         point_data=point_data,
         cell_data={name: [a] for name, a in cell_data.items()},
     )
-    fd, tmp = tempfile.mkstemp(suffix=".vtu", dir=path.parent)
-    os.close(fd)
-    os.chmod(tmp, 0o644)  # mkstemp creates 0600; the result is an ordinary shared file
-    try:
+    with atomic_target(path) as tmp:
         meshio.write(tmp, out, file_format="vtu")
-        os.replace(tmp, path)
-    finally:
-        if os.path.exists(tmp):
-            os.remove(tmp)
     return path
