@@ -458,7 +458,7 @@ def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress
                 progress(f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
                          f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %")
         progress(f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
-                 f"f1 = {lowest_natural_frequencies_Hz(models[name], 1)[0]:.1f} Hz"
+                 f"f1 = {lowest_natural_frequencies_Hz(models[name], 10)[0]:.1f} Hz"
                  + ("" if modes_to_keep(cfg.links) is None else f", solved in its {modes_to_keep(cfg.links)} lowest modes"))
     return models, scenarios
 

@@ -259,7 +259,7 @@ def _material_plots(staged: StagedOutput, histories: list[CamHistory], links: di
 
 def _fea_table(fea: dict, models: dict) -> Table:
     rows = tuple((name, r.stiffness_N_per_m, 100 * r.stiffness_rel_error_estimate, r.body_mass_kg,
-                  models[name].link_mass_kg, float(lowest_natural_frequencies_Hz(models[name], 1)[0]),
+                  models[name].link_mass_kg, float(lowest_natural_frequencies_Hz(models[name], 10)[0]),
                   r.peak_von_mises_away_from_clamp_Pa_per_N * 1e3 / 1e6, r.dofs, "yes" if r.cached else "no")
                  for name, r in fea.items())
     return Table("Link stiffness and mass (FEA) and the chain they make",
