@@ -92,7 +92,40 @@ def run(quick: bool) -> list[str]:
     lines += _friction_table(scenarios[:1] if quick else scenarios[:2])
     lines += _steady_state_table(quick)
     lines += _long_chain_table(quick)
+    lines += _blas_threads_table()
     return lines
+
+
+def _blas_threads_table() -> list[str]:
+    """Why the solvers pin BLAS to one thread: the pipeline's 10 scenarios (N = 85, friction 0.35,
+    721 samples) with the solvers' own one-thread limit and with it lifted to all cores."""
+    import os
+    from contextlib import nullcontext
+    from unittest import mock
+
+    from threadpoolctl import threadpool_limits
+
+    t = np.arange(721) / (4 * 6.0 * RPM)
+    cams = [CamProgram.indexing(c, rpm=RPM) for c in CAMS]
+
+    def pass_s() -> float:
+        exact_solver._cache.clear()
+        start = time.perf_counter()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SlackChainWarning)
+            for stiffness, mass in MATERIALS.values():
+                model = ChainModel(N_LINKS, mass, stiffness, friction_coefficient=0.35)
+                for cam in cams:
+                    simulate(model, cam, t)
+        return time.perf_counter() - start
+
+    serial = min(pass_s() for _ in range(REPEATS))
+    # the runner pins BLAS to one thread for every measurement; lift that here and the solvers' own pin
+    with threadpool_limits(limits=os.cpu_count()), mock.patch("dynamics.simulate.serial_blas", nullcontext), \
+            mock.patch("dynamics.solvers.serial_blas", nullcontext):
+        threaded = min(pass_s() for _ in range(REPEATS))
+    return [f"\nBLAS threads, pipeline's 10 scenarios (N = {N_LINKS}, friction 0.35): one thread {serial:.3f} s, "
+            f"all cores {threaded:.3f} s ({threaded / serial:.2f}x)"]
 
 
 def _long_chain_table(quick: bool) -> list[str]:

@@ -226,8 +226,9 @@ def serial_blas():
     """Context limiting BLAS to one thread around the solvers' step loops.
 
     The loops make thousands of small matrix-vector products; a threaded BLAS hands each to its
-    threads, which on a busy 2-core machine made the 85-link friction run 8x slower (0.72 s vs
-    0.09 s per cam). Uses threadpoolctl when installed; otherwise does nothing.
+    threads, which on a 2-core machine busy with other jobs made the 85-link friction run 8x
+    slower (0.72 s vs 0.09 s per cam; on an idle machine the two are equal, see bench_dynamics).
+    Uses threadpoolctl when installed; otherwise does nothing.
     """
     global _controller
     if ThreadpoolController is None:
