@@ -208,13 +208,14 @@ def test_modal_construction_of_the_foh_matrices_equals_van_loan():
     # one of 3N x 3N: a few ulps times N).
     from dynamics.chain import ChainModel
     from dynamics.solvers.exact import _modal_foh, _van_loan, classical_modes
+    from dynamics.solvers.mode_scan import mode_steps
 
     for n, k, zeta in ((2, 1e5, 0.02), (40, 9e7, 0.13), (12, 1e10, 0.05)):
         system = ChainModel(n, 2.0, k, damping_ratio=zeta).system()
         modes = classical_modes(system)
         assert modes is not None
         for h in (1e-5, 2.3e-4):
-            for a, b in zip(_van_loan(system, h), _modal_foh(*modes, h)):
+            for a, b in zip(_van_loan(system, h), _modal_foh(modes, mode_steps(modes.omega2, modes.damping, h))):
                 assert np.abs(a - b).max() <= 1e-12 * np.abs(a).max()
 
 
