@@ -289,8 +289,10 @@ def _fea_record(name: str, material, study) -> dict:
     }
 
 
-def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress) -> dict:
-    """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance."""
+def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress,
+               solved_levels: dict | None) -> dict:
+    """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
+    (reusing the levels in `solved_levels`, see fem.adaptive)."""
     from fem import stiffness_studies
     from fem.adaptive import stiffnesses_to_tolerance
     from fem.study import levels_for_finest
@@ -302,10 +304,12 @@ def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | Non
         return stiffness_studies(cfg.geometry, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
     progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
              f"{100 * stiffness_tolerance:.2g} %")
-    return stiffnesses_to_tolerance(cfg.geometry, materials, stiffness_tolerance, order=cfg.order, progress=progress)
+    return stiffnesses_to_tolerance(cfg.geometry, materials, stiffness_tolerance, order=cfg.order, progress=progress,
+                                    solved=solved_levels)
 
 
-def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None) -> dict[str, MaterialFea]:
+def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None,
+            solved_levels: dict | None = None) -> dict[str, MaterialFea]:
     """Stiffness, mass and stress per material, from the cache when nothing they depend on changed."""
     import warnings
 
@@ -332,7 +336,7 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
     missing = [library[name] for name in cfg.materials if name not in out]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
-        studies = _solve_fea(cfg, missing, stiffness_tolerance, progress) if missing else {}
+        studies = _solve_fea(cfg, missing, stiffness_tolerance, progress, solved_levels) if missing else {}
     cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
     for message in cautions:
         print(f"pipeline.py: warning: {message}", file=sys.stderr)
@@ -523,7 +527,8 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict):
     half, the FEA is refined once more to the k accuracy that the measured sensitivity asks for."""
     budget = cfg.tolerance / 2
     stiffness_tolerance = budget
-    fea = _timed(timing, "fea", progress, run_fea, cfg, progress, stiffness_tolerance)
+    levels: dict = {}  # the refinement pass extends the first pass's levels instead of re-solving them
+    fea = _timed(timing, "fea", progress, run_fea, cfg, progress, stiffness_tolerance, levels)
     models, scenarios = _timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     from_k = max(sc.rel_error_estimate["stiffness"] for sc in scenarios.values())
     if from_k > budget:
@@ -531,7 +536,7 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict):
         stiffness_tolerance = 0.8 * worst_k_error * budget / from_k
         progress(f"a {100 * worst_k_error:.2g} % error in k moves the metrics by {100 * from_k:.2g} %: "
                  f"refining the FEA to {100 * stiffness_tolerance:.2g} %")
-        fea = _timed(timing, "fea", progress, run_fea, cfg, progress, stiffness_tolerance)
+        fea = _timed(timing, "fea", progress, run_fea, cfg, progress, stiffness_tolerance, levels)
         models, scenarios = _timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     return fea, models, scenarios
 

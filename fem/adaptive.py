@@ -8,6 +8,11 @@ the extrapolated k is <= the tolerance. Before meshing a level it predicts that 
 the growth between the last two; a level above `max_dofs` (or a mesh size geometry refuses) ends
 the refinement with a FemError that states the best estimate reached, so a caller never waits for
 a solve the machine cannot afford.
+
+A caller that may tighten the tolerance later (the pipeline does, once it has measured how much a
+k error moves the vibration metrics) passes the same `solved` dict to both calls: the levels are
+deterministic (same start, same ratio), so the second call reuses the first one's solutions and
+meshes and solves only the new, finer levels.
 """
 
 from __future__ import annotations
@@ -110,11 +115,14 @@ def stiffnesses_to_tolerance(
     bore_refinement: float = DEFAULT_BORE_REFINEMENT,
     max_dofs: int = DEFAULT_MAX_DOFS,
     ratio: float = REFINEMENT_RATIO,
+    solved: dict | None = None,
 ) -> dict[str, StiffnessEstimate]:
     """`stiffness_to_tolerance` for several materials (keyed by name), meshing each level once.
 
     Refinement goes on until every material's estimate meets the tolerance (Poisson's ratio
-    changes k(h) a little, so one material may need a level more than another).
+    changes k(h) a little, so one material may need a level more than another). `solved`, if given,
+    is read for level solutions already computed and receives the new ones (keyed by everything a
+    solution depends on, so a dict shared between different settings is still safe).
     """
     import geometry
 
@@ -125,7 +133,9 @@ def stiffnesses_to_tolerance(
     resolve(solver)
     mesh_order = 2 if (order == 2 and curved) else 1
     h = START_SIZE_FRACTION * bounding_diagonal_m(source) if start_mesh_size_m is None else float(start_mesh_size_m)
-    mesh_time = 0.0
+    mesh_time = 0.0  # of every level the estimates rest on, earlier passes' included
+    known = {} if solved is None else solved
+    settings = (str(source), order, solver, curved, load_N, bore_refinement)
     sizes: list[float] = []
     solutions: dict[str, list[LinkSolution]] = {m.name: [] for m in materials}
     first = solutions[materials[0].name]
@@ -135,15 +145,24 @@ def stiffnesses_to_tolerance(
             if predicted > max_dofs:
                 raise FemError(_unreached(rel_tolerance, sizes, solutions, f"the next level (h = {h * 1e3:.3g} mm) would have about {predicted:.3g} DOFs, above max_dofs = {max_dofs}"))
         level_start = time.perf_counter()
-        try:
-            link = geometry.load_link(source, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
-        except geometry.GeometryError as exc:
-            if not sizes:
-                raise
-            raise FemError(_unreached(rel_tolerance, sizes, solutions, f"geometry refused the next level: {exc}")) from None
-        mesh_time += time.perf_counter() - level_start
+        level = (*settings, f"{h:.12e}")
+        keys = {m.name: (*level, m) for m in materials}
+        if any(key not in known for key in keys.values()):
+            try:
+                link = geometry.load_link(source, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
+            except geometry.GeometryError as exc:
+                if not sizes:
+                    raise
+                raise FemError(_unreached(rel_tolerance, sizes, solutions, f"geometry refused the next level: {exc}")) from None
+            known[(*level, "mesh seconds")] = time.perf_counter() - level_start
+        mesh_time += known[(*level, "mesh seconds")]
+        reused = True
         for material in materials:
-            solution = analyse_link(link, material, order=order, load_N=load_N, solver=solver)
+            solution = known.get(keys[material.name])
+            if solution is None:
+                reused = False
+                solution = analyse_link(link, material, order=order, load_N=load_N, solver=solver)
+                known[keys[material.name]] = solution
             previous = solutions[material.name]
             if previous and solution.dofs <= previous[-1].dofs:
                 raise FemError(f"mesh_size_m={h:.4g}: refining gave {solution.dofs} DOFs, not more than {previous[-1].dofs}; the mesh does not follow the size")
@@ -155,7 +174,8 @@ def stiffnesses_to_tolerance(
             worst = None if None in errors.values() else max(errors.values())
             progress(
                 f"FEA level {len(sizes)}: h = {h * 1e3:.3g} mm, {first[-1].dofs} DOFs, k (N/m) {ks}, "
-                f"estimated error {'n/a (needs 3 levels)' if worst is None else f'{worst:.2e}'}, {time.perf_counter() - level_start:.1f} s"
+                f"estimated error {'n/a (needs 3 levels)' if worst is None else f'{worst:.2e}'}, "
+                + ("solved in an earlier pass" if reused else f"{time.perf_counter() - level_start:.1f} s")
             )
         if None not in errors.values() and max(errors.values()) <= rel_tolerance:
             break

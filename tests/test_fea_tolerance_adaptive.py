@@ -14,27 +14,44 @@ TITANIUM = fem.get_material("ti-grade2")
 START_M = 0.012  # the default start on the default link; fixed here so the level sizes are known
 
 
+SOLVES: list[int] = []  # DOFs of every analyse_link call made by the fixture's runs, in order
+
+
 @pytest.fixture(scope="module")
 def coarse_and_tighter():
-    """Runs on the default link: loose (5 %, aluminium and titanium on shared meshes) and tighter (2 %)."""
+    """Runs on the default link: loose (5 %, aluminium and titanium on shared meshes), then tighter
+    (2 %, aluminium) sharing the loose run's solved levels."""
+    import fem.adaptive
+
+    def counted(link, material, **kwargs):
+        solution = fem.analyse_link(link, material, **kwargs)
+        SOLVES.append(solution.dofs)
+        return solution
+
     lines_loose: list[str] = []
-    both = stiffnesses_to_tolerance(None, [ALUMINIUM, TITANIUM], 0.05, start_mesh_size_m=START_M, progress=lines_loose.append)
-    tighter = stiffness_to_tolerance(None, ALUMINIUM, 0.02, start_mesh_size_m=START_M)
-    return both[ALUMINIUM.name], tighter, lines_loose, both[TITANIUM.name]
+    solved: dict = {}
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(fem.adaptive, "analyse_link", counted)
+        both = stiffnesses_to_tolerance(None, [ALUMINIUM, TITANIUM], 0.05, start_mesh_size_m=START_M,
+                                        progress=lines_loose.append, solved=solved)
+        tighter = stiffness_to_tolerance(None, ALUMINIUM, 0.02, start_mesh_size_m=START_M)
+        SOLVES.append(-1)  # marks where the run sharing the loose run's levels starts
+        reused = stiffnesses_to_tolerance(None, [ALUMINIUM], 0.02, start_mesh_size_m=START_M, solved=solved)
+    return both[ALUMINIUM.name], tighter, lines_loose, both[TITANIUM.name], reused[ALUMINIUM.name]
 
 
 def test_estimate_meets_the_tolerance(coarse_and_tighter):
-    loose, tighter, _, titanium = coarse_and_tighter
+    loose, tighter, _, titanium, _ = coarse_and_tighter
     assert loose.stiffness_rel_error_estimate <= 0.05
     assert titanium.stiffness_rel_error_estimate <= 0.05
     assert tighter.stiffness_rel_error_estimate <= 0.02
 
 
 def test_tighter_tolerance_needs_more_levels_each_one_solve(coarse_and_tighter):
-    loose, tighter, lines, _ = coarse_and_tighter
+    loose, tighter, lines, _, _ = coarse_and_tighter
     assert len(tighter.levels) > len(loose.levels) >= 3
-    # The levels of the loose run are reused, not re-solved: the tighter run extends the same
-    # sequence (same sizes, same meshes, so the same k to solver round-off).
+    # The tighter run walks the same sequence (same sizes, same meshes, so the same k to solver
+    # round-off), which is what lets a later pass reuse an earlier one's levels.
     for a, b in zip(loose.levels, tighter.levels):
         assert a[0] == pytest.approx(b[0], rel=1e-12)
         assert a[1] == b[1]
@@ -46,8 +63,19 @@ def test_tighter_tolerance_needs_more_levels_each_one_solve(coarse_and_tighter):
     assert all("DOFs" in line and f"{ALUMINIUM.name} " in line and f"{TITANIUM.name} " in line for line in lines)
 
 
+def test_a_later_pass_solves_only_the_new_levels(coarse_and_tighter):
+    loose, tighter, _, _, reused = coarse_and_tighter
+    shared_run = SOLVES[SOLVES.index(-1) + 1 :]
+    # only the levels finer than the loose run's, each once, and the same answer as a fresh run
+    assert shared_run == [dofs for _, dofs, _ in tighter.levels[len(loose.levels) :]]
+    assert [level[:2] for level in reused.levels] == [level[:2] for level in tighter.levels]
+    # same meshes, so the same k up to direct-solver round-off (as between the loose and tight runs)
+    assert reused.stiffness_N_per_m == pytest.approx(tighter.stiffness_N_per_m, rel=1e-9)
+    assert reused.stiffness_rel_error_estimate == pytest.approx(tighter.stiffness_rel_error_estimate, rel=1e-6)
+
+
 def test_extrapolation_uses_the_last_three_levels(coarse_and_tighter):
-    _, tighter, _, _ = coarse_and_tighter
+    _, tighter, _, _, _ = coarse_and_tighter
     last = tighter.levels[-3:]
     fit = extrapolate([k for _, _, k in last], [dofs for _, dofs, _ in last])
     assert tighter.stiffness_N_per_m == fit.extrapolated
@@ -57,7 +85,7 @@ def test_extrapolation_uses_the_last_three_levels(coarse_and_tighter):
 
 
 def test_materials_share_the_meshes(coarse_and_tighter):
-    aluminium, _, _, titanium = coarse_and_tighter
+    aluminium, _, _, titanium, _ = coarse_and_tighter
     assert [level[:2] for level in aluminium.levels] == [level[:2] for level in titanium.levels]
     # Titanium is stiffer (E 105 vs 69 GPa); k is not exactly proportional to E (nu differs).
     assert titanium.stiffness_N_per_m > aluminium.stiffness_N_per_m
