@@ -10,19 +10,14 @@ from dynamics.solvers import solve, solve_with_diagnostics
 from dynamics.solvers.central_difference import stability_limit
 from dynamics.system import SampledForce, SecondOrderSystem
 
+from test_solvers_exact import ring
+
 CASES = [(2, 1e5, 0.02), (8, 1e8, 0.13), (20, 1e10, 0.05)]
 
 
 def driven_ring(n, k, m, zeta):
     """Ring of n masses, link 0 grounded by a drive spring k, modal damping zeta on every mode."""
-    kk = np.zeros((n, n))
-    for i in range(n):
-        j = (i + 1) % n
-        kk[i, i] += k
-        kk[j, j] += k
-        kk[i, j] -= k
-        kk[j, i] -= k
-    kk[0, 0] += k
+    kk = ring(n, k, m, drive_k=k)
     mm = m * np.eye(n)
     lam, phi = eigh(kk, mm)
     omega = np.sqrt(lam)

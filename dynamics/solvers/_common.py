@@ -157,7 +157,7 @@ def accelerations(problem: Problem, x: np.ndarray, v: np.ndarray) -> np.ndarray:
     rhs = force_at(problem.force, problem.t_eval_s) - v @ sys.damping.T - x @ sys.stiffness.T
     if problem.extra_force is not None:
         rhs += problem.extra_force.batch(problem.t_eval_s, x, v)
-    if np.count_nonzero(sys.mass - np.diag(np.diag(sys.mass))) == 0:
+    if _is_diagonal(sys.mass):
         return rhs / np.diag(sys.mass)
     return np.linalg.solve(sys.mass, rhs.T).T
 
@@ -184,8 +184,12 @@ def divergence_bounds(problem: Problem) -> tuple[float, float]:
     return DIVERGENCE_FACTOR * max(x_scale, tiny), DIVERGENCE_FACTOR * max(v_scale, tiny)
 
 
+def _is_diagonal(matrix: np.ndarray) -> bool:
+    return np.count_nonzero(matrix - np.diag(np.diag(matrix))) == 0
+
+
 def _smallest_mass(mass: np.ndarray) -> float:
-    if np.count_nonzero(mass - np.diag(np.diag(mass))) == 0:
+    if _is_diagonal(mass):
         return float(np.min(np.diag(mass)))
     return float(np.min(np.linalg.eigvalsh(0.5 * (mass + mass.T))))
 
@@ -193,7 +197,7 @@ def _smallest_mass(mass: np.ndarray) -> float:
 def frequency_bound(system: SecondOrderSystem) -> float:
     """Upper bound on the largest natural frequency: Gershgorin on M^-1 K (no eigensolve)."""
     mass = system.mass
-    if np.count_nonzero(mass - np.diag(np.diag(mass))) == 0:
+    if _is_diagonal(mass):
         m_inv_k = system.stiffness / np.diag(mass)[:, None]
     else:
         m_inv_k = np.linalg.solve(mass, system.stiffness)

@@ -13,9 +13,9 @@ easy as 1e5. When the damping is classical (Phi_m^T C Phi_m diagonal in the mass
 Phi_m, as for the default chain's modal damping) the same matrices are built mode by mode: one
 symmetric eigensolve and N 4x4 exponentials instead of one (3N)x(3N) exponential, about 10x
 cheaper at N = 85 (2 ms against 17-24 ms on one BLAS thread; equal to rounding, tested), and a
-linear run on a uniform grid is stepped in those modes by blocks (dynamics.solvers.mode_scan), not
-step by step: 180 steps of the 85-link chain in 0.25-0.9 ms instead of 1.2 ms (the upper figure
-when its ~1 MB of temporaries has to be faulted in again, as inside the solver). Other systems (the
+linear run on a uniform grid is stepped in those modes by blocks (dynamics.solvers.mode_scan), so
+the dense matrices are never built (180 steps of the 85-link chain: 0.55 ms against 0.84 ms for the
+dense loop in bench_dynamics, a ratio that moves with page faults; see the README). Other systems (the
 report replica's asymmetric damping) take the augmented-matrix route and the step loop. The
 matrices are cached per system and step, so a speed sweep or a set of cams on one chain computes
 them once.
@@ -161,12 +161,14 @@ def _steps(grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def propagate(system, grid: np.ndarray, forces: np.ndarray, y0: np.ndarray, extra=None) -> np.ndarray:
     """States on `grid` from y0 under FOH forces sampled on the grid; extra(t, x, v) optional."""
     reps, which = _steps(grid)
+    n = system.n_dof
     if extra is None and reps.size == 1:
         modes = system_modes(system)
         if modes is not None:
-            return _propagate_in_modes(system, modes, reps[0], forces, y0)
+            s0 = np.stack([modes.to_modal @ y0[:n], modes.to_modal @ y0[n:]], axis=1)
+            s = modal_states(system, modes, (reps, which), forces @ modes.shapes, s0)
+            return np.hstack([s[:, :, 0] @ modes.shapes.T, s[:, :, 1] @ modes.shapes.T])
     mats = [foh_matrices(system, h) for h in reps]
-    n = system.n_dof
     y = np.empty((grid.size, 2 * n))
     y[0] = y0
     lin = np.empty((grid.size - 1, 2 * n))  # G0 f_k + G1 f_k+1, all steps at once
@@ -199,20 +201,26 @@ def propagate(system, grid: np.ndarray, forces: np.ndarray, y0: np.ndarray, extr
 
 def mode_stepping(system: SecondOrderSystem, modes: ClassicalModes, h: float, n_steps: int):
     """(ModeSteps, BlockKernel) of every mode for n_steps steps of length h; cached."""
-    steps = _mode_steps(system, modes, h)
     length = mode_scan.block_length(n_steps)
-    kernel = _cached(("block kernel", *_system_key(system), _step_key(h), length),
-                     lambda: mode_scan.block_kernel(steps.e, length))
-    return steps, kernel
+
+    def compute():
+        steps = _mode_steps(system, modes, h)
+        return steps, mode_scan.block_kernel(steps.e, length)
+
+    return _cached(("mode stepping", *_system_key(system), _step_key(h), length), compute)
 
 
-def _propagate_in_modes(system, modes: ClassicalModes, h: float, forces: np.ndarray, y0: np.ndarray) -> np.ndarray:
-    """The linear recurrence on a uniform grid, in the modes and by blocks (mode_scan)."""
-    n = system.n_dof
-    steps, kernel = mode_stepping(system, modes, h, forces.shape[0] - 1)
-    s0 = np.stack([modes.to_modal @ y0[:n], modes.to_modal @ y0[n:]], axis=1)
-    s = mode_scan.propagate_modes(steps, kernel, forces @ modes.shapes, s0)
-    return np.hstack([s[:, :, 0] @ modes.shapes.T, s[:, :, 1] @ modes.shapes.T])
+def modal_states(system, modes: ClassicalModes, grid_steps, p: np.ndarray, s0: np.ndarray) -> np.ndarray:
+    """States (T, r, 2) of the r = p.shape[1] lowest modes from s0 (r, 2) under modal forces p
+    (T, r), on a grid whose steps are `grid_steps` = `_steps(grid)`: by blocks when they are all
+    equal (mode_scan), step by step otherwise."""
+    r = p.shape[1]
+    reps, which = grid_steps
+    if reps.size == 1:
+        steps, kernel = mode_stepping(system, modes, reps[0], p.shape[0] - 1)
+        return mode_scan.propagate_modes(steps.lowest(r), kernel.lowest(r), p, s0)
+    steps = [_mode_steps(system, modes, h).lowest(r) for h in reps]
+    return mode_scan.propagate_modes_stepwise(steps, which, p, s0)
 
 
 def solve(problem: Problem, *, substeps: int = 1) -> tuple[np.ndarray, np.ndarray, dict]:

@@ -16,9 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from dynamics.errors import DynamicsError
-from dynamics.solvers import mode_scan
 from dynamics.solvers._common import Problem, check_finite, divergence_bounds, force_at
-from dynamics.solvers.exact import _mode_steps, _steps, integration_grid, mode_stepping, system_modes
+from dynamics.solvers.exact import _steps, integration_grid, modal_states, system_modes
 
 OPTIONS = {"n_modes": "number of lowest modes kept (default: all)"}
 
@@ -38,13 +37,7 @@ def solve(problem: Problem, *, n_modes: int | None = None) -> tuple[np.ndarray, 
     grid, out = integration_grid(problem.t_eval_s, problem.force.t_s, 1)
     p = force_at(problem.force, grid) @ shapes  # modal forces (steps, r)
     s0 = np.stack([modes.to_modal[:r] @ problem.x0, modes.to_modal[:r] @ problem.v0], axis=1)
-    reps, which = _steps(grid)
-    if reps.size == 1:
-        steps, kernel = mode_stepping(system, modes, reps[0], grid.size - 1)
-        s = mode_scan.propagate_modes(steps.lowest(r), kernel.lowest(r), p, s0)
-    else:
-        steps = [_mode_steps(system, modes, h).lowest(r) for h in reps]
-        s = mode_scan.propagate_modes_stepwise(steps, which, p, s0)
+    s = modal_states(system, modes, _steps(grid), p, s0)
     x = s[out, :, 0] @ shapes.T
     v = s[out, :, 1] @ shapes.T
     check_finite("modal", problem.t_eval_s, x, v, divergence_bounds(problem), f"{r} modes")

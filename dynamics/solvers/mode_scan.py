@@ -13,7 +13,7 @@ and mode at once; only the block starts are chained in a Python loop (T / L iter
 T). The terms are those of the step-by-step recurrence, regrouped, so the two agree to rounding
 (tested), at any damping: rigid, critically damped and overdamped modes need no special case
 because nothing is diagonalised. Used by the exact solver on classically damped systems and by
-the modal solver; a step loop over N = 85 modes is overhead-bound (a few microseconds per step).
+the modal solver.
 """
 
 from __future__ import annotations
@@ -59,18 +59,19 @@ def block_length(n_steps: int) -> int:
 
 @dataclass(frozen=True)
 class BlockKernel:
-    """Powers E^0..E^L of every mode and the block-Toeplitz kernel built from E^0..E^(L-1)."""
+    """[T | S] per mode: T (2L x 2L) the lower block-triangular Toeplitz matrix of E^0..E^(L-1),
+    which maps a block's inputs to its states from rest, and S (2L x 2) = E^1..E^L stacked, which
+    maps the block's start state to them. Its last two rows give the block's end state; their last
+    two columns are E^L."""
 
-    powers: np.ndarray  # (L + 1, r, 2, 2)
-    toeplitz: np.ndarray  # (r, 2L, 2L), lower block-triangular
-    full: np.ndarray  # (r, 2L, 2L + 2): the Toeplitz part, then E^1..E^L (the start state's response)
+    matrix: np.ndarray  # (r, 2L, 2L + 2)
 
     @property
     def length(self) -> int:
-        return self.powers.shape[0] - 1
+        return self.matrix.shape[1] // 2
 
     def lowest(self, r: int) -> "BlockKernel":
-        return BlockKernel(self.powers[:, :r], self.toeplitz[:r], self.full[:r])
+        return BlockKernel(self.matrix[:r])
 
 
 def block_kernel(e: np.ndarray, length: int) -> BlockKernel:
@@ -84,7 +85,7 @@ def block_kernel(e: np.ndarray, length: int) -> BlockKernel:
     # (r, i, j, a, b) -> (r, 2i + a, 2j + b)
     toeplitz = blocks.transpose(0, 1, 3, 2, 4).reshape(r, 2 * length, 2 * length)
     after_start = powers[1:].transpose(1, 0, 2, 3).reshape(r, 2 * length, 2)
-    return BlockKernel(powers, toeplitz, np.concatenate([toeplitz, after_start], axis=2))
+    return BlockKernel(np.concatenate([toeplitz, after_start], axis=2))
 
 
 def propagate_modes(steps: ModeSteps, kernel: BlockKernel, p: np.ndarray, s0: np.ndarray) -> np.ndarray:
@@ -101,14 +102,14 @@ def propagate_modes(steps: ModeSteps, kernel: BlockKernel, p: np.ndarray, s0: np
     nxt = padded[1:].reshape(n_blocks, length, r).transpose(2, 1, 0)
     for a in (0, 1):
         cols[:, a : 2 * length : 2] = steps.g0[:, a, None, None] * now + steps.g1[:, a, None, None] * nxt
-    ends = kernel.toeplitz[:, -2:] @ cols[:, : 2 * length]  # each block's end state from rest
+    ends = kernel.matrix[:, -2:, : 2 * length] @ cols[:, : 2 * length]  # each block's end state from rest
     starts = cols[:, 2 * length :]
     starts[:, :, 0] = s0
-    last = kernel.powers[length]
+    last = kernel.matrix[:, -2:, 2 * length :]  # E^L
     for b in range(1, n_blocks):
         prev = starts[:, :, b - 1]
         starts[:, :, b] = ends[:, :, b - 1] + last[:, :, 0] * prev[:, :1] + last[:, :, 1] * prev[:, 1:]
-    states = kernel.full @ cols  # (r, 2L, n_blocks)
+    states = kernel.matrix @ cols  # (r, 2L, n_blocks)
     out = np.empty((n_steps + 1, r, 2))
     out[0] = s0
     out[1:] = states.reshape(r, length, 2, n_blocks).transpose(3, 1, 0, 2).reshape(-1, r, 2)[:n_steps]
