@@ -89,6 +89,7 @@ def run(quick: bool) -> list[str]:
     scenarios, n_slow = _scenarios(quick)
     lines += _linear_table(scenarios, n_slow)
     lines += _default_model_table(scenarios, n_slow)
+    lines += _stepping_table()
     lines += _friction_table(scenarios[:1] if quick else scenarios[:2])
     lines += _steady_state_table(quick)
     lines += _long_chain_table(quick)
@@ -245,6 +246,66 @@ def _default_model_table(scenarios, n_slow: int) -> list[str]:
         f"{'exact, amortised over scenarios':34s} {amortised * 1e3:11.2f} ms {max(errs):14.3g} "
         f"{rep_t / amortised:18.1f}x",
         "(errors in metres against exact with 4 sub-steps)",
+    ]
+
+
+def _median_s(run, repeats: int = 200) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        run()
+        times.append(time.perf_counter() - start)
+    return float(np.median(times))
+
+
+def _stepping_table() -> list[str]:
+    """Where a from-rest window on the default chain spends its time: the per-material set-up, the
+    modal block stepping against the dense step loop it replaced (same 180 steps, same forces), the
+    whole warm solve, and the page faults of one warm solve (its temporaries, handed back to the OS
+    by malloc between calls, fault in again)."""
+    import resource
+
+    from dynamics.cams import mqp2012_program
+    from dynamics.solvers._common import force_at
+
+    stiffness, mass = MATERIALS["al6061-t6"]
+    model = ChainModel(N_LINKS, mass, stiffness, damping_ratio=0.13, preload_N=0.0)
+    t = np.arange(181) * ((60.0 / RPM) / 360.0)
+    case = (model.system(), SampledForce(t, model.base_excitation_force(mqp2012_program(CAMS[0], RPM).svaj(t)[2])), t)
+    system, force, _ = case
+    forces = force_at(force, t)
+    y0 = np.zeros(2 * N_LINKS)
+    h = t[1] - t[0]
+
+    def set_up():
+        exact_solver._cache.clear()
+        exact_solver.mode_stepping(system, exact_solver.system_modes(system), h, t.size - 1)
+
+    set_up_s = _median_s(set_up, 20)
+    phi, g0, g1 = exact_solver.foh_matrices(system, h)
+    phi_t = phi.T.copy()
+
+    def dense_loop():
+        y = np.empty((t.size, 2 * N_LINKS))
+        y[0] = y0
+        lin = forces[:-1] @ g0.T + forces[1:] @ g1.T
+        for k in range(t.size - 1):
+            y[k + 1] = y[k] @ phi_t + lin[k]
+
+    blocks_s = _median_s(lambda: exact_solver.propagate(system, t, forces, y0))
+    dense_s = _median_s(dense_loop)
+    solve_s = _median_s(lambda: _solve(case, "exact"))
+    faults_before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    for _ in range(100):
+        _solve(case, "exact")
+    faults = (resource.getrusage(resource.RUSAGE_SELF).ru_minflt - faults_before) / 100
+    return [
+        "\nWhere one from-rest window of the default chain (85 links, 180 steps) spends its time (medians)",
+        f"{'set-up per material (modes, step matrices, kernel)':52s} {set_up_s * 1e3:7.2f} ms",
+        f"{'stepping: modal blocks (mode_scan)':52s} {blocks_s * 1e3:7.2f} ms",
+        f"{'stepping: dense 170 x 170 step loop':52s} {dense_s * 1e3:7.2f} ms",
+        f"{'whole warm solve (checks, forces, accelerations)':52s} {solve_s * 1e3:7.2f} ms",
+        f"{'page faults per warm solve':52s} {faults:7.0f}",
     ]
 
 
