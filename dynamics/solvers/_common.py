@@ -140,13 +140,17 @@ def force_at(force: SampledForce, t: np.ndarray) -> np.ndarray:
 def state_matrices(system: SecondOrderSystem) -> tuple[np.ndarray, np.ndarray]:
     """A and B of y' = A y + B f with y = [x; v]."""
     n = system.n_dof
-    m_inv_k = np.linalg.solve(system.mass, system.stiffness)
-    m_inv_c = np.linalg.solve(system.mass, system.damping)
     a = np.zeros((2 * n, 2 * n))
     a[:n, n:] = np.eye(n)
-    a[n:, :n] = -m_inv_k
-    a[n:, n:] = -m_inv_c
     b = np.zeros((2 * n, n))
+    if is_diagonal(system.mass):
+        m_inv = 1.0 / np.diag(system.mass)
+        a[n:, :n] = -m_inv[:, None] * system.stiffness
+        a[n:, n:] = -m_inv[:, None] * system.damping
+        b[n:, :] = np.diag(m_inv)
+        return a, b
+    a[n:, :n] = -np.linalg.solve(system.mass, system.stiffness)
+    a[n:, n:] = -np.linalg.solve(system.mass, system.damping)
     b[n:, :] = np.linalg.inv(system.mass)
     return a, b
 
@@ -157,7 +161,7 @@ def accelerations(problem: Problem, x: np.ndarray, v: np.ndarray) -> np.ndarray:
     rhs = force_at(problem.force, problem.t_eval_s) - v @ sys.damping.T - x @ sys.stiffness.T
     if problem.extra_force is not None:
         rhs += problem.extra_force.batch(problem.t_eval_s, x, v)
-    if _is_diagonal(sys.mass):
+    if is_diagonal(sys.mass):
         return rhs / np.diag(sys.mass)
     return np.linalg.solve(sys.mass, rhs.T).T
 
@@ -184,12 +188,12 @@ def divergence_bounds(problem: Problem) -> tuple[float, float]:
     return DIVERGENCE_FACTOR * max(x_scale, tiny), DIVERGENCE_FACTOR * max(v_scale, tiny)
 
 
-def _is_diagonal(matrix: np.ndarray) -> bool:
+def is_diagonal(matrix: np.ndarray) -> bool:
     return np.count_nonzero(matrix - np.diag(np.diag(matrix))) == 0
 
 
 def _smallest_mass(mass: np.ndarray) -> float:
-    if _is_diagonal(mass):
+    if is_diagonal(mass):
         return float(np.min(np.diag(mass)))
     return float(np.min(np.linalg.eigvalsh(0.5 * (mass + mass.T))))
 
@@ -197,7 +201,7 @@ def _smallest_mass(mass: np.ndarray) -> float:
 def frequency_bound(system: SecondOrderSystem) -> float:
     """Upper bound on the largest natural frequency: Gershgorin on M^-1 K (no eigensolve)."""
     mass = system.mass
-    if _is_diagonal(mass):
+    if is_diagonal(mass):
         m_inv_k = system.stiffness / np.diag(mass)[:, None]
     else:
         m_inv_k = np.linalg.solve(mass, system.stiffness)

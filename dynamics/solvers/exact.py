@@ -11,14 +11,15 @@ where Phi, P and Q are blocks of one matrix exponential (Van Loan's augmented ma
 This is exact (to rounding) for any stiffness: there is no stability limit, so k = 1e10 N/m is as
 easy as 1e5. When the damping is classical (Phi_m^T C Phi_m diagonal in the mass-normalised modes
 Phi_m, as for the default chain's modal damping) the same matrices are built mode by mode: one
-symmetric eigensolve and N 4x4 exponentials instead of one (3N)x(3N) exponential, about 10x
-cheaper at N = 85 (2 ms against 17-24 ms on one BLAS thread; equal to rounding, tested), and a
-linear run on a uniform grid is stepped in those modes by blocks (dynamics.solvers.mode_scan), so
-the dense matrices are never built (180 steps of the 85-link chain: 0.55 ms against 0.84 ms for the
-dense loop in bench_dynamics, a ratio that moves with page faults; see the README). Other systems (the
-report replica's asymmetric damping) take the augmented-matrix route and the step loop. The
-matrices are cached per system and step, so a speed sweep or a set of cams on one chain computes
-them once.
+symmetric eigensolve and N 4x4 exponentials (one vectorised Pade approximant, expm_stack) instead
+of one (3N)x(3N) exponential (set-up per material at N = 85: 0.97 ms in bench_dynamics; equal to
+rounding, tested), and a linear run on a uniform grid is stepped in those modes by blocks
+(dynamics.solvers.mode_scan), so the dense matrices are never built (180 steps of the 85-link
+chain: 0.55 ms against 0.87 ms for the dense loop in bench_dynamics, a ratio that moves with page
+faults; see the README). Other systems (the report replica's asymmetric damping) take the
+augmented-matrix route and the step loop; for a linear run its B keeps only the DOFs the force
+acts on. The matrices are cached per system and step, so a speed sweep or a set of cams on one
+chain computes them once.
 
 Nonlinear forces g(t, x, v) (friction) are handled by a documented splitting: the linear part stays
 exact, g enters as an extra first-order-hold force whose end-of-step value comes from a predictor
@@ -33,11 +34,13 @@ from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import eigh, expm
+from scipy.linalg import eigh
 
 from dynamics.errors import DynamicsError
 from dynamics.solvers import mode_scan
-from dynamics.solvers._common import Problem, check_finite, divergence_bounds, force_at, state_matrices
+from dynamics.solvers.expm_stack import expm_stack
+from dynamics.solvers._common import (Problem, check_finite, divergence_bounds, force_at, frequency_bound,
+                                      is_diagonal, state_matrices)
 from dynamics.system import SecondOrderSystem
 
 OPTIONS = {
@@ -46,11 +49,12 @@ OPTIONS = {
 
 _CACHE_SIZE = 32
 _cache: OrderedDict = OrderedDict()
+_MISSING = object()
 
 
 def _cached(key, compute):
-    hit = _cache.get(key)
-    if hit is not None:
+    hit = _cache.get(key, _MISSING)
+    if hit is not _MISSING:  # None is a result too (a system without classical modes)
         _cache.move_to_end(key)
         return hit
     result = compute()
@@ -75,27 +79,43 @@ def _step_key(h: float) -> float:
     return float(f"{h:.12e}")
 
 
-def foh_matrices(system: SecondOrderSystem, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(Phi, G0, G1) with y_k+1 = Phi y_k + G0 f_k + G1 f_k+1 over a step h; cached."""
+def foh_matrices(system: SecondOrderSystem, h: float, inputs: tuple[int, ...] | None = None):
+    """(Phi, G0, G1) with y_k+1 = Phi y_k + G0 f_k + G1 f_k+1 over a step h; cached. With `inputs`
+    (DOF indices) G0 and G1 keep only those DOFs' columns: y_k+1 = Phi y_k + G0 f_k[inputs] + ..."""
     def compute():
         modes = system_modes(system)
         if modes is None:
-            return _van_loan(system, h)
+            return _van_loan(system, h, inputs)
+        if inputs is not None:  # every column costs the same mode by mode: slice the full set
+            phi, g0, g1 = foh_matrices(system, h)
+            return phi, g0[:, list(inputs)], g1[:, list(inputs)]
         return _modal_foh(modes, _mode_steps(system, modes, h))
 
-    return _cached(("foh", *_system_key(system), _step_key(h)), compute)
+    return _cached(("foh", *_system_key(system), _step_key(h), inputs), compute)
 
 
-def _van_loan(system: SecondOrderSystem, h: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _van_loan(system: SecondOrderSystem, h: float, inputs: tuple[int, ...] | None = None):
+    """The augmented exponential over the columns of B for `inputs` only (all when None): a force on
+    3 of 85 DOFs (the report's model) needs a 176-square exponential instead of a 255-square one.
+    Positions are scaled by a bound on the highest frequency first, which balances the blocks of A
+    (||A h|| falls from 1e5 to 20 on the report's model) and spares the exponential a dozen
+    squarings; the result is scaled back."""
     a, b = state_matrices(system)
-    n2, n = b.shape
-    aug = np.zeros((n2 + 2 * n, n2 + 2 * n))
-    aug[:n2, :n2] = a * h
-    aug[:n2, n2 : n2 + n] = b * h
-    aug[n2 : n2 + n, n2 + n :] = np.eye(n)
-    e = expm(aug)
-    q = e[:n2, n2 + n :]
-    return e[:n2, :n2], e[:n2, n2 : n2 + n] - q, q
+    if inputs is not None:
+        b = b[:, list(inputs)]
+    n2, n_in = b.shape
+    n = n2 // 2
+    scale = np.ones(n2)
+    scale[:n] = max(frequency_bound(system), np.finfo(float).tiny)
+    aug = np.zeros((n2 + 2 * n_in, n2 + 2 * n_in))
+    aug[:n2, :n2] = (scale[:, None] * h) * a / scale[None, :]
+    aug[:n2, n2 : n2 + n_in] = (scale[:, None] * h) * b
+    aug[n2 : n2 + n_in, n2 + n_in :] = np.eye(n_in)
+    e = expm_stack(aug)
+    phi = e[:n2, :n2] / scale[:, None] * scale[None, :]
+    p = e[:n2, n2 : n2 + n_in] / scale[:, None]
+    q = e[:n2, n2 + n_in :] / scale[:, None]
+    return phi, p - q, q
 
 
 @dataclass(frozen=True)
@@ -112,15 +132,25 @@ def classical_modes(system: SecondOrderSystem, rtol: float = 1e-10) -> Classical
     """The modes when M, C, K are symmetric and C is diagonal in the mass-normalised modes of (K, M);
     None otherwise."""
     m, c, k = system.mass, system.damping, system.stiffness
-    if not all(np.allclose(a, a.T, rtol=0, atol=rtol * np.abs(a).max(initial=1e-300)) for a in (m, c, k)):
+    if not all(np.abs(a - a.T).max() <= rtol * np.abs(a).max(initial=1e-300) for a in (m, c, k)):
         return None
-    omega2, shapes = eigh(k, m)
+    omega2, shapes = _mass_normalised_modes(k, m)
     modal_c = shapes.T @ c @ shapes
     diag = np.diag(modal_c).copy()
     off = modal_c - np.diag(diag)
     if np.abs(off).max(initial=0.0) > rtol * max(np.abs(diag).max(initial=0.0), 1e-300):
         return None
-    return ClassicalModes(shapes, omega2, diag, np.linalg.inv(shapes))
+    return ClassicalModes(shapes, omega2, diag, shapes.T @ m)  # shapes^T M shapes = I
+
+
+def _mass_normalised_modes(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenpairs of (K, M) with shapes^T M shapes = I; a diagonal M (every lumped chain) takes the
+    standard symmetric eigensolver on M^-1/2 K M^-1/2, a third cheaper than the generalised one."""
+    if not is_diagonal(m):
+        return eigh(k, m)
+    d = 1.0 / np.sqrt(np.diag(m))
+    omega2, v = np.linalg.eigh(d[:, None] * k * d[None, :])
+    return omega2, d[:, None] * v
 
 
 def _mode_steps(system: SecondOrderSystem, modes: ClassicalModes, h: float) -> mode_scan.ModeSteps:
@@ -168,7 +198,10 @@ def propagate(system, grid: np.ndarray, forces: np.ndarray, y0: np.ndarray, extr
             s0 = np.stack([modes.to_modal @ y0[:n], modes.to_modal @ y0[n:]], axis=1)
             s = modal_states(system, modes, (reps, which), forces @ modes.shapes, s0)
             return np.hstack([s[:, :, 0] @ modes.shapes.T, s[:, :, 1] @ modes.shapes.T])
-    mats = [foh_matrices(system, h) for h in reps]
+    inputs = _force_support(forces) if extra is None else None
+    if inputs is not None:
+        forces = forces[:, list(inputs)]
+    mats = [foh_matrices(system, h, inputs) for h in reps]
     y = np.empty((grid.size, 2 * n))
     y[0] = y0
     lin = np.empty((grid.size - 1, 2 * n))  # G0 f_k + G1 f_k+1, all steps at once
@@ -197,6 +230,12 @@ def propagate(system, grid: np.ndarray, forces: np.ndarray, y0: np.ndarray, extr
         state[: 2 * n] = u
         state[2 * n :] = extra(grid[k + 1], u[:n], u[n:])
     return y  # a runaway turns into inf/nan, which propagates to the end and is caught there
+
+
+def _force_support(forces: np.ndarray) -> tuple[int, ...] | None:
+    """The DOFs a force history ever acts on; None when that is every DOF."""
+    support = np.flatnonzero(np.any(forces != 0.0, axis=0))
+    return None if support.size == forces.shape[1] else tuple(int(i) for i in support)
 
 
 def mode_stepping(system: SecondOrderSystem, modes: ClassicalModes, h: float, n_steps: int):
