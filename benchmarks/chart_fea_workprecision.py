@@ -151,12 +151,7 @@ def plot_work_precision(m: Measurements, path: Path) -> list[str]:
     ax.set_ylim(bottom=1e-4)
     walls = [p.wall_s for pts in m.curves.values() for p in pts] + [adaptive_wall_s(e) for e in m.adaptive.values()]
     ax.set_xlim(0.8 * min(walls), 4 * max(walls))  # room for the annotations on the right
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    return lines + [f"wrote {path}"]
+    return lines + [_finish(fig, ax, path)]
 
 
 def plot_cost_growth(m: Measurements, path: Path) -> list[str]:
@@ -173,12 +168,16 @@ def plot_cost_growth(m: Measurements, path: Path) -> list[str]:
     ax.set_xlabel("FEA degrees of freedom (curved P2)")
     ax.set_ylabel("wall time (s), 2 cores")
     ax.set_title("FEA cost growth on the default link: meshing (gmsh HXT), assembly (scikit-fem blocks), solve (PARDISO)", fontsize=9)
+    return lines + [_finish(fig, ax, path)]
+
+
+def _finish(fig, ax, path: Path) -> str:
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
-    return lines + [f"wrote {path}"]
+    return f"wrote {path}"
 
 
 def make(out_dir: Path, quick: bool) -> list[str]:
