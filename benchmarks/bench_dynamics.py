@@ -279,7 +279,7 @@ def _stepping_table() -> list[str]:
 
     def set_up():
         exact_solver._cache.clear()
-        exact_solver.mode_stepping(system, exact_solver.system_modes(system), h, t.size - 1)
+        exact_solver.mode_stepping(exact_solver.system_modes(system), h, t.size - 1)
 
     set_up_s = _median_s(set_up, 20)
     phi, g0, g1 = exact_solver.foh_matrices(system, h)

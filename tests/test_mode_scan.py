@@ -33,11 +33,11 @@ DAMPING = np.array([0.0, 0.0, 2 * 0.05 * 300.0, 2 * 1.0 * 2e3, 2 * 3.0 * 5e3, 2 
 
 def stepwise(steps, p, s0, which=None):
     """The recurrence one step at a time; step k uses steps[which[k]] when steps is a list."""
-    out = np.empty((p.shape[0], p.shape[1], 2))
+    out = np.empty((p.shape[0], 2, p.shape[1]))
     out[0] = s0
     for k in range(p.shape[0] - 1):
         st = steps if which is None else steps[which[k]]
-        out[k + 1] = np.einsum("rij,rj->ri", st.e, out[k]) + p[k, :, None] * st.g0 + p[k + 1, :, None] * st.g1
+        out[k + 1] = np.einsum("rij,jr->ir", st.e, out[k]) + p[k] * st.g0.T + p[k + 1] * st.g1.T
     return out
 
 
@@ -46,7 +46,7 @@ def test_blocks_equal_the_step_by_step_recurrence(n_steps):
     rng = np.random.default_rng(n_steps)
     steps = mode_steps(OMEGA2, DAMPING, H)
     p = rng.normal(size=(n_steps + 1, OMEGA2.size))
-    s0 = rng.normal(size=(OMEGA2.size, 2))
+    s0 = rng.normal(size=(2, OMEGA2.size))
     ref = stepwise(steps, p, s0)
     got = propagate_modes(steps, block_kernel(steps.e, block_length(n_steps)), p, s0)
     assert got.shape == ref.shape
@@ -57,7 +57,7 @@ def test_any_block_length_gives_the_same_states():
     rng = np.random.default_rng(5)
     steps = mode_steps(OMEGA2, DAMPING, H)
     p = rng.normal(size=(50, OMEGA2.size))
-    s0 = rng.normal(size=(OMEGA2.size, 2))
+    s0 = rng.normal(size=(2, OMEGA2.size))
     ref = stepwise(steps, p, s0)
     for length in (1, 2, 7, 49, 64):
         got = propagate_modes(steps, block_kernel(steps.e, length), p, s0)
@@ -75,7 +75,7 @@ def test_stepwise_variant_on_an_uneven_grid():
     steps = [mode_steps(OMEGA2, DAMPING, h) for h in (H, 0.4 * H)]
     which = rng.integers(0, 2, 40)
     p = rng.normal(size=(41, OMEGA2.size))
-    s0 = rng.normal(size=(OMEGA2.size, 2))
+    s0 = rng.normal(size=(2, OMEGA2.size))
     ref = stepwise(steps, p, s0, which)
     got = propagate_modes_stepwise(steps, which, p, s0)
     assert np.abs(got - ref).max() <= 1e-13 * np.abs(ref).max()

@@ -7,6 +7,8 @@ nonlinear force, and its options. One module per method; all are unit-agnostic.
 
 Every method returns displacement and velocity at `t_eval_s`; the acceleration is evaluated from the
 equation of motion there (force, nonlinear force and state), so all methods report it the same way.
+A method's `run(problem)` returns (x, v, a, diagnostics) with a None unless the method has the
+equation of motion's acceleration on hand more cheaply (the exact method in modal coordinates).
 A solution that becomes non-finite or runs away raises SolverDivergedError naming the method and
 its step; an integrator that cannot finish raises SolverFailedError. Numbers are never returned
 from a failed run.
@@ -132,6 +134,7 @@ def solve_with_diagnostics(
     # runaway values are caught and reported; the step loops run on one BLAS thread (serial_blas)
     with np.errstate(over="ignore", invalid="ignore"), serial_blas():
         problem = make_problem(system, force, t_eval_s, x0, v0, timed)
-        x, v, diagnostics = info.run(problem, **options)
-        a = accelerations(problem, x, v)
+        x, v, a, diagnostics = info.run(problem, **options)
+        if a is None:
+            a = accelerations(problem, x, v)
     return Response(problem.t_eval_s, x, v, a, method), diagnostics

@@ -52,10 +52,16 @@ def check_system(system: SecondOrderSystem) -> None:
             raise DynamicsError(f"system.{name}: expected a square (n, n) array, got shape {mat.shape}")
         if not np.all(np.isfinite(mat)):
             raise DynamicsError(f"system.{name}: expected finite entries")
-    try:
-        np.linalg.cholesky(0.5 * (system.mass + system.mass.T))
-    except np.linalg.LinAlgError:
-        raise DynamicsError("system.mass: expected a symmetric positive-definite matrix") from None
+    if is_diagonal(system.mass):
+        positive = bool(np.all(np.diag(system.mass) > 0.0))
+    else:
+        try:
+            np.linalg.cholesky(0.5 * (system.mass + system.mass.T))
+            positive = True
+        except np.linalg.LinAlgError:
+            positive = False
+    if not positive:
+        raise DynamicsError("system.mass: expected a symmetric positive-definite matrix")
 
 
 def make_problem(
@@ -130,8 +136,13 @@ def _combined_force(system: SecondOrderSystem, timed: TimedForce | None):
 
 
 def force_at(force: SampledForce, t: np.ndarray) -> np.ndarray:
-    """Vectorised SampledForce.at: first-order hold inside, linear extrapolation outside."""
+    """Vectorised SampledForce.at: first-order hold inside, linear extrapolation outside. At the
+    force's own sample times (the usual case) these are its values: returned as a read-only view."""
     t = np.atleast_1d(np.asarray(t, dtype=float))
+    if t.shape == force.t_s.shape and np.array_equal(t, force.t_s):
+        values = force.values.view()
+        values.flags.writeable = False
+        return values
     i = np.clip(np.searchsorted(force.t_s, t, side="right") - 1, 0, len(force.t_s) - 2)
     w = (t - force.t_s[i]) / (force.t_s[i + 1] - force.t_s[i])
     return (1.0 - w)[:, None] * force.values[i] + w[:, None] * force.values[i + 1]
@@ -189,7 +200,7 @@ def divergence_bounds(problem: Problem) -> tuple[float, float]:
 
 
 def is_diagonal(matrix: np.ndarray) -> bool:
-    return np.count_nonzero(matrix - np.diag(np.diag(matrix))) == 0
+    return np.count_nonzero(matrix) == np.count_nonzero(np.diagonal(matrix))
 
 
 def _smallest_mass(mass: np.ndarray) -> float:
@@ -221,6 +232,8 @@ def max_frequency(system: SecondOrderSystem) -> float:
 def check_finite(method: str, t: np.ndarray, x: np.ndarray, v: np.ndarray, bounds, step: str) -> None:
     """Raise SolverDivergedError at the first non-finite or runaway sample."""
     x_bound, v_bound = bounds
+    if np.abs(x).max() <= x_bound and np.abs(v).max() <= v_bound:  # False for nan: then find where
+        return
     bad = ~np.isfinite(x).all(axis=1) | ~np.isfinite(v).all(axis=1)
     bad |= (np.abs(x) > x_bound).any(axis=1) | (np.abs(v) > v_bound).any(axis=1)
     if bad.any():

@@ -29,7 +29,7 @@ def stability_limit(system) -> float:
     return np.inf if w == 0.0 else 2.0 / w
 
 
-def solve(problem: Problem, *, dt: float | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+def solve(problem: Problem, *, dt: float | None = None) -> tuple[np.ndarray, np.ndarray, None, dict]:
     t_eval = problem.t_eval_s
     h_out = np.diff(t_eval)
     if np.max(np.abs(h_out - h_out[0])) > 1e-9 * h_out[0]:
@@ -68,4 +68,4 @@ def solve(problem: Problem, *, dt: float | None = None) -> tuple[np.ndarray, np.
     v = (x[1:] - x_m1) / (2 * h)
     x = x[:-1]
     check_finite("central-difference", grid, x, v, divergence_bounds(problem), f"step {h:.3g}, limit {limit:.3g}")
-    return x[out], v[out], {"n_steps": int(grid.size - 1), "step": h, "stability_limit": limit}
+    return x[out], v[out], None, {"n_steps": int(grid.size - 1), "step": h, "stability_limit": limit}

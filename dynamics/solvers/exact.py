@@ -89,7 +89,7 @@ def foh_matrices(system: SecondOrderSystem, h: float, inputs: tuple[int, ...] | 
         if inputs is not None:  # every column costs the same mode by mode: slice the full set
             phi, g0, g1 = foh_matrices(system, h)
             return phi, g0[:, list(inputs)], g1[:, list(inputs)]
-        return _modal_foh(modes, _mode_steps(system, modes, h))
+        return _modal_foh(modes, _mode_steps(modes, h))
 
     return _cached(("foh", *_system_key(system), _step_key(h), inputs), compute)
 
@@ -118,9 +118,11 @@ def _van_loan(system: SecondOrderSystem, h: float, inputs: tuple[int, ...] | Non
     return phi, p - q, q
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ClassicalModes:
-    """Mass-normalised modes of a classically damped system: x = shapes q, q = to_modal x."""
+    """Mass-normalised modes of a classically damped system: x = shapes q, q = to_modal x.
+    Compared and hashed by identity: the cache keys what is derived from it by the object itself
+    (one per system, cached), which spares re-hashing the system's matrices on every call."""
 
     shapes: np.ndarray  # (n, n), columns; shapes^T M shapes = I
     omega2: np.ndarray  # (n,) squared natural frequencies
@@ -153,9 +155,8 @@ def _mass_normalised_modes(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np
     return omega2, d[:, None] * v
 
 
-def _mode_steps(system: SecondOrderSystem, modes: ClassicalModes, h: float) -> mode_scan.ModeSteps:
-    return _cached(("mode steps", *_system_key(system), _step_key(h)),
-                   lambda: mode_scan.mode_steps(modes.omega2, modes.damping, h))
+def _mode_steps(modes: ClassicalModes, h: float) -> mode_scan.ModeSteps:
+    return _cached(("mode steps", modes, _step_key(h)), lambda: mode_scan.mode_steps(modes.omega2, modes.damping, h))
 
 
 def _modal_foh(modes: ClassicalModes, steps: mode_scan.ModeSteps):
@@ -170,8 +171,10 @@ def _modal_foh(modes: ClassicalModes, steps: mode_scan.ModeSteps):
 def integration_grid(t_eval: np.ndarray, force_t: np.ndarray, substeps: int) -> tuple[np.ndarray, np.ndarray]:
     """Grid holding every output time and every force knot inside the span, each interval split
     into `substeps`; returns the grid and the indices of the output times in it."""
-    inside = force_t[(force_t > t_eval[0]) & (force_t < t_eval[-1])]
-    base = np.union1d(t_eval, inside)
+    if np.array_equal(force_t, t_eval):  # force sampled at the outputs (the usual case)
+        base = t_eval
+    else:
+        base = np.union1d(t_eval, force_t[(force_t > t_eval[0]) & (force_t < t_eval[-1])])
     if substeps > 1:
         frac = np.arange(substeps) / substeps
         base = np.append((base[:-1, None] + np.diff(base)[:, None] * frac).ravel(), base[-1])
@@ -182,6 +185,8 @@ def _steps(grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distinct step lengths (rounded to 12 digits so a uniform grid uses one matrix set) and the
     index of each interval's step among them."""
     h = np.diff(grid)
+    if h.max() - h.min() <= 1e-12 * h.max():  # uniform (the usual case): skip the sort
+        return np.array([h.mean()]), np.zeros(h.size, dtype=np.intp)
     key = np.round(h / h.max(), 12)
     uniq, inv = np.unique(key, return_inverse=True)
     reps = np.array([h[inv == j].mean() for j in range(uniq.size)])
@@ -190,14 +195,11 @@ def _steps(grid: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def propagate(system, grid: np.ndarray, forces: np.ndarray, y0: np.ndarray, extra=None) -> np.ndarray:
     """States on `grid` from y0 under FOH forces sampled on the grid; extra(t, x, v) optional."""
-    reps, which = _steps(grid)
+    reps, which = grid_steps = _steps(grid)
     n = system.n_dof
-    if extra is None and reps.size == 1:
-        modes = system_modes(system)
-        if modes is not None:
-            s0 = np.stack([modes.to_modal @ y0[:n], modes.to_modal @ y0[n:]], axis=1)
-            s = modal_states(system, modes, (reps, which), forces @ modes.shapes, s0)
-            return np.hstack([s[:, :, 0] @ modes.shapes.T, s[:, :, 1] @ modes.shapes.T])
+    modes = _modes_for_blocks(system, grid_steps, extra)
+    if modes is not None:
+        return modal_response(modes, grid_steps, forces, y0, accelerations=False)[0]
     inputs = _force_support(forces) if extra is None else None
     if inputs is not None:
         forces = forces[:, list(inputs)]
@@ -232,48 +234,77 @@ def propagate(system, grid: np.ndarray, forces: np.ndarray, y0: np.ndarray, extr
     return y  # a runaway turns into inf/nan, which propagates to the end and is caught there
 
 
+def _modes_for_blocks(system, grid_steps, extra) -> ClassicalModes | None:
+    """The system's modes when a run can be stepped in them by blocks: linear, classically damped,
+    equal steps."""
+    if extra is not None or grid_steps[0].size != 1:
+        return None
+    return system_modes(system)
+
+
+def modal_response(modes: ClassicalModes, grid_steps, forces: np.ndarray, y0: np.ndarray, accelerations: bool):
+    """[x | v] (G, 2n) of a classically damped linear system stepped in its modes, and, when asked,
+    its accelerations (G, n) from the modal equations q'' = p - c q' - w^2 q, which are the
+    equation of motion's M^-1 (f - C v - K x) without its two dense products (else None)."""
+    n = modes.shapes.shape[0]
+    p = forces @ modes.shapes
+    s = modal_states(modes, grid_steps, p, np.stack([modes.to_modal @ y0[:n], modes.to_modal @ y0[n:]]))
+    # rows [q; q'] -> [x | v]: one product for positions and velocities at every step
+    y = (s.reshape(-1, n) @ modes.shapes.T).reshape(p.shape[0], 2 * n)
+    if not accelerations:
+        return y, None
+    return y, (p - modes.damping * s[:, 1] - modes.omega2 * s[:, 0]) @ modes.shapes.T
+
+
 def _force_support(forces: np.ndarray) -> tuple[int, ...] | None:
     """The DOFs a force history ever acts on; None when that is every DOF."""
     support = np.flatnonzero(np.any(forces != 0.0, axis=0))
     return None if support.size == forces.shape[1] else tuple(int(i) for i in support)
 
 
-def mode_stepping(system: SecondOrderSystem, modes: ClassicalModes, h: float, n_steps: int):
+def mode_stepping(modes: ClassicalModes, h: float, n_steps: int):
     """(ModeSteps, BlockKernel) of every mode for n_steps steps of length h; cached."""
     length = mode_scan.block_length(n_steps)
 
     def compute():
-        steps = _mode_steps(system, modes, h)
+        steps = _mode_steps(modes, h)
         return steps, mode_scan.block_kernel(steps.e, length)
 
-    return _cached(("mode stepping", *_system_key(system), _step_key(h), length), compute)
+    return _cached(("mode stepping", modes, _step_key(h), length), compute)
 
 
-def modal_states(system, modes: ClassicalModes, grid_steps, p: np.ndarray, s0: np.ndarray) -> np.ndarray:
-    """States (T, r, 2) of the r = p.shape[1] lowest modes from s0 (r, 2) under modal forces p
+def modal_states(modes: ClassicalModes, grid_steps, p: np.ndarray, s0: np.ndarray) -> np.ndarray:
+    """States (T, 2, r) of the r = p.shape[1] lowest modes from s0 (2, r) under modal forces p
     (T, r), on a grid whose steps are `grid_steps` = `_steps(grid)`: by blocks when they are all
     equal (mode_scan), step by step otherwise."""
     r = p.shape[1]
     reps, which = grid_steps
     if reps.size == 1:
-        steps, kernel = mode_stepping(system, modes, reps[0], p.shape[0] - 1)
+        steps, kernel = mode_stepping(modes, reps[0], p.shape[0] - 1)
         return mode_scan.propagate_modes(steps.lowest(r), kernel.lowest(r), p, s0)
-    steps = [_mode_steps(system, modes, h).lowest(r) for h in reps]
+    steps = [_mode_steps(modes, h).lowest(r) for h in reps]
     return mode_scan.propagate_modes_stepwise(steps, which, p, s0)
 
 
-def solve(problem: Problem, *, substeps: int = 1) -> tuple[np.ndarray, np.ndarray, dict]:
+def solve(problem: Problem, *, substeps: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, dict]:
     if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
         raise DynamicsError(f"substeps: expected an integer >= 1, got {substeps!r}")
     grid, out = integration_grid(problem.t_eval_s, problem.force.t_s, int(substeps))
     forces = force_at(problem.force, grid)
     y0 = np.concatenate([problem.x0, problem.v0])
-    y = propagate(problem.system, grid, forces, y0, problem.extra_force)
+    grid_steps = _steps(grid)
+    modes = _modes_for_blocks(problem.system, grid_steps, problem.extra_force)
+    if modes is None:
+        y, a = propagate(problem.system, grid, forces, y0, problem.extra_force), None
+    else:
+        y, a = modal_response(modes, grid_steps, forces, y0, accelerations=True)
     n = problem.n
     h_max = float(np.max(np.diff(grid)))
     step = f"step {h_max:.3g}"
     if problem.extra_force is not None:
         step += "; the nonlinear splitting is stable for h * |dg/dv| / m < 2: raise `substeps`"
     check_finite("exact", grid, y[:, :n], y[:, n:], divergence_bounds(problem), step)
-    y = y[out]
-    return y[:, :n], y[:, n:], {"n_steps": grid.size - 1, "max_step": h_max}
+    if out.size != grid.size:  # steps between the outputs: keep the outputs' rows
+        y = y[out]
+        a = None if a is None else a[out]
+    return y[:, :n], y[:, n:], a, {"n_steps": grid.size - 1, "max_step": h_max}

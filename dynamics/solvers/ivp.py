@@ -32,7 +32,7 @@ OPTIONS = {
 
 def solve(
     problem: Problem, name: str, *, rtol: float = 1e-8, atol: float = 1e-12, max_step: float = np.inf
-) -> tuple[np.ndarray, np.ndarray, dict]:
+) -> tuple[np.ndarray, np.ndarray, None, dict]:
     for opt, val in (("rtol", rtol), ("atol", atol), ("max_step", max_step)):
         if not (val > 0):
             raise DynamicsError(f"{opt}: expected a positive number, got {val!r}")
@@ -69,4 +69,4 @@ def solve(
         raise SolverFailedError(f"{name}: solve_ivp stopped at t = {sol.t[-1]:.6g}: {sol.message}")
     y = sol.y.T
     check_finite(name, t, y[:, :n], y[:, n:], bounds, f"rtol {rtol:g}, atol {atol:g}")
-    return y[:, :n], y[:, n:], {"n_rhs_evaluations": int(sol.nfev), "n_jacobians": int(sol.njev)}
+    return y[:, :n], y[:, n:], None, {"n_rhs_evaluations": int(sol.nfev), "n_jacobians": int(sol.njev)}

@@ -22,7 +22,7 @@ from dynamics.solvers.exact import _steps, integration_grid, modal_states, syste
 OPTIONS = {"n_modes": "number of lowest modes kept (default: all)"}
 
 
-def solve(problem: Problem, *, n_modes: int | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+def solve(problem: Problem, *, n_modes: int | None = None) -> tuple[np.ndarray, np.ndarray, None, dict]:
     n = problem.n
     if n_modes is None:
         n_modes = n
@@ -36,9 +36,9 @@ def solve(problem: Problem, *, n_modes: int | None = None) -> tuple[np.ndarray, 
     shapes = modes.shapes[:, :r]
     grid, out = integration_grid(problem.t_eval_s, problem.force.t_s, 1)
     p = force_at(problem.force, grid) @ shapes  # modal forces (steps, r)
-    s0 = np.stack([modes.to_modal[:r] @ problem.x0, modes.to_modal[:r] @ problem.v0], axis=1)
-    s = modal_states(system, modes, _steps(grid), p, s0)
-    x = s[out, :, 0] @ shapes.T
-    v = s[out, :, 1] @ shapes.T
+    s0 = np.stack([modes.to_modal[:r] @ problem.x0, modes.to_modal[:r] @ problem.v0])
+    s = modal_states(modes, _steps(grid), p, s0)
+    x = s[out, 0] @ shapes.T
+    v = s[out, 1] @ shapes.T
     check_finite("modal", problem.t_eval_s, x, v, divergence_bounds(problem), f"{r} modes")
-    return x, v, {"n_modes": r, "omega_max_kept": float(np.sqrt(max(modes.omega2[r - 1], 0.0)))}
+    return x, v, None, {"n_modes": r, "omega_max_kept": float(np.sqrt(max(modes.omega2[r - 1], 0.0)))}

@@ -100,7 +100,8 @@ def block_kernel(e: np.ndarray, length: int) -> BlockKernel:
 
 
 def propagate_modes(steps: ModeSteps, kernel: BlockKernel, p: np.ndarray, s0: np.ndarray) -> np.ndarray:
-    """States s_0..s_T (T + 1, r, 2) of the modes from s0 (r, 2) under modal forces p (T + 1, r)."""
+    """States s_0..s_T (T + 1, 2, r) of the modes from s0 (2, r) under modal forces p (T + 1, r):
+    [q; q'] rows, so that the physical [x | v] is one product with the mode shapes."""
     n_steps, r = p.shape[0] - 1, p.shape[1]
     length = kernel.length
     n_blocks = -(-n_steps // length)
@@ -115,25 +116,25 @@ def propagate_modes(steps: ModeSteps, kernel: BlockKernel, p: np.ndarray, s0: np
         cols[:, a : 2 * length : 2] = steps.g0[:, a, None, None] * now + steps.g1[:, a, None, None] * nxt
     ends = kernel.matrix[:, -2:, : 2 * length] @ cols[:, : 2 * length]  # each block's end state from rest
     starts = cols[:, 2 * length :]
-    starts[:, :, 0] = s0
+    starts[:, :, 0] = s0.T
     last = kernel.matrix[:, -2:, 2 * length :]  # E^L
     for b in range(1, n_blocks):
         prev = starts[:, :, b - 1]
         starts[:, :, b] = ends[:, :, b - 1] + last[:, :, 0] * prev[:, :1] + last[:, :, 1] * prev[:, 1:]
     states = kernel.matrix @ cols  # (r, 2L, n_blocks)
-    out = np.empty((n_steps + 1, r, 2))
+    out = np.empty((n_steps + 1, 2, r))
     out[0] = s0
-    out[1:] = states.reshape(r, length, 2, n_blocks).transpose(3, 1, 0, 2).reshape(-1, r, 2)[:n_steps]
+    out[1:] = states.reshape(r, length, 2, n_blocks).transpose(3, 1, 2, 0).reshape(-1, 2, r)[:n_steps]
     return out
 
 
 def propagate_modes_stepwise(steps: list[ModeSteps], which: np.ndarray, p: np.ndarray, s0: np.ndarray) -> np.ndarray:
     """As `propagate_modes` on a grid with several step lengths: steps[which[k]] is step k's."""
-    out = np.empty((p.shape[0], p.shape[1], 2))
+    out = np.empty((p.shape[0], 2, p.shape[1]))
     out[0] = s0
     for k in range(p.shape[0] - 1):
         st = steps[which[k]]
         s = out[k]
         for a in (0, 1):
-            out[k + 1, :, a] = st.e[:, a, 0] * s[:, 0] + st.e[:, a, 1] * s[:, 1] + st.g0[:, a] * p[k] + st.g1[:, a] * p[k + 1]
+            out[k + 1, a] = st.e[:, a, 0] * s[0] + st.e[:, a, 1] * s[1] + st.g0[:, a] * p[k] + st.g1[:, a] * p[k + 1]
     return out

@@ -37,11 +37,11 @@ def fixed_step_grid(t_eval: np.ndarray, dt: float | None) -> tuple[np.ndarray, n
     return grid, out
 
 
-def solve_newmark(problem: Problem, *, dt: float | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+def solve_newmark(problem: Problem, *, dt: float | None = None) -> tuple[np.ndarray, np.ndarray, None, dict]:
     return _hht(problem, dt, 0.0, "newmark")
 
 
-def solve_hht(problem: Problem, *, dt: float | None = None, alpha: float = -0.05) -> tuple[np.ndarray, np.ndarray, dict]:
+def solve_hht(problem: Problem, *, dt: float | None = None, alpha: float = -0.05) -> tuple[np.ndarray, np.ndarray, None, dict]:
     if not (-1.0 / 3.0 <= alpha <= 0.0):
         raise DynamicsError(f"alpha: expected a value in [-1/3, 0], got {alpha!r}")
     return _hht(problem, dt, float(alpha), "hht")
@@ -76,4 +76,4 @@ def _hht(problem: Problem, dt, alpha: float, name: str):
         v[i + 1] = v_pred + gamma * h * acc
     h_max = float(steps.max())
     check_finite(name, grid, x, v, divergence_bounds(problem), f"step {h_max:.3g}")
-    return x[out], v[out], {"n_steps": int(steps.size), "step": h_max}
+    return x[out], v[out], None, {"n_steps": int(steps.size), "step": h_max}

@@ -45,7 +45,7 @@ _POW = 1 / 5
 
 def solve(
     problem: Problem, *, rtol: float = 1e-3, atol: float = 1e-6, max_step_fraction: float = 0.1, nip: int = 3
-) -> tuple[np.ndarray, np.ndarray, dict]:
+) -> tuple[np.ndarray, np.ndarray, None, dict]:
     for name, val in (("rtol", rtol), ("atol", atol), ("max_step_fraction", max_step_fraction)):
         if not (np.isfinite(val) and val > 0):
             raise DynamicsError(f"{name}: expected a positive number, got {val!r}")
@@ -82,7 +82,7 @@ def solve(
             y[i + 2 :] = np.nan
             break
     check_finite("report-rk45", t_out, y[:, :n], y[:, n:], divergence_bounds(problem), f"rtol {rtol:g}")
-    return y[:, :n], y[:, n:], {"n_steps": n_steps, "n_rejected": n_rejected}
+    return y[:, :n], y[:, n:], None, {"n_steps": n_steps, "n_rejected": n_rejected}
 
 
 def _ode45(rhs, t0, tfinal, y0, rtol, atol, max_step_fraction, nip):
