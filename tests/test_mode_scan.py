@@ -66,7 +66,7 @@ def test_any_block_length_gives_the_same_states():
 
 def test_block_length_is_about_the_square_root_and_capped():
     assert block_length(1) == 1
-    assert block_length(180) == 14
+    assert block_length(180) == 10
     assert block_length(10**6) == MAX_BLOCK
 
 

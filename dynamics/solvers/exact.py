@@ -12,10 +12,10 @@ This is exact (to rounding) for any stiffness: there is no stability limit, so k
 easy as 1e5. When the damping is classical (Phi_m^T C Phi_m diagonal in the mass-normalised modes
 Phi_m, as for the default chain's modal damping) the same matrices are built mode by mode: one
 symmetric eigensolve and N 4x4 exponentials (one vectorised Pade approximant, expm_stack) instead
-of one (3N)x(3N) exponential (set-up per material at N = 85: 0.97 ms in bench_dynamics; equal to
+of one (3N)x(3N) exponential (set-up per material at N = 85: 0.80 ms in bench_dynamics; equal to
 rounding, tested), and a linear run on a uniform grid is stepped in those modes by blocks
 (dynamics.solvers.mode_scan), so the dense matrices are never built (180 steps of the 85-link
-chain: 0.55 ms against 0.87 ms for the dense loop in bench_dynamics, a ratio that moves with page
+chain: 0.45 ms against 0.85 ms for the dense loop in bench_dynamics, a ratio that moves with page
 faults; see the README). Other systems (the report replica's asymmetric damping) take the
 augmented-matrix route and the step loop; for a linear run its B keeps only the DOFs the force
 acts on. The matrices are cached per system and step, so a speed sweep or a set of cams on one

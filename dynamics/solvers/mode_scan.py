@@ -64,8 +64,9 @@ def mode_steps(omega2: np.ndarray, damping: np.ndarray, h: float) -> ModeSteps:
 
 
 def block_length(n_steps: int) -> int:
-    """About sqrt(T): the kernel product costs T L per mode, the chaining loop T / L iterations."""
-    return int(min(MAX_BLOCK, max(1, np.ceil(np.sqrt(n_steps)))))
+    """About sqrt(T / 2): the kernel product costs T L per mode and its set-up L^2, the chaining loop
+    T / L iterations, each dearer than a kernel row (Python), so the balance sits below sqrt(T)."""
+    return int(min(MAX_BLOCK, max(1, np.ceil(np.sqrt(n_steps / 2)))))
 
 
 @dataclass(frozen=True)
