@@ -133,7 +133,8 @@ def test_stacked_exponential_equals_scipy_matrix_by_matrix():
     single = a[-1] + np.triu(a[-1], 1) * 5.0  # one 2-D matrix, unequal row and column sums
     ref = expm(single)
     assert np.abs(expm_stack(single) - ref).max() <= 1e-13 * np.abs(ref).max()
-    np.testing.assert_allclose(expm_stack(np.zeros((3, 4, 4))), np.broadcast_to(np.eye(4), (3, 4, 4)), rtol=0, atol=1e-15)
+    identity = np.broadcast_to(np.eye(4), (3, 4, 4))
+    np.testing.assert_allclose(expm_stack(np.zeros((3, 4, 4))), identity, rtol=0, atol=1e-15)
 
 
 def test_mode_steps_equal_the_textbook_4x4_van_loan():

@@ -12,10 +12,10 @@ This is exact (to rounding) for any stiffness: there is no stability limit, so k
 easy as 1e5. When the damping is classical (Phi_m^T C Phi_m diagonal in the mass-normalised modes
 Phi_m, as for the default chain's modal damping) the same matrices are built mode by mode: one
 symmetric eigensolve and N 4x4 exponentials (one vectorised Pade approximant, expm_stack) instead
-of one (3N)x(3N) exponential (set-up per material at N = 85: 0.80 ms in bench_dynamics; equal to
+of one (3N)x(3N) exponential (set-up per material at N = 85: 0.77 ms in bench_dynamics; equal to
 rounding, tested), and a linear run on a uniform grid is stepped in those modes by blocks
 (dynamics.solvers.mode_scan), so the dense matrices are never built (180 steps of the 85-link
-chain: 0.45 ms against 0.85 ms for the dense loop in bench_dynamics, a ratio that moves with page
+chain: 0.43 ms against 0.80 ms for the dense loop in bench_dynamics, a ratio that moves with page
 faults; see the README). Other systems (the report replica's asymmetric damping) take the
 augmented-matrix route and the step loop; for a linear run its B keeps only the DOFs the force
 acts on. The matrices are cached per system and step, so a speed sweep or a set of cams on one
@@ -34,11 +34,10 @@ from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import eigh
+from scipy.linalg import eigh, expm
 
 from dynamics.errors import DynamicsError
 from dynamics.solvers import mode_scan
-from dynamics.solvers.expm_stack import expm_stack
 from dynamics.solvers._common import (Problem, check_finite, divergence_bounds, force_at, frequency_bound,
                                       is_diagonal, state_matrices)
 from dynamics.system import SecondOrderSystem
@@ -98,8 +97,8 @@ def _van_loan(system: SecondOrderSystem, h: float, inputs: tuple[int, ...] | Non
     """The augmented exponential over the columns of B for `inputs` only (all when None): a force on
     3 of 85 DOFs (the report's model) needs a 176-square exponential instead of a 255-square one.
     Positions are scaled by a bound on the highest frequency first, which balances the blocks of A
-    (||A h|| falls from 1e5 to 20 on the report's model) and spares the exponential a dozen
-    squarings; the result is scaled back."""
+    (K / M against 1: their norms differ by omega^2) and so spares the exponential the squarings
+    that the unbalanced norm would ask for; the result is scaled back."""
     a, b = state_matrices(system)
     if inputs is not None:
         b = b[:, list(inputs)]
@@ -111,7 +110,7 @@ def _van_loan(system: SecondOrderSystem, h: float, inputs: tuple[int, ...] | Non
     aug[:n2, :n2] = (scale[:, None] * h) * a / scale[None, :]
     aug[:n2, n2 : n2 + n_in] = (scale[:, None] * h) * b
     aug[n2 : n2 + n_in, n2 + n_in :] = np.eye(n_in)
-    e = expm_stack(aug)
+    e = expm(aug)
     phi = e[:n2, :n2] / scale[:, None] * scale[None, :]
     p = e[:n2, n2 : n2 + n_in] / scale[:, None]
     q = e[:n2, n2 + n_in :] / scale[:, None]
@@ -147,7 +146,7 @@ def classical_modes(system: SecondOrderSystem, rtol: float = 1e-10) -> Classical
 
 def _mass_normalised_modes(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenpairs of (K, M) with shapes^T M shapes = I; a diagonal M (every lumped chain) takes the
-    standard symmetric eigensolver on M^-1/2 K M^-1/2, a third cheaper than the generalised one."""
+    standard symmetric eigensolver on M^-1/2 K M^-1/2, cheaper than the generalised one."""
     if not is_diagonal(m):
         return eigh(k, m)
     d = 1.0 / np.sqrt(np.diag(m))

@@ -41,7 +41,9 @@ def solve_newmark(problem: Problem, *, dt: float | None = None) -> tuple[np.ndar
     return _hht(problem, dt, 0.0, "newmark")
 
 
-def solve_hht(problem: Problem, *, dt: float | None = None, alpha: float = -0.05) -> tuple[np.ndarray, np.ndarray, None, dict]:
+def solve_hht(
+    problem: Problem, *, dt: float | None = None, alpha: float = -0.05
+) -> tuple[np.ndarray, np.ndarray, None, dict]:
     if not (-1.0 / 3.0 <= alpha <= 0.0):
         raise DynamicsError(f"alpha: expected a value in [-1/3, 0], got {alpha!r}")
     return _hht(problem, dt, float(alpha), "hht")
