@@ -22,7 +22,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 sys.path.insert(0, str(HERE.parent))
 
-from run import load, machine_lines, modules, single_threaded_blas  # noqa: E402  (benchmarks/ is not a package)
+from run import run_each, single_threaded_blas  # noqa: E402  (benchmarks/ is not a package)
 
 
 def main(argv=None) -> int:
@@ -37,21 +37,11 @@ def main(argv=None) -> int:
 
 
 def _make(args) -> int:
-    for line in machine_lines():
-        print(line)
-    found = modules("chart_", args.only)
-    if not found:
-        print(f"no benchmarks/chart_*.py module matches {args.only!r}")
-        return 1
     total = time.perf_counter()
-    for path in found:
-        start = time.perf_counter()
-        print(f"\n== {path.stem} ==", flush=True)
-        for line in load(path).make(args.out, args.quick):
-            print(line, flush=True)
-        print(f"({path.stem}: {time.perf_counter() - start:.1f} s)", flush=True)
-    print(f"\nall charts: {time.perf_counter() - total:.1f} s, written to {args.out}")
-    return 0
+    status = run_each("chart_", args.only, lambda module: module.make(args.out, args.quick))
+    if status == 0:
+        print(f"\nall charts: {time.perf_counter() - total:.1f} s, written to {args.out}")
+    return status
 
 
 if __name__ == "__main__":

@@ -84,16 +84,22 @@ def main(argv=None) -> int:
 
 
 def _run(args) -> int:
+    return run_each("bench_", args.only, lambda module: module.run(args.quick))
+
+
+def run_each(prefix: str, only: str | None, lines_of) -> int:
+    """Print the machine, then the lines `lines_of(module)` of each benchmarks/<prefix>*.py module
+    (whose name contains `only`, if given) with its wall time; 1 when no module matches."""
     for line in machine_lines():
         print(line)
-    found = modules("bench_", args.only)
+    found = modules(prefix, only)
     if not found:
-        print(f"no benchmarks/bench_*.py module matches {args.only!r}")
+        print(f"no benchmarks/{prefix}*.py module matches {only!r}")
         return 1
     for path in found:
         start = time.perf_counter()
         print(f"\n== {path.stem} ==", flush=True)
-        for line in load(path).run(args.quick):
+        for line in lines_of(load(path)):
             print(line, flush=True)
         print(f"({path.stem}: {time.perf_counter() - start:.1f} s)", flush=True)
     return 0

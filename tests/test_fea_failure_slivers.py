@@ -12,9 +12,8 @@ import pytest
 from skfem import MeshTet
 
 import geometry
-from fem import problem
-from fem.assembly import elasticity_matrix
 from fem.errors import FemError
+from fem_bar import E_PA, LOAD_N, bar_on_rollers
 from fem.quality import (
     DEGENERATE_QUALITY,
     POOR_QUALITY_THRESHOLD,
@@ -25,8 +24,6 @@ from fem.quality import (
     require_valid,
 )
 
-E_PA, NU = 200e9, 0.3
-LAM, MU = E_PA * NU / ((1 + NU) * (1 - 2 * NU)), E_PA / (2 * (1 + NU))
 LENGTH_M, WIDTH_M, HEIGHT_M = 3.0, 1.0, 1.0
 
 
@@ -51,16 +48,8 @@ def flattened(mesh: MeshTet, eps: float) -> tuple[MeshTet, int]:
 
 def bar_stiffness_error(mesh: MeshTet, order: int, solver: str) -> float:
     """k / (EA/L) - 1 of the bar on roller supports (exact for any valid mesh: u is linear)."""
-    basis = problem.scalar_basis(mesh, order)
-    K = elasticity_matrix(basis, LAM, MU)
-    load_N = 1000.0
-    end = mesh.facets_satisfying(lambda x: np.isclose(x[0], LENGTH_M))
-    f = problem.traction_load(basis, end, lambda x: np.array([load_N / (WIDTH_M * HEIGHT_M) + 0 * x[0], 0 * x[0], 0 * x[0]]))
-    rollers = np.concatenate(
-        [problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x, c=c: np.isclose(x[c], 0.0)), [c]) for c in range(3)]
-    )
-    u = problem.solve_displacement(K, f, rollers, basis.doflocs, solver=solver)
-    return float(load_N**2 / (f @ u) / (E_PA * WIDTH_M * HEIGHT_M / LENGTH_M) - 1)
+    _, f, u = bar_on_rollers(mesh, order, solver, LENGTH_M, WIDTH_M, HEIGHT_M)
+    return float(LOAD_N**2 / (f @ u) / (E_PA * WIDTH_M * HEIGHT_M / LENGTH_M) - 1)
 
 
 def test_radius_ratio_of_known_tets():

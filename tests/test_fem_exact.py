@@ -9,9 +9,7 @@ from skfem.models.elasticity import linear_elasticity
 
 from fem import problem
 from fem.assembly import elasticity_matrix, rigid_body_modes
-
-E_PA, NU = 200e9, 0.3
-LAM, MU = E_PA * NU / ((1 + NU) * (1 - 2 * NU)), E_PA / (2 * (1 + NU))
+from fem_bar import E_PA, LAM, LOAD_N, MU, NU, bar_on_rollers
 
 
 def box(nx=4, ny=2, nz=2, length=3.0, width=1.0, height=0.5):
@@ -38,24 +36,12 @@ def test_bar_with_roller_supports_has_stiffness_EA_over_L(order, solver):
     # spaces and the FE solution is exact; only solver round-off remains (AMG-CG stops at a
     # 1e-10 relative residual, hence its looser bound).
     length, width, height = 3.0, 1.0, 0.5
-    mesh = box(length=length, width=width, height=height)
-    basis = problem.scalar_basis(mesh, order)
-    K = elasticity_matrix(basis, LAM, MU)
-    F = 1000.0
-    end = mesh.facets_satisfying(lambda x: np.isclose(x[0], length))
-    f = problem.traction_load(basis, end, lambda x: np.array([F / (width * height) + 0 * x[0], 0 * x[0], 0 * x[0]]))
-    rollers = np.concatenate(
-        [
-            problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x, c=c: np.isclose(x[c], 0.0)), [c])
-            for c in range(3)
-        ]
-    )
-    u = problem.solve_displacement(K, f, rollers, basis.doflocs, solver=solver)
-    k = F**2 / (f @ u)
+    K, f, u = bar_on_rollers(box(length=length, width=width, height=height), order, solver, length, width, height)
+    k = LOAD_N**2 / (f @ u)
     exact = E_PA * width * height / length
     tolerance = 1e-8 if solver == "amg" else 1e-11
     assert k == pytest.approx(exact, rel=tolerance)
-    assert F**2 / (u @ K @ u) == pytest.approx(exact, rel=tolerance)
+    assert LOAD_N**2 / (u @ K @ u) == pytest.approx(exact, rel=tolerance)
 
 
 @pytest.mark.parametrize("order", [1, 2])
