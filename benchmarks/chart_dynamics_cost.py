@@ -26,9 +26,8 @@ from dynamics.cams.program import CamProgram
 from dynamics.chain import ChainModel
 from dynamics.reduction import DENSE_LINK_LIMIT, MODES_FOR_LONG_CHAINS, modes_to_keep
 from dynamics import simulate as simulate_module
-from dynamics import steady_state
 from dynamics.simulate import SlackChainWarning, simulate
-from dynamics.solvers import exact as exact_solver
+from dynamics.solvers import cache as solver_cache
 from dynamics.sweep import chain_modes, rpm_sweep
 from dynamics.workprecision import observed_order
 
@@ -53,8 +52,7 @@ def time_default(n: int) -> float:
 
     def run():  # cold: the model's matrices, exponentials and periodic-state LU all recomputed
         simulate_module._system.cache_clear()
-        exact_solver._cache.clear()
-        steady_state._lu_cache.clear()
+        solver_cache.clear()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SlackChainWarning)
             simulate(ChainModel(n, M_KG, K_N_PER_M), cam, t)
@@ -70,8 +68,7 @@ def time_pipeline_path(n: int) -> float:
 
     def run():
         simulate_module._system.cache_clear()
-        exact_solver._cache.clear()
-        steady_state._lu_cache.clear()
+        solver_cache.clear()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SlackChainWarning)
             simulate(ChainModel(n, M_KG, K_N_PER_M), cam, t, n_modes=modes_to_keep(n))

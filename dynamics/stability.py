@@ -28,7 +28,7 @@ import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedError
 from dynamics.solvers import solve
-from dynamics.solvers import exact as exact_solver
+from dynamics.solvers import cache as solver_cache
 from dynamics.solvers._common import max_frequency
 from dynamics.workprecision import IVP_METHODS, LinearChainProblem, chain_problem, options_for, reference_response
 
@@ -91,7 +91,7 @@ def classify(problem: LinearChainProblem, method: str, parameter_name: str, para
     opts = options_for(method, parameter_name, parameter)
     common = (method, parameter_name, parameter, problem.model.stiffness_N_per_m, problem.model.n_links)
     omega_max = max_frequency(problem.system)
-    exact_solver._cache.clear()
+    solver_cache.clear()
     start = time.perf_counter()
     try:
         x = solve(problem.system, problem.force, problem.t_eval_s, method=method, x0=problem.x0, v0=problem.v0,

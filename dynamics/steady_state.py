@@ -22,20 +22,16 @@ SolverFailedError.
 
 from __future__ import annotations
 
-from collections import OrderedDict
-
 import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
 from dynamics.errors import DynamicsError, SolverFailedError
 from dynamics.solvers import solve_with_diagnostics
 from dynamics.solvers._common import _combined_force, serial_blas
+from dynamics.solvers.cache import cached
 from dynamics.solvers.exact import _steps, foh_matrices, propagate
 from dynamics.system import SampledForce, SecondOrderSystem
 
-
-_CACHE_SIZE = 16
-_lu_cache: OrderedDict = OrderedDict()
 
 
 def monodromy(system: SecondOrderSystem, grid: np.ndarray) -> np.ndarray:
@@ -52,17 +48,8 @@ def monodromy(system: SecondOrderSystem, grid: np.ndarray) -> np.ndarray:
 def _periodic_lu(system: SecondOrderSystem, grid: np.ndarray):
     """LU of I - Phi_T, cached per system and step pattern: every cam on one chain and one period
     grid shares it."""
-    steps = np.diff(grid)
-    key = (system.mass.tobytes(), system.damping.tobytes(), system.stiffness.tobytes(), steps.round(15).tobytes())
-    hit = _lu_cache.get(key)
-    if hit is None:
-        hit = lu_factor(np.eye(2 * system.n_dof) - monodromy(system, grid))
-        _lu_cache[key] = hit
-        if len(_lu_cache) > _CACHE_SIZE:
-            _lu_cache.popitem(last=False)
-    else:
-        _lu_cache.move_to_end(key)
-    return hit
+    key = ("periodic LU", *system.cache_key, np.diff(grid).round(15).tobytes())
+    return cached(key, lambda: lu_factor(np.eye(2 * system.n_dof) - monodromy(system, grid)))
 
 
 def periodic_initial_state(

@@ -8,23 +8,44 @@ model uses consistently; the default chain model uses SI.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import Callable
 
 import numpy as np
+
+from dynamics.errors import DynamicsError
 
 NonlinearForce = Callable[[np.ndarray, np.ndarray], np.ndarray]  # (x, v) -> force, shape (n,)
 
 
 @dataclass(frozen=True)
 class SecondOrderSystem:
+    """M, C, K (n, n) and an optional g(x, v). The matrices are kept as read-only float copies: a
+    system cannot change once made, so what the solvers derive from it (modes, step matrices) can be
+    cached under `cache_key`, computed once per system instead of on every solve."""
+
     mass: np.ndarray  # (n, n)
     damping: np.ndarray  # (n, n)
     stiffness: np.ndarray  # (n, n)
     nonlinear_force: NonlinearForce | None = None
 
+    def __post_init__(self):
+        for name in ("mass", "damping", "stiffness"):
+            try:
+                matrix = np.array(getattr(self, name), dtype=float)
+            except (TypeError, ValueError):
+                raise DynamicsError(f"system.{name}: expected a real (n, n) array") from None
+            matrix.flags.writeable = False
+            object.__setattr__(self, name, matrix)
+
     @property
     def n_dof(self) -> int:
         return self.mass.shape[0]
+
+    @cached_property
+    def cache_key(self) -> tuple:
+        """The matrices' shapes and contents: systems with equal matrices share cache entries."""
+        return tuple(item for m in (self.mass, self.damping, self.stiffness) for item in (m.shape, m.tobytes()))
 
 
 @dataclass(frozen=True)

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from dynamics.errors import DynamicsError, SolverDivergedError
-from dynamics.solvers import METHODS, solve, solve_with_diagnostics
-from dynamics.solvers.exact import _cache, foh_matrices
+from dynamics.solvers import METHODS, cache, solve, solve_with_diagnostics
+from dynamics.solvers.exact import foh_matrices
 from dynamics.system import SampledForce, SecondOrderSystem
 
 
@@ -102,7 +102,24 @@ def test_matrices_are_cached_per_system_and_step():
     assert foh_matrices(sys, 1e-3) is a
     assert foh_matrices(SecondOrderSystem(np.eye(n), 0.01 * np.eye(n), ring(n, 1e4, 1.0, 1e4)), 1e-3) is a
     assert foh_matrices(sys, 2e-3) is not a
-    assert len(_cache) <= 32
+    assert cache.size() <= cache.SIZE
+
+
+def test_a_system_cannot_change_under_its_cached_matrices():
+    """Cache entries are keyed by the system's contents, computed once per system: that is only
+    sound because a system keeps its own read-only copies of the matrices."""
+    n = 6
+    stiffness = ring(n, 1e4, 1.0, 1e4)
+    sys = SecondOrderSystem(np.eye(n), 0.01 * np.eye(n), stiffness)
+    a = foh_matrices(sys, 1e-3)
+    stiffness *= 2.0  # the caller's array, not the system's
+    assert np.array_equal(sys.stiffness, stiffness / 2.0)
+    assert foh_matrices(sys, 1e-3) is a
+    assert foh_matrices(SecondOrderSystem(np.eye(n), 0.01 * np.eye(n), stiffness), 1e-3) is not a
+    with pytest.raises(ValueError, match="read-only"):
+        sys.stiffness[0, 0] = 0.0
+    with pytest.raises(DynamicsError, match="system.damping: expected a real"):
+        SecondOrderSystem(np.eye(2), [[1.0, 2.0], [3.0]], np.eye(2))
 
 
 def test_force_knots_between_outputs_are_honoured():

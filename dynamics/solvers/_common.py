@@ -13,6 +13,7 @@ from typing import Callable
 import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError
+from dynamics.solvers.cache import cached
 from dynamics.system import SampledForce, SecondOrderSystem
 
 # (t, x, v) -> force (n,). The contract's nonlinear force g(x, v) is wrapped into this form so that
@@ -45,6 +46,11 @@ class Problem:
 
 
 def check_system(system: SecondOrderSystem) -> None:
+    """Square, finite matrices and a positive-definite mass; checked once per system (cached)."""
+    cached(("checked", *system.cache_key), lambda: _check_matrices(system))
+
+
+def _check_matrices(system: SecondOrderSystem) -> None:
     n = system.mass.shape[0] if np.ndim(system.mass) == 2 else -1
     for name in ("mass", "damping", "stiffness"):
         mat = np.asarray(getattr(system, name))
@@ -210,7 +216,11 @@ def _smallest_mass(mass: np.ndarray) -> float:
 
 
 def frequency_bound(system: SecondOrderSystem) -> float:
-    """Upper bound on the largest natural frequency: Gershgorin on M^-1 K (no eigensolve)."""
+    """Upper bound on the largest natural frequency: Gershgorin on M^-1 K (no eigensolve); cached."""
+    return cached(("frequency bound", *system.cache_key), lambda: _gershgorin_frequency(system))
+
+
+def _gershgorin_frequency(system: SecondOrderSystem) -> float:
     mass = system.mass
     if is_diagonal(mass):
         m_inv_k = system.stiffness / np.diag(mass)[:, None]

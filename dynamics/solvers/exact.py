@@ -12,13 +12,13 @@ This is exact (to rounding) for any stiffness: there is no stability limit, so k
 easy as 1e5. When the damping is classical (Phi_m^T C Phi_m diagonal in the mass-normalised modes
 Phi_m, as for the default chain's modal damping) the same matrices are built mode by mode: one
 symmetric eigensolve and N 4x4 exponentials (one vectorised Pade approximant, expm_stack) instead
-of one (3N)x(3N) exponential (set-up per material at N = 85: 0.77 ms in bench_dynamics; equal to
+of one (3N)x(3N) exponential (set-up per material at N = 85: 0.72 ms in bench_dynamics; equal to
 rounding, tested), and a linear run on a uniform grid is stepped in those modes by blocks
 (dynamics.solvers.mode_scan), so the dense matrices are never built (180 steps of the 85-link
-chain: 0.43 ms against 0.80 ms for the dense loop in bench_dynamics, a ratio that moves with page
+chain: 0.39 ms against 0.82 ms for the dense loop in bench_dynamics, a ratio that moves with page
 faults; see the README). Other systems (the report replica's asymmetric damping) take the
 augmented-matrix route and the step loop; for a linear run its B keeps only the DOFs the force
-acts on. The matrices are cached per system and step, so a speed sweep or a set of cams on one
+acts on. The matrices are cached per system and step (dynamics.solvers.cache), so a speed sweep or a set of cams on one
 chain computes them once.
 
 Nonlinear forces g(t, x, v) (friction) are handled by a documented splitting: the linear part stays
@@ -30,7 +30,6 @@ h * L_g / m < 2 (L_g the slope of g in v); `substeps` splits every interval to k
 
 from __future__ import annotations
 
-from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,36 +39,17 @@ from dynamics.errors import DynamicsError
 from dynamics.solvers import mode_scan
 from dynamics.solvers._common import (Problem, check_finite, divergence_bounds, force_at, frequency_bound,
                                       is_diagonal, state_matrices)
+from dynamics.solvers.cache import cached
 from dynamics.system import SecondOrderSystem
 
 OPTIONS = {
     "substeps": "int >= 1 (default 1): equal sub-intervals per output interval (nonlinear force)",
 }
 
-_CACHE_SIZE = 32
-_cache: OrderedDict = OrderedDict()
-_MISSING = object()
-
-
-def _cached(key, compute):
-    hit = _cache.get(key, _MISSING)
-    if hit is not _MISSING:  # None is a result too (a system without classical modes)
-        _cache.move_to_end(key)
-        return hit
-    result = compute()
-    _cache[key] = result
-    if len(_cache) > _CACHE_SIZE:
-        _cache.popitem(last=False)
-    return result
-
-
-def _system_key(system: SecondOrderSystem) -> tuple:
-    return system.mass.tobytes(), system.damping.tobytes(), system.stiffness.tobytes()
-
 
 def system_modes(system: SecondOrderSystem):
     """`classical_modes` of the system (None if not classical), cached per system."""
-    return _cached(("modes", *_system_key(system)), lambda: classical_modes(system))
+    return cached(("modes", *system.cache_key), lambda: classical_modes(system))
 
 
 def _step_key(h: float) -> float:
@@ -90,7 +70,7 @@ def foh_matrices(system: SecondOrderSystem, h: float, inputs: tuple[int, ...] | 
             return phi, g0[:, list(inputs)], g1[:, list(inputs)]
         return _modal_foh(modes, _mode_steps(modes, h))
 
-    return _cached(("foh", *_system_key(system), _step_key(h), inputs), compute)
+    return cached(("foh", *system.cache_key, _step_key(h), inputs), compute)
 
 
 def _van_loan(system: SecondOrderSystem, h: float, inputs: tuple[int, ...] | None = None):
@@ -121,7 +101,7 @@ def _van_loan(system: SecondOrderSystem, h: float, inputs: tuple[int, ...] | Non
 class ClassicalModes:
     """Mass-normalised modes of a classically damped system: x = shapes q, q = to_modal x.
     Compared and hashed by identity: the cache keys what is derived from it by the object itself
-    (one per system, cached), which spares re-hashing the system's matrices on every call."""
+    (one per system, cached)."""
 
     shapes: np.ndarray  # (n, n), columns; shapes^T M shapes = I
     omega2: np.ndarray  # (n,) squared natural frequencies
@@ -155,7 +135,7 @@ def _mass_normalised_modes(k: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np
 
 
 def _mode_steps(modes: ClassicalModes, h: float) -> mode_scan.ModeSteps:
-    return _cached(("mode steps", modes, _step_key(h)), lambda: mode_scan.mode_steps(modes.omega2, modes.damping, h))
+    return cached(("mode steps", modes, _step_key(h)), lambda: mode_scan.mode_steps(modes.omega2, modes.damping, h))
 
 
 def _modal_foh(modes: ClassicalModes, steps: mode_scan.ModeSteps):
@@ -269,7 +249,7 @@ def mode_stepping(modes: ClassicalModes, h: float, n_steps: int):
         steps = _mode_steps(modes, h)
         return steps, mode_scan.block_kernel(steps.e, length)
 
-    return _cached(("mode stepping", modes, _step_key(h), length), compute)
+    return cached(("mode stepping", modes, _step_key(h), length), compute)
 
 
 def modal_states(modes: ClassicalModes, grid_steps, p: np.ndarray, s0: np.ndarray) -> np.ndarray:

@@ -123,10 +123,10 @@ def propagate_modes(steps: ModeSteps, kernel: BlockKernel, p: np.ndarray, s0: np
         prev = starts[:, :, b - 1]
         starts[:, :, b] = ends[:, :, b - 1] + last[:, :, 0] * prev[:, :1] + last[:, :, 1] * prev[:, 1:]
     states = kernel.matrix @ cols  # (r, 2L, n_blocks)
-    out = np.empty((n_steps + 1, 2, r))
+    out = np.empty((n_blocks * length + 1, 2, r))  # the padded steps too: one strided copy, no temporary
     out[0] = s0
-    out[1:] = states.reshape(r, length, 2, n_blocks).transpose(3, 1, 2, 0).reshape(-1, 2, r)[:n_steps]
-    return out
+    out[1:].reshape(n_blocks, length, 2, r)[...] = states.reshape(r, length, 2, n_blocks).transpose(3, 1, 2, 0)
+    return out[: n_steps + 1]
 
 
 def propagate_modes_stepwise(steps: list[ModeSteps], which: np.ndarray, p: np.ndarray, s0: np.ndarray) -> np.ndarray:
