@@ -202,8 +202,9 @@ def _linear_table(scenarios, n_slow: int) -> list[str]:
     floor_s = exponential_s / len(CAMS) + products_s
     eig_s, eig_condition = _complex_modes_cost(cases[scenarios[0]][0])
     out = [
-        f"Report's 85-link case, linear (friction 0), {len(scenarios)} scenarios (cam x material), "
-        f"181 one-degree outputs; slow methods timed on {n_slow} scenario(s)",
+        f"Report's 85-link case on the report script's own model (its mm units and asymmetric damping), "
+        f"linear (friction 0), {len(scenarios)} scenarios (cam x material), 181 one-degree outputs; "
+        f"slow methods timed on {n_slow} scenario(s)",
         f"{'method':34s} {'time/scenario':>14s} {'max error (m)':>14s} {'speed-up vs report':>19s} {'peak mem':>9s}",
         f"{'report-rk45 (ode45 restarted/deg)':34s} {rep_t * 1e3:11.2f} ms {rep_e:14.3g} {1.0:18.1f}x "
         f"{mem['report-rk45']:6.1f} MB",
@@ -358,7 +359,7 @@ def _stepping_table() -> list[str]:
 
 
 def _friction_table(scenarios) -> list[str]:
-    out = [f"\nReport's case with its friction (mu 0.35, sign law), {len(scenarios)} scenario(s); "
+    out = [f"\nThe report script's own model with its friction (mu 0.35, sign law), {len(scenarios)} scenario(s); "
            "reference: exact, 16 sub-steps (estimate)"]
     rep_times, exact_times, rep_errs, exact_errs = [], [], [], []
     for s in scenarios:
