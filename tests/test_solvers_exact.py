@@ -245,6 +245,19 @@ def test_non_classical_damping_is_not_taken_for_classical():
     assert classical_modes(system) is None
 
 
+def test_the_report_models_complex_modes_are_too_ill_conditioned_to_step_in():
+    """Why the report's own model is stepped with its dense exponential (README, Speed): its state
+    matrix's eigenvectors at 85 links have a condition number near 1e13 (bench_dynamics prints it),
+    so modal coordinates would lose about 13 of 16 digits. 1e10 leaves three decades of margin for
+    the LAPACK build's own rounding in a near-defective eigenproblem."""
+    from dynamics.mqp2012 import replica_system
+    from dynamics.solvers._common import state_matrices
+
+    system, _ = replica_system("al6061-t6", 85, 0.0)
+    vectors = np.linalg.eig(state_matrices(system)[0])[1]
+    assert np.linalg.cond(vectors) > 1e10
+
+
 
 def _textbook_van_loan(system, h):
     """Van Loan's augmented exponential as written (all force columns, no scaling)."""
