@@ -18,8 +18,8 @@ rounding, tested), and a linear run on a uniform grid is stepped in those modes 
 chain: 0.39 ms against 0.82 ms for the dense loop in bench_dynamics, a ratio that moves with page
 faults; see the README). Other systems (the report replica's asymmetric damping) take the
 augmented-matrix route and the step loop; for a linear run its B keeps only the DOFs the force
-acts on. The matrices are cached per system and step (dynamics.solvers.cache), so a speed sweep or a set of cams on one
-chain computes them once.
+acts on. The matrices are cached per system and step (dynamics.solvers.cache), so a speed sweep
+or a set of cams on one chain computes them once.
 
 Nonlinear forces g(t, x, v) (friction) are handled by a documented splitting: the linear part stays
 exact, g enters as an extra first-order-hold force whose end-of-step value comes from a predictor
