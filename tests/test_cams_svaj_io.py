@@ -113,3 +113,19 @@ def test_bad_arguments(tmp_path):
         write_svaj_table(mqp2012_program("cycloidal"), tmp_path / "x.txt", step_deg=0.0)
     with pytest.raises(DynamicsError, match="stop_deg"):
         write_svaj_table(mqp2012_program("cycloidal"), tmp_path / "x.txt", step_deg=7.0)
+
+
+def test_programs_and_tables_refuse_the_same_times_alike(tmp_path):
+    """One check (dynamics.cams.cycle) for both kinds of cam: non-finite times always, times before
+    t = 0 only for one-shot motions, the bad time printed as a plain number."""
+    program = mqp2012_program("cycloidal")
+    table = read_svaj_table(write_svaj_table(program, tmp_path / "c.txt"))
+    for cam, kind in ((program, "cam program"), (table, "table")):
+        with pytest.raises(DynamicsError, match="non-finite times"):
+            cam.svaj(np.array([0.0, np.nan]))
+        with pytest.raises(DynamicsError, match=rf"got -0\.001 s; a one-shot {kind} starts at t = 0"):
+            cam.svaj(np.array([-1e-3, 0.0]))
+    periodic = CamProgram.indexing("modified-sine")
+    early = periodic.svaj(np.array([-0.25 * periodic.period_s]))[0]
+    late = periodic.svaj(np.array([0.75 * periodic.period_s]))[0]
+    assert early[0] == pytest.approx(late[0] - periodic.advance_m, abs=1e-12)

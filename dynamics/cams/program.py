@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dynamics.cams.cycle import checked_times, wrap
 from dynamics.cams.laws import get_law
 from dynamics.errors import DynamicsError
 
@@ -167,15 +168,9 @@ class CamProgram:
 
     def _reduce(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Cam angle within the cycle (deg) and the displacement offset of completed cycles (m)."""
-        t = np.asarray(t_s, dtype=float)
-        if not np.all(np.isfinite(t)):
-            raise DynamicsError("t_s: got non-finite times; expected finite times in seconds")
-        theta = t * self._deg_per_s
+        theta = checked_times(t_s, None if self.periodic else "cam program") * self._deg_per_s
         if self.periodic:
-            cycles = np.floor(theta / self._cycle_deg)
-            return theta - cycles * self._cycle_deg, cycles * self._net_m
-        if np.any(theta < 0):
-            raise DynamicsError(f"t_s: got {t.min()!r} s; a one-shot cam program starts at t = 0, expected t >= 0")
+            return wrap(theta, self._cycle_deg, self._net_m)
         return theta, np.zeros_like(theta)
 
     def _segment_index(self, theta: np.ndarray) -> np.ndarray:

@@ -24,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from dynamics.cams.cycle import checked_times, wrap
 from dynamics.errors import DynamicsError
 
 UNIT_SCALE_M = {"mm": 1e-3, "m": 1.0}
@@ -136,14 +137,9 @@ class TabulatedCam:
         return tuple((a, b) for a, b in intervals)
 
     def _reduce(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        t = np.asarray(t_s, dtype=float)
-        if not np.all(np.isfinite(t)):
-            raise DynamicsError("t_s: got non-finite times; expected finite times in seconds")
+        t = checked_times(t_s, None if self.periodic else "table")
         if self.periodic:
-            cycles = np.floor(t / self.duration_s)
-            return t - cycles * self.duration_s, cycles * self.advance_m
-        if np.any(t < 0):
-            raise DynamicsError(f"t_s: got {float(t.min())!r} s; a one-shot table starts at t = 0, expected t >= 0")
+            return wrap(t, self.duration_s, self.advance_m)
         return t, np.zeros_like(t)
 
     def _hermite(self, i, u, h):
