@@ -357,7 +357,7 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
 class Scenario:
     """One material x cam law: its histories (for plots), its metrics and their error estimate."""
 
-    history: object  # dynamics.reporting.history.CamHistory
+    history: object  # reporting.history.CamHistory
     metrics: object  # dynamics.metrics.LinkMetrics
     stations: dict
     tension: object  # dynamics.metrics.TensionExtremes
@@ -398,7 +398,7 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
 
     from dynamics.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
     from dynamics.reduction import modes_to_keep
-    from dynamics.reporting.history import CamHistory
+    from reporting.history import CamHistory
     from dynamics.simulate import SlackChainWarning, simulate
 
     t = output_times_s(cfg.rpm, samples_per_degree)
@@ -468,7 +468,7 @@ def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress
 
 
 def run(cfg: RunConfig, progress: Progress) -> None:
-    from dynamics.reporting.outputs import write_default_outputs, write_replica_outputs
+    from reporting.outputs import write_default_outputs, write_replica_outputs
 
     timing: dict[str, float] = {}
     if cfg.preset == "mqp2012":

@@ -18,9 +18,9 @@ import numpy as np
 
 from dynamics.metrics import rank_cams, rms, station_links
 from dynamics.reduction import lowest_natural_frequencies_Hz
-from dynamics.reporting import html, plots
-from dynamics.reporting.history import CamHistory
-from dynamics.reporting.tables import Table, max_acceleration_table, rms_table
+from reporting import html, plots
+from reporting.history import CamHistory
+from reporting.tables import Table, max_acceleration_table, rms_table
 
 RANKING_METRIC = "residual_vibration_m"
 DEFAULT_STATION = "tight-side"  # where tables, rankings and plots look unless --station says otherwise

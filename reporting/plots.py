@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from dynamics.reporting.history import CamHistory  # noqa: E402
+from reporting.history import CamHistory  # noqa: E402
 
 CAM_COLOURS = {
     "modified-sine": "tab:red",

@@ -1,1 +1,0 @@
-"""Results for people: plots, tables and the HTML report written by `pipeline.py`."""
