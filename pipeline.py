@@ -12,9 +12,10 @@ from __future__ import annotations
 import argparse
 import sys
 import tempfile
-import time
-from dataclasses import dataclass
 from pathlib import Path
+
+from stages.config import RunConfig
+from stages.progress import Progress, timed
 
 CAM_IDS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
 EXTRA_CAM_IDS = ("simple-harmonic",)  # accepted by name, not in 'all' (infinite jerk at the joints)
@@ -25,50 +26,6 @@ DEFAULT_MATERIALS = ("al6061-t6", "ti-grade2")
 
 class InputError(ValueError):
     """A command-line value that cannot be used; the message names it and what was expected."""
-
-
-@dataclass(frozen=True)
-class RunConfig:
-    geometry: Path | None
-    materials: tuple[str, ...]
-    materials_file: Path | None
-    links: int
-    rpm: float
-    cams: tuple[str, ...]
-    friction: float
-    damping: float
-    preload_N: float
-    solver: str
-    preset: str | None
-    out: Path
-    images: bool
-    quiet: bool
-    mesh_size_m: float | None
-    order: int
-    hardware_mass_kg: float
-    nest_mass_kg: float
-    cache_dir: Path
-    steady_state: bool
-    samples_per_degree: int
-    tolerance: float | None
-    rpm_sweep: str | None
-    settling_band_m: float
-    station: str | None
-
-
-class Progress:
-    """Stage lines with elapsed time on stderr, so stdout stays clean for the final summary."""
-
-    def __init__(self, quiet: bool):
-        self.quiet = quiet
-        self.start = time.perf_counter()
-
-    def elapsed(self) -> float:
-        return time.perf_counter() - self.start
-
-    def __call__(self, message: str) -> None:
-        if not self.quiet:
-            print(f"[{self.elapsed():7.1f} s] {message}", file=sys.stderr, flush=True)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -240,235 +197,11 @@ def check_writable_out(out: Path) -> None:
         raise InputError(f"--out: cannot write to {str(out)!r} ({e.strerror or e})") from None
 
 
-@dataclass(frozen=True)
-class MaterialFea:
-    """What the dynamics and the outputs need of one material's FEA (SI)."""
-
-    material: str
-    stiffness_N_per_m: float
-    stiffness_rel_error_estimate: float
-    body_mass_kg: float
-    body_volume_m3: float
-    pitch_m: float
-    bore_radius_m: float
-    peak_von_mises_Pa_per_N: float
-    peak_von_mises_away_from_clamp_Pa_per_N: float
-    yield_strength_Pa: float
-    dofs: int
-    mesh_size_m: float
-    timing_s: dict
-    warnings: list
-    cached: bool
-    image: Path | None
-
-
-def fea_cache_settings(cfg: RunConfig, material, stiffness_tolerance: float | None) -> dict:
-    from dataclasses import asdict
-
-    return {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order,
-            "stiffness_tolerance": stiffness_tolerance}
-
-
-def _fea_record(name: str, material, study) -> dict:
-    fine = study.finest
-    return {
-        "material": name,
-        "stiffness_N_per_m": study.stiffness_N_per_m,
-        "stiffness_rel_error_estimate": study.stiffness_rel_error_estimate,
-        "body_mass_kg": fine.mass_kg,
-        "body_volume_m3": fine.volume_m3,
-        "pitch_m": fine.pitch_m,
-        "bore_radius_m": fine.bore_radius_m,
-        "peak_von_mises_Pa_per_N": fine.peak_von_mises_Pa_per_N,
-        "peak_von_mises_away_from_clamp_Pa_per_N": fine.peak_von_mises_away_from_clamp_Pa_per_N,
-        "yield_strength_Pa": material.yield_strength_Pa,
-        "dofs": fine.dofs,
-        "mesh_size_m": fine.mesh_size_m,
-        "timing_s": study.timing_s,
-        "warnings": [],
-    }
-
-
-def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress,
-               solved_levels: dict | None) -> dict:
-    """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
-    (reusing the levels in `solved_levels`, see fem.adaptive)."""
-    from fem import stiffness_studies
-    from fem.adaptive import stiffnesses_to_tolerance
-    from fem.study import levels_for_finest
-
-    source = "built-in default link" if cfg.geometry is None else str(cfg.geometry)
-    if stiffness_tolerance is None:
-        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 3 mesh levels")
-        sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
-        return stiffness_studies(cfg.geometry, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
-    progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
-             f"{100 * stiffness_tolerance:.2g} %")
-    return stiffnesses_to_tolerance(cfg.geometry, materials, stiffness_tolerance, order=cfg.order, progress=progress,
-                                    solved=solved_levels)
-
-
-def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None,
-            solved_levels: dict | None = None) -> dict[str, MaterialFea]:
-    """Stiffness, mass and stress per material, from the cache when nothing they depend on changed."""
-    import warnings
-
-    from fem import load_materials, render_deformed
-    from fem.cache import FeaCache, cache_key, geometry_fingerprint
-    from fem.errors import FemWarning
-    from geometry import DEFAULT_LINK
-
-    library = load_materials(cfg.materials_file)
-    unknown = [m for m in cfg.materials if m not in library]
-    if unknown:
-        raise InputError(f"--materials: unknown material {unknown[0]!r}; expected one of {', '.join(library)}")
-    cache = FeaCache(cfg.cache_dir)
-    fingerprint = geometry_fingerprint(cfg.geometry, repr(DEFAULT_LINK))
-    keys = {name: cache_key(fingerprint, fea_cache_settings(cfg, library[name], stiffness_tolerance))
-            for name in cfg.materials}
-    images = {name: cache.image_path(key) if cfg.images else None for name, key in keys.items()}
-    out: dict[str, MaterialFea] = {}
-    for name, key in keys.items():
-        stored = cache.load(key)
-        if stored is not None and (images[name] is None or images[name].exists()):
-            progress(f"FEA {name}: cached result (k = {stored['stiffness_N_per_m']:.5g} N/m)")
-            out[name] = MaterialFea(**stored, cached=True, image=images[name])
-    missing = [library[name] for name in cfg.materials if name not in out]
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", FemWarning)
-        studies = _solve_fea(cfg, missing, stiffness_tolerance, progress, solved_levels) if missing else {}
-    cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
-    for message in cautions:
-        print(f"pipeline.py: warning: {message}", file=sys.stderr)
-    for material in missing:
-        name, study = material.name, studies[material.name]
-        stored = {**_fea_record(name, material, study), "warnings": cautions}
-        progress(f"FEA {name}: k = {study.stiffness_N_per_m:.5g} N/m "
-                 f"(estimated error {100 * study.stiffness_rel_error_estimate:.2g} %)")
-        if images[name] is not None:
-            images[name].parent.mkdir(parents=True, exist_ok=True)
-            render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
-        cache.store(keys[name], stored)
-        out[name] = MaterialFea(**stored, cached=False, image=images[name])
-    return {name: out[name] for name in cfg.materials}
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """One material x cam law: its histories (for plots), its metrics and their error estimate."""
-
-    history: object  # reporting.history.CamHistory
-    metrics: object  # dynamics.metrics.LinkMetrics
-    stations: dict
-    tension: object  # dynamics.metrics.TensionExtremes
-    samples_per_degree: int
-    rel_error_estimate: dict | None  # {"time_step", "stiffness", "total"} when --tolerance is given
-    settling_time_s: "np.ndarray"  # per link, the longest settling into --settling-band over the dwells (NaN: never)
-
-
-def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> "np.ndarray":
-    """Output samples over the report's 180 deg window (two index cycles)."""
-    import numpy as np
-
-    degrees = np.arange(int(round(window_deg * samples_per_degree)) + 1) / samples_per_degree
-    return degrees / (6.0 * rpm)
-
-
-def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None):
-    from dynamics.chain import ChainModel
-
-    return ChainModel(
-        n_links=cfg.links,
-        link_mass_kg=result.body_mass_kg + cfg.hardware_mass_kg + cfg.nest_mass_kg,
-        stiffness_N_per_m=result.stiffness_N_per_m if stiffness_N_per_m is None else stiffness_N_per_m,
-        damping_ratio=cfg.damping,
-        preload_N=cfg.preload_N,
-        friction_coefficient=cfg.friction,
-    )
-
-
-def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m: float,
-                      samples_per_degree: int) -> Scenario:
-    import warnings
-
-    from dynamics.cams import CamProgram
-    from dataclasses import replace
-
-    import numpy as np
-
-    from dynamics.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
-    from dynamics.reduction import modes_to_keep
-    from reporting.history import CamHistory
-    from dynamics.simulate import SlackChainWarning, simulate
-
-    t = output_times_s(cfg.rpm, samples_per_degree)
-    cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
-    # a one-station question keeps one link's history (the spring tensions are kept whole: they are
-    # what the slack check and the stress need)
-    kept = None if cfg.station is None else (station_links(cfg.links)[cfg.station],)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", SlackChainWarning)  # reported through the minimum tension
-        r = simulate(model, cam, t, method=cfg.solver, steady_state=cfg.steady_state,
-                     links=None if kept is None else [link - 1 for link in kept],
-                     n_modes=modes_to_keep(cfg.links))
-    history = CamHistory(material, cam_id, t, r.z_m, r.zdot_m_s, r.zddot_m_s2, r.x_m, r.v_m_s, r.a_m_s2,
-                         r.tension_N, cam.dwell_mask(t), kept)
-    metrics = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, history.dwell_mask)
-    stations = (station_metrics(metrics) if kept is None
-                else {cfg.station: replace(metrics.at_link(1), link=kept[0])})
-    settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
-    # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
-    worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
-    return Scenario(history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst)
-
-
-def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, cam_id: str) -> Scenario:
-    """Finest sampling the tolerance needs, with the error estimate from the step and from k."""
-    from dataclasses import replace
-
-    from dynamics.fidelity import choose_samples_per_degree, stiffness_sensitivity
-
-    model = chain_model(cfg, result)
-    runs: dict[int, Scenario] = {}
-
-    def stations_at(spd: int):
-        runs[spd] = simulate_scenario(cfg, model, material, cam_id, result.pitch_m, spd)
-        return runs[spd].stations
-
-    choice, stations = choose_samples_per_degree(stations_at, cfg.tolerance / 2)
-    spd = choice.samples_per_degree
-    k_error = stiffness_sensitivity(
-        lambda k: simulate_scenario(cfg, chain_model(cfg, result, k), material, cam_id, result.pitch_m,
-                                    spd).stations,
-        result.stiffness_N_per_m, result.stiffness_rel_error_estimate, stations)
-    estimate = {"time_step": choice.rel_error_estimate, "stiffness": k_error,
-                "total": choice.rel_error_estimate + k_error}
-    return replace(runs[spd], rel_error_estimate=estimate)
-
-
-def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress):
-    """Simulate every material x cam law; returns the chain models and the scenarios."""
-    from dynamics.reduction import lowest_natural_frequencies_Hz, modes_to_keep
-
-    models, scenarios = {}, {}
-    for name, result in fea.items():
-        models[name] = chain_model(cfg, result)
-        for cam_id in cfg.cams:
-            if cfg.tolerance is None:
-                scenarios[name, cam_id] = simulate_scenario(cfg, models[name], name, cam_id, result.pitch_m,
-                                                            cfg.samples_per_degree)
-            else:
-                scenarios[name, cam_id] = sc = scenario_to_tolerance(cfg, result, name, cam_id)
-                progress(f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
-                         f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %")
-        progress(f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
-                 f"f1 = {lowest_natural_frequencies_Hz(models[name], 10)[0]:.1f} Hz"
-                 + ("" if modes_to_keep(cfg.links) is None else f", solved in its {modes_to_keep(cfg.links)} lowest modes"))
-    return models, scenarios
-
-
 def run(cfg: RunConfig, progress: Progress) -> None:
     from reporting.outputs import write_default_outputs, write_replica_outputs
+    from stages.chain import run_dynamics, run_rpm_sweeps
+    from stages.fea import run_fea
+    from stages.tolerance import run_to_tolerance
 
     timing: dict[str, float] = {}
     if cfg.preset == "mqp2012":
@@ -486,59 +219,12 @@ def run(cfg: RunConfig, progress: Progress) -> None:
         write_replica_outputs(cfg, replicas, timing, progress)
         return
     if cfg.tolerance is None:
-        fea = _timed(timing, "fea", progress, run_fea, cfg, progress)
-        models, scenarios = _timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
+        fea = timed(timing, "fea", progress, run_fea, cfg, progress)
+        models, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     else:
         fea, models, scenarios = run_to_tolerance(cfg, progress, timing)
-    sweeps = _timed(timing, "rpm_sweep", progress, run_rpm_sweeps, cfg, fea, progress) if cfg.rpm_sweep else {}
+    sweeps = timed(timing, "rpm_sweep", progress, run_rpm_sweeps, cfg, fea, progress) if cfg.rpm_sweep else {}
     write_default_outputs(cfg, fea, models, scenarios, timing, progress, sweeps)
-
-
-def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress) -> dict:
-    """Speed sweep per material on the linear chain (the fast modal path cannot carry friction)."""
-    from dataclasses import replace
-
-    from dynamics.reduction import modes_to_keep
-    from dynamics.sweep import parse_rpm_range, rpm_sweep
-
-    rpms = parse_rpm_range(cfg.rpm_sweep)
-    sweeps = {}
-    for name, result in fea.items():
-        model = replace(chain_model(cfg, result), friction_coefficient=0.0)
-        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.station or "tight-side",
-                                 n_modes=modes_to_keep(cfg.links))
-        progress(f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws, "
-                 f"{len(sweeps[name].critical_speeds)} critical speeds in range"
-                 + (" (friction left out of the sweep)" if cfg.friction > 0 else ""))
-    return sweeps
-
-
-def _timed(timing: dict, stage: str, progress: Progress, stage_function, *args):
-    """Run one stage and add its wall time to timing[stage] (a stage may run more than once)."""
-    start = progress.elapsed()
-    result = stage_function(*args)
-    timing[stage] = timing.get(stage, 0.0) + progress.elapsed() - start
-    return result
-
-
-def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict):
-    """Half the tolerance goes to the time step, half to the FEA stiffness. How much a k error moves
-    the metrics is measured (not assumed) after a first FEA pass; if it moves them by more than its
-    half, the FEA is refined once more to the k accuracy that the measured sensitivity asks for."""
-    budget = cfg.tolerance / 2
-    stiffness_tolerance = budget
-    levels: dict = {}  # the refinement pass extends the first pass's levels instead of re-solving them
-    fea = _timed(timing, "fea", progress, run_fea, cfg, progress, stiffness_tolerance, levels)
-    models, scenarios = _timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
-    from_k = max(sc.rel_error_estimate["stiffness"] for sc in scenarios.values())
-    if from_k > budget:
-        worst_k_error = max(r.stiffness_rel_error_estimate for r in fea.values())
-        stiffness_tolerance = 0.8 * worst_k_error * budget / from_k
-        progress(f"a {100 * worst_k_error:.2g} % error in k moves the metrics by {100 * from_k:.2g} %: "
-                 f"refining the FEA to {100 * stiffness_tolerance:.2g} %")
-        fea = _timed(timing, "fea", progress, run_fea, cfg, progress, stiffness_tolerance, levels)
-        models, scenarios = _timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
-    return fea, models, scenarios
 
 
 def main(argv: list[str] | None = None) -> int:

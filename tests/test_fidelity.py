@@ -9,6 +9,8 @@ from dynamics.fidelity import choose_samples_per_degree, metric_values, relative
 from dynamics.metrics import StationMetrics
 
 import pipeline
+from stages.chain import chain_model, simulate_scenario
+from stages.fea import MaterialFea
 
 
 def _stations(value: float) -> dict:
@@ -39,15 +41,15 @@ def test_tolerance_outside_zero_one_is_refused():
 def test_stiffness_sensitivity_of_the_chain_metrics_is_measured_not_assumed():
     # A real scenario: metrics move when k moves by 1 %, and not at all when it does not move.
     cfg = pipeline.parse_cli(["--links", "12", "--friction", "0", "--cams", "modified-sine"])
-    fea = pipeline.MaterialFea("al6061-t6", 9e7, 0.01, 0.373, 1.38e-4, 0.1125, 0.0095, 1e5, 1e5, 276e6, 1000,
+    fea = MaterialFea("al6061-t6", 9e7, 0.01, 0.373, 1.38e-4, 0.1125, 0.0095, 1e5, 1e5, 276e6, 1000,
                                0.005, {}, [], False, None)
 
     def stations_with_k(k):
-        return pipeline.simulate_scenario(cfg, pipeline.chain_model(cfg, fea, k), "al6061-t6", "modified-sine",
+        return simulate_scenario(cfg, chain_model(cfg, fea, k), "al6061-t6", "modified-sine",
                                           0.1125, 2).stations
 
     reference = stations_with_k(9e7)
     moved = stiffness_sensitivity(stations_with_k, 9e7, 0.01, reference)
     assert 1e-4 < moved < 0.2
     assert stiffness_sensitivity(stations_with_k, 9e7, 0.0, reference) == 0.0
-    assert isinstance(pipeline.chain_model(cfg, fea), ChainModel)
+    assert isinstance(chain_model(cfg, fea), ChainModel)

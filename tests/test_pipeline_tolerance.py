@@ -5,6 +5,8 @@ from types import SimpleNamespace
 import pytest
 
 import pipeline
+from stages import tolerance
+from stages.progress import Progress
 
 
 def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
@@ -19,11 +21,11 @@ def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
         # metrics that move 3x as much as k: the first pass's k is not good enough
         return {}, {("al6061-t6", "modified-sine"): SimpleNamespace(rel_error_estimate={"stiffness": 3 * k_error})}
 
-    monkeypatch.setattr(pipeline, "run_fea", fea)
-    monkeypatch.setattr(pipeline, "run_dynamics", dynamics)
+    monkeypatch.setattr(tolerance, "run_fea", fea)
+    monkeypatch.setattr(tolerance, "run_dynamics", dynamics)
     cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q"])
     timing: dict = {}
-    pipeline.run_to_tolerance(cfg, pipeline.Progress(quiet=True), timing)
+    tolerance.run_to_tolerance(cfg, Progress(quiet=True), timing)
     (first_tol, first_levels), (second_tol, second_levels) = calls
     assert first_tol == pytest.approx(0.01)  # half the tolerance goes to k
     assert second_tol == pytest.approx(0.8 * 0.01 * 0.01 / 0.03)  # what the measured 3x sensitivity asks for
@@ -33,10 +35,10 @@ def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
 
 def test_no_second_pass_when_k_is_good_enough(monkeypatch):
     calls = []
-    monkeypatch.setattr(pipeline, "run_fea", lambda cfg, progress, tol, levels: calls.append(tol) or
+    monkeypatch.setattr(tolerance, "run_fea", lambda cfg, progress, tol, levels: calls.append(tol) or
                         {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=tol)})
-    monkeypatch.setattr(pipeline, "run_dynamics", lambda cfg, fea, progress: (
+    monkeypatch.setattr(tolerance, "run_dynamics", lambda cfg, fea, progress: (
         {}, {("al6061-t6", "modified-sine"): SimpleNamespace(rel_error_estimate={"stiffness": 0.5 * 0.01})}))
     cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q"])
-    pipeline.run_to_tolerance(cfg, pipeline.Progress(quiet=True), {})
+    tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
     assert calls == [pytest.approx(0.01)]

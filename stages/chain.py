@@ -1,0 +1,142 @@
+"""The chain stage: every material x cam law simulated, and the optional speed sweep."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from stages.config import RunConfig
+from stages.fea import MaterialFea
+from stages.progress import Progress
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One material x cam law: its histories (for plots), its metrics and their error estimate."""
+
+    history: object  # reporting.history.CamHistory
+    metrics: object  # dynamics.metrics.LinkMetrics
+    stations: dict
+    tension: object  # dynamics.metrics.TensionExtremes
+    samples_per_degree: int
+    rel_error_estimate: dict | None  # {"time_step", "stiffness", "total"} when --tolerance is given
+    settling_time_s: "np.ndarray"  # per link, the longest settling into --settling-band over the dwells (NaN: never)
+
+
+def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> "np.ndarray":
+    """Output samples over the report's 180 deg window (two index cycles)."""
+    import numpy as np
+
+    degrees = np.arange(int(round(window_deg * samples_per_degree)) + 1) / samples_per_degree
+    return degrees / (6.0 * rpm)
+
+
+def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None):
+    from dynamics.chain import ChainModel
+
+    return ChainModel(
+        n_links=cfg.links,
+        link_mass_kg=result.body_mass_kg + cfg.hardware_mass_kg + cfg.nest_mass_kg,
+        stiffness_N_per_m=result.stiffness_N_per_m if stiffness_N_per_m is None else stiffness_N_per_m,
+        damping_ratio=cfg.damping,
+        preload_N=cfg.preload_N,
+        friction_coefficient=cfg.friction,
+    )
+
+
+def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m: float,
+                      samples_per_degree: int) -> Scenario:
+    import warnings
+
+    from dynamics.cams import CamProgram
+    from dataclasses import replace
+
+    import numpy as np
+
+    from dynamics.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
+    from dynamics.reduction import modes_to_keep
+    from reporting.history import CamHistory
+    from dynamics.simulate import SlackChainWarning, simulate
+
+    t = output_times_s(cfg.rpm, samples_per_degree)
+    cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
+    # a one-station question keeps one link's history (the spring tensions are kept whole: they are
+    # what the slack check and the stress need)
+    kept = None if cfg.station is None else (station_links(cfg.links)[cfg.station],)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SlackChainWarning)  # reported through the minimum tension
+        r = simulate(model, cam, t, method=cfg.solver, steady_state=cfg.steady_state,
+                     links=None if kept is None else [link - 1 for link in kept],
+                     n_modes=modes_to_keep(cfg.links))
+    history = CamHistory(material, cam_id, t, r.z_m, r.zdot_m_s, r.zddot_m_s2, r.x_m, r.v_m_s, r.a_m_s2,
+                         r.tension_N, cam.dwell_mask(t), kept)
+    metrics = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, history.dwell_mask)
+    stations = (station_metrics(metrics) if kept is None
+                else {cfg.station: replace(metrics.at_link(1), link=kept[0])})
+    settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
+    # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
+    worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
+    return Scenario(history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst)
+
+
+def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, cam_id: str) -> Scenario:
+    """Finest sampling the tolerance needs, with the error estimate from the step and from k."""
+    from dataclasses import replace
+
+    from dynamics.fidelity import choose_samples_per_degree, stiffness_sensitivity
+
+    model = chain_model(cfg, result)
+    runs: dict[int, Scenario] = {}
+
+    def stations_at(spd: int):
+        runs[spd] = simulate_scenario(cfg, model, material, cam_id, result.pitch_m, spd)
+        return runs[spd].stations
+
+    choice, stations = choose_samples_per_degree(stations_at, cfg.tolerance / 2)
+    spd = choice.samples_per_degree
+    k_error = stiffness_sensitivity(
+        lambda k: simulate_scenario(cfg, chain_model(cfg, result, k), material, cam_id, result.pitch_m,
+                                    spd).stations,
+        result.stiffness_N_per_m, result.stiffness_rel_error_estimate, stations)
+    estimate = {"time_step": choice.rel_error_estimate, "stiffness": k_error,
+                "total": choice.rel_error_estimate + k_error}
+    return replace(runs[spd], rel_error_estimate=estimate)
+
+
+def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress):
+    """Simulate every material x cam law; returns the chain models and the scenarios."""
+    from dynamics.reduction import lowest_natural_frequencies_Hz, modes_to_keep
+
+    models, scenarios = {}, {}
+    for name, result in fea.items():
+        models[name] = chain_model(cfg, result)
+        for cam_id in cfg.cams:
+            if cfg.tolerance is None:
+                scenarios[name, cam_id] = simulate_scenario(cfg, models[name], name, cam_id, result.pitch_m,
+                                                            cfg.samples_per_degree)
+            else:
+                scenarios[name, cam_id] = sc = scenario_to_tolerance(cfg, result, name, cam_id)
+                progress(f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
+                         f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %")
+        progress(f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
+                 f"f1 = {lowest_natural_frequencies_Hz(models[name], 10)[0]:.1f} Hz"
+                 + ("" if modes_to_keep(cfg.links) is None else f", solved in its {modes_to_keep(cfg.links)} lowest modes"))
+    return models, scenarios
+
+
+def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress) -> dict:
+    """Speed sweep per material on the linear chain (the fast modal path cannot carry friction)."""
+    from dataclasses import replace
+
+    from dynamics.reduction import modes_to_keep
+    from dynamics.sweep import parse_rpm_range, rpm_sweep
+
+    rpms = parse_rpm_range(cfg.rpm_sweep)
+    sweeps = {}
+    for name, result in fea.items():
+        model = replace(chain_model(cfg, result), friction_coefficient=0.0)
+        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.station or "tight-side",
+                                 n_modes=modes_to_keep(cfg.links))
+        progress(f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws, "
+                 f"{len(sweeps[name].critical_speeds)} critical speeds in range"
+                 + (" (friction left out of the sweep)" if cfg.friction > 0 else ""))
+    return sweeps

@@ -1,0 +1,124 @@
+"""The FEA stage: stiffness, mass and stress per material, cached on disk."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from fem.errors import FemError
+from stages.config import RunConfig
+from stages.progress import Progress
+
+
+@dataclass(frozen=True)
+class MaterialFea:
+    """What the dynamics and the outputs need of one material's FEA (SI)."""
+
+    material: str
+    stiffness_N_per_m: float
+    stiffness_rel_error_estimate: float
+    body_mass_kg: float
+    body_volume_m3: float
+    pitch_m: float
+    bore_radius_m: float
+    peak_von_mises_Pa_per_N: float
+    peak_von_mises_away_from_clamp_Pa_per_N: float
+    yield_strength_Pa: float
+    dofs: int
+    mesh_size_m: float
+    timing_s: dict
+    warnings: list
+    cached: bool
+    image: Path | None
+
+
+def fea_cache_settings(cfg: RunConfig, material, stiffness_tolerance: float | None) -> dict:
+    from dataclasses import asdict
+
+    return {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order,
+            "stiffness_tolerance": stiffness_tolerance}
+
+
+def _fea_record(name: str, material, study) -> dict:
+    fine = study.finest
+    return {
+        "material": name,
+        "stiffness_N_per_m": study.stiffness_N_per_m,
+        "stiffness_rel_error_estimate": study.stiffness_rel_error_estimate,
+        "body_mass_kg": fine.mass_kg,
+        "body_volume_m3": fine.volume_m3,
+        "pitch_m": fine.pitch_m,
+        "bore_radius_m": fine.bore_radius_m,
+        "peak_von_mises_Pa_per_N": fine.peak_von_mises_Pa_per_N,
+        "peak_von_mises_away_from_clamp_Pa_per_N": fine.peak_von_mises_away_from_clamp_Pa_per_N,
+        "yield_strength_Pa": material.yield_strength_Pa,
+        "dofs": fine.dofs,
+        "mesh_size_m": fine.mesh_size_m,
+        "timing_s": study.timing_s,
+        "warnings": [],
+    }
+
+
+def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress,
+               solved_levels: dict | None) -> dict:
+    """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
+    (reusing the levels in `solved_levels`, see fem.adaptive)."""
+    from fem import stiffness_studies
+    from fem.adaptive import stiffnesses_to_tolerance
+    from fem.study import levels_for_finest
+
+    source = "built-in default link" if cfg.geometry is None else str(cfg.geometry)
+    if stiffness_tolerance is None:
+        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 3 mesh levels")
+        sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
+        return stiffness_studies(cfg.geometry, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
+    progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
+             f"{100 * stiffness_tolerance:.2g} %")
+    return stiffnesses_to_tolerance(cfg.geometry, materials, stiffness_tolerance, order=cfg.order, progress=progress,
+                                    solved=solved_levels)
+
+
+def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None,
+            solved_levels: dict | None = None) -> dict[str, MaterialFea]:
+    """Stiffness, mass and stress per material, from the cache when nothing they depend on changed."""
+    import warnings
+
+    from fem import load_materials, render_deformed
+    from fem.cache import FeaCache, cache_key, geometry_fingerprint
+    from fem.errors import FemWarning
+    from geometry import DEFAULT_LINK
+
+    library = load_materials(cfg.materials_file)
+    unknown = [m for m in cfg.materials if m not in library]
+    if unknown:
+        raise FemError(f"--materials: unknown material {unknown[0]!r}; expected one of {', '.join(library)}")
+    cache = FeaCache(cfg.cache_dir)
+    fingerprint = geometry_fingerprint(cfg.geometry, repr(DEFAULT_LINK))
+    keys = {name: cache_key(fingerprint, fea_cache_settings(cfg, library[name], stiffness_tolerance))
+            for name in cfg.materials}
+    images = {name: cache.image_path(key) if cfg.images else None for name, key in keys.items()}
+    out: dict[str, MaterialFea] = {}
+    for name, key in keys.items():
+        stored = cache.load(key)
+        if stored is not None and (images[name] is None or images[name].exists()):
+            progress(f"FEA {name}: cached result (k = {stored['stiffness_N_per_m']:.5g} N/m)")
+            out[name] = MaterialFea(**stored, cached=True, image=images[name])
+    missing = [library[name] for name in cfg.materials if name not in out]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FemWarning)
+        studies = _solve_fea(cfg, missing, stiffness_tolerance, progress, solved_levels) if missing else {}
+    cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
+    for message in cautions:
+        print(f"pipeline.py: warning: {message}", file=sys.stderr)
+    for material in missing:
+        name, study = material.name, studies[material.name]
+        stored = {**_fea_record(name, material, study), "warnings": cautions}
+        progress(f"FEA {name}: k = {study.stiffness_N_per_m:.5g} N/m "
+                 f"(estimated error {100 * study.stiffness_rel_error_estimate:.2g} %)")
+        if images[name] is not None:
+            images[name].parent.mkdir(parents=True, exist_ok=True)
+            render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
+        cache.store(keys[name], stored)
+        out[name] = MaterialFea(**stored, cached=False, image=images[name])
+    return {name: out[name] for name in cfg.materials}
