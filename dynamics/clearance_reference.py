@@ -60,6 +60,9 @@ from dynamics.metrics import matlab_round
 PULLING, FREE, PUSHING = 1, 0, -1
 CAM_INPUTS = ("held", "exact")
 _EPS = np.finfo(float).eps
+# Default absolute tolerance on displacements, per unit rtol: the scale of the contact stretches
+# (P/k is 24 um for the default chain, pin clearances are tens of um).
+ATOL_LENGTH_SCALE_M = 1e-5
 
 
 class HeldCam:
@@ -183,7 +186,7 @@ def reference_response(
     (rate_N_per_m, mass_kg, damping_N_s_per_m), a tuple or an object with those attributes; it sits
     in span `idler_span` (default `idler_span_index(n_links)`). y0, ydot0: motion relative to the
     cam (default: every link at the cam's position, motionless: y = 0, y' = -z'(t0)).
-    atol: on displacements in metres (default rtol x the larger of P/k and the finite clearance);
+    atol: on displacements in metres (default rtol x ATOL_LENGTH_SCALE_M, 10 um);
     velocities get atol times the chain's highest frequency bound."""
     model = _Model.build(n_links, link_mass_kg, stiffness_N_per_m, drive_stiffness_N_per_m, preload_N, clearance_m,
                          damping_matrix, span_damping_beta_s, friction_force_N, friction_velocity_scale_m_s,
@@ -296,14 +299,14 @@ class _Integrator:
         self.piece = (0.0, 0.0, 0.0, 0.0, 0.0)
         self.nfev = 0
         self.atol = self._atol(atol)
+        # a span's law is continuous at its edges: following the old law this far past the edge
+        # changes the force by k * margin (1e-6 N at k = 1e8, margin 1e-14 m)
+        self.edge_margin = 10.0 * float(self.atol[0])
 
     def _atol(self, atol) -> np.ndarray:
         m = self.model
         if atol is None:
-            finite_gaps = m.gap[np.isfinite(m.gap)]
-            kmax = float(m.k.max())
-            scale = max(m.preload / kmax if kmax > 0 else 0.0, float(finite_gaps.max(initial=0.0)), 1e-6)
-            atol = self.rtol * scale
+            atol = self.rtol * ATOL_LENGTH_SCALE_M
         if not (np.isfinite(atol) and atol > 0):
             raise DynamicsError(f"atol: expected a positive tolerance in metres, got {atol!r}")
         omega = np.sqrt((4 * float(m.k.max()) + m.kd + (m.k_t if m.has_tensioner else 0.0)) / float(m.mass.min()))
@@ -399,10 +402,13 @@ class _Integrator:
         return np.concatenate(parts)
 
     def distance_to_edge(self, t: float, s: np.ndarray) -> float:
-        """Smallest distance (m) of a span that can change mode to the edge of its mode's interval."""
+        """Smallest distance (m) of a span that can change mode to the edge of its mode's interval,
+        plus the hysteresis `edge_margin`: a span switches `edge_margin` past the edge, so that after
+        the restart every span is inside its interval by at least the root finder's error and the
+        event function starts positive (it must, to see the next crossing fall through zero)."""
         e, _ = self.stretch(s)
         es = e[self.switch_idx]
-        return float(np.min(np.minimum(es - self.lower, self.upper - es)))
+        return float(np.min(np.minimum(es - self.lower, self.upper - es))) + self.edge_margin
 
     def stored_energy(self, s: np.ndarray, zd: float) -> float:
         m = self.model
@@ -431,7 +437,7 @@ class _Integrator:
             new = FREE
         else:
             new = PULLING if abs(es[i] - self.pull[j]) <= abs(es[i] - self.push[j]) else PUSHING
-        others = sw[(dist < 0) & (np.arange(sw.size) != i)]
+        others = sw[(dist < -self.edge_margin) & (np.arange(sw.size) != i)]
         modes[others] = self.classify(e, ed)[others]
         modes[j] = new
         self.set_modes(modes)
