@@ -26,7 +26,7 @@ import pytest
 exudyn = pytest.importorskip("exudyn", reason="exudyn (the `bench` extra) is not installed: no Exudyn cross-check")
 
 from benchmarks.exudyn_chain import exudyn_chain_response  # noqa: E402
-from dynamics.cams import CamProgram  # noqa: E402
+from dynamics.cams import CamProgram, Segment  # noqa: E402
 from dynamics.chain import ChainModel  # noqa: E402
 from dynamics.clearance_reference import HeldCam, reference_response  # noqa: E402
 from dynamics.metrics import rms, station_links  # noqa: E402
@@ -37,22 +37,14 @@ K = 9.27e7
 MASS = 2.03
 PRELOAD = 2224.0
 GAP = 1e-4
-BETA = 2e-5  # s: span damping beta k (zeta 0.13 near 1 kHz)
+BETA = 2e-5  # s: span damping beta k (zeta = beta omega / 2: 0.13 near 2 kHz)
 T_WINDOW = np.arange(181) / (6.0 * 180.0)
 CAM = CamProgram.indexing("modified-sine")
+RESTING = CamProgram((Segment("dwell", 360.0),), 180.0, periodic=True, name="at rest")
 HELD = HeldCam(CAM, T_WINDOW)  # the same input for all three codes
 STATIONS = [link - 1 for link in station_links(N).values()]
 CHAIN = dict(n_links=N, link_mass_kg=MASS, stiffness_N_per_m=K, drive_stiffness_N_per_m=K, preload_N=PRELOAD,
              t_eval_s=T_WINDOW)
-
-
-class RestingCam:
-    period_s = None
-    advance_m = None
-
-    def svaj(self, t_s):
-        zero = np.zeros_like(np.asarray(t_s, dtype=float))
-        return zero, zero, zero, zero
 
 
 def station_differences(ours, theirs) -> np.ndarray:
@@ -72,7 +64,7 @@ def exudyn_run(steps, **overrides):
 
 def test_exudyn_limit_stops_hold_the_preloaded_static_state():
     t = np.linspace(0.0, 0.01, 11)
-    ex = exudyn_run(10, cam=RestingCam(), t_eval_s=t, n_links=5)
+    ex = exudyn_run(10, cam=RESTING, t_eval_s=t, n_links=5)
     assert np.all(ex.x_m == 0.0)
     np.testing.assert_allclose(ex.tension_N, PRELOAD, rtol=1e-12)
 

@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import pytest
 
-from dynamics.cams import CamProgram
+from dynamics.cams import CamProgram, Segment
 from dynamics.chain import ChainModel
 from dynamics.clearance_reference import HeldCam, idler_span_index, reference_response
 from dynamics.errors import DynamicsError
@@ -26,17 +26,7 @@ PRELOAD = 2224.0
 GAP = 1e-4  # m, total free play of a span's two pin joints
 T_WINDOW = np.arange(181) / (6.0 * 180.0)  # 0..180 cam degrees at 180 rpm, one-degree outputs
 CAM = CamProgram.indexing("modified-sine")
-
-
-class RestingCam:
-    """A cam that never moves."""
-
-    period_s = None
-    advance_m = None
-
-    def svaj(self, t_s):
-        zero = np.zeros_like(np.asarray(t_s, dtype=float))
-        return zero, zero, zero, zero
+RESTING = CamProgram((Segment("dwell", 360.0),), 180.0, periodic=True, name="at rest")
 
 
 def chain(n=20, **overrides):
@@ -123,7 +113,7 @@ def two_masses(beta=0.0, t_end=2e-3):
     share = np.array([M1, -M0]) / (M0 + M1)  # zero momentum
     return reference_response(
         n_links=2, link_mass_kg=[M0, M1], stiffness_N_per_m=[K_C, 0.0], drive_stiffness_N_per_m=0.0, preload_N=0.0,
-        clearance_m=[GAP, np.inf], cam=RestingCam(), t_eval_s=np.linspace(0.0, t_end, 401),
+        clearance_m=[GAP, np.inf], cam=RESTING, t_eval_s=np.linspace(0.0, t_end, 401),
         span_damping_beta_s=beta, y0=[0.0, -GAP / 2], ydot0=V_APPROACH * share)
 
 
@@ -193,7 +183,7 @@ def test_cam_work_is_dissipation_plus_change_of_stored_energy(case):
 # (iv) the idler tensioner --------------------------------------------------------------------------
 
 def test_tensioner_rests_at_u_zero_in_the_preloaded_static_state():
-    r = chain(n=10, cam=RestingCam(), y0=np.zeros(10), ydot0=np.zeros(10), tensioner=(2e6, 5.0, 100.0),
+    r = chain(n=10, cam=RESTING, y0=np.zeros(10), ydot0=np.zeros(10), tensioner=(2e6, 5.0, 100.0),
               t_eval_s=np.linspace(0.0, 0.05, 51))
     assert np.all(r.tensioner_u_m == 0.0) and np.all(r.y_m == 0.0)
     assert np.all(r.tension_N == PRELOAD) and r.n_contact_changes == 0
@@ -247,3 +237,17 @@ def test_85_links_with_free_play_and_friction_balance_energy():
     assert r.n_contact_changes > 0
     scale = np.abs(r.cam_work_J).max()
     assert np.abs(r.energy_balance_residual_J).max() < 1e-6 * scale
+
+
+@pytest.mark.slow
+def test_held_cam_input_converges_to_the_cam_itself_at_second_order():
+    """cam_input="exact" drives the chain by the cam; the held input's difference from it is the
+    first-order hold's sampling error, O(h^2) in the sample spacing."""
+    t_end = T_WINDOW[45]  # the index
+    exact = chain(n=10, cam_input="exact", t_eval_s=np.linspace(0.0, t_end, 46))
+    differences = []
+    for per_degree in (1, 4):
+        t = np.linspace(0.0, t_end, 45 * per_degree + 1)
+        held = chain(n=10, t_eval_s=t)
+        differences.append(np.abs(held.y_m[::per_degree] - exact.y_m).max() / np.abs(exact.y_m).max())
+    assert differences[0] > 10.0 * differences[1]  # 16 at exactly second order
