@@ -24,13 +24,20 @@ through zero) ends the segment, the crossing span takes its new mode, and the in
 from the located state. Segments also end at every output time, where the held cam input's
 acceleration has its kinks. No step straddles a kink of the force law or of the input.
 
-Cam input (`cam_input`):
-- "held" (default): the cam's acceleration sampled at t_eval_s and linear in between, velocity and
-  displacement its exact integrals from the cam's values at t_eval_s[0] (`HeldCam`). This is the
-  input the linear exact solver (dynamics.simulate, first-order hold) and any solver that samples
-  the cam at the output times solve, so they can be compared with this reference to its tolerance.
+Cam input (`cam_input`). The relative motion y is forced by -m z''(t):
+- "sampled" (default): as dynamics.simulate does it, so that it and any solver built the same way
+  can be compared with this reference to its tolerance: z'' is the cam's acceleration sampled at
+  t_eval_s and linear in between (first-order hold), the friction sees z' linear between the cam's
+  velocity samples, and the absolute motion reported is the cam's own s, v, a plus y. Those two
+  inputs are not each other's integral (they differ by the hold's error), so the energy balance
+  holds only to that error here (about 1e-2 relative at one-degree samples).
+- "held": the consistent input of a cam whose acceleration is that first-order hold: z' and z its
+  exact integrals from the cam's values at t_eval_s[0] (`HeldCam`), used for friction, energy and
+  the absolute motion. The energy balance holds to the integration tolerance. The held input drifts
+  from the cam by the hold's error: 6.5e-4 m and 1e-2 m/s after 180 degrees of the modified sine
+  at one-degree samples, 0.6 m/s for the simple-harmonic law, whose acceleration jumps.
 - "exact": cam.svaj(t) at every evaluation (about 0.2 ms each for a CamProgram: slow, for short
-  windows): the response to the cam itself, to measure the sampling error of the held input.
+  windows): the response to the cam itself, to measure the sampling error of the other two.
 
 The energy terms are integrated with the motion (extra states) from the same forces: the work the
 cam does on the chain (through the drive spring and dashpot and through a damping matrix's coupling
@@ -58,7 +65,7 @@ from dynamics.errors import DynamicsError, SolverFailedError
 from dynamics.metrics import matlab_round
 
 PULLING, FREE, PUSHING = 1, 0, -1
-CAM_INPUTS = ("held", "exact")
+CAM_INPUTS = ("sampled", "held", "exact")
 _EPS = np.finfo(float).eps
 # Default absolute tolerance on displacements, per unit rtol: the scale of the contact stretches
 # (P/k is 24 um for the default chain, pin clearances are tens of um).
@@ -87,9 +94,10 @@ class HeldCam:
         self.period_s = None
         self.advance_m = None
 
-    def piece(self, i: int) -> tuple[float, float, float, float, float]:
-        """(t_i, z, z', z'', jerk) of interval i (t_s[i] to t_s[i + 1])."""
-        return self._piece_list[i]
+    @property
+    def interval_start_velocity_m_s(self) -> np.ndarray:
+        """z' at the start of every interval (t_s[i] to t_s[i + 1])."""
+        return self._pieces[:, 2]
 
     def index(self, t: float) -> int:
         return min(max(bisect.bisect_right(self._t_list, t) - 1, 0), len(self._piece_list) - 1)
@@ -128,8 +136,8 @@ class ReferenceResponse:
     contact_mode: np.ndarray  # (m, N) int8: 1 pulling contact, 0 free play, -1 pushing contact
     drive_force_N: np.ndarray  # (m,) on link 0, k_d (z - x_0) (+ its dashpot under law (b))
     tensioner_u_m: np.ndarray  # (m,) carriage displacement (zeros without a tensioner)
-    n_contact_changes: int  # span mode changes located in the window
-    contact_change_times_s: np.ndarray  # (n_contact_changes,)
+    n_contact_changes: int  # span mode changes in the window (each located as an event)
+    contact_change_times_s: np.ndarray  # (n_contact_changes,) one entry per span that changed mode
     cam_work_J: np.ndarray  # (m,) work done by the cam on the chain since t_s[0]
     damper_dissipation_J: np.ndarray  # (m,) dissipated by dampers since t_s[0]
     friction_dissipation_J: np.ndarray  # (m,) dissipated by friction since t_s[0]
@@ -166,7 +174,7 @@ def reference_response(
     friction_velocity_scale_m_s: float = 5e-3,
     tensioner=None,
     idler_span: int | None = None,
-    cam_input: str = "held",
+    cam_input: str = "sampled",
     y0=None,
     ydot0=None,
     u0_m: float = 0.0,
@@ -200,15 +208,20 @@ def reference_response(
         raise DynamicsError(f"rtol: expected 0 < rtol < 1e-2, got {rtol!r}")
     if not (isinstance(max_events, (int, np.integer)) and max_events >= 0):
         raise DynamicsError(f"max_events: expected an integer >= 0, got {max_events!r}")
-    drive = HeldCam(cam, t) if cam_input == "held" else cam
-    z_out, zd_out, zdd_out, _ = (np.asarray(q, dtype=float) for q in drive.svaj(t))
+    if cam_input == "exact":
+        rates = _ExactRates(cam)
+        z_out, zd_out, zdd_out, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
+    else:
+        held = HeldCam(cam, t) if cam_input == "held" else None
+        z_out, zd_out, zdd_out, _ = (np.asarray(q, dtype=float) for q in (held or cam).svaj(t))
+        rates = _SampledRates(t, zd_out, zdd_out, held)
     n = model.n
     y_start = np.zeros(n) if y0 is None else _vector("y0", y0, n)
     yd_start = np.full(n, -zd_out[0]) if ydot0 is None else _vector("ydot0", ydot0, n)
     state = np.concatenate([y_start, yd_start, [u0_m, udot0_m_s] if model.has_tensioner else [], [0.0, 0.0, 0.0]])
     if not np.all(np.isfinite(state)):
         raise DynamicsError("y0, ydot0, u0_m, udot0_m_s: expected finite values")
-    integrator = _Integrator(model, drive, cam_input == "held", method, rtol, atol, max_step, max_events)
+    integrator = _Integrator(model, rates, method, rtol, atol, max_step, max_events)
     return integrator.run(t, state, z_out, zd_out, zdd_out)
 
 
@@ -282,11 +295,49 @@ class _Model:
         return np.where(e >= pull, pulling, np.where(e <= push, pushing, 0.0))
 
 
+class _SampledRates:
+    """z'(t), z''(t) between output samples: z'' linear between the samples (first-order hold); z'
+    its integral (`held` given: that HeldCam's) or linear between the velocity samples."""
+
+    def __init__(self, t: np.ndarray, v: np.ndarray, a: np.ndarray, held: HeldCam | None):
+        h = np.diff(t)
+        jerk = np.diff(a) / h
+        if held is not None:
+            v0, c1, c2 = held.interval_start_velocity_m_s, a[:-1], jerk / 2
+        else:
+            v0, c1, c2 = v[:-1], np.diff(v) / h, np.zeros_like(h)
+        self.rows = [tuple(r) for r in np.column_stack([t[:-1], v0, c1, c2, a[:-1], jerk]).tolist()]
+        self.row = self.rows[0]
+
+    def select(self, i: int) -> None:
+        """Evaluate in interval i (t[i] to t[i + 1]) from now on."""
+        self.row = self.rows[min(i, len(self.rows) - 1)]
+
+    def __call__(self, t: float) -> tuple[float, float]:
+        t0, v0, c1, c2, a0, j = self.row
+        tau = t - t0
+        return v0 + tau * (c1 + tau * c2), a0 + tau * j
+
+
+class _ExactRates:
+    """z'(t), z''(t) of the cam itself."""
+
+    def __init__(self, cam):
+        self.cam = cam
+
+    def select(self, i: int) -> None:
+        pass
+
+    def __call__(self, t: float) -> tuple[float, float]:
+        _, v, a, _ = self.cam.svaj(np.array([t]))
+        return float(v[0]), float(a[0])
+
+
 class _Integrator:
     """The segment loop: solve_ivp between output times and contact changes."""
 
-    def __init__(self, model: _Model, drive, held: bool, method, rtol, atol, max_step, max_events):
-        self.model, self.drive, self.held = model, drive, held
+    def __init__(self, model: _Model, cam_rates, method, rtol, atol, max_step, max_events):
+        self.model, self.cam_rates = model, cam_rates
         self.method, self.rtol, self.max_step, self.max_events = method, rtol, max_step, max_events
         n = model.n
         self.nxt = np.r_[1:n, 0]
@@ -296,7 +347,6 @@ class _Integrator:
         self.switch_idx = np.flatnonzero(model.switchable)
         self.col_sum = None if model.damping is None else model.damping.sum(axis=0)
         self.inv_mass = 1.0 / model.mass
-        self.piece = (0.0, 0.0, 0.0, 0.0, 0.0)
         self.nfev = 0
         self.atol = self._atol(atol)
         # a span's law is continuous at its edges: following the old law this far past the edge
@@ -319,15 +369,6 @@ class _Integrator:
         return np.concatenate(parts)
 
     # the model's pieces --------------------------------------------------------------------------
-
-    def cam_rates(self, t: float) -> tuple[float, float]:
-        """z'(t), z''(t) of the input."""
-        if self.held:
-            t0, _, v0, a0, j = self.piece
-            tau = t - t0
-            return v0 + tau * (a0 + tau * j / 2), a0 + tau * j
-        _, v, a, _ = self.drive.svaj(np.array([t]))
-        return float(v[0]), float(a[0])
 
     def stretch(self, s: np.ndarray):
         n = self.model.n
@@ -423,9 +464,10 @@ class _Integrator:
 
     # the loop -------------------------------------------------------------------------------------
 
-    def switch(self, s: np.ndarray) -> None:
+    def switch(self, s: np.ndarray) -> int:
         """The span that reached an edge takes the mode beyond it; any other found outside its
-        interval (a simultaneous crossing) takes the mode its stretch is in."""
+        interval (a simultaneous crossing) takes the mode its stretch is in. Returns how many
+        spans changed mode."""
         e, ed = self.stretch(s)
         sw = self.switch_idx
         es = e[sw]
@@ -440,7 +482,9 @@ class _Integrator:
         others = sw[(dist < -self.edge_margin) & (np.arange(sw.size) != i)]
         modes[others] = self.classify(e, ed)[others]
         modes[j] = new
+        changed = int(np.count_nonzero(modes != self.modes))
         self.set_modes(modes)
+        return changed
 
     def run(self, t: np.ndarray, state: np.ndarray, z_out, zd_out, zdd_out) -> ReferenceResponse:
         m = self.model
@@ -462,8 +506,7 @@ class _Integrator:
         step = None
 
         def record(i: int, s: np.ndarray) -> None:
-            if self.held:
-                self.piece = self.drive.piece(min(i, t.size - 2))
+            self.cam_rates.select(i)
             tension, drive, ydd, _, _ = self.forces(t[i], s)
             # spans without free play keep one law throughout: their mode is read off their stretch
             modes = self.classify(*self.stretch(s))
@@ -472,8 +515,7 @@ class _Integrator:
 
         record(0, state)
         for i in range(t.size - 1):
-            if self.held:
-                self.piece = self.drive.piece(i)
+            self.cam_rates.select(i)
             t_now, t_end = t[i], t[i + 1]
             while True:
                 if t_end - t_now <= 4 * _EPS * max(abs(t_end), 1.0):
@@ -488,12 +530,11 @@ class _Integrator:
                 if sol.status == 1:
                     t_now = float(sol.t_events[0][0])
                     state = sol.y_events[0][0].copy()
-                    change_times.append(t_now)
+                    change_times.extend([t_now] * self.switch(state))
                     if len(change_times) > self.max_events:
                         raise SolverFailedError(
                             f"clearance reference: more than {self.max_events} contact changes by t = {t_now:.9g} s "
                             "(a contact chattering onto its stop?); raise max_events or add contact damping")
-                    self.switch(state)
                     continue
                 state = sol.y[:, -1]
                 break

@@ -66,6 +66,30 @@ def test_no_clearance_is_the_exact_linear_solver_to_the_tolerance():
     assert all(coarse > 30 * fine for coarse, fine in zip(errs[1e-8], errs[1e-10]))
 
 
+def test_sampled_input_reports_absolute_motion_as_simulate_does():
+    model = ChainModel(20, MASS, K, preload_N=PRELOAD)
+    lin = linear(model)
+    ref = chain(clearance_m=0.0, damping_matrix=model.damping_matrix())
+    np.testing.assert_array_equal(ref.z_m, lin.z_m)
+    for ours, theirs in ((ref.x_m, lin.x_m), (ref.v_m_s, lin.v_m_s), (ref.a_m_s2, lin.a_m_s2)):
+        assert np.abs(ours - theirs).max() < 1e-6 * np.abs(theirs - theirs.mean()).max()
+
+
+def test_sampled_input_with_friction_is_what_simulate_converges_to():
+    """simulate's friction splitting is second order in its sub-step; with the same sampled input the
+    reference is its limit."""
+    model = ChainModel(20, MASS, K, preload_N=PRELOAD, friction_coefficient=0.35)
+    ref = chain(clearance_m=0.0, damping_matrix=model.damping_matrix(), friction_force_N=model.coulomb_force_N)
+    errors = []
+    for substeps in (2, 8):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SlackChainWarning)
+            lin = simulate(model, CAM, T_WINDOW, steady_state=False, substeps=substeps)
+        errors.append(np.abs(ref.x_m - lin.x_m).max() / np.abs(ref.y_m).max())
+    assert errors[0] > 8.0 * errors[1]  # 16 at second order
+    assert errors[1] < 1e-3
+
+
 def test_kelvin_voigt_law_without_free_play_is_stiffness_proportional_rayleigh():
     beta = 2e-5
     lin = linear(ChainModel(20, MASS, K, preload_N=PRELOAD, rayleigh_coefficients=(0.0, beta)))
@@ -166,12 +190,13 @@ def test_cam_work_is_dissipation_plus_change_of_stored_energy(case):
     model = ChainModel(20, MASS, K, preload_N=PRELOAD)
     t = T_WINDOW[:91]  # one index and its dwell
     if case.startswith("no free play"):
-        r = chain(clearance_m=0.0, damping_matrix=model.damping_matrix(), friction_force_N=FRICTION, t_eval_s=t)
+        r = chain(clearance_m=0.0, damping_matrix=model.damping_matrix(), friction_force_N=FRICTION, t_eval_s=t,
+                  cam_input="held")
     elif "modal" in case:
-        r = chain(damping_matrix=model.damping_matrix(), friction_force_N=FRICTION, t_eval_s=t)
+        r = chain(damping_matrix=model.damping_matrix(), friction_force_N=FRICTION, t_eval_s=t, cam_input="held")
         assert r.n_contact_changes > 0
     else:
-        r = chain(span_damping_beta_s=2e-5, tensioner=(2e6, 5.0, 500.0), t_eval_s=t)
+        r = chain(span_damping_beta_s=2e-5, tensioner=(2e6, 5.0, 500.0), t_eval_s=t, cam_input="held")
         assert r.n_contact_changes > 0 and np.abs(r.tensioner_u_m).max() > 1e-7
     scale = max(np.abs(r.cam_work_J).max(), r.damper_dissipation_J[-1], np.ptp(r.stored_energy_J))
     assert np.abs(r.energy_balance_residual_J).max() < 1e-6 * scale
@@ -233,7 +258,7 @@ def test_bad_input_names_the_input(override, name):
 @pytest.mark.slow
 def test_85_links_with_free_play_and_friction_balance_energy():
     model = ChainModel(85, MASS, K, preload_N=PRELOAD, friction_coefficient=0.35)
-    r = chain(n=85, damping_matrix=model.damping_matrix(), friction_force_N=model.coulomb_force_N)
+    r = chain(n=85, damping_matrix=model.damping_matrix(), friction_force_N=model.coulomb_force_N, cam_input="held")
     assert r.n_contact_changes > 0
     scale = np.abs(r.cam_work_J).max()
     assert np.abs(r.energy_balance_residual_J).max() < 1e-6 * scale
