@@ -66,6 +66,7 @@ from dynamics.metrics import matlab_round
 
 PULLING, FREE, PUSHING = 1, 0, -1
 CAM_INPUTS = ("sampled", "held", "exact")
+METHODS = ("DOP853", "RK45", "Radau", "BDF", "LSODA")
 _EPS = np.finfo(float).eps
 # Default absolute tolerance on displacements, per unit rtol: the scale of the contact stretches
 # (P/k is 24 um for the default chain, pin clearances are tens of um).
@@ -99,7 +100,7 @@ class HeldCam:
         """z' at the start of every interval (t_s[i] to t_s[i + 1])."""
         return self._pieces[:, 2]
 
-    def index(self, t: float) -> int:
+    def _index(self, t: float) -> int:
         return min(max(bisect.bisect_right(self._t_list, t) - 1, 0), len(self._piece_list) - 1)
 
     def svaj(self, t_s):
@@ -112,7 +113,7 @@ class HeldCam:
 
     def z_and_zdot(self, t: float) -> tuple[float, float]:
         """Displacement and velocity at one time, without numpy overhead (for per-step callbacks)."""
-        t0, s0, v0, a0, j = self._piece_list[self.index(t)]
+        t0, s0, v0, a0, j = self._piece_list[self._index(t)]
         tau = t - t0
         return s0 + tau * (v0 + tau * (a0 / 2 + tau * j / 6)), v0 + tau * (a0 + tau * j / 2)
 
@@ -129,7 +130,7 @@ class ReferenceResponse:
     y_m: np.ndarray  # (m, N) relative to the cam input, y = x - z 1
     ydot_m_s: np.ndarray
     yddot_m_s2: np.ndarray
-    z_m: np.ndarray  # (m,) the cam input actually integrated (held or exact)
+    z_m: np.ndarray  # (m,) the cam input: the cam's own (sampled, exact) or the held input (held)
     zdot_m_s: np.ndarray
     zddot_m_s2: np.ndarray
     tension_N: np.ndarray  # (m, N) span force, tension positive (Kelvin-Voigt dashpot included in contact)
@@ -147,7 +148,8 @@ class ReferenceResponse:
 
     @property
     def energy_balance_residual_J(self) -> np.ndarray:
-        """cam work - (dissipated + change of stored energy): zero to the integration tolerance."""
+        """cam work - (dissipated + change of stored energy): zero to the integration tolerance with
+        cam_input "held" or "exact"; with "sampled", up to the sampled input's inconsistency."""
         return self.cam_work_J - (self.damper_dissipation_J + self.friction_dissipation_J
                                   + self.stored_energy_J - self.stored_energy_J[0])
 
@@ -194,8 +196,10 @@ def reference_response(
     (rate_N_per_m, mass_kg, damping_N_s_per_m), a tuple or an object with those attributes; it sits
     in span `idler_span` (default `idler_span_index(n_links)`). y0, ydot0: motion relative to the
     cam (default: every link at the cam's position, motionless: y = 0, y' = -z'(t0)).
-    atol: on displacements in metres (default rtol x ATOL_LENGTH_SCALE_M, 10 um);
-    velocities get atol times the chain's highest frequency bound."""
+    cam_input: "sampled", "held" or "exact" (module docstring). method: a solve_ivp method
+    (DOP853 by default: the fastest here; Radau took 20x longer with a 1e11 N/m tensioner). atol: on displacements in metres (default
+    rtol x ATOL_LENGTH_SCALE_M, 10 um); velocities get atol times the chain's highest frequency
+    bound. max_events: contact changes allowed before the run stops (chatter)."""
     model = _Model.build(n_links, link_mass_kg, stiffness_N_per_m, drive_stiffness_N_per_m, preload_N, clearance_m,
                          damping_matrix, span_damping_beta_s, friction_force_N, friction_velocity_scale_m_s,
                          tensioner, idler_span)
@@ -204,6 +208,8 @@ def reference_response(
         raise DynamicsError("t_eval_s: expected at least two strictly increasing finite times")
     if cam_input not in CAM_INPUTS:
         raise DynamicsError(f"cam_input: expected one of {', '.join(CAM_INPUTS)}, got {cam_input!r}")
+    if method not in METHODS:
+        raise DynamicsError(f"method: expected one of {', '.join(METHODS)}, got {method!r}")
     if not (np.isfinite(rtol) and 0 < rtol < 1e-2):
         raise DynamicsError(f"rtol: expected 0 < rtol < 1e-2, got {rtol!r}")
     if not (isinstance(max_events, (int, np.integer)) and max_events >= 0):
