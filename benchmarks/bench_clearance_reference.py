@@ -54,7 +54,8 @@ class Case:
 
 def _reference(case: Case, rtol: float):
     if case.law == LAWS[0]:
-        damping = dict(damping_matrix=ChainModel(case.n_links, MASS, K, rayleigh_coefficients=(0.0, BETA)).damping_matrix())
+        model = ChainModel(case.n_links, MASS, K, rayleigh_coefficients=(0.0, BETA))
+        damping = dict(damping_matrix=model.damping_matrix())
     else:
         damping = dict(span_damping_beta_s=BETA)
     start = time.perf_counter()

@@ -84,7 +84,8 @@ def exudyn_chain_response(
         raise ValueError("t_eval_s: expected uniformly spaced output times (Exudyn's sensors write periodically)")
     if not (isinstance(steps_per_output, int) and steps_per_output >= 1):
         raise ValueError(f"steps_per_output: expected an integer >= 1, got {steps_per_output!r}")
-    n, m, k, kd, p, beta = n_links, link_mass_kg, stiffness_N_per_m, drive_stiffness_N_per_m, preload_N, span_damping_beta_s
+    n, m, k, kd, p = n_links, link_mass_kg, stiffness_N_per_m, drive_stiffness_N_per_m, preload_N
+    beta = span_damping_beta_s
     upper = -p / k
     lower = NO_LOWER_STOP_M if np.isinf(clearance_m) else upper - clearance_m
     z0 = float(np.asarray(cam.svaj(t[:1])[0])[0])

@@ -197,9 +197,10 @@ def reference_response(
     in span `idler_span` (default `idler_span_index(n_links)`). y0, ydot0: motion relative to the
     cam (default: every link at the cam's position, motionless: y = 0, y' = -z'(t0)).
     cam_input: "sampled", "held" or "exact" (module docstring). method: a solve_ivp method
-    (DOP853 by default: the fastest here; Radau took 20x longer with a 1e11 N/m tensioner). atol: on displacements in metres (default
-    rtol x ATOL_LENGTH_SCALE_M, 10 um); velocities get atol times the chain's highest frequency
-    bound. max_events: contact changes allowed before the run stops (chatter)."""
+    (DOP853 by default, the fastest here: Radau took 20x longer with a 1e11 N/m tensioner).
+    atol: on displacements in metres (default rtol x ATOL_LENGTH_SCALE_M, 10 um); velocities get
+    atol times the chain's highest frequency bound. max_events: contact changes allowed before the
+    run stops (chatter)."""
     model = _Model.build(n_links, link_mass_kg, stiffness_N_per_m, drive_stiffness_N_per_m, preload_N, clearance_m,
                          damping_matrix, span_damping_beta_s, friction_force_N, friction_velocity_scale_m_s,
                          tensioner, idler_span)

@@ -247,6 +247,7 @@ def test_chain_without_end_stops_never_pushes():
     (dict(cam_input="spline"), "cam_input"),
     (dict(damping_matrix=np.eye(3)), "damping_matrix"),
     (dict(t_eval_s=[0.0, 0.0]), "t_eval_s"),
+    (dict(method="Euler"), "method"),
 ])
 def test_bad_input_names_the_input(override, name):
     with pytest.raises(DynamicsError, match=name):
