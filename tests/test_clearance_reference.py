@@ -17,7 +17,7 @@ import pytest
 from dynamics.cams import CamProgram, Segment
 from dynamics.chain import ChainModel
 from dynamics.clearance_reference import HeldCam, idler_span_index, reference_response
-from dynamics.errors import DynamicsError
+from dynamics.errors import DynamicsError, SolverFailedError
 from dynamics.simulate import SlackChainWarning, simulate
 
 K = 9.27e7  # N/m, the default link's axial stiffness (order of)
@@ -252,6 +252,11 @@ def test_chain_without_end_stops_never_pushes():
 def test_bad_input_names_the_input(override, name):
     with pytest.raises(DynamicsError, match=name):
         chain(**override)
+
+
+def test_too_many_contact_changes_stop_the_run_with_a_reason():
+    with pytest.raises(SolverFailedError, match="more than 3 contact changes"):
+        chain(clearance_m=np.inf, max_events=3)
 
 
 # the default scene's length --------------------------------------------------------------------------
