@@ -23,14 +23,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-exudyn = pytest.importorskip("exudyn", reason="exudyn (the `bench` extra) is not installed: no Exudyn cross-check")
-
-from benchmarks.exudyn_chain import exudyn_chain_response  # noqa: E402
-from dynamics.cams import CamProgram, Segment  # noqa: E402
-from dynamics.chain import ChainModel  # noqa: E402
-from dynamics.clearance_reference import HeldCam, reference_response  # noqa: E402
-from dynamics.metrics import rms, station_links  # noqa: E402
-from dynamics.simulate import SlackChainWarning, simulate  # noqa: E402
+from benchmarks.exudyn_chain import exudyn_chain_response
+from dynamics.cams import CamProgram, Segment
+from dynamics.chain import ChainModel
+from dynamics.clearance_reference import HeldCam, reference_response
+from dynamics.metrics import rms, station_links
+from dynamics.simulate import SlackChainWarning, simulate
 
 N = 20
 K = 9.27e7
