@@ -54,6 +54,14 @@ class RunConfig:
     rpm_sweep: str | None
     settling_band_m: float
     station: str | None
+    # the chain model (issue #11): see dynamics.clearance_sim
+    model: str = "auto"
+    pin_clearance_m: float = 94e-6  # dynamics.clearance.DEFAULT_PIN_CLEARANCE_M
+    span_damping: str = "global"
+    rayleigh: tuple[float, float] | None = None
+    tensioner_rate_N_per_m: float | None = None
+    tensioner_mass_kg: float | None = None
+    tensioner_damping_N_s_per_m: float | None = None
 
 
 class Progress:
@@ -128,6 +136,22 @@ def build_parser() -> argparse.ArgumentParser:
                         "link, with tables and plots at the tight side)")
     p.add_argument("--settling-band", type=float, default=0.5, metavar="MM",
                    help="band for the settling time after each index: |x - z| within it, in mm (default: %(default)s)")
+    p.add_argument("--model", choices=["auto", "linear", "clearance"], default="auto",
+                   help="chain model: auto (default) runs the exact linear chain where no span leaves pulling contact "
+                        "(or the clearance is 0), else the clearance chain with pin free play and impacts")
+    p.add_argument("--pin-clearance", default="0.094", metavar="MM",
+                   help="axial free play of each span (its two pin joints), mm, or inf for a chain that can only pull "
+                        "(default: %(default)s, 2 x the mean clearance of an ISO 286 H8/f7 fit at the 19.05 mm pin)")
+    p.add_argument("--rayleigh", default=None, metavar="ALPHA:BETA",
+                   help="Rayleigh damping C = alpha M + beta K (alpha 1/s, beta s) instead of the modal --damping")
+    p.add_argument("--span-damping", choices=["global", "kelvin-voigt"], default="global",
+                   help="clearance chain's damping: global (the chain's C, always acting; default) or kelvin-voigt "
+                        "(a dashpot beta k per span, only while in contact)")
+    p.add_argument("--tensioner-rate", type=float, default=None, metavar="N/m",
+                   help="idler tensioner spring rate, N/m (with --tensioner-mass; default: rigid idler)")
+    p.add_argument("--tensioner-mass", type=float, default=None, metavar="KG", help="idler carriage mass, kg")
+    p.add_argument("--tensioner-damping", type=float, default=None, metavar="N*s/m",
+                   help="idler carriage damping, N*s/m (default 0 with a tensioner)")
     return p
 
 
@@ -166,6 +190,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
              f"--tolerance: expected a relative tolerance in (0, 1), e.g. 0.01, got {args.tolerance}")
     _require(args.settling_band > 0, f"--settling-band: expected a band > 0 mm, got {args.settling_band:g}")
     _check_solver(args.solver, args.friction)
+    chain_options = _chain_model_options(args)
     if args.rpm_sweep is not None:
         from dynamics.sweep import parse_rpm_range
 
@@ -213,7 +238,38 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         rpm_sweep=args.rpm_sweep,
         settling_band_m=args.settling_band / 1000.0,
         station=args.station,
+        **chain_options,
     )
+
+
+def _chain_model_options(args) -> dict:
+    """The chain-model options (issue #11), checked; the rules live in dynamics.clearance_sim."""
+    from dynamics.clearance_sim import parse_rayleigh, tensioner_from
+
+    try:
+        clearance_mm = float(args.pin_clearance)
+    except ValueError:
+        clearance_mm = float("nan")
+    _require(clearance_mm >= 0, f"--pin-clearance: expected a free play >= 0 mm or inf, got {args.pin_clearance!r}")
+    rayleigh = None
+    if args.rayleigh is not None:
+        try:
+            rayleigh = parse_rayleigh(args.rayleigh)
+        except ValueError as e:
+            raise InputError(f"--rayleigh: {e}") from None
+        _require(args.span_damping == "global" or rayleigh[0] == 0.0,
+                 f"--rayleigh: the kelvin-voigt span damping takes BETA only (ALPHA 0), got {args.rayleigh!r}")
+    for name, value, low in (("--tensioner-rate", args.tensioner_rate, 0.0), ("--tensioner-mass", args.tensioner_mass, None),
+                             ("--tensioner-damping", args.tensioner_damping, 0.0)):
+        if value is not None and not ((value >= low if low is not None else value > 0) and value < float("inf")):
+            raise InputError(f"{name}: expected a finite value {'> 0' if low is None else '>= 0'}, got {value:g}")
+    try:
+        tensioner_from(args.tensioner_rate, args.tensioner_mass, args.tensioner_damping)
+    except ValueError as e:
+        raise InputError(f"--tensioner-mass: {e}") from None
+    return {"model": args.model, "pin_clearance_m": clearance_mm / 1000.0, "span_damping": args.span_damping,
+            "rayleigh": rayleigh, "tensioner_rate_N_per_m": args.tensioner_rate,
+            "tensioner_mass_kg": args.tensioner_mass, "tensioner_damping_N_s_per_m": args.tensioner_damping}
 
 
 def _check_solver(method: str, friction: float) -> None:
@@ -364,6 +420,7 @@ class Scenario:
     samples_per_degree: int
     rel_error_estimate: dict | None  # {"time_step", "stiffness", "total"} when --tolerance is given
     settling_time_s: "np.ndarray"  # per link, the longest settling into --settling-band over the dwells (NaN: never)
+    contact: object = None  # dynamics.clearance_sim.ContactSummary: which model ran and why, free play, impacts
 
 
 def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> "np.ndarray":
@@ -382,6 +439,7 @@ def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | 
         link_mass_kg=result.body_mass_kg + cfg.hardware_mass_kg + cfg.nest_mass_kg,
         stiffness_N_per_m=result.stiffness_N_per_m if stiffness_N_per_m is None else stiffness_N_per_m,
         damping_ratio=cfg.damping,
+        rayleigh_coefficients=cfg.rayleigh,
         preload_N=cfg.preload_N,
         friction_coefficient=cfg.friction,
     )
@@ -389,8 +447,6 @@ def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | 
 
 def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m: float,
                       samples_per_degree: int) -> Scenario:
-    import warnings
-
     from dynamics.cams import CamProgram
     from dataclasses import replace
 
@@ -399,18 +455,15 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
     from dynamics.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
     from dynamics.reduction import modes_to_keep
     from reporting.history import CamHistory
-    from dynamics.simulate import SlackChainWarning, simulate
+    from dynamics.clearance_sim import simulate_scene
 
     t = output_times_s(cfg.rpm, samples_per_degree)
     cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
     # a one-station question keeps one link's history (the spring tensions are kept whole: they are
     # what the slack check and the stress need)
     kept = None if cfg.station is None else (station_links(cfg.links)[cfg.station],)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", SlackChainWarning)  # reported through the minimum tension
-        r = simulate(model, cam, t, method=cfg.solver, steady_state=cfg.steady_state,
-                     links=None if kept is None else [link - 1 for link in kept],
-                     n_modes=modes_to_keep(cfg.links))
+    r, contact = simulate_scene(cfg, model, cam, t, links=None if kept is None else [link - 1 for link in kept],
+                                n_modes=modes_to_keep(cfg.links))
     history = CamHistory(material, cam_id, t, r.z_m, r.zdot_m_s, r.zddot_m_s2, r.x_m, r.v_m_s, r.a_m_s2,
                          r.tension_N, cam.dwell_mask(t), kept)
     metrics = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, history.dwell_mask)
@@ -419,7 +472,7 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
     settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
     # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
-    return Scenario(history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst)
+    return Scenario(history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst, contact)
 
 
 def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, cam_id: str) -> Scenario:

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from dynamics.clearance import ClearanceChain
+from dynamics.clearance import DEFAULT_PIN_CLEARANCE_M, ClearanceChain, Tensioner
 from dynamics.errors import DynamicsError
 from dynamics.reduction import DENSE_LINK_LIMIT
 from dynamics.simulate import ChainResponse, SlackChainWarning, simulate
@@ -215,3 +215,42 @@ def _scale(run, n: int) -> np.ndarray:
     su = max(float(np.max(np.abs(run.u))), sy)
     sud = max(float(np.max(np.abs(run.ud))), sw)
     return np.concatenate([np.full(n, sy), np.full(n, sw), [su, sud]])
+
+
+def parse_rayleigh(text: str) -> tuple[float, float]:
+    """'ALPHA:BETA' -> (alpha 1/s, beta s), both finite and >= 0; ValueError otherwise."""
+    parts = str(text).split(":")
+    try:
+        alpha, beta = (float(p) for p in parts)
+    except ValueError:
+        raise ValueError(f"expected ALPHA:BETA (C = alpha M + beta K, alpha in 1/s, beta in s), got {text!r}") from None
+    if not all(np.isfinite(c) and c >= 0 for c in (alpha, beta)):
+        raise ValueError(f"expected finite ALPHA:BETA >= 0, got {text!r}")
+    return alpha, beta
+
+
+def tensioner_from(rate_N_per_m, mass_kg, damping_N_s_per_m) -> Tensioner | None:
+    """The optional idler tensioner from its three settings (None when none is given)."""
+    if rate_N_per_m is None and mass_kg is None and damping_N_s_per_m is None:
+        return None
+    if mass_kg is None:
+        raise ValueError("the tensioner needs its carriage mass (--tensioner-mass KG) with its rate or damping")
+    return Tensioner(0.0 if rate_N_per_m is None else rate_N_per_m, mass_kg,
+                     0.0 if damping_N_s_per_m is None else damping_N_s_per_m)
+
+
+def scene_model(settings, chain) -> ClearanceChain:
+    """The clearance chain of a run's settings (pipeline.RunConfig or any object with its fields)."""
+    return ClearanceChain(
+        chain, getattr(settings, "pin_clearance_m", DEFAULT_PIN_CLEARANCE_M),
+        span_damping=getattr(settings, "span_damping", "global"),
+        tensioner=tensioner_from(getattr(settings, "tensioner_rate_N_per_m", None),
+                                 getattr(settings, "tensioner_mass_kg", None),
+                                 getattr(settings, "tensioner_damping_N_s_per_m", None)))
+
+
+def simulate_scene(settings, chain, cam, t_eval_s, *, links=None, n_modes=None) -> tuple[ChainResponse, ContactSummary]:
+    """What the orchestrators call: the scene's model (auto, linear or clearance) for one cam."""
+    return simulate_chain(scene_model(settings, chain), cam, t_eval_s, choice=getattr(settings, "model", "auto"),
+                          steady_state=settings.steady_state, links=links, n_modes=n_modes,
+                          method=getattr(settings, "solver", "exact"))
