@@ -36,13 +36,14 @@ tensioner 1/2 k_t u^2 - 2P u.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cached_property
+from functools import lru_cache
 
 import numpy as np
 
 from dynamics.chain import ChainModel
 from dynamics.errors import DynamicsError
 from dynamics.metrics import matlab_round
+from dynamics.solvers._common import serial_blas
 
 SPAN_DAMPING_LAWS = ("global", "kelvin-voigt")
 
@@ -112,10 +113,10 @@ class ClearanceChain:
             return float(self.chain.rayleigh_coefficients[1])
         return 2.0 * self.chain.damping_ratio / self.contact_frequency_rad_s
 
-    @cached_property
+    @property
     def damping_matrix(self) -> np.ndarray:
-        """The global law's C (N x N); unused by the Kelvin-Voigt law."""
-        return self.chain.damping_matrix()
+        """The global law's C (N x N; cached per chain, read-only); unused by the Kelvin-Voigt law."""
+        return _damping_matrix(self.chain)
 
     def full_contact_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
         """(K, M) of the linearised chain with every span in contact, carriage included when present."""
@@ -138,6 +139,9 @@ class ClearanceChain:
 
     def max_frequency_rad_s(self) -> float:
         """Largest natural frequency with every span in contact (free play only softens the chain)."""
+        return _max_frequency_rad_s(self.chain, self.tensioner)
+
+    def _max_frequency_uncached(self) -> float:
         kk, mm = self.full_contact_stiffness()
         lam = np.linalg.eigvalsh(kk / np.sqrt(np.outer(np.diag(mm), np.diag(mm))))
         return float(np.sqrt(max(lam[-1], 0.0)))
@@ -184,6 +188,20 @@ class ClearanceChain:
         t = self.tensioner
         carriage = 0.5 * t.mass_kg * ud**2 + 0.5 * t.rate_N_per_m * u**2 - 2.0 * c.preload_N * u
         return kinetic + elastic + drive + carriage
+
+
+@lru_cache(maxsize=16)
+def _damping_matrix(chain: ChainModel) -> np.ndarray:
+    with serial_blas():
+        c = np.ascontiguousarray(chain.damping_matrix())
+    c.flags.writeable = False
+    return c
+
+
+@lru_cache(maxsize=16)
+def _max_frequency_rad_s(chain: ChainModel, tensioner: Tensioner | None) -> float:
+    with serial_blas():
+        return ClearanceChain(chain, 0.0, tensioner=tensioner)._max_frequency_uncached()
 
 
 def span_force_N(e_m, preload_N: float, stiffness_N_per_m: float, clearance_m: float) -> np.ndarray:

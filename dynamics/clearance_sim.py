@@ -33,6 +33,7 @@ from dynamics.errors import DynamicsError
 from dynamics.reduction import DENSE_LINK_LIMIT
 from dynamics.simulate import ChainResponse, SlackChainWarning, simulate
 from dynamics.solvers import clearance_verlet as verlet
+from dynamics.solvers._common import serial_blas
 
 MODEL_CHOICES = ("auto", "linear", "clearance")
 MAX_SUBHARMONIC = 6
@@ -122,7 +123,8 @@ def simulate_chain(model: ClearanceChain, cam, t_eval_s, *, choice: str = "auto"
                                  float(np.mean(lin.tension_N < 0.0)) if model.clearance_m > 0 else 0.0,
                                  0.0, 0.0, float(lin.tension_N.max()), lin.min_tension_N, needed, lin.min_tension_N)
         return out, summary
-    return _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, reason, needed)
+    with serial_blas():
+        return _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, reason, needed)
 
 
 def _select(r: ChainResponse, links) -> ChainResponse:

@@ -388,19 +388,11 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
         raise DynamicsError(f"step_s: expected a positive step, got {step_s!r}")
     c = model.chain
     n = c.n_links
-    t = model.tensioner
-    kv = model.span_damping == "kelvin-voigt"
     y0 = np.array(y0, dtype=float).reshape(n)
     w0 = np.array(w0, dtype=float).reshape(n)
     scale = max(np.max(np.abs(y0)), np.max(np.abs(zd)) * step_s * n_steps,
                 np.max(np.abs(zdd)) * (step_s * n_steps) ** 2, c.preload_N / c.stiffness_N_per_m, 1e-9)
-    par = np.array([c.link_mass_kg, c.stiffness_N_per_m, c.drive_stiffness, c.preload_N,
-                    c.stiffness_N_per_m * model.clearance_m, model.beta_s, c.coulomb_force_N,
-                    1.0 / c.friction_velocity_scale_m_s,
-                    t.mass_kg if t else 1.0, t.rate_N_per_m if t else 0.0, t.damping_N_s_per_m if t else 0.0,
-                    2.0 * c.preload_N, 1e6 * scale])
-    ipar = np.array([model.idler_span, int(t is not None), int(kv)], dtype=np.int64)
-    cmat = np.zeros((1, 1)) if kv else np.ascontiguousarray(model.damping_matrix)
+    par, ipar, cmat = packed_parameters(model, 1e6 * scale)
     m_out = n_steps // out_every + 1
     out = [np.zeros((m_out, n)) for _ in range(3)] + [np.zeros(m_out), np.zeros(m_out)]
     stats = np.array([0.0, 0.0, 0.0, -np.inf, np.inf, 0.0, 0.0])
@@ -422,6 +414,21 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
                peak_tension_N=float(stats[3]), min_tension_N=float(stats[4]), peak_impact_force_N=float(stats[5]),
                cam_work_J=float(energy[0]), dissipated_damping_J=float(energy[1]),
                dissipated_friction_J=float(energy[2]), step_s=float(step_s), n_steps=int(n_steps))
+
+
+def packed_parameters(model, bound: float = np.inf):
+    """(par, ipar, cmat): the model as the kernels take it (`_accel(y, w, u, ud, zd, zdd, *packed)`);
+    `bound` is the |y| above which a run counts as diverged."""
+    c, t = model.chain, model.tensioner
+    kv = model.span_damping == "kelvin-voigt"
+    par = np.array([c.link_mass_kg, c.stiffness_N_per_m, c.drive_stiffness, c.preload_N,
+                    c.stiffness_N_per_m * model.clearance_m, model.beta_s, c.coulomb_force_N,
+                    1.0 / c.friction_velocity_scale_m_s,
+                    t.mass_kg if t else 1.0, t.rate_N_per_m if t else 0.0, t.damping_N_s_per_m if t else 0.0,
+                    2.0 * c.preload_N, bound])
+    ipar = np.array([model.idler_span, int(t is not None), int(kv)], dtype=np.int64)
+    cmat = np.zeros((1, 1)) if kv else np.ascontiguousarray(model.damping_matrix)
+    return par, ipar, cmat
 
 
 def stable_step_s(model, safety: float = DEFAULT_SAFETY) -> float:
