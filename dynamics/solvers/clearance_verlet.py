@@ -109,16 +109,13 @@ def _run(y, w, u, ud, zd, zdd, h, out_every, record_from, par, ipar, cmat, track
     n_steps = zd.shape[0] - 1
     bound = par[12]
     a, au, t_el, contact, pc, pd, pf = _accel(y, w, u, ud, zd[0], zdd[0], par, ipar, cmat)
+    powers = np.array([pc, pd, pf])
     free = ~contact
     phase = np.zeros(y.shape[0], dtype=np.bool_)
-    out_y[0] = y
-    out_w[0] = w
-    out_a[0] = a
-    out_u[0] = u
-    out_ud[0] = ud
+    row = _keep(-1, h, 0, y, w, a, u, ud, powers, powers, False, True, out_y, out_w, out_a, out_u, out_ud, energy,
+                stats, np.inf)
     if record_from == 0:
         _record(t_el, contact, phase, stats, False, free)
-    row = 1
     for i in range(n_steps):
         wh = w + 0.5 * h * a
         uh = ud + 0.5 * h * au
@@ -133,26 +130,36 @@ def _run(y, w, u, ud, zd, zdd, h, out_every, record_from, par, ipar, cmat, track
         if track_energy or on_output:
             a_out, au_out, t_el, contact, pc2, pd2, pf2 = _accel(y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar,
                                                                  cmat)
-            if track_energy:
-                energy[0] += 0.5 * h * (pc + pc2)
-                energy[1] += 0.5 * h * (pd + pd2)
-                energy[2] += 0.5 * h * (pf + pf2)
-                pc, pd, pf = pc2, pd2, pf2
-            if on_output:
-                out_y[row] = y
-                out_w[row] = w
-                out_a[row] = a_out
-                out_u[row] = u
-                out_ud[row] = ud
-                row += 1
-                if not (np.max(np.abs(y)) < bound):
-                    stats[6] = i + 1
-                    return
+            row = _keep(i, h, row, y, w, a_out, u, ud, np.array([pc2, pd2, pf2]), powers, track_energy, on_output,
+                        out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
+            if row < 0:
+                return
         new_impacts = contact & free
         phase = (phase | new_impacts) & contact
         free = ~contact
         if i + 1 >= record_from:
             _record(t_el, contact, phase, stats, True, new_impacts)
+
+
+def _keep(i, h, row, y, w, a_out, u, ud, p_new, powers, track_energy, on_output, out_y, out_w, out_a, out_u, out_ud,
+          energy, stats, bound):
+    """After step i: add the step's energy terms (trapezoidal in the powers) and store an output row.
+    Returns the next row, or -1 when |y| passed `bound` (divergence; the step is noted in stats)."""
+    if track_energy:
+        for q in range(3):
+            energy[q] += 0.5 * h * (powers[q] + p_new[q])
+            powers[q] = p_new[q]
+    if on_output:
+        out_y[row] = y
+        out_w[row] = w
+        out_a[row] = a_out
+        out_u[row] = u
+        out_ud[row] = ud
+        row += 1
+        if not (np.max(np.abs(y)) < bound):
+            stats[6] = i + 1
+            return -1
+    return row
 
 
 def _record(t_el, contact, phase, stats, count_impacts, new_impacts):
@@ -247,16 +254,14 @@ def _run_loops(y, w, u, ud, zd, zdd, h, out_every, record_from, par, ipar, cmat,
     free = np.empty(n, dtype=np.bool_)
     phase = np.zeros(n, dtype=np.bool_)
     au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, cmat, cw, a, t_el, contact)
+    powers = np.array([pc, pd, pf])
+    p_new = np.empty(3)
     for j in range(n):
         free[j] = not contact[j]
-    out_y[0] = y
-    out_w[0] = w
-    out_a[0] = a
-    out_u[0] = u
-    out_ud[0] = ud
+    row = _keep(-1, h, 0, y, w, a, u, ud, powers, powers, False, True, out_y, out_w, out_a, out_u, out_ud, energy,
+                stats, np.inf)
     if record_from == 0:
         _record_loops(t_el, contact, phase, free, stats, False)
-    row = 1
     for i in range(n_steps):
         for j in range(n):
             wh[j] = w[j] + 0.5 * h * a[j]
@@ -273,21 +278,11 @@ def _run_loops(y, w, u, ud, zd, zdd, h, out_every, record_from, par, ipar, cmat,
         if track_energy or on_output:
             au_out, pc2, pd2, pf2 = _accel_into(y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar, cmat, cw, a_out,
                                                 t_el, contact)
-            if track_energy:
-                energy[0] += 0.5 * h * (pc + pc2)
-                energy[1] += 0.5 * h * (pd + pd2)
-                energy[2] += 0.5 * h * (pf + pf2)
-                pc, pd, pf = pc2, pd2, pf2
-            if on_output:
-                out_y[row] = y
-                out_w[row] = w
-                out_a[row] = a_out
-                out_u[row] = u
-                out_ud[row] = ud
-                row += 1
-                if not (np.max(np.abs(y)) < bound):
-                    stats[6] = i + 1
-                    return
+            p_new[0], p_new[1], p_new[2] = pc2, pd2, pf2
+            row = _keep(i, h, row, y, w, a_out, u, ud, p_new, powers, track_energy, on_output,
+                        out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
+            if row < 0:
+                return
         if i + 1 >= record_from:
             _record_loops(t_el, contact, phase, free, stats, True)
         else:
@@ -315,6 +310,7 @@ def _record_loops(t_el, contact, phase, free, stats, count_impacts):
 
 
 if numba is not None:
+    _keep = numba.njit(cache=True)(_keep)
     _accel_into = numba.njit(cache=True)(_accel_into)
     _record_loops = numba.njit(cache=True)(_record_loops)
     _run_compiled = numba.njit(cache=True)(_run_loops)
