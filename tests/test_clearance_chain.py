@@ -236,3 +236,15 @@ def test_steady_state_repeats_after_one_period():
     half = (t.size - 1) // 2
     y = r.x_m - r.z_m[:, None]
     np.testing.assert_allclose(y[half], y[0], rtol=0, atol=1e-5 * np.max(np.abs(y)))
+
+
+def test_stability_map_both_sides_of_the_limit():
+    """Map cases (dynamics.clearance_stability) at 1e8 N/m: without free play the limit is sharp; with
+    it a step just above the limit finishes and is wrong instead of diverging, and far above it diverges."""
+    from dynamics.clearance_stability import step_case
+
+    assert step_case(1e8, 0.0, 0.99).outcome == "accurate"
+    assert step_case(1e8, 0.0, 1.01).outcome == "diverged"
+    assert step_case(1e8, 94e-6, 0.99).outcome == "accurate"
+    assert step_case(1e8, 94e-6, 1.1).outcome == "inaccurate"
+    assert step_case(1e8, 94e-6, 2.0).outcome == "diverged"
