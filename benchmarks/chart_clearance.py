@@ -48,7 +48,7 @@ def make(out_dir: Path, quick: bool) -> list[str]:
                   label=f"reference (looser rtol), {name}")
     ax.set_xlabel("wall time (s)")
     ax.set_ylabel("max error / max |reference|")
-    ax.set_title("Clearance chain work-precision: 20 links, 180° from rest, against the event-located reference "
+    ax.set_title("Clearance chain work-precision: 20 links, 180° from rest,\nagainst the event-located reference "
                  "at rtol 1e-10", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
