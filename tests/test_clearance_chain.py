@@ -248,3 +248,35 @@ def test_stability_map_both_sides_of_the_limit():
     assert step_case(1e8, 94e-6, 0.99).outcome == "accurate"
     assert step_case(1e8, 94e-6, 1.1).outcome == "inaccurate"
     assert step_case(1e8, 94e-6, 2.0).outcome == "diverged"
+
+
+def _fake_period_map(flip_every: int):
+    """An integrator whose period map repeats after `flip_every` periods (a stand-in for a
+    subharmonic response; the detection logic is what is tested here)."""
+    calls = {"n": 0}
+
+    def integrate(model, zd, zdd, h, y0, w0, *, u0=0.0, ud0=0.0, out_every=1, **_):
+        calls["n"] += 1
+        phase = calls["n"] % flip_every
+        y_end = np.full(model.n_links, 1e-3 * (1 + phase))
+        rows = np.vstack([np.asarray(y0, dtype=float), y_end])
+        zeros = np.zeros_like(rows)
+        return verlet.Run(rows, zeros + 0.1, zeros, np.zeros(2), np.zeros(2), 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                          h, 1)
+
+    return integrate
+
+
+@pytest.mark.parametrize("k, found", [(2, True), (3, True), (7, False)])
+def test_subharmonic_is_detected_and_named_and_chaos_is_not_called_a_steady_state(monkeypatch, k, found):
+    from dynamics import clearance_sim
+
+    monkeypatch.setattr(clearance_sim.verlet, "integrate", _fake_period_map(k))
+    model = ClearanceChain(_chain(n=4), 94e-6)
+    state = (np.zeros(4), np.zeros(4), 0.0, 0.0)
+    _, ss = clearance_sim._periodic_state(model, _cam(), 0.0, 1e-4, state, 1e-6, 20)
+    assert ss.found is found
+    if found:
+        assert ss.period_cycles == k and f"every {k} cam cycles" in ss.statement
+    else:
+        assert ss.period_cycles is None and ss.statement.startswith("NO periodic steady state")
