@@ -44,6 +44,7 @@ from dynamics.chain import ChainModel
 from dynamics.errors import DynamicsError
 from dynamics.metrics import matlab_round
 from dynamics.solvers._common import serial_blas
+from dynamics.system import SecondOrderSystem
 
 SPAN_DAMPING_LAWS = ("global", "kelvin-voigt")
 
@@ -155,6 +156,19 @@ class ClearanceChain:
             return 0.5 * (alpha / omega_rad_s + beta * omega_rad_s)
         return self.chain.damping_ratio
 
+    def system(self) -> SecondOrderSystem:
+        """The clearance chain in the solvers' common form (dynamics.solvers.solve): the linear
+        chain's M, C, K plus the span law's departure from it as the nonlinear force g(y), so every
+        method that takes a nonlinear force (central-difference, rk45, radau, ...) can solve it. Only
+        the global damping law without a tensioner maps onto that form (the Kelvin-Voigt dashpot
+        switches with contact, the carriage is one more degree of freedom)."""
+        if self.span_damping != "global" or self.tensioner is not None:
+            raise DynamicsError("system(): only the global damping law without a tensioner has the "
+                                "M, C, K + g(x) form; use dynamics.solvers.clearance_verlet")
+        c = self.chain
+        return SecondOrderSystem(c.mass_matrix(), self.damping_matrix, c.stiffness_matrix(),
+                                 nonlinear_force=SpanLawCorrection(c.preload_N, c.stiffness_N_per_m, self.clearance_m))
+
     # --- the span law and its energy -------------------------------------------------------------
 
     def span_force_N(self, e_m: np.ndarray) -> np.ndarray:
@@ -202,6 +216,23 @@ def _damping_matrix(chain: ChainModel) -> np.ndarray:
 def _max_frequency_rad_s(chain: ChainModel, tensioner: Tensioner | None) -> float:
     with serial_blas():
         return ClearanceChain(chain, 0.0, tensioner=tensioner)._max_frequency_uncached()
+
+
+@dataclass(frozen=True)
+class SpanLawCorrection:
+    """g(y, y') = the span law's force minus the linear chain's: per span T - (P + k e) =
+    clip(-(P + k e), 0, k g), +that on link j and -that on link j + 1 (a bounded force, zero in
+    pulling contact)."""
+
+    preload_N: float
+    stiffness_N_per_m: float
+    clearance_m: float
+
+    def __call__(self, y: np.ndarray, _v: np.ndarray) -> np.ndarray:
+        e = np.roll(y, -1) - y
+        linear = self.preload_N + self.stiffness_N_per_m * e
+        d = span_force_N(e, self.preload_N, self.stiffness_N_per_m, self.clearance_m) - linear
+        return d - np.roll(d, 1)
 
 
 def span_force_N(e_m, preload_N: float, stiffness_N_per_m: float, clearance_m: float) -> np.ndarray:

@@ -280,3 +280,25 @@ def test_subharmonic_is_detected_and_named_and_chaos_is_not_called_a_steady_stat
         assert ss.period_cycles == k and f"every {k} cam cycles" in ss.statement
     else:
         assert ss.period_cycles is None and ss.statement.startswith("NO periodic steady state")
+
+
+@pytest.mark.parametrize("method, options", [("rk45", {"rtol": 1e-7, "atol": 1e-12}),
+                                             ("central-difference", {"dt": None})])
+def test_the_common_solver_interface_solves_the_same_clearance_chain(method, options):
+    """ClearanceChain.system(): the span law as a nonlinear force on the linear chain, solved by the
+    existing methods (dynamics.solvers.solve), agrees with the fast integrator."""
+    chain = _chain(n=8, friction_coefficient=0.0, preload_N=300.0)
+    model = ClearanceChain(chain, 94e-6)
+    t = _times(degrees=45.0, per_degree=2)
+    _, v, a, _ = _cam().svaj(t)
+    sub = 64
+    if method == "central-difference":
+        options = {"dt": (t[1] - t[0]) / sub}
+    r = solve(model.system(), SampledForce(t, chain.base_excitation_force(a)), t, method=method,
+              x0=np.zeros(8), v0=-v[0] * np.ones(8), **options)
+    fast = _integrate_held(model, t, v, a, sub)
+    assert fast.impacts > 5
+    scale = np.max(np.abs(r.x))
+    assert np.max(np.abs(fast.y - r.x)) < 1e-3 * scale
+    with pytest.raises(DynamicsError, match="global damping"):
+        ClearanceChain(chain, 94e-6, span_damping="kelvin-voigt").system()
