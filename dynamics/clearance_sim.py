@@ -92,17 +92,18 @@ def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float
         return "clearance", "an idler tensioner is modelled, which only the clearance model carries"
     if model.clearance_m == 0.0:
         return "linear", "pin clearance 0: the clearance law is the linear chain exactly"
+    # the reasons carry no numbers (linear_min_tension_N is reported beside them), so that scenarios
+    # with the same reason read as one group in the report
     if linear_min_tension_N >= 0.0:
-        return "linear", (f"the linear solution never leaves pulling contact (minimum tension "
-                          f"{linear_min_tension_N:.4g} N >= 0), so the free play is never entered")
+        return "linear", ("the linear solution never leaves pulling contact (its minimum tension stays >= 0), so "
+                          "the free play is never entered")
     if too_long:
-        return "linear", (f"the linear solution leaves pulling contact (minimum tension {linear_min_tension_N:.4g} N) "
-                          f"but the clearance model with the global damping law is limited to {DENSE_LINK_LIMIT} "
-                          "links: the linear results are NOT valid where tension < 0 (use span damping "
-                          "kelvin-voigt for the clearance model of a long chain)")
-    return "clearance", (f"the linear solution leaves pulling contact (minimum tension {linear_min_tension_N:.4g} N "
-                         f"against {model.chain.preload_N:g} N preload): the pin free play is crossed and the "
-                         "load reverses through impacts")
+        return "linear", (f"the linear solution leaves pulling contact (minimum tension < 0) but the clearance "
+                          f"model with the global damping law is limited to {DENSE_LINK_LIMIT} links: the linear "
+                          "results are NOT valid where tension < 0 (use span damping kelvin-voigt for the "
+                          "clearance model of a long chain)")
+    return "clearance", ("the linear solution leaves pulling contact (its minimum tension goes below zero against "
+                         "the preload): the pin free play is crossed and the load reverses through impacts")
 
 
 def simulate_chain(model: ClearanceChain, cam, t_eval_s, *, choice: str = "auto", steady_state: bool = True,

@@ -420,12 +420,14 @@ def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing:
 def _model_paragraphs(summary: dict) -> str:
     """Which chain model ran for which scenarios and why; the clearance chain's steady-state statements."""
     groups: dict[tuple[str, str], list[str]] = {}
+    linear_min: dict[tuple[str, str], list[float]] = {}
     statements = []
     for m, d in summary["materials"].items():
         for c, x in d["cams"].items():
             if "model" not in x:
                 continue
             groups.setdefault((x["model"], x["model_reason"]), []).append(f"{m} / {c}")
+            linear_min.setdefault((x["model"], x["model_reason"]), []).append(x["linear_min_tension_N"])
             ss = x.get("clearance_steady_state")
             if ss is not None and not (ss["found"] and ss["period_cycles"] == 1):
                 statements.append(f"{m} / {c}: {ss['statement']}")
@@ -434,7 +436,9 @@ def _model_paragraphs(summary: dict) -> str:
         name = ("linear chain (exact solver)" if model == "linear"
                 else "clearance chain (pin free play, impacts; explicit integrator)")
         css = "warn" if "NOT valid" in reason else None
-        out += html.paragraph(f"Model: {name} for {', '.join(runs)}: {reason}.", css)
+        low, high = min(linear_min[model, reason]) / 1e3, max(linear_min[model, reason]) / 1e3
+        out += html.paragraph(f"Model: {name} for {', '.join(runs)}: {reason} (linear chain's minimum tension "
+                              f"{low:.3g} to {high:.3g} kN).", css)
     for text in statements:
         out += html.paragraph(text, "warn")
     return out
