@@ -13,6 +13,13 @@ from dynamics.clearance_stability import CLEARANCES_M, OUTCOMES, STIFFNESSES_N_P
 COLORS = dict(zip(OUTCOMES, ("tab:green", "tab:orange", "tab:red")))
 
 
+def _save(fig, path: Path) -> Path:
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
 def make(out_dir: Path, quick: bool) -> list[str]:
     stiff = STIFFNESSES_N_PER_M[1:2] if quick else STIFFNESSES_N_PER_M
     cases = step_map(stiff)
@@ -32,10 +39,7 @@ def make(out_dir: Path, quick: bool) -> list[str]:
     axes[-1].legend(fontsize=8, loc="lower left")
     fig.suptitle("Clearance chain, explicit velocity Verlet: outcome per step and stiffness (10 links, one index, "
                  "friction 0.35; accurate = within 1 % of h_max/64)", fontsize=10)
-    fig.tight_layout()
-    map_path = out_dir / "clearance_stability_map.png"
-    fig.savefig(map_path)
-    plt.close(fig)
+    map_path = _save(fig, out_dir / "clearance_stability_map.png")
     lines = [f"k {c.stiffness_N_per_m:.0e}, g {c.clearance_m * 1e3:g} mm, h/h_max {c.step_factor:g}: {c.outcome}"
              + ("" if c.outcome == "diverged" else f" ({c.relative_error:.1e})") for c in cases]
     points = work_precision(substeps=(4, 16) if quick else (4, 8, 16, 32, 64), rtols=(1e-6,) if quick else (1e-6, 1e-8))
@@ -52,9 +56,6 @@ def make(out_dir: Path, quick: bool) -> list[str]:
                  "at rtol 1e-10", fontsize=9)
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    wp_path = out_dir / "clearance_work_precision.png"
-    fig.savefig(wp_path)
-    plt.close(fig)
+    wp_path = _save(fig, out_dir / "clearance_work_precision.png")
     lines += [f"{p.label}: {p.wall_s * 1e3:.1f} ms, error x {p.error_x:.1e}, a {p.error_a:.1e}" for p in points]
     return lines + [f"wrote {map_path}", f"wrote {wp_path}"]
