@@ -9,13 +9,17 @@ dynamics stage with the clearance model.
    steps against the same integrator at 256 steps per output sample (the converged answer; the
    slow reference solver of issue #11 is a separate module), both damping laws; the compiled
    (numba) and numpy paths; scipy solve_ivp (DOP853, no event location) on the same equations.
-2. The pipeline's dynamics stage as `python pipeline.py` runs it: 2 materials x 5 cams, 85 links,
+2. Side by side with Exudyn and the event-located reference on the reference benchmark's own windows
+   (benchmarks/bench_clearance_reference.py: 85 links, no friction, 0.1 mm, beta 2e-5 s, damping law
+   (a) C = beta K or (b) Kelvin-Voigt, the held cam input), the same station differences.
+3. The pipeline's dynamics stage as `python pipeline.py` runs it: 2 materials x 5 cams, 85 links,
    periodic steady state, model chosen automatically (the clearance chain on this scene).
 """
 
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
@@ -147,5 +151,63 @@ def _stage_table(quick: bool) -> list[str]:
             f"ms per scenario; {min(cycles)}-{max(cycles)} cam cycles to the steady state)"]
 
 
+@dataclass(frozen=True)
+class _FastResponse:
+    x_m: np.ndarray
+    v_m_s: np.ndarray
+    a_m_s2: np.ndarray
+
+
+def _side_by_side(quick: bool) -> list[str]:
+    """The fast integrator beside bench_clearance_reference's methods (imported, not copied)."""
+    from benchmarks import bench_clearance_reference as ref_bench
+    from dynamics.clearance_reference import HeldCam
+
+    held = HeldCam(ref_bench.CAM, ref_bench.T_WINDOW)
+    t = ref_bench.T_WINDOW
+    lines = ["", "Side by side on bench_clearance_reference's windows (held cam input, no friction, 0.1 mm, "
+             "beta 2e-5 s); differences of the stations' RMS x, v, a from the reference at rtol 1e-10:", "",
+             "| links | damping | method | time | RMS x | RMS v | RMS a |", "|---|---|---|---|---|---|---|"]
+    methods = [m for m in ref_bench.METHODS if m[0] in ("reference rtol 1e-10", "exudyn 40 steps/output")]
+    try:
+        import exudyn  # noqa: F401
+    except ImportError:
+        methods = methods[:1]
+        lines.insert(1, "exudyn not installed: its rows are left out")
+    for n_links in ((20,) if quick else (85,)):
+        for law in ref_bench.LAWS:
+            case = ref_bench.Case(n_links, law)
+            if law == ref_bench.LAWS[0]:
+                chain = ChainModel(n_links, ref_bench.MASS, ref_bench.K, rayleigh_coefficients=(0.0, ref_bench.BETA),
+                                   preload_N=ref_bench.PRELOAD)
+                model = ClearanceChain(chain, ref_bench.GAP)
+            else:
+                chain = ChainModel(n_links, ref_bench.MASS, ref_bench.K, preload_N=ref_bench.PRELOAD)
+                model = ClearanceChain(chain, ref_bench.GAP, span_damping="kelvin-voigt", kv_beta_s=ref_bench.BETA)
+            reference, ref_s, _ = methods[0][1](case)
+            rows = [(methods[0][0], ref_s, None)]
+            for label, method in methods[1:]:
+                response, seconds, _ = method(case)
+                rows.append((label, seconds, response))
+            default_sub = verlet.substeps_for(model, t[1] - t[0])
+            for sub in (default_sub, 4 * default_sub):
+                tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
+                _, zd, zdd, _ = held.svaj(tf)
+                verlet.integrate(model, zd, zdd, tf[1] - tf[0], np.zeros(n_links), -zd[0] * np.ones(n_links),
+                                 out_every=sub)
+                start = time.perf_counter()
+                r = verlet.integrate(model, zd, zdd, tf[1] - tf[0], np.zeros(n_links), -zd[0] * np.ones(n_links),
+                                     out_every=sub)
+                seconds = time.perf_counter() - start
+                z, v, a, _ = held.svaj(t)
+                rows.append((f"fast, {sub} steps/output", seconds,
+                             _FastResponse(z[:, None] + r.y, v[:, None] + r.w, a[:, None] + r.a)))
+            for label, seconds, response in rows:
+                diffs = (["reference"] * 3 if response is None else
+                         [f"{d:.1e}" for d in ref_bench.station_differences(response, reference, n_links)])
+                lines.append(f"| {n_links} | {law} | {label} | {seconds * 1e3:.1f} ms | " + " | ".join(diffs) + " |")
+    return lines
+
+
 def run(quick: bool) -> list[str]:
-    return _window_table(quick) + _stage_table(quick)
+    return _window_table(quick) + _side_by_side(quick) + _stage_table(quick)
