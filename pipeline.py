@@ -85,6 +85,22 @@ def build_parser() -> argparse.ArgumentParser:
                         "link, with tables and plots at the tight side)")
     p.add_argument("--settling-band", type=float, default=0.5, metavar="MM",
                    help="band for the settling time after each index: |x - z| within it, in mm (default: %(default)s)")
+    p.add_argument("--model", choices=["auto", "linear", "clearance"], default="auto",
+                   help="chain model: auto (default) runs the exact linear chain where no span leaves pulling contact "
+                        "(or the clearance is 0), else the clearance chain with pin free play and impacts")
+    p.add_argument("--pin-clearance", default="0.094", metavar="MM",
+                   help="axial free play of each span (its two pin joints), mm, or inf for a chain that can only pull "
+                        "(default: %(default)s, 2 x the mean clearance of an ISO 286 H8/f7 fit at the 19.05 mm pin)")
+    p.add_argument("--rayleigh", default=None, metavar="ALPHA:BETA",
+                   help="Rayleigh damping C = alpha M + beta K (alpha 1/s, beta s) instead of the modal --damping")
+    p.add_argument("--span-damping", choices=["global", "kelvin-voigt"], default="global",
+                   help="clearance chain's damping: global (the chain's C, always acting; default) or kelvin-voigt "
+                        "(a dashpot beta k per span, only while in contact)")
+    p.add_argument("--tensioner-rate", type=float, default=None, metavar="N/m",
+                   help="idler tensioner spring rate, N/m (with --tensioner-mass; default: rigid idler)")
+    p.add_argument("--tensioner-mass", type=float, default=None, metavar="KG", help="idler carriage mass, kg")
+    p.add_argument("--tensioner-damping", type=float, default=None, metavar="N*s/m",
+                   help="idler carriage damping, N*s/m (default 0 with a tensioner)")
     return p
 
 
@@ -123,6 +139,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
              f"--tolerance: expected a relative tolerance in (0, 1), e.g. 0.01, got {args.tolerance}")
     _require(args.settling_band > 0, f"--settling-band: expected a band > 0 mm, got {args.settling_band:g}")
     _check_solver(args.solver, args.friction)
+    chain_options = _chain_model_options(args)
     if args.rpm_sweep is not None:
         from dynamics.sweep import parse_rpm_range
 
@@ -170,7 +187,38 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         rpm_sweep=args.rpm_sweep,
         settling_band_m=args.settling_band / 1000.0,
         station=args.station,
+        **chain_options,
     )
+
+
+def _chain_model_options(args) -> dict:
+    """The chain-model options (issue #11), checked; the rules live in dynamics.clearance_sim."""
+    from dynamics.clearance_sim import parse_rayleigh, tensioner_from
+
+    try:
+        clearance_mm = float(args.pin_clearance)
+    except ValueError:
+        clearance_mm = float("nan")
+    _require(clearance_mm >= 0, f"--pin-clearance: expected a free play >= 0 mm or inf, got {args.pin_clearance!r}")
+    rayleigh = None
+    if args.rayleigh is not None:
+        try:
+            rayleigh = parse_rayleigh(args.rayleigh)
+        except ValueError as e:
+            raise InputError(f"--rayleigh: {e}") from None
+        _require(args.span_damping == "global" or rayleigh[0] == 0.0,
+                 f"--rayleigh: the kelvin-voigt span damping takes BETA only (ALPHA 0), got {args.rayleigh!r}")
+    for name, value, low in (("--tensioner-rate", args.tensioner_rate, 0.0), ("--tensioner-mass", args.tensioner_mass, None),
+                             ("--tensioner-damping", args.tensioner_damping, 0.0)):
+        if value is not None and not ((value >= low if low is not None else value > 0) and value < float("inf")):
+            raise InputError(f"{name}: expected a finite value {'> 0' if low is None else '>= 0'}, got {value:g}")
+    try:
+        tensioner_from(args.tensioner_rate, args.tensioner_mass, args.tensioner_damping)
+    except ValueError as e:
+        raise InputError(f"--tensioner-mass: {e}") from None
+    return {"model": args.model, "pin_clearance_m": clearance_mm / 1000.0, "span_damping": args.span_damping,
+            "rayleigh": rayleigh, "tensioner_rate_N_per_m": args.tensioner_rate,
+            "tensioner_mass_kg": args.tensioner_mass, "tensioner_damping_N_s_per_m": args.tensioner_damping}
 
 
 def _check_solver(method: str, friction: float) -> None:

@@ -98,17 +98,47 @@ def _focus(cfg) -> str:
     return cfg.station or DEFAULT_STATION
 
 
+def _tension_extremes_N(scenario) -> tuple[float, float]:
+    """Peak and minimum span force: the clearance integrator's own (every step), else the samples'."""
+    contact = getattr(scenario, "contact", None)
+    if contact is not None:
+        return contact.peak_tension_N, contact.min_tension_N
+    return scenario.tension.peak_N, scenario.tension.min_N
+
+
+def _contact_summary(contact) -> dict:
+    """Which model ran and why, and what it says about free play and impacts (issue #11)."""
+    if contact is None:
+        return {}
+    ss = contact.steady_state
+    return {
+        "model": contact.model,
+        "model_reason": contact.reason,
+        "pin_clearance_m": None if np.isinf(contact.clearance_m) else contact.clearance_m,
+        "contact_lost": bool(contact.contact_lost),
+        "free_play_time_fraction": float(contact.free_play_time_fraction),
+        "impacts_per_cycle": float(contact.impacts_per_cycle),
+        "peak_impact_force_N": float(contact.peak_impact_force_N),
+        "preload_for_full_contact_N": float(contact.preload_for_full_contact_N),
+        "linear_min_tension_N": float(contact.linear_min_tension_N),
+        "clearance_steady_state": None if ss is None else {
+            "found": ss.found, "period_cycles": ss.period_cycles, "cycles": ss.cycles, "residual": ss.residual,
+            "statement": ss.statement},
+        "steps_per_output_sample": contact.steps_per_output,
+    }
+
+
 def _scenario_summary(scenario, fea, band_m: float) -> dict:
-    tension = scenario.tension
-    peak_stress = tension.peak_N * fea.peak_von_mises_away_from_clamp_Pa_per_N if fea is not None else None
+    peak_N, min_N = _tension_extremes_N(scenario)
+    peak_stress = peak_N * fea.peak_von_mises_away_from_clamp_Pa_per_N if fea is not None else None
     out = {
         "stations": {name: {**_station_dict(s), "settling_time_s": _settling(scenario.settling_time_s[scenario.history.column(s.link)]),
                             "settling_band_m": band_m}
                      for name, s in scenario.stations.items()},
         "per_link": {k: getattr(scenario.metrics, k).tolist() for k in PER_LINK_KEYS},
-        "peak_tension_N": tension.peak_N,
-        "min_tension_N": tension.min_N,
-        "slack": tension.slack,
+        "peak_tension_N": peak_N,
+        "min_tension_N": min_N,
+        **_contact_summary(getattr(scenario, "contact", None)),
         "samples_per_degree": scenario.samples_per_degree,
     }
     if scenario.rel_error_estimate is not None:
@@ -168,12 +198,14 @@ def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict)
 def _fidelity(cfg, fea: dict, scenarios: dict) -> dict:
     """What resolution each stage used and the error it is estimated to leave in the metrics."""
     estimates = [sc.rel_error_estimate["total"] for sc in scenarios.values() if sc.rel_error_estimate]
+    models = {sc.contact.model for sc in scenarios.values() if getattr(sc, "contact", None) is not None}
     return {
         "tolerance": cfg.tolerance,
         "fea": {m: {"mesh_size_m": r.mesh_size_m, "order": cfg.order, "dofs": r.dofs,
                     "stiffness_rel_error_estimate": r.stiffness_rel_error_estimate} for m, r in fea.items()},
         "dynamics": {
-            "solver": cfg.solver,
+            "solver": cfg.solver if "clearance" not in models else
+            f"{cfg.solver} (linear chain); clearance-verlet (clearance chain)",
             "samples_per_degree": max(sc.samples_per_degree for sc in scenarios.values()),
             "metrics_rel_error_estimate": max(estimates) if estimates else None,
         },
@@ -187,6 +219,21 @@ def _inputs(cfg) -> dict:
         "solver": cfg.solver, "preset": cfg.preset, "steady_state": cfg.steady_state, "station": cfg.station,
         "samples_per_degree": cfg.samples_per_degree, "hardware_mass_kg": cfg.hardware_mass_kg,
         "nest_mass_kg": cfg.nest_mass_kg, "fea_order": cfg.order, "fea_mesh_size_m": cfg.mesh_size_m,
+        **_chain_model_inputs(cfg),
+    }
+
+
+def _chain_model_inputs(cfg) -> dict:
+    clearance = getattr(cfg, "pin_clearance_m", None)
+    return {
+        "model": getattr(cfg, "model", None),
+        "pin_clearance_m": None if clearance is None or np.isinf(clearance) else clearance,
+        "pin_clearance_infinite": bool(clearance is not None and np.isinf(clearance)),
+        "span_damping": getattr(cfg, "span_damping", None),
+        "rayleigh_alpha_beta": None if getattr(cfg, "rayleigh", None) is None else list(cfg.rayleigh),
+        "tensioner_rate_N_per_m": getattr(cfg, "tensioner_rate_N_per_m", None),
+        "tensioner_mass_kg": getattr(cfg, "tensioner_mass_kg", None),
+        "tensioner_damping_N_s_per_m": getattr(cfg, "tensioner_damping_N_s_per_m", None),
     }
 
 
@@ -284,12 +331,16 @@ def _tension_table(summary_materials: dict) -> Table:
     rows = []
     for material, data in summary_materials.items():
         for cam, c in data["cams"].items():
-            rows.append((material, cam, c["peak_tension_N"] / 1e3, c["min_tension_N"] / 1e3,
-                         "SLACK" if c["slack"] else "taut", c["peak_link_stress_Pa"] / 1e6,
+            rows.append((material, cam, c.get("model", "linear"), c["peak_tension_N"] / 1e3, c["min_tension_N"] / 1e3,
+                         "yes" if c.get("contact_lost") else "no", 100.0 * c.get("free_play_time_fraction", 0.0),
+                         c.get("impacts_per_cycle", 0.0), c.get("peak_impact_force_N", 0.0) / 1e3,
+                         c.get("preload_for_full_contact_N", float("nan")) / 1e3, c["peak_link_stress_Pa"] / 1e6,
                          c["yield_safety_factor"]))
-    return Table("Link tension and stress (stress = peak tension x FEA peak von Mises per newton, away from the "
-                 "clamped bore)", ("material", "cam law", "peak tension (kN)", "min tension (kN)", "chain",
-                                   "peak stress (MPa)", "safety factor on yield"), tuple(rows))
+    return Table("Link tension, contact and stress (min tension < 0: a span pushing after its free play closed; "
+                 "stress = peak tension x FEA peak von Mises per newton, away from the clamped bore)",
+                 ("material", "cam law", "model", "peak tension (kN)", "min tension (kN)", "contact lost",
+                  "free play (% span-time)", "impacts per cycle", "peak impact force (kN)",
+                  "preload for full contact (kN)", "peak stress (MPa)", "safety factor on yield"), tuple(rows))
 
 
 def _sweep_summary(sweep) -> dict:
@@ -339,6 +390,8 @@ def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing:
         residual = {m: {c: scenarios[m, c].stations[focus].residual_vibration_m for c in cfg.cams} for m in fea}
         residual_png = plots.plot_residual_vibration(residual, focus, staged.path("residual_vibration.png"))
         figures = {m: _material_plots(staged, [histories[m, c] for c in cfg.cams], links, focus_link) for m in fea}
+        for m, path in _tension_maps(staged, scenarios, fea, cfg.cams).items():
+            figures[m]["tension map"] = path
         images = {}
         for m, r in fea.items():
             if r.image is not None:
@@ -364,6 +417,47 @@ def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing:
     _announce(cfg, staged, timing, progress, ranking)
 
 
+def _model_paragraphs(summary: dict) -> str:
+    """Which chain model ran for which scenarios and why; the clearance chain's steady-state statements."""
+    groups: dict[tuple[str, str], list[str]] = {}
+    linear_min: dict[tuple[str, str], list[float]] = {}
+    statements = []
+    for m, d in summary["materials"].items():
+        for c, x in d["cams"].items():
+            if "model" not in x:
+                continue
+            groups.setdefault((x["model"], x["model_reason"]), []).append(f"{m} / {c}")
+            linear_min.setdefault((x["model"], x["model_reason"]), []).append(x["linear_min_tension_N"])
+            ss = x.get("clearance_steady_state")
+            if ss is not None and not (ss["found"] and ss["period_cycles"] == 1):
+                statements.append(f"{m} / {c}: {ss['statement']}")
+    out = ""
+    for (model, reason), runs in groups.items():
+        name = ("linear chain (exact solver)" if model == "linear"
+                else "clearance chain (pin free play, impacts; explicit integrator)")
+        css = "warn" if "NOT valid" in reason else None
+        low, high = min(linear_min[model, reason]) / 1e3, max(linear_min[model, reason]) / 1e3
+        out += html.paragraph(f"Model: {name} for {', '.join(runs)}: {reason} (linear chain's minimum tension "
+                              f"{low:.3g} to {high:.3g} kN).", css)
+    for text in statements:
+        out += html.paragraph(text, "warn")
+    return out
+
+
+def _tension_maps(staged: StagedOutput, scenarios: dict, materials, cams) -> dict[str, Path]:
+    """Per material, the span x time tension map of the cam with the highest peak tension."""
+    maps = {}
+    for m in materials:
+        worst = max(cams, key=lambda c: _tension_extremes_N(scenarios[m, c])[0])
+        sc = scenarios[m, worst]
+        contact = getattr(sc, "contact", None)
+        clearance_ran = contact is not None and contact.model == "clearance"
+        free_play = sc.history.tension_N == 0.0 if clearance_ran else np.zeros(sc.history.tension_N.shape, bool)
+        note = "" if contact is None else f"{contact.model} model; highest peak tension of the cam laws"
+        maps[m] = plots.plot_tension_map(sc.history, free_play, staged.path(f"{m}_tension_map.png"), note)
+    return maps
+
+
 def _default_sections(cfg, summary, tables, fea, models, residual_png, figures, images) -> list[html.Section]:
     inputs = summary["inputs"]
     geo = summary["geometry"]
@@ -374,12 +468,8 @@ def _default_sections(cfg, summary, tables, fea, models, residual_png, figures, 
         f"friction μ = {inputs['friction_coefficient']:g}, damping ζ = {inputs['damping_ratio']:g}, "
         f"preload {inputs['preload_N']:g} N, solver {inputs['solver']}. Stations: "
         + ", ".join(f"{k} = link {v}" for k, v in summary["stations"].items()) + ".")
-    slack = [f"{m} / {c}" for m, d in summary["materials"].items() for c, x in d["cams"].items() if x["slack"]]
-    warn = html.paragraph("The chain goes slack (link tension below zero) for: " + ", ".join(slack)
-                          + ". The model is linear, so there it lets links push; treat those results as a bound.",
-                          "warn") if slack else ""
     sections = [
-        html.Section("Run", intro + warn),
+        html.Section("Run", intro + _model_paragraphs(summary)),
         html.Section("Link stiffness and mass", html.table_html(_fea_table(fea, models))
                      + "".join(html.image_html(p, f"{m}: deformed link (exaggerated), von Mises stress")
                                for m, p in images.items())),
@@ -389,12 +479,14 @@ def _default_sections(cfg, summary, tables, fea, models, residual_png, figures, 
         html.Section("The report's tables", html.table_html(tables["rms_table"])
                      + html.table_html(tables["max_acceleration_table"])),
         html.Section("Link tension and stress", html.table_html(tables["tension"])
+                     + "".join(html.image_html(f["tension map"], f"{m}: span force over time, worst cam law "
+                                               "(grey: free play)") for m, f in figures.items() if "tension map" in f)
                      + "".join(html.image_html(f["tension"], f"{m}: link tension extremes")
                                for m, f in figures.items() if "tension" in f)),
     ]
     for m, f in figures.items():
         sections.append(html.Section(f"Time histories: {m}", "".join(
-            html.image_html(p, f"{m}: {label}") for label, p in f.items() if label != "tension")))
+            html.image_html(p, f"{m}: {label}") for label, p in f.items() if label not in ("tension", "tension map"))))
     sections.append(html.Section("Timing", html.table_html(
         Table("Wall time per stage (s)", ("stage", "seconds"), tuple(summary["timing_s"].items())))))
     return sections

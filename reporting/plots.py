@@ -125,7 +125,7 @@ def plot_dwell_vibration(histories: list[CamHistory], link: int, path: Path) -> 
 
 
 def plot_tension(histories: list[CamHistory], path: Path) -> Path:
-    """Peak and minimum tension of every link over the window, per cam law; zero line marks slack."""
+    """Peak and minimum tension of every link over the window, per cam law; below zero a span pushes."""
     fig, ax = plt.subplots(figsize=(9, 4.5))
     for h in histories:
         links = np.arange(1, h.tension_N.shape[1] + 1)
@@ -134,7 +134,36 @@ def plot_tension(histories: list[CamHistory], path: Path) -> Path:
     ax.axhline(0.0, color="k", lw=0.8)
     ax.set_xlabel("link")
     ax.set_ylabel("link tension (kN); dashed = minimum")
-    ax.set_title(f"{histories[0].material}: link tension extremes (below zero the chain would go slack)")
+    ax.set_title(f"{histories[0].material}: link tension extremes (below zero: a span pushing through its closed free play)")
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, ncol=2)
+    return _save(fig, path)
+
+
+def plot_tension_map(history: CamHistory, free_play: np.ndarray, path: Path, note: str = "") -> Path:
+    """Span x time map of the span force (kN; red tension, blue compression through pushing contact),
+    with the spans in free play (no force, pin joint open) in grey."""
+    from matplotlib.colors import ListedColormap, TwoSlopeNorm
+
+    tension_kN = history.tension_N / 1e3
+    t_ms = history.t_s * 1e3
+    n_spans = tension_kN.shape[1]
+    extent = (t_ms[0], t_ms[-1], 0.5, n_spans + 0.5)
+    low, high = min(float(tension_kN.min()), -1e-3), max(float(tension_kN.max()), 1e-3)
+    fig, ax = plt.subplots(figsize=(10, 5))
+    image = ax.imshow(tension_kN.T, aspect="auto", origin="lower", extent=extent, cmap="RdBu_r",
+                      norm=TwoSlopeNorm(0.0, low, high), interpolation="nearest")
+    if np.any(free_play):
+        ax.imshow(np.where(free_play, 1.0, np.nan).T, aspect="auto", origin="lower", extent=extent,
+                  cmap=ListedColormap(["0.55"]), interpolation="nearest")
+    dwell = history.dwell_mask
+    edges = np.flatnonzero(np.diff(dwell.astype(int)))
+    for i in edges:
+        ax.axvline(t_ms[i], color="k", lw=0.6, ls=":")
+    fig.colorbar(image, ax=ax, label="span force (kN), tension positive")
+    ax.set_xlabel("time (ms); dotted: start and end of dwells")
+    ax.set_ylabel("span (link j to j + 1)")
+    share = 100.0 * float(np.mean(free_play))
+    ax.set_title(f"{history.material} / {history.cam}: span force; grey = free play ({share:.1f} % of span-time)"
+                 + (f"\n{note}" if note else ""))
     return _save(fig, path)

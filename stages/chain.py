@@ -20,6 +20,7 @@ class Scenario:
     samples_per_degree: int
     rel_error_estimate: dict | None  # {"time_step", "stiffness", "total"} when --tolerance is given
     settling_time_s: "np.ndarray"  # per link, the longest settling into --settling-band over the dwells (NaN: never)
+    contact: object = None  # dynamics.clearance_sim.ContactSummary: which model ran and why, free play, impacts
 
 
 def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> "np.ndarray":
@@ -38,6 +39,7 @@ def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | 
         link_mass_kg=result.body_mass_kg + cfg.hardware_mass_kg + cfg.nest_mass_kg,
         stiffness_N_per_m=result.stiffness_N_per_m if stiffness_N_per_m is None else stiffness_N_per_m,
         damping_ratio=cfg.damping,
+        rayleigh_coefficients=cfg.rayleigh,
         preload_N=cfg.preload_N,
         friction_coefficient=cfg.friction,
     )
@@ -45,8 +47,6 @@ def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | 
 
 def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m: float,
                       samples_per_degree: int) -> Scenario:
-    import warnings
-
     from dynamics.cams import CamProgram
     from dataclasses import replace
 
@@ -55,18 +55,15 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
     from dynamics.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
     from dynamics.reduction import modes_to_keep
     from reporting.history import CamHistory
-    from dynamics.simulate import SlackChainWarning, simulate
+    from dynamics.clearance_sim import simulate_scene
 
     t = output_times_s(cfg.rpm, samples_per_degree)
     cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
     # a one-station question keeps one link's history (the spring tensions are kept whole: they are
     # what the slack check and the stress need)
     kept = None if cfg.station is None else (station_links(cfg.links)[cfg.station],)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", SlackChainWarning)  # reported through the minimum tension
-        r = simulate(model, cam, t, method=cfg.solver, steady_state=cfg.steady_state,
-                     links=None if kept is None else [link - 1 for link in kept],
-                     n_modes=modes_to_keep(cfg.links))
+    r, contact = simulate_scene(cfg, model, cam, t, links=None if kept is None else [link - 1 for link in kept],
+                                n_modes=modes_to_keep(cfg.links))
     history = CamHistory(material, cam_id, t, r.z_m, r.zdot_m_s, r.zddot_m_s2, r.x_m, r.v_m_s, r.a_m_s2,
                          r.tension_N, cam.dwell_mask(t), kept)
     metrics = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, history.dwell_mask)
@@ -75,7 +72,7 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
     settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
     # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
-    return Scenario(history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst)
+    return Scenario(history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst, contact)
 
 
 def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, cam_id: str) -> Scenario:

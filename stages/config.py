@@ -33,3 +33,11 @@ class RunConfig:
     rpm_sweep: str | None
     settling_band_m: float
     station: str | None
+    # the chain model (issue #11): see dynamics.clearance_sim
+    model: str = "auto"
+    pin_clearance_m: float = 94e-6  # dynamics.clearance.DEFAULT_PIN_CLEARANCE_M
+    span_damping: str = "global"
+    rayleigh: tuple[float, float] | None = None
+    tensioner_rate_N_per_m: float | None = None
+    tensioner_mass_kg: float | None = None
+    tensioner_damping_N_s_per_m: float | None = None

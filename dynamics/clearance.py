@@ -1,0 +1,255 @@
+"""The chain as it really is: pin joints with free play, loss of contact and impacts (issue #11).
+
+Coordinates and topology are dynamics.chain's: links 0..N-1, y = x - z(t) 1 relative to the cam,
+span j joins link j to link j+1 (span N-1 closes the loop to link 0), stretch e_j = y_j+1 - y_j.
+Each span has an axial free play g >= 0 (metres, the total of its two pin joints). In the static
+state every span rests on the tension side of its play and carries the preload P. Span force
+(tension positive), link stiffness k:
+
+    T = P + k e             e >= -P/k              pulling contact
+    T = 0                   -P/k - g < e < -P/k    free play
+    T = k (e + P/k + g)     e <= -P/k - g          pushing contact
+
+g = 0 is the linear chain exactly; g = inf is a chain that can only pull. Equivalently
+T = P + k e + clip(-(P + k e), 0, k g): the linear force plus a bounded correction.
+
+Damping laws (`span_damping`):
+- "global": the chain model's damping matrix C (modal zeta or Rayleigh) on y', acting always,
+  as in the linear model: it stands for losses spread over the chain and its guide (rollers,
+  lubricant, nests), which do not stop when a pin joint opens. In full contact this is today's model.
+- "kelvin-voigt": a dashpot beta k in each span, acting only while that span is in contact (the
+  losses are in the loaded pin joints and link bodies); the drive spring gets beta k_d always. In
+  full contact it equals Rayleigh (alpha, beta) = (0, beta). beta is `kv_beta_s`; by default it
+  gives one span's contact oscillation (two links, omega_c = sqrt(2 k / m)) the chain's damping
+  ratio zeta: beta = 2 zeta / omega_c.
+
+Tensioner (optional): the idler carriage at span s = round(N/2) - 1 (0-based; links round(N/2) and
+round(N/2) + 1 in 1-based numbering), displacement u (positive lengthens the loop): that span's
+stretch is e_s + 2u and m_t u'' = 2P - k_t u - c_t u' - 2 T_s, so u = 0 in the static state.
+Without it the idler is rigid (u = 0 always).
+
+Energy (absolute frame): kinetic 1/2 m sum (z' + y')^2 + 1/2 m_t u'^2; span springs from their
+unstressed length (the integral of T de, piecewise quadratic, continuous); drive 1/2 k_d y_0^2;
+tensioner 1/2 k_t u^2 - 2P u.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from dynamics.chain import ChainModel
+from dynamics.errors import DynamicsError
+from dynamics.metrics import matlab_round
+from dynamics.solvers._common import serial_blas
+from dynamics.system import SecondOrderSystem
+
+SPAN_DAMPING_LAWS = ("global", "kelvin-voigt")
+
+# ISO 286-2 close running fit H8/f7 at the default link's 19.05 mm (3/4 in) pin/bushing bore (the
+# 18-30 mm size range): H8 = +0/+33 um, f7 = -20/-41 um, diametral clearance 20-74 um, mean 47 um
+# per joint. A span has two pin joints: 2 x 47 um of axial free play.
+DEFAULT_PIN_CLEARANCE_M = 94e-6
+
+
+@dataclass(frozen=True)
+class Tensioner:
+    """The idler carriage: spring rate k_t (N/m, >= 0), mass m_t (kg, > 0), damping c_t (N s/m, >= 0)."""
+
+    rate_N_per_m: float
+    mass_kg: float
+    damping_N_s_per_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.rate_N_per_m) and self.rate_N_per_m >= 0):
+            raise DynamicsError(f"tensioner rate_N_per_m: expected a finite value >= 0, got {self.rate_N_per_m!r}")
+        if not (np.isfinite(self.mass_kg) and self.mass_kg > 0):
+            raise DynamicsError(f"tensioner mass_kg: expected a finite mass > 0, got {self.mass_kg!r}")
+        if not (np.isfinite(self.damping_N_s_per_m) and self.damping_N_s_per_m >= 0):
+            raise DynamicsError(
+                f"tensioner damping_N_s_per_m: expected a finite value >= 0, got {self.damping_N_s_per_m!r}")
+
+
+@dataclass(frozen=True)
+class ClearanceChain:
+    """A ChainModel whose spans have free play `clearance_m` (0 to inf)."""
+
+    chain: ChainModel
+    clearance_m: float = DEFAULT_PIN_CLEARANCE_M
+    span_damping: str = "global"
+    kv_beta_s: float | None = None  # Kelvin-Voigt beta (s); None: 2 zeta / omega_c
+    tensioner: Tensioner | None = None
+
+    def __post_init__(self) -> None:
+        if not (self.clearance_m >= 0 and not np.isnan(self.clearance_m)):
+            raise DynamicsError(f"clearance_m: expected a free play >= 0 m (inf allowed), got {self.clearance_m!r}")
+        if self.span_damping not in SPAN_DAMPING_LAWS:
+            raise DynamicsError(f"span_damping: expected one of {', '.join(SPAN_DAMPING_LAWS)}, "
+                                f"got {self.span_damping!r}")
+        if self.kv_beta_s is not None and not (np.isfinite(self.kv_beta_s) and self.kv_beta_s >= 0):
+            raise DynamicsError(f"kv_beta_s: expected a finite value >= 0, got {self.kv_beta_s!r}")
+
+    @property
+    def n_links(self) -> int:
+        return self.chain.n_links
+
+    @property
+    def idler_span(self) -> int:
+        """0-based index of the span carrying the idler wheel."""
+        return int(matlab_round(self.n_links / 2)) - 1
+
+    @property
+    def contact_frequency_rad_s(self) -> float:
+        """One span closing on two free links: omega_c = sqrt(2 k / m)."""
+        return float(np.sqrt(2.0 * self.chain.stiffness_N_per_m / self.chain.link_mass_kg))
+
+    @property
+    def beta_s(self) -> float:
+        """The Kelvin-Voigt dashpot factor (s): dashpot beta k per span."""
+        if self.kv_beta_s is not None:
+            return float(self.kv_beta_s)
+        if self.chain.rayleigh_coefficients is not None:
+            return float(self.chain.rayleigh_coefficients[1])
+        return 2.0 * self.chain.damping_ratio / self.contact_frequency_rad_s
+
+    @property
+    def damping_matrix(self) -> np.ndarray:
+        """The global law's C (N x N; cached per chain, read-only); unused by the Kelvin-Voigt law."""
+        return _damping_matrix(self.chain)
+
+    def full_contact_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
+        """(K, M) of the linearised chain with every span in contact, carriage included when present."""
+        k_chain = self.chain.stiffness_matrix()
+        m_chain = self.chain.mass_matrix()
+        if self.tensioner is None:
+            return k_chain, m_chain
+        n, k, s = self.n_links, self.chain.stiffness_N_per_m, self.idler_span
+        kk = np.zeros((n + 1, n + 1))
+        kk[:n, :n] = k_chain
+        b = np.zeros(n + 1)  # span s stretch e_s + 2u = b . [y; u]
+        b[(s + 1) % n] += 1.0
+        b[s] -= 1.0
+        b[n] = 2.0
+        kk += k * np.outer(b, b)
+        kk[:n, :n] -= k * np.outer(b[:n], b[:n])  # the chain's K already holds span s's y-y part
+        kk[n, n] += self.tensioner.rate_N_per_m
+        mm = np.diag(np.concatenate([np.diag(m_chain), [self.tensioner.mass_kg]]))
+        return kk, mm
+
+    def max_frequency_rad_s(self) -> float:
+        """Largest natural frequency with every span in contact (free play only softens the chain)."""
+        return _max_frequency_rad_s(self.chain, self.tensioner)
+
+    def _max_frequency_uncached(self) -> float:
+        kk, mm = self.full_contact_stiffness()
+        lam = np.linalg.eigvalsh(kk / np.sqrt(np.outer(np.diag(mm), np.diag(mm))))
+        return float(np.sqrt(max(lam[-1], 0.0)))
+
+    def damping_ratio_at(self, omega_rad_s: float) -> float:
+        """Damping ratio the law gives a mode at omega (used to set the explicit step)."""
+        if self.span_damping == "kelvin-voigt":
+            return 0.5 * self.beta_s * omega_rad_s
+        if self.chain.rayleigh_coefficients is not None:
+            alpha, beta = self.chain.rayleigh_coefficients
+            return 0.5 * (alpha / omega_rad_s + beta * omega_rad_s)
+        return self.chain.damping_ratio
+
+    def system(self) -> SecondOrderSystem:
+        """The clearance chain in the solvers' common form (dynamics.solvers.solve): the linear
+        chain's M, C, K plus the span law's departure from it as the nonlinear force g(y), so every
+        method that takes a nonlinear force (central-difference, rk45, radau, ...) can solve it. Only
+        the global damping law without a tensioner maps onto that form (the Kelvin-Voigt dashpot
+        switches with contact, the carriage is one more degree of freedom)."""
+        if self.span_damping != "global" or self.tensioner is not None:
+            raise DynamicsError("system(): only the global damping law without a tensioner has the "
+                                "M, C, K + g(x) form; use dynamics.solvers.clearance_verlet")
+        c = self.chain
+        return SecondOrderSystem(c.mass_matrix(), self.damping_matrix, c.stiffness_matrix(),
+                                 nonlinear_force=SpanLawCorrection(c.preload_N, c.stiffness_N_per_m, self.clearance_m))
+
+    # --- the span law and its energy -------------------------------------------------------------
+
+    def span_force_N(self, e_m: np.ndarray) -> np.ndarray:
+        return span_force_N(e_m, self.chain.preload_N, self.chain.stiffness_N_per_m, self.clearance_m)
+
+    def span_energy_J(self, e_m: np.ndarray) -> np.ndarray:
+        return span_energy_J(e_m, self.chain.preload_N, self.chain.stiffness_N_per_m, self.clearance_m)
+
+    def stretches_m(self, y_m: np.ndarray, u_m=None) -> np.ndarray:
+        """Span stretches from relative (or absolute) link displacements (..., N), carriage u (...)."""
+        y = np.asarray(y_m, dtype=float)
+        e = np.roll(y, -1, axis=-1) - y
+        if self.tensioner is not None and u_m is not None:
+            e[..., self.idler_span] += 2.0 * np.asarray(u_m, dtype=float)
+        return e
+
+    def tension_N(self, y_m: np.ndarray, u_m=None) -> np.ndarray:
+        """Elastic span forces (..., N), tension positive (the dashpot of the Kelvin-Voigt law not
+        included, as the linear model's tension leaves out its damping)."""
+        return self.span_force_N(self.stretches_m(y_m, u_m))
+
+    def stored_energy_J(self, y, w, zdot, u=0.0, ud=0.0) -> float:
+        """Kinetic + elastic energy of one state (absolute frame)."""
+        c = self.chain
+        y, w = np.asarray(y, dtype=float), np.asarray(w, dtype=float)
+        kinetic = 0.5 * c.link_mass_kg * float(np.sum((zdot + w) ** 2))
+        elastic = float(np.sum(self.span_energy_J(self.stretches_m(y, u))))
+        drive = 0.5 * c.drive_stiffness * float(y[0]) ** 2
+        if self.tensioner is None:
+            return kinetic + elastic + drive
+        t = self.tensioner
+        carriage = 0.5 * t.mass_kg * ud**2 + 0.5 * t.rate_N_per_m * u**2 - 2.0 * c.preload_N * u
+        return kinetic + elastic + drive + carriage
+
+
+@lru_cache(maxsize=16)
+def _damping_matrix(chain: ChainModel) -> np.ndarray:
+    with serial_blas():
+        c = np.ascontiguousarray(chain.damping_matrix())
+    c.flags.writeable = False
+    return c
+
+
+@lru_cache(maxsize=16)
+def _max_frequency_rad_s(chain: ChainModel, tensioner: Tensioner | None) -> float:
+    with serial_blas():
+        return ClearanceChain(chain, 0.0, tensioner=tensioner)._max_frequency_uncached()
+
+
+@dataclass(frozen=True)
+class SpanLawCorrection:
+    """g(y, y') = the span law's force minus the linear chain's: per span T - (P + k e) =
+    clip(-(P + k e), 0, k g), +that on link j and -that on link j + 1 (a bounded force, zero in
+    pulling contact)."""
+
+    preload_N: float
+    stiffness_N_per_m: float
+    clearance_m: float
+
+    def __call__(self, y: np.ndarray, _v: np.ndarray) -> np.ndarray:
+        e = np.roll(y, -1) - y
+        linear = self.preload_N + self.stiffness_N_per_m * e
+        d = span_force_N(e, self.preload_N, self.stiffness_N_per_m, self.clearance_m) - linear
+        return d - np.roll(d, 1)
+
+
+def span_force_N(e_m, preload_N: float, stiffness_N_per_m: float, clearance_m: float) -> np.ndarray:
+    """The span law above, element-wise."""
+    d = preload_N + stiffness_N_per_m * np.asarray(e_m, dtype=float)
+    kg = stiffness_N_per_m * clearance_m
+    with np.errstate(invalid="ignore"):
+        return np.where(d >= 0.0, d, np.where(d <= -kg, d + kg, 0.0))
+
+
+def span_energy_J(e_m, preload_N: float, stiffness_N_per_m: float, clearance_m: float) -> np.ndarray:
+    """Integral of the span law from the unstressed length: 1/2 T^2 / k in contact, 0 in free play."""
+    return 0.5 * span_force_N(e_m, preload_N, stiffness_N_per_m, clearance_m) ** 2 / stiffness_N_per_m
+
+
+def contact_state(e_m, preload_N: float, stiffness_N_per_m: float, clearance_m: float) -> np.ndarray:
+    """+1 pulling contact, 0 free play, -1 pushing contact, element-wise."""
+    d = preload_N + stiffness_N_per_m * np.asarray(e_m, dtype=float)
+    kg = stiffness_N_per_m * clearance_m
+    return np.where(d >= 0.0, 1, np.where(d <= -kg, -1, 0)).astype(np.int8)

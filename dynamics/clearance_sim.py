@@ -1,0 +1,259 @@
+"""Which chain model a scene needs, and the clearance chain's response (periodic or from rest).
+
+`simulate_chain(model, cam, t_eval_s, choice="auto")` always solves the linear chain first (exact,
+cheap): it gives the preload that would keep every span in pulling contact (the linear motion does
+not depend on the preload, so that preload is P - min T_linear), and it decides the model:
+
+- "linear": asked for; or, with "auto", pin clearance 0 (the clearance law is then the linear law
+  exactly) or a linear solution that never leaves pulling contact (min tension >= 0 at every output
+  sample: free play is never entered). Its response is the exact linear one, returned as is.
+- "clearance": asked for; or, with "auto", the linear solution leaves pulling contact somewhere, or
+  an idler tensioner is modelled (only the clearance model carries it). Solved by the explicit
+  integrator dynamics.solvers.clearance_verlet.
+
+Periodic steady state of the clearance chain: started from the linear chain's periodic state, the
+chain is stepped one cam period at a time until the state at the period's start changes by less
+than `tol` (relative to the largest |y| and |y'| over the period). If it does not settle within
+`max_cycles`, the period ends are searched for a repeat after k = 2..MAX_SUBHARMONIC periods (a
+subharmonic response: impacting systems have them); if none repeats, no periodic state is found and
+the response is reported as what it is, the motion after `max_cycles` periods, with a statement
+saying so. A steady state is never claimed unless the residual test passed.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from dynamics.clearance import DEFAULT_PIN_CLEARANCE_M, ClearanceChain, Tensioner
+from dynamics.errors import DynamicsError
+from dynamics.reduction import DENSE_LINK_LIMIT
+from dynamics.simulate import ChainResponse, SlackChainWarning, simulate
+from dynamics.solvers import clearance_verlet as verlet
+from dynamics.solvers._common import serial_blas
+
+MODEL_CHOICES = ("auto", "linear", "clearance")
+MAX_SUBHARMONIC = 6
+DEFAULT_TOL = 1e-6
+DEFAULT_MAX_CYCLES = 60
+
+
+@dataclass(frozen=True)
+class SteadyState:
+    """How the clearance chain's periodic state was found (or not)."""
+
+    found: bool
+    period_cycles: int | None  # 1: periodic with the cam; k > 1: subharmonic of period k cam cycles; None: none
+    cycles: int  # cam periods stepped before the output window
+    residual: float  # last change per period (relative), or per k periods for a subharmonic
+    statement: str
+
+
+@dataclass(frozen=True)
+class ContactSummary:
+    """What the designer reads about contact, per scenario (SI)."""
+
+    model: str  # "linear" or "clearance"
+    reason: str
+    clearance_m: float
+    contact_lost: bool  # some span left pulling contact (in the linear model: its tension went below 0)
+    free_play_time_fraction: float  # share of span-time in free play over the output window
+    impacts_per_cycle: float  # entries of a span into contact from free play, per cam cycle
+    peak_impact_force_N: float  # largest |span force| in a contact phase begun by an impact
+    peak_tension_N: float
+    min_tension_N: float
+    preload_for_full_contact_N: float  # from the linear model: P - its minimum tension (>= 0)
+    linear_min_tension_N: float
+    steady_state: SteadyState | None = None
+    steps_per_output: int | None = None
+    diagnostics: dict = field(default_factory=dict)
+
+
+def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float) -> tuple[str, str]:
+    """(model, reason) for a scene; see the module docstring."""
+    if choice not in MODEL_CHOICES:
+        raise DynamicsError(f"model: expected one of {', '.join(MODEL_CHOICES)}, got {choice!r}")
+    too_long = model.span_damping == "global" and model.n_links > DENSE_LINK_LIMIT
+    if choice == "linear":
+        return "linear", "asked for (--model linear)"
+    if choice == "clearance":
+        if too_long:
+            raise DynamicsError(
+                f"model clearance: with the global damping law at most {DENSE_LINK_LIMIT} links (its damping "
+                f"matrix is dense), got {model.n_links}; use span damping kelvin-voigt or the linear model")
+        return "clearance", "asked for (--model clearance)"
+    if model.tensioner is not None:
+        if too_long:
+            raise DynamicsError(f"tensioner: the clearance model with the global damping law takes at most "
+                                f"{DENSE_LINK_LIMIT} links, got {model.n_links}; use span damping kelvin-voigt")
+        return "clearance", "an idler tensioner is modelled, which only the clearance model carries"
+    if model.clearance_m == 0.0:
+        return "linear", "pin clearance 0: the clearance law is the linear chain exactly"
+    # the reasons carry no numbers (linear_min_tension_N is reported beside them), so that scenarios
+    # with the same reason read as one group in the report
+    if linear_min_tension_N >= 0.0:
+        return "linear", ("the linear solution never leaves pulling contact (its minimum tension stays >= 0), so "
+                          "the free play is never entered")
+    if too_long:
+        return "linear", (f"the linear solution leaves pulling contact (minimum tension < 0) but the clearance "
+                          f"model with the global damping law is limited to {DENSE_LINK_LIMIT} links: the linear "
+                          "results are NOT valid where tension < 0 (use span damping kelvin-voigt for the "
+                          "clearance model of a long chain)")
+    return "clearance", ("the linear solution leaves pulling contact (its minimum tension goes below zero against "
+                         "the preload): the pin free play is crossed and the load reverses through impacts")
+
+
+def simulate_chain(model: ClearanceChain, cam, t_eval_s, *, choice: str = "auto", steady_state: bool = True,
+                   links=None, n_modes: int | None = None, method: str = "exact", safety: float = verlet.DEFAULT_SAFETY,
+                   tol: float = DEFAULT_TOL, max_cycles: int = DEFAULT_MAX_CYCLES) -> tuple[ChainResponse, ContactSummary]:
+    """The response of the scene's model at t_eval_s and what it says about contact."""
+    t = np.asarray(t_eval_s, dtype=float)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SlackChainWarning)  # reported through the summary
+        lin = simulate(model.chain, cam, t, method=method, steady_state=steady_state, n_modes=n_modes,
+                       links=None if choice != "linear" else links)
+    preload = model.chain.preload_N
+    needed = max(preload - lin.min_tension_N, 0.0)
+    which, reason = choose_model(model, choice, lin.min_tension_N)
+    if which == "linear":
+        out = lin if links is None or choice == "linear" else _select(lin, links)
+        summary = ContactSummary("linear", reason, model.clearance_m, lin.min_tension_N < 0.0,
+                                 float(np.mean(lin.tension_N < 0.0)) if model.clearance_m > 0 else 0.0,
+                                 0.0, 0.0, float(lin.tension_N.max()), lin.min_tension_N, needed, lin.min_tension_N)
+        return out, summary
+    with serial_blas():
+        return _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, reason, needed)
+
+
+def _select(r: ChainResponse, links) -> ChainResponse:
+    cols = [int(i) for i in np.atleast_1d(links)]
+    return replace(r, x_m=r.x_m[:, cols], v_m_s=r.v_m_s[:, cols], a_m_s2=r.a_m_s2[:, cols], links=tuple(cols))
+
+
+def _cam_nodes(cam, t0: float, step: float, n_steps: int):
+    tf = t0 + step * np.arange(n_steps + 1)
+    _, v, a, _ = cam.svaj(tf)
+    return np.asarray(v, dtype=float), np.asarray(a, dtype=float)
+
+
+def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, reason, needed):
+    h_out = np.diff(t)
+    if np.max(np.abs(h_out - h_out[0])) > 1e-9 * h_out[0]:
+        raise DynamicsError("t_eval_s: the clearance model needs equally spaced output times")
+    sub = verlet.substeps_for(model, float(h_out[0]), safety)
+    h = float(h_out[0]) / sub
+    n = model.n_links
+    y0 = lin.x_m[0] - lin.z_m[0]
+    w0 = lin.v_m_s[0] - lin.zdot_m_s[0]
+    state = (y0, w0, 0.0, 0.0)
+    ss = None
+    if steady_state:
+        state, ss = _periodic_state(model, cam, t[0], h, state, tol, max_cycles)
+    zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
+    run = verlet.integrate(model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub)
+    s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
+    cols = list(range(n)) if links is None else [int(i) for i in np.atleast_1d(links)]
+    tension = model.tension_N(run.y, run.u)
+    period = getattr(cam, "period_s", None) or (t[-1] - t[0])
+    cycles = (t[-1] - t[0]) / period
+    response = ChainResponse(
+        t_s=t, x_m=s[:, None] + run.y[:, cols], v_m_s=v[:, None] + run.w[:, cols], a_m_s2=a[:, None] + run.a[:, cols],
+        z_m=s, zdot_m_s=v, zddot_m_s2=a, tension_N=tension, drive_force_N=model.chain.drive_force_N(s + run.y[:, 0], s),
+        links=tuple(cols), min_tension_N=run.min_tension_N, slack=run.free_play_fraction > 0.0,
+        method="clearance-verlet",
+        diagnostics={"steps_per_output": sub, "step_s": h, "steady_state": ss,
+                     "carriage_m": run.u if model.tensioner is not None else None})
+    summary = ContactSummary(
+        "clearance", reason, model.clearance_m, run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
+        run.free_play_fraction, run.impacts / cycles, run.peak_impact_force_N, run.peak_tension_N,
+        run.min_tension_N, needed, lin.min_tension_N, ss, sub)
+    return response, summary
+
+
+def _periodic_state(model, cam, t0, h, state, tol, max_cycles):
+    period = getattr(cam, "period_s", None)
+    if period is None:
+        raise DynamicsError("steady_state: the cam program is not periodic (period_s is None); use steady_state=False")
+    n_p = max(int(round(period / h)), 1)
+    h_p = period / n_p
+    every = max(n_p // 90, 1)
+    while n_p % every:
+        every -= 1
+    zd, zdd = _cam_nodes(cam, t0, h_p, n_p)
+    ends = [np.concatenate([state[0], state[1], [state[2], state[3]]])]
+    scale = None
+    residual = math.inf
+    for cycle in range(1, max_cycles + 1):
+        run = verlet.integrate(model, zd, zdd, h_p, state[0], state[1], u0=state[2], ud0=state[3], out_every=every)
+        state = (run.y[-1], run.w[-1], float(run.u[-1]), float(run.ud[-1]))
+        ends.append(np.concatenate([state[0], state[1], [state[2], state[3]]]))
+        scale = _scale(run, model.n_links)
+        residual = float(np.max(np.abs(ends[-1] - ends[-2]) / scale))
+        if residual <= tol:
+            return state, SteadyState(True, 1, cycle, residual,
+                                      f"periodic steady state found after {cycle} cam cycles "
+                                      f"(change per cycle {residual:.2g} <= {tol:g})")
+    for k in range(2, MAX_SUBHARMONIC + 1):
+        if len(ends) > k:
+            res_k = float(np.max(np.abs(ends[-1] - ends[-1 - k]) / scale))
+            if res_k <= tol:
+                return state, SteadyState(True, k, max_cycles, res_k,
+                                          f"subharmonic response: the motion repeats every {k} cam cycles, not every "
+                                          f"cycle (change per {k} cycles {res_k:.2g}); the output window shows "
+                                          f"{'all' if k <= 2 else 'part'} of that period")
+    return state, SteadyState(False, None, max_cycles, residual,
+                              f"NO periodic steady state found: after {max_cycles} cam cycles the state still changes "
+                              f"by {residual:.2g} per cycle and repeats after no k <= {MAX_SUBHARMONIC} cycles "
+                              "(a chaotic or very slowly settling response); the results are the motion after "
+                              f"{max_cycles} cycles, not a steady state")
+
+
+def _scale(run, n: int) -> np.ndarray:
+    tiny = np.finfo(float).tiny
+    sy = max(float(np.max(np.abs(run.y))), tiny)
+    sw = max(float(np.max(np.abs(run.w))), tiny)
+    su = max(float(np.max(np.abs(run.u))), sy)
+    sud = max(float(np.max(np.abs(run.ud))), sw)
+    return np.concatenate([np.full(n, sy), np.full(n, sw), [su, sud]])
+
+
+def parse_rayleigh(text: str) -> tuple[float, float]:
+    """'ALPHA:BETA' -> (alpha 1/s, beta s), both finite and >= 0; ValueError otherwise."""
+    parts = str(text).split(":")
+    try:
+        alpha, beta = (float(p) for p in parts)
+    except ValueError:
+        raise ValueError(f"expected ALPHA:BETA (C = alpha M + beta K, alpha in 1/s, beta in s), got {text!r}") from None
+    if not all(np.isfinite(c) and c >= 0 for c in (alpha, beta)):
+        raise ValueError(f"expected finite ALPHA:BETA >= 0, got {text!r}")
+    return alpha, beta
+
+
+def tensioner_from(rate_N_per_m, mass_kg, damping_N_s_per_m) -> Tensioner | None:
+    """The optional idler tensioner from its three settings (None when none is given)."""
+    if rate_N_per_m is None and mass_kg is None and damping_N_s_per_m is None:
+        return None
+    if mass_kg is None:
+        raise ValueError("the tensioner needs its carriage mass (--tensioner-mass KG) with its rate or damping")
+    return Tensioner(0.0 if rate_N_per_m is None else rate_N_per_m, mass_kg,
+                     0.0 if damping_N_s_per_m is None else damping_N_s_per_m)
+
+
+def scene_model(settings, chain) -> ClearanceChain:
+    """The clearance chain of a run's settings (stages.config.RunConfig or any object with its fields)."""
+    return ClearanceChain(
+        chain, getattr(settings, "pin_clearance_m", DEFAULT_PIN_CLEARANCE_M),
+        span_damping=getattr(settings, "span_damping", "global"),
+        tensioner=tensioner_from(getattr(settings, "tensioner_rate_N_per_m", None),
+                                 getattr(settings, "tensioner_mass_kg", None),
+                                 getattr(settings, "tensioner_damping_N_s_per_m", None)))
+
+
+def simulate_scene(settings, chain, cam, t_eval_s, *, links=None, n_modes=None) -> tuple[ChainResponse, ContactSummary]:
+    """What the orchestrators call: the scene's model (auto, linear or clearance) for one cam."""
+    return simulate_chain(scene_model(settings, chain), cam, t_eval_s, choice=getattr(settings, "model", "auto"),
+                          steady_state=settings.steady_state, links=links, n_modes=n_modes,
+                          method=getattr(settings, "solver", "exact"))
