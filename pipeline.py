@@ -54,6 +54,9 @@ class RunConfig:
     rpm_sweep: str | None
     settling_band_m: float
     station: str | None
+    link_source: object = None  # geometry.assembly.LinkSource: --geometry with --bores/--pitch/--bore-radius/--body
+    hardware_material: str | None = None  # --hardware-material: ids for the STEP file's hardware solids
+    hardware_from_step: bool = False  # --hardware-from-step: hardware mass from those solids, not --hardware-mass
 
 
 class Progress:
@@ -74,6 +77,7 @@ class Progress:
 def build_parser() -> argparse.ArgumentParser:
     from fem.cache import default_cache_dir
     from geometry import DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG
+    from geometry.options import add_part_arguments
 
     p = argparse.ArgumentParser(
         prog="pipeline.py",
@@ -85,6 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--geometry", type=Path, default=None,
                    help="STEP file of one link with two pin bores, any length unit the file declares (default: the built-in parametric link)")
+    add_part_arguments(p)
     p.add_argument("--materials", default=",".join(DEFAULT_MATERIALS),
                    help="comma-separated material ids (default: %(default)s); see fem/data/materials.toml or --materials-file")
     p.add_argument("--materials-file", type=Path, default=None,
@@ -110,6 +115,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--order", type=int, choices=[1, 2], default=2, help="FEA element order: 1 or 2 (P1/P2 tetrahedra; default: %(default)s)")
     p.add_argument("--hardware-mass", type=float, default=DEFAULT_HARDWARE_MASS_KG,
                    help="mass per link of pins, bushings and rollers in kg (default: %(default).4g)")
+    p.add_argument("--hardware-from-step", action="store_true",
+                   help="take the hardware mass from the STEP file's other solids (with --hardware-material) instead of --hardware-mass")
     p.add_argument("--nest-mass", type=float, default=NEST_MASS_KG, help="mass of the nest carried by each link in kg (default: %(default)s)")
     p.add_argument("--cache-dir", type=Path, default=default_cache_dir(), help="FEA result cache folder (default: %(default)s)")
     p.add_argument("--from-rest", action="store_true",
@@ -187,6 +194,12 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         _require(args.geometry.is_file(), f"--geometry: no such file {str(args.geometry)!r}; expected a STEP file of one link")
     if args.materials_file is not None:
         _require(args.materials_file.is_file(), f"--materials-file: no such file {str(args.materials_file)!r}")
+    _require(args.geometry is not None or (args.hardware_material is None and not args.hardware_from_step),
+             "--hardware-material/--hardware-from-step: only for a --geometry STEP file; expected --geometry with them")
+    _require(not args.hardware_from_step or args.hardware_material is not None,
+             "--hardware-from-step: the hardware solids need a material; expected --hardware-material ID[,ID...]")
+    from geometry.options import link_source
+
     return RunConfig(
         geometry=args.geometry,
         materials=_split_ids(args.materials, "--materials"),
@@ -213,6 +226,9 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         rpm_sweep=args.rpm_sweep,
         settling_band_m=args.settling_band / 1000.0,
         station=args.station,
+        link_source=link_source(args.geometry, args),
+        hardware_material=args.hardware_material,
+        hardware_from_step=args.hardware_from_step,
     )
 
 
@@ -265,8 +281,11 @@ class MaterialFea:
 def fea_cache_settings(cfg: RunConfig, material, stiffness_tolerance: float | None) -> dict:
     from dataclasses import asdict
 
-    return {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order,
-            "stiffness_tolerance": stiffness_tolerance}
+    settings = {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order,
+                "stiffness_tolerance": stiffness_tolerance}
+    if cfg.link_source is not None and (cfg.link_source.bores.given or cfg.link_source.body is not None):
+        settings["part"] = repr((cfg.link_source.bores, cfg.link_source.body))  # another pair: another link
+    return settings
 
 
 def _fea_record(name: str, material, study) -> dict:
@@ -301,10 +320,10 @@ def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | Non
     if stiffness_tolerance is None:
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 3 mesh levels")
         sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
-        return stiffness_studies(cfg.geometry, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
+        return stiffness_studies(cfg.link_source, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
     progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
              f"{100 * stiffness_tolerance:.2g} %")
-    return stiffnesses_to_tolerance(cfg.geometry, materials, stiffness_tolerance, order=cfg.order, progress=progress,
+    return stiffnesses_to_tolerance(cfg.link_source, materials, stiffness_tolerance, order=cfg.order, progress=progress,
                                     solved=solved_levels)
 
 
@@ -485,6 +504,8 @@ def run(cfg: RunConfig, progress: Progress) -> None:
         timing["dynamics"] = progress.elapsed()
         write_replica_outputs(cfg, replicas, timing, progress)
         return
+    if cfg.link_source is not None:
+        cfg = inspect_geometry(cfg, progress)
     if cfg.tolerance is None:
         fea = _timed(timing, "fea", progress, run_fea, cfg, progress)
         models, scenarios = _timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
@@ -492,6 +513,31 @@ def run(cfg: RunConfig, progress: Progress) -> None:
         fea, models, scenarios = run_to_tolerance(cfg, progress, timing)
     sweeps = _timed(timing, "rpm_sweep", progress, run_rpm_sweeps, cfg, fea, progress) if cfg.rpm_sweep else {}
     write_default_outputs(cfg, fea, models, scenarios, timing, progress, sweeps)
+
+
+def inspect_geometry(cfg: RunConfig, progress: Progress) -> RunConfig:
+    """Pick the link body and its pin bores before any meshing (a part that cannot be a link is
+    refused in about the import's time), print the choice, and measure the hardware solids; with
+    --hardware-from-step their mass replaces --hardware-mass."""
+    from dataclasses import replace
+
+    from fem import load_materials
+    from fem.materials import get_material
+    from geometry.assembly import inspect_part
+    from geometry.options import hardware_densities
+
+    summary = inspect_part(cfg.link_source)
+    for line in summary.lines():
+        progress(line.strip())
+    library = load_materials(cfg.materials_file)
+    densities = hardware_densities(cfg.hardware_material, summary, lambda m: get_material(m, library).density_kg_per_m3)
+    if densities is None:
+        return cfg
+    mass_kg = sum(s.volume_m3 * d for s, d in zip(summary.hardware, densities))
+    used = ("replaces --hardware-mass" if cfg.hardware_from_step
+            else f"for information: the chain uses --hardware-mass {cfg.hardware_mass_kg:g} kg without --hardware-from-step")
+    progress(f"hardware in the STEP file: {len(summary.hardware)} solids, {mass_kg:.4f} kg ({used})")
+    return replace(cfg, hardware_mass_kg=mass_kg) if cfg.hardware_from_step else cfg
 
 
 def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress) -> dict:
