@@ -63,7 +63,13 @@ def load_link(
         cad_volume_m3 = sum(gmsh.model.occ.getMass(3, v) for v in volumes)
         size = _checked_mesh_size(mesh_size_m, cad_volume_m3, name)
         volumes = split_at_loaded_half(volumes, fixed.bore, loaded.bore)
-        arrays = mesh_volumes(volumes, fixed, loaded, mesh_size_m=size, bore_size_m=bore_refinement * size, order=order)
+        try:
+            arrays = mesh_volumes(volumes, fixed, loaded, mesh_size_m=size, bore_size_m=bore_refinement * size, order=order)
+        except Exception as exc:  # gmsh reports a failed mesh as a bare Exception
+            if type(exc) is not Exception:
+                raise
+            raise GeometryError(f"{name}: gmsh could not mesh it at {size * 1e3:.3g} mm elements ({exc}); expected a size "
+                                "that resolves its smallest holes and walls: pass a smaller --mesh-size MM") from exc
     return LinkMesh(
         points_m=arrays.points_m,
         tets=arrays.tets,
