@@ -88,7 +88,8 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     p.add_argument("--geometry", type=Path, default=None,
-                   help="STEP file of one link with two pin bores, any length unit the file declares (default: the built-in parametric link)")
+                   help="STEP file of one link with two pin bores (other holes and hardware solids allowed: see the part options), "
+                        "any length unit the file declares (default: the built-in parametric link)")
     add_part_arguments(p)
     p.add_argument("--materials", default=",".join(DEFAULT_MATERIALS),
                    help="comma-separated material ids (default: %(default)s); see fem/data/materials.toml or --materials-file")
@@ -524,7 +525,7 @@ def inspect_geometry(cfg: RunConfig, progress: Progress) -> RunConfig:
     from fem import load_materials
     from fem.materials import get_material
     from geometry.assembly import inspect_part
-    from geometry.options import hardware_densities
+    from geometry.options import hardware_densities, hardware_masses_kg
 
     summary = inspect_part(cfg.link_source)
     for line in summary.lines():
@@ -533,7 +534,7 @@ def inspect_geometry(cfg: RunConfig, progress: Progress) -> RunConfig:
     densities = hardware_densities(cfg.hardware_material, summary, lambda m: get_material(m, library).density_kg_per_m3)
     if densities is None:
         return cfg
-    mass_kg = sum(s.volume_m3 * d for s, d in zip(summary.hardware, densities))
+    mass_kg = sum(hardware_masses_kg(summary, densities))
     used = ("replaces --hardware-mass" if cfg.hardware_from_step
             else f"for information: the chain uses --hardware-mass {cfg.hardware_mass_kg:g} kg without --hardware-from-step")
     progress(f"hardware in the STEP file: {len(summary.hardware)} solids, {mass_kg:.4f} kg ({used})")

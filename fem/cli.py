@@ -10,7 +10,7 @@ import warnings
 from pathlib import Path
 
 from geometry.assembly import inspect_part
-from geometry.options import add_part_arguments, hardware_densities, link_source
+from geometry.options import add_part_arguments, hardware_densities, hardware_masses_kg, link_source
 
 from .errors import FemError
 from .materials import get_material, load_materials
@@ -171,8 +171,8 @@ def _inspect(source, args, materials) -> dict:
     densities = hardware_densities(args.hardware_material, summary,
                                    lambda name: get_material(name, materials).density_kg_per_m3)
     if densities is not None:
-        for solid, record, density in zip(summary.hardware, part["hardware"], densities):
-            record.update(density_kg_per_m3=density, mass_kg=solid.volume_m3 * density)
+        for record, density, mass in zip(part["hardware"], densities, hardware_masses_kg(summary, densities)):
+            record.update(density_kg_per_m3=density, mass_kg=mass)
         part["hardware_mass_kg"] = sum(r["mass_kg"] for r in part["hardware"])
         lines.append(f"hardware mass   {part['hardware_mass_kg']:.4f} kg ({len(summary.hardware)} solids, --hardware-material "
                      f"{args.hardware_material})")

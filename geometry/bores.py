@@ -22,6 +22,7 @@ from geometry.errors import GeometryError
 from geometry.link_mesh import Bore
 
 _ANGULAR_BINS = 12  # a bore's faces must reach every 30 degree sector around the axis
+_SAMPLES_EDGE = 17  # points per edge for the part's outline (a quarter arc sampled every 5.6 degrees)
 _SAMPLES_U, _SAMPLES_V = 48, 5  # u samples closer than one sector even on a half-cylinder face
 _FIT_TOL = 1e-4  # relative radius scatter of a fitted cylinder (B-spline bores fit to ~1e-15)
 _SAME_BORE_TOL = 1e-3  # relative: two faces on one bore share axis and radius to this
@@ -93,10 +94,17 @@ def detect_bores(volumes: list[int], source: str) -> tuple[DetectedBore, Detecte
 
 @dataclass(frozen=True)
 class Holes:
-    """The concave cylinders of a solid: full round holes, and open ones (a half bore, a slot end)."""
+    """The concave cylinders of a solid: full round holes, and open ones (a half bore, a slot end),
+    with points on the solid's edges (how far the part reaches in any direction)."""
 
     full: tuple[DetectedBore, ...]
     open: tuple[tuple[DetectedBore, float], ...]  # (hole, the angle its faces span around the axis, degrees)
+    outline_m: np.ndarray  # (n, 3) points along every edge of the solid
+
+    def reach_m(self, direction: np.ndarray) -> tuple[float, float]:
+        """The part's extent along a unit direction: (min, max) of the outline's projections."""
+        s = self.outline_m @ direction
+        return float(s.min()), float(s.max())
 
 
 def find_holes(volumes: list[int]) -> Holes:
@@ -127,7 +135,7 @@ def find_holes(volumes: list[int]) -> Holes:
             full.append(hole)
         else:
             open_.append((hole, _span_deg(cylinder, points)))
-    return Holes(tuple(full), tuple(open_))
+    return Holes(tuple(full), tuple(open_), _edge_samples(volumes))
 
 
 def bores_from_override(volumes: list[int], override: BoreOverride, source: str) -> tuple[DetectedBore, DetectedBore]:
@@ -211,6 +219,16 @@ def _analytic_cylinder(face: int) -> Cylinder | None:
 def _boundary_faces(volumes: list[int]) -> list[int]:
     faces = gmsh.model.getBoundary([(3, v) for v in volumes], combined=True, oriented=False, recursive=False)
     return sorted({abs(tag) for _, tag in faces})
+
+
+def _edge_samples(volumes: list[int]) -> np.ndarray:
+    """Points along every edge of the solid: a prismatic part reaches its extremes on its edges."""
+    edges = gmsh.model.getBoundary([(2, f) for f in _boundary_faces(volumes)], combined=False, oriented=False)
+    blocks = []
+    for tag in sorted({abs(t) for _, t in edges}):
+        lo, hi = gmsh.model.getParametrizationBounds(1, tag)
+        blocks.append(np.reshape(gmsh.model.getValue(1, tag, np.linspace(lo[0], hi[0], _SAMPLES_EDGE)), (-1, 3)))
+    return np.vstack(blocks)
 
 
 def _face_samples(face: int) -> tuple[np.ndarray, np.ndarray]:

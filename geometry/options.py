@@ -56,8 +56,15 @@ def hardware_densities(ids: str | None, summary: PartSummary, density_of) -> lis
     if len(names) not in (1, n):
         raise GeometryError(f"--hardware-material: {len(names)} materials for {n} hardware solid(s) of {summary.source}; "
                             "expected one for all or one per hardware solid in file order")
-    densities = [density_of(name) for name in names]
+    try:
+        densities = [density_of(name) for name in names]
+    except ValueError as exc:  # the materials table's "unknown material ..." names the known ids
+        raise GeometryError(f"--hardware-material: {exc}") from None
     return densities * n if len(densities) == 1 else densities
+
+
+def hardware_masses_kg(summary: PartSummary, densities: list[float]) -> list[float]:
+    return [solid.volume_m3 * density for solid, density in zip(summary.hardware, densities)]
 
 
 def _axis_points(text: str | None):

@@ -8,10 +8,12 @@ counterbores and chamfers on the pin bores themselves. The rule, in order:
    to pass it).
 2. Candidate pairs are two bores with parallel axes and equal radius (within 1 %), more than the
    sum of their radii apart.
-3. The pins are the pair of the largest radius; among those, the pair farthest apart (pins sit at
-   the ends of a link, screw holes between them).
-4. If two pairs tie on both (radius within 1 %, pitch within 0.1 %), the choice is ambiguous and
-   refused with the list; so are parts with no candidate pair.
+3. Pins sit at the ends of a link: pairs at the ends of the part (it reaches less than one pitch
+   beyond either bore, along the line joining them) come first, so lightening holes and nest screw
+   holes between the pins lose even when they are larger. Then the largest radius wins (end-cap
+   screw holes on the lugs are smaller than the pins), then the pair farthest apart.
+4. If two pairs tie on all three (radius within 1 %, pitch within 0.1 %), the choice is ambiguous
+   and refused with the list; so are parts with no candidate pair.
 
 `BoreChoice` narrows the candidates from the command line: `--bores` names the two axes by a point
 on each (the first is the fixed bore), `--pitch` and `--bore-radius` keep only pairs of that pitch
@@ -134,29 +136,41 @@ def pair_rank(holes: Holes, choice: BoreChoice) -> tuple[float, float] | None:
         except GeometryError:
             return None
         return None if pair[0] is pair[1] else (_radius(pair), _axis_distance(*pair))
-    pairs = _candidate_pairs(bores, choice)
+    pairs = _candidate_pairs(bores, holes, choice)
     return (_radius(pairs[0]), _axis_distance(*pairs[0])) if pairs else None
 
 
-def _candidate_pairs(bores: list[DetectedBore], choice: BoreChoice) -> list[tuple[DetectedBore, DetectedBore]]:
+def _candidate_pairs(bores: list[DetectedBore], holes: Holes, choice: BoreChoice) -> list[tuple[DetectedBore, DetectedBore]]:
     """Pairs of equal parallel bores matching --pitch / --bore-radius, best first (rule 3)."""
     pairs = [(a, b) for i, a in enumerate(bores) for b in bores[i + 1:] if _is_candidate_pair(a, b)]
     if choice.pitch_m is not None:
         pairs = [p for p in pairs if abs(_axis_distance(*p) - choice.pitch_m) <= PITCH_MATCH_TOL * choice.pitch_m]
     if choice.radius_m is not None:
         pairs = [p for p in pairs if abs(p[0].bore.radius_m - choice.radius_m) <= EQUAL_RADIUS_TOL * choice.radius_m]
-    return sorted(pairs, key=lambda p: (-_radius(p), -_axis_distance(*p)))
+    return sorted(pairs, key=lambda p: (not _at_the_ends(p, holes), -_radius(p), -_axis_distance(*p)))
+
+
+def _at_the_ends(pair: tuple[DetectedBore, DetectedBore], holes: Holes) -> bool:
+    """The part reaches less than one pitch beyond either bore along the line joining them."""
+    a, b = pair[0].bore, pair[1].bore
+    offset = b.center_m - a.center_m
+    offset = offset - (offset @ a.axis) * a.axis
+    pitch = float(np.linalg.norm(offset))
+    direction = offset / pitch
+    lo, hi = holes.reach_m(direction)
+    return max(float(a.center_m @ direction) - lo, hi - float(b.center_m @ direction)) < pitch
 
 
 def _best_pair(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, source: str):
-    pairs = _candidate_pairs(bores, choice)
-    rule = "the largest pair of equal parallel bores, farthest apart"
+    pairs = _candidate_pairs(bores, holes, choice)
+    rule = "equal parallel bores at the part's ends, the largest such, farthest apart"
     if choice.given:
         rule = f"{rule}, among those matching {choice.describe()}"
     if not pairs:
         raise GeometryError(_no_pair_message(bores, holes, choice, source))
     best = pairs[0]
-    ties = [p for p in pairs if _radius(p) >= (1 - EQUAL_RADIUS_TOL) * _radius(best)
+    ties = [p for p in pairs if _at_the_ends(p, holes) == _at_the_ends(best, holes)
+            and _radius(p) >= (1 - EQUAL_RADIUS_TOL) * _radius(best)
             and _axis_distance(*p) >= (1 - EQUAL_PITCH_TOL) * _axis_distance(*best)]
     if len(ties) > 1:
         listed = " or ".join(f"{_mm(a.bore.center_m)}:{_mm(b.bore.center_m)}" for a, b in ties)
@@ -216,9 +230,12 @@ def _reason(hole: DetectedBore, pair: tuple[DetectedBore, DetectedBore], named: 
         return "not parallel to the pins"
     if r < (1 - EQUAL_RADIUS_TOL) * pin:
         return "smaller than the pin bores"
-    if r > (1 + EQUAL_RADIUS_TOL) * pin:
-        return "larger than the pin bores, with no parallel partner of its radius"
-    return "same size as the pin bores, but the pin pair is the one farthest apart"
+    size = "larger than" if r > (1 + EQUAL_RADIUS_TOL) * pin else "same size as"
+    line = pair[1].bore.center_m - pair[0].bore.center_m
+    along = float((hole.bore.center_m - pair[0].bore.center_m) @ line / (line @ line))
+    if 0 < along < 1:
+        return f"{size} the pin bores, between them (pins sit at the part's ends)"
+    return f"{size} the pin bores, with no partner of its radius at the part's ends"
 
 
 def _radius(pair: tuple[DetectedBore, DetectedBore]) -> float:

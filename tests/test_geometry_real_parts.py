@@ -1,4 +1,4 @@
-"""Real-world-shaped parts (tests/cad_parts.py), each exported to STEP by the test and re-imported:
+"""Real-world-shaped parts (geometry/sample_parts.py), each exported to STEP by the test and re-imported:
 which pin bores are chosen, the pitch, the volume against the CAD volume, assemblies, refusals,
 and k against a finer-mesh reference within the estimated discretisation error."""
 
@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 import geometry.load
-from cad_parts import MM, write_part
 from fem import stiffness_study
 from fem.materials import get_material
 from fem.study import levels_for_finest
 from geometry import GeometryError, load_link
 from geometry.assembly import LinkSource, inspect_part
 from geometry.pin_pair import BoreChoice
+from geometry.sample_parts import MM, write_part
 
 NAMES = ("nest_holes", "counterbored", "chain_plate", "long_link", "assembly", "ambiguous", "half_bore")
 
@@ -135,7 +135,7 @@ K_CASES = {
     "counterbored": (4.5 * MM, 3.0 * MM),
     "long_link": (14 * MM, 9 * MM),
     "assembly": (6 * MM, 4 * MM),
-    "nest_holes": (4 * MM, 2.8 * MM),
+    "nest_holes": (2.6 * MM, 2.0 * MM),  # coarser levels fail in HXT on the 3 mm grease hole (see README)
 }
 
 

@@ -1,13 +1,16 @@
-"""Realistic two-pin parts built with gmsh's OpenCASCADE kernel, exported to STEP by the tests.
+"""Real-world-shaped two-pin parts built with gmsh's OpenCASCADE kernel, for the tests and the README.
 
-Each builder adds its solid(s) to the current gmsh model (in metres) and returns what a test needs
-to check the import against: the intended pin bores and the CAD volume. `write_part` exports one
-to a millimetre STEP file, as SolidWorks or Fusion 360 would. Sizes are in millimetres below
-(MM = 1e-3) because that is how such parts are drawn.
+Each builder adds its solid(s) to the current gmsh model (in metres) and returns what was drawn
+(the pin bores), so a test can check the import against it. `write_part` exports one to a
+millimetre STEP file, as SolidWorks or Fusion 360 would. Sizes are in millimetres below
+(MM = 1e-3) because that is how such parts are drawn. From the shell:
+
+    python -m geometry.sample_parts OUT_DIR [NAME ...]   # writes OUT_DIR/NAME.step (default: all)
 """
 
 from __future__ import annotations
 
+import argparse
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,13 +104,12 @@ def roller_chain_plate() -> PartSpec:
 
 def long_link() -> PartSpec:
     """A 300 mm long conveyor link: 250 mm pitch, 25 mm end radius, 20 mm thick, 20 mm pin bores,
-    with a lightening slot between them."""
+    and two 30 mm lightening holes between them (a larger equal pair that is not the pins)."""
     p, t, r_end, r_bore = 250 * MM, 20 * MM, 25 * MM, 10 * MM
-    occ = gmsh.model.occ
     link = _stadium(p, r_end, t)
-    slot = occ.addBox(60 * MM, -8 * MM, -t, p - 120 * MM, 16 * MM, 3 * t)
     holes = [_through_z(x, 0, r_bore, -t, 2 * t) for x in (0, p)]
-    _drill(link, holes + [slot])
+    holes += [_through_z(x, 0, 15 * MM, -t, 2 * t) for x in (90 * MM, 160 * MM)]
+    _drill(link, holes)
     return PartSpec((0, 0, 0), (p, 0, 0), r_bore)
 
 
@@ -166,3 +168,24 @@ def write_part(name: str, path: Path) -> tuple[PartSpec, list[float]]:
         volumes = [gmsh.model.occ.getMass(3, tag) for _, tag in gmsh.model.getEntities(3)]
         write_model_step(path, unit="mm")
     return spec, volumes
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m geometry.sample_parts",
+                                     description="Write real-world-shaped sample parts as millimetre STEP files.")
+    parser.add_argument("out", type=Path, help="folder for NAME.step (created if missing)")
+    parser.add_argument("names", nargs="*", metavar="NAME", help=f"parts to write (default: all): {', '.join(PARTS)}")
+    args = parser.parse_args(argv)
+    unknown = [n for n in args.names if n not in PARTS]
+    if unknown:
+        parser.exit(2, f"{parser.prog}: error: unknown part {unknown[0]!r}; expected one of {', '.join(PARTS)}\n")
+    args.out.mkdir(parents=True, exist_ok=True)
+    for name in args.names or PARTS:
+        path = args.out / f"{name}.step"
+        _, volumes = write_part(name, path)
+        print(f"{path}: {len(volumes)} solid(s), {sum(volumes) * 1e6:.3f} cm^3")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
