@@ -54,6 +54,21 @@ def test_nest_screw_holes_and_the_grease_hole_are_ignored_with_reasons(parts):
     )
 
 
+def test_the_printed_choice_names_the_pair_the_rule_and_each_ignored_hole(parts):
+    lines = inspect_part(parts["nest_holes"][0]).lines()
+    assert lines[0] == ("pin bores       fixed at (0.00, 0.00, 8.00) mm, loaded at (101.60, 0.00, 8.00) mm, radius 6.350 mm, "
+                        "pitch 101.600 mm (equal parallel bores at the part's ends, the largest such, farthest apart)")
+    assert "  ignored hole  r 2.100 mm at (32.80, -9.00, 8.00) mm: smaller than the pin bores" in lines
+    assert len(lines) == 8
+
+
+def test_lightening_holes_larger_than_the_pins_but_between_them_are_not_pins(parts):
+    ignored = inspect_part(parts["long_link"][0]).pins.ignored
+    assert [(round(h.hole.bore.radius_m / MM, 3), h.reason) for h in ignored] == [
+        (15.0, "larger than the pin bores, between them (pins sit at the part's ends)")
+    ] * 2
+
+
 def test_a_through_hole_meeting_a_coaxial_counterbore_is_still_a_bore(parts):
     pins = inspect_part(parts["counterbored"][0]).pins
     # The fixed bore is the 10 mm through hole below its 16 mm counterbore: 10 mm of it remain.
