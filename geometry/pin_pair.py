@@ -8,10 +8,12 @@ counterbores and chamfers on the pin bores themselves. The rule, in order:
    to pass it).
 2. Candidate pairs are two bores with parallel axes and equal radius (within 1 %), more than the
    sum of their radii apart.
-3. Pins sit at the ends of a link: pairs at the ends of the part (it reaches less than one pitch
-   beyond either bore, along the line joining them) come first, so lightening holes and nest screw
-   holes between the pins lose even when they are larger. Then the largest radius wins (end-cap
-   screw holes on the lugs are smaller than the pins), then the pair farthest apart.
+3. Pins sit at the ends of a link: only pairs at the ends of the part count (it reaches no more
+   than one pitch beyond either bore, along the line joining them), so lightening holes and nest
+   screw holes between the pins lose even when they are larger, and a plate full of holes is not
+   taken for a link. Then the largest radius wins (end-cap screw holes on the lugs are smaller
+   than the pins), then the pair farthest apart. With --pitch or --bore-radius, pairs away from
+   the ends count too (ends still first).
 4. If two pairs tie on all three (radius within 1 %, pitch within 0.1 %), the choice is ambiguous
    and refused with the list; so are parts with no candidate pair.
 
@@ -147,18 +149,20 @@ def _candidate_pairs(bores: list[DetectedBore], holes: Holes, choice: BoreChoice
         pairs = [p for p in pairs if abs(_axis_distance(*p) - choice.pitch_m) <= PITCH_MATCH_TOL * choice.pitch_m]
     if choice.radius_m is not None:
         pairs = [p for p in pairs if abs(p[0].bore.radius_m - choice.radius_m) <= EQUAL_RADIUS_TOL * choice.radius_m]
+    if not choice.given:  # unasked, only pairs at the ends: a plate full of holes is not taken for a link
+        pairs = [p for p in pairs if _at_the_ends(p, holes)]
     return sorted(pairs, key=lambda p: (not _at_the_ends(p, holes), -_radius(p), -_axis_distance(*p)))
 
 
 def _at_the_ends(pair: tuple[DetectedBore, DetectedBore], holes: Holes) -> bool:
-    """The part reaches less than one pitch beyond either bore along the line joining them."""
+    """The part reaches no more than one pitch beyond either bore along the line joining them."""
     a, b = pair[0].bore, pair[1].bore
     offset = b.center_m - a.center_m
     offset = offset - (offset @ a.axis) * a.axis
     pitch = float(np.linalg.norm(offset))
     direction = offset / pitch
     lo, hi = holes.reach_m(direction)
-    return max(float(a.center_m @ direction) - lo, hi - float(b.center_m @ direction)) < pitch
+    return max(float(a.center_m @ direction) - lo, hi - float(b.center_m @ direction)) <= (1 + 1e-9) * pitch
 
 
 def _best_pair(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, source: str):
@@ -182,9 +186,8 @@ def _best_pair(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, sour
 
 
 def _no_pair_message(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, source: str) -> str:
-    found = ", ".join(f"r {h.bore.radius_m * 1e3:.3f} at {_mm(h.bore.center_m)}" for h in bores) or "none"
-    wanted = f" matching {choice.describe()}" if choice.given else ""
-    message = f"{source}: no pair of equal parallel full-round bores{wanted} (full round holes, mm: {found})"
+    wanted = f" matching {choice.describe()}" if choice.given else " at the part's ends"
+    message = f"{source}: no pair of equal parallel full-round bores{wanted} (full round holes, mm: {_listed(bores)})"
     if holes.open:
         hole, angle = holes.open[0]
         message += (f"; the bore at {_mm(hole.bore.center_m)} mm is open (about {angle:.0f} deg, a half bore): "
@@ -205,9 +208,15 @@ def _bore_at(bores: list[DetectedBore], point_m, holes: Holes, source: str) -> D
                 f"--bores: the point {_mm(point)} mm is on an open bore (about {angle:.0f} deg, a half bore); the pull "
                 "load case needs a full bore: draw its cap as part of the solid"
             )
-    found = ", ".join(f"r {h.bore.radius_m * 1e3:.3f} at {_mm(h.bore.center_m)}" for h in bores) or "none"
     raise GeometryError(f"--bores: no full-round bore of {source} has its axis within its radius of {_mm(point)} mm "
-                        f"(bores, mm: {found}); expected {BORES_HINT}")
+                        f"(bores, mm: {_listed(bores)}); expected {BORES_HINT}")
+
+
+def _listed(bores: list[DetectedBore], most: int = 6) -> str:
+    """The holes, largest first, at most `most` of them (the message stays one readable line)."""
+    largest = sorted(bores, key=lambda h: -h.bore.radius_m)
+    text = ", ".join(f"r {h.bore.radius_m * 1e3:.3f} at {_mm(h.bore.center_m)}" for h in largest[:most]) or "none"
+    return text + (f" and {len(bores) - most} smaller" if len(bores) > most else "")
 
 
 def _check_pair(a: DetectedBore, b: DetectedBore, source: str) -> None:
