@@ -173,4 +173,4 @@ def _same_rank(a: tuple[float, float], b: tuple[float, float]) -> bool:
 
 
 def _mm(point_m: np.ndarray) -> str:
-    return ", ".join(f"{x * 1e3:.2f}" for x in point_m)
+    return ", ".join(f"{round(x * 1e3, 2) + 0.0:.2f}" for x in point_m)  # + 0.0: no "-0.00"

@@ -149,6 +149,19 @@ def half_bore_rod() -> PartSpec:
     return PartSpec((0, 0, 0), (p, 0, 0), 5 * MM)
 
 
+def perforated_plate() -> PartSpec:
+    """Not a link: a 900 x 60 x 10 mm plate with 300 holes of growing size (a 2.8 MB STEP of 861
+    faces), for the time a refusal takes. Its spec names the two largest holes, which are no pair."""
+    occ = gmsh.model.occ
+    n = 150
+    plate = occ.addBox(0, 0, 0, n * 6 * MM, 60 * MM, 10 * MM)
+    holes = [occ.addCylinder((3 + 6 * i) * MM, (10 + 40 * (i % 2)) * MM, -MM, 0, 0, 12 * MM, (1 + 0.05 * i) * MM)
+             for i in range(n)]
+    holes += [occ.addCylinder((3 + 6 * i) * MM, 30 * MM, 5 * MM, 0, 0, 6 * MM, (1.5 + 0.05 * i) * MM) for i in range(n)]
+    _drill(plate, holes)
+    return PartSpec(((n * 6 - 3) * MM, 50 * MM, 0), ((n * 6 - 3) * MM, 30 * MM, 0), 8.45 * MM)
+
+
 PARTS = {
     "nest_holes": conveyor_link_with_nest_holes,
     "counterbored": counterbored_chamfered_link,
@@ -157,6 +170,7 @@ PARTS = {
     "assembly": link_with_pins_and_bushings,
     "ambiguous": four_equal_holes,
     "half_bore": half_bore_rod,
+    "perforated_plate": perforated_plate,
 }
 
 
