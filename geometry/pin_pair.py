@@ -190,8 +190,9 @@ def _no_pair_message(bores: list[DetectedBore], holes: Holes, choice: BoreChoice
     message = f"{source}: no pair of equal parallel full-round bores{wanted} (full round holes, mm: {_listed(bores)})"
     if holes.open:
         hole, angle = holes.open[0]
-        message += (f"; the bore at {_mm(hole.bore.center_m)} mm is open (about {angle:.0f} deg, a half bore): "
-                    "the pull load case needs a full bore, so draw its cap as part of the solid")
+        return (f"{message}; the bore at {_mm(hole.bore.center_m)} mm is open (about {angle:.0f} deg, a half bore) and "
+                "the pull load case needs a full bore: draw its cap as part of the solid (or pass --bores to name two "
+                "full bores)")
     return f"{message}; expected two pin bores ({CHOOSE_HINT})"
 
 
