@@ -110,13 +110,12 @@ class Holes:
 def find_holes(volumes: list[int]) -> Holes:
     """Every concave cylinder of the solid, grouped by axis and radius (one entry per radius and axis)."""
     groups: list[tuple[Cylinder, list[int], list[np.ndarray]]] = []
-    outward = 1.0 if sum(gmsh.model.occ.getMass(3, v) for v in volumes) >= 0 else -1.0  # an inverted shell
     for face in _boundary_faces(volumes):
         if gmsh.model.getType(2, face) in _NOT_CYLINDERS:
             continue
         points, normals = _face_samples(face)
         cylinder = _analytic_cylinder(face) or fit_cylinder(points, normals)
-        if cylinder is None or not _concave(cylinder, points, outward * normals):
+        if cylinder is None or not _concave(cylinder, points, normals):
             continue
         for group_cylinder, faces, samples in groups:
             if group_cylinder.same_as(cylinder):
