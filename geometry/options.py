@@ -20,13 +20,13 @@ def add_part_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("part (STEP files with other holes, or several solids)")
     group.add_argument("--bores", metavar="X1,Y1,Z1:X2,Y2,Z2",
                        help="a point on each pin-bore axis in mm (CAD coordinates), fixed (clamped) bore first; "
-                            "default: the largest pair of equal parallel bores, farthest apart")
+                            "default: equal parallel bores at the part's ends, the largest such, farthest apart")
     group.add_argument("--pitch", metavar="MM", help="keep only pin-bore pairs this far apart (within 1 %%)")
     group.add_argument("--bore-radius", metavar="MM", help="keep only pin bores of this radius (within 1 %%)")
     group.add_argument("--body", metavar="N", help="in a file of several solids, the link body's number (1-based, file "
                                                     "order); default: the solid holding the pin bores")
     group.add_argument("--hardware-material", metavar="ID[,ID...]",
-                       help="material of the other solids (pins, bushings...), one for all or one per solid in file "
+                       help="material of the other solids (pins, bushings...), one for all or one per hardware solid in file "
                             "order: reports their masses")
 
 
