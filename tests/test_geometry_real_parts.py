@@ -99,6 +99,28 @@ def _mesh_volume(link) -> float:
     return float(np.abs(np.einsum("ij,ij->j", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0], axis=0))).sum() / 6)
 
 
+def test_two_solids_with_equally_good_pairs_need_body(tmp_path):
+    # A roller-chain inner link: two identical plates (boxes with two 4 mm holes), 8 mm apart.
+    def inner_link():
+        occ = gmsh.model.occ
+        for z in (0.0, 8 * MM):
+            plate = occ.addBox(-6 * MM, -5 * MM, z, 24.7 * MM, 10 * MM, 1.5 * MM)
+            occ.cut([(3, plate)], [(3, occ.addCylinder(x, 0, z - MM, 0, 0, 4 * MM, 2 * MM)) for x in (0, 12.7 * MM)])
+
+    path = tmp_path / "inner_link.step"
+    with gmsh_model("inner-link"):
+        inner_link()
+        gmsh.model.occ.synchronize()
+        write_model_step(path)
+    with pytest.raises(GeometryError, match=r"solids 1, 2 each hold an equally good pair .*--body N"):
+        inspect_part(path)
+    summary = inspect_part(LinkSource(path, body=2))
+    assert summary.body_index == 2 and summary.pins.pitch_m == pytest.approx(12.7 * MM, rel=1e-9)
+    assert [s.touches_body for s in summary.hardware] == [False]
+    with pytest.raises(GeometryError, match=r"--body 3: .* holds 2 solid\(s\)"):
+        inspect_part(LinkSource(path, body=3))
+
+
 def test_two_equal_candidate_pairs_are_refused_with_the_list_and_the_option(parts):
     with pytest.raises(GeometryError) as info:
         inspect_part(parts["ambiguous"][0])
