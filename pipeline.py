@@ -31,6 +31,7 @@ class InputError(ValueError):
 def build_parser() -> argparse.ArgumentParser:
     from fem.cache import default_cache_dir
     from geometry import DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG
+    from geometry.options import add_part_arguments
 
     p = argparse.ArgumentParser(
         prog="pipeline.py",
@@ -41,7 +42,9 @@ def build_parser() -> argparse.ArgumentParser:
         ),
     )
     p.add_argument("--geometry", type=Path, default=None,
-                   help="STEP file of one link with two pin bores, any length unit the file declares (default: the built-in parametric link)")
+                   help="STEP file of one link with two pin bores (other holes and hardware solids allowed: see the part options), "
+                        "any length unit the file declares (default: the built-in parametric link)")
+    add_part_arguments(p)
     p.add_argument("--materials", default=",".join(DEFAULT_MATERIALS),
                    help="comma-separated material ids (default: %(default)s); see fem/data/materials.toml or --materials-file")
     p.add_argument("--materials-file", type=Path, default=None,
@@ -67,6 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--order", type=int, choices=[1, 2], default=2, help="FEA element order: 1 or 2 (P1/P2 tetrahedra; default: %(default)s)")
     p.add_argument("--hardware-mass", type=float, default=DEFAULT_HARDWARE_MASS_KG,
                    help="mass per link of pins, bushings and rollers in kg (default: %(default).4g)")
+    p.add_argument("--hardware-from-step", action="store_true",
+                   help="take the hardware mass from the STEP file's other solids (with --hardware-material) instead of --hardware-mass")
     p.add_argument("--nest-mass", type=float, default=NEST_MASS_KG, help="mass of the nest carried by each link in kg (default: %(default)s)")
     p.add_argument("--cache-dir", type=Path, default=default_cache_dir(), help="FEA result cache folder (default: %(default)s)")
     p.add_argument("--from-rest", action="store_true",
@@ -161,6 +166,12 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         _require(args.geometry.is_file(), f"--geometry: no such file {str(args.geometry)!r}; expected a STEP file of one link")
     if args.materials_file is not None:
         _require(args.materials_file.is_file(), f"--materials-file: no such file {str(args.materials_file)!r}")
+    _require(args.geometry is not None or (args.hardware_material is None and not args.hardware_from_step),
+             "--hardware-material/--hardware-from-step: only for a --geometry STEP file; expected --geometry with them")
+    _require(not args.hardware_from_step or args.hardware_material is not None,
+             "--hardware-from-step: the hardware solids need a material; expected --hardware-material ID[,ID...]")
+    from geometry.options import link_source
+
     return RunConfig(
         geometry=args.geometry,
         materials=_split_ids(args.materials, "--materials"),
@@ -188,6 +199,9 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         settling_band_m=args.settling_band / 1000.0,
         station=args.station,
         **chain_options,
+        link_source=link_source(args.geometry, args),
+        hardware_material=args.hardware_material,
+        hardware_from_step=args.hardware_from_step,
     )
 
 
@@ -249,6 +263,7 @@ def run(cfg: RunConfig, progress: Progress) -> None:
     from reporting.outputs import write_default_outputs, write_replica_outputs
     from stages.chain import run_dynamics, run_rpm_sweeps
     from stages.fea import run_fea
+    from stages.geometry import inspect_geometry
     from stages.tolerance import run_to_tolerance
 
     timing: dict[str, float] = {}
@@ -266,6 +281,8 @@ def run(cfg: RunConfig, progress: Progress) -> None:
         timing["dynamics"] = progress.elapsed()
         write_replica_outputs(cfg, replicas, timing, progress)
         return
+    if cfg.link_source is not None:
+        cfg = inspect_geometry(cfg, progress)
     if cfg.tolerance is None:
         fea = timed(timing, "fea", progress, run_fea, cfg, progress)
         models, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)

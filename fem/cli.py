@@ -9,6 +9,9 @@ import sys
 import warnings
 from pathlib import Path
 
+from geometry.assembly import inspect_part
+from geometry.options import add_part_arguments, hardware_densities, hardware_masses_kg, link_source
+
 from .errors import FemError
 from .materials import get_material, load_materials
 from .study import DEFAULT_MESH_SIZES_M, StiffnessEstimate, levels_for_finest, stiffness_study
@@ -45,6 +48,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--image", metavar="PNG", help="write an off-screen picture of the deformed link to this .png")
     parser.add_argument("--vtu", metavar="VTU", help="write the finest level's mesh with displacement (m) and von Mises stress (Pa) at --load, for ParaView")
     parser.add_argument("--scalar", choices=("von_mises", "displacement"), default="von_mises", help="colouring of --image (default: %(default)s)")
+    add_part_arguments(parser)
     return parser
 
 
@@ -132,8 +136,16 @@ def run(argv: list[str] | None = None) -> dict:
         raise FemError(f"--image {args.image!r}: expected a .png path")
     if args.vtu is not None and Path(args.vtu).suffix.lower() != ".vtu":
         raise FemError(f"--vtu {args.vtu!r}: expected a .vtu path")
-    estimate = stiffness_study(args.step, material, mesh_sizes_m=sizes, order=args.order, load_N=load_N, solver=args.solver)
+    source = link_source(args.step, args)
+    part = None
+    if source is not None:
+        part = _inspect(source, args, materials)  # refuses a part that cannot be a link before any meshing
+    elif args.hardware_material is not None:
+        raise FemError("--hardware-material: only for a STEP file with hardware solids; expected a STEP path with it")
+    estimate = stiffness_study(source, material, mesh_sizes_m=sizes, order=args.order, load_N=load_N, solver=args.solver)
     result = report(estimate)
+    if part is not None:
+        result["part"] = part
     if args.image is not None:
         from .render import render_deformed
 
@@ -149,6 +161,24 @@ def run(argv: list[str] | None = None) -> dict:
         result["vtu"] = str(write_solution_vtu(estimate.finest, args.vtu))
     print(json.dumps(result, indent=2) if args.json else _text(result))
     return result
+
+
+def _inspect(source, args, materials) -> dict:
+    """The part's pin bores, ignored holes and hardware (JSON-able); printed at once in text mode."""
+    summary = inspect_part(source)
+    part = summary.as_dict()
+    lines = summary.lines()
+    densities = hardware_densities(args.hardware_material, summary,
+                                   lambda name: get_material(name, materials).density_kg_per_m3)
+    if densities is not None:
+        for record, density, mass in zip(part["hardware"], densities, hardware_masses_kg(summary, densities)):
+            record.update(density_kg_per_m3=density, mass_kg=mass)
+        part["hardware_mass_kg"] = sum(r["mass_kg"] for r in part["hardware"])
+        lines.append(f"hardware mass   {part['hardware_mass_kg']:.4f} kg ({len(summary.hardware)} solids, --hardware-material "
+                     f"{args.hardware_material})")
+    if not args.json:
+        print("\n".join(lines), flush=True)
+    return part
 
 
 def _one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:

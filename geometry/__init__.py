@@ -1,6 +1,8 @@
 """Geometry stage: one chain link from a STEP file (or the built-in parametric link) to a tetrahedral
-mesh with its two pin bores found and tagged (`LinkMesh`)."""
+mesh with its two pin bores found and tagged (`LinkMesh`); in a file with other holes or several
+solids, the pin bores and the link body are chosen first (`inspect_part`, `LinkSource`)."""
 
+from geometry.assembly import LinkSource, PartSummary, inspect_part
 from geometry.bores import BoreOverride
 from geometry.dimensions import (
     CALIBRATED_BODY_VOLUME_M3,
@@ -15,11 +17,13 @@ from geometry.example import EXAMPLE_STEP
 from geometry.link_mesh import Bore, LinkMesh
 from geometry.load import load_link
 from geometry.parametric import LinkFeatures
+from geometry.pin_pair import BoreChoice
 from geometry.step_io import write_step
 from geometry.vtu import write_vtu
 
 __all__ = [
     "Bore",
+    "BoreChoice",
     "BoreOverride",
     "CALIBRATED_BODY_VOLUME_M3",
     "DEFAULT_HARDWARE_MASS_KG",
@@ -29,7 +33,10 @@ __all__ = [
     "LinkDimensions",
     "LinkFeatures",
     "LinkMesh",
+    "LinkSource",
     "NEST_MASS_KG",
+    "PartSummary",
+    "inspect_part",
     "load_link",
     "nominal_volume_m3",
     "write_step",

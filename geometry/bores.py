@@ -1,12 +1,13 @@
-"""Find the two pin bores of a solid: concave, full-circle cylindrical surfaces.
+"""Find the holes of a solid (concave cylindrical surfaces) among which the pin bores are chosen.
 
-A bore may be one cylinder face or several (exporters split bores into halves), analytic or
+A hole may be one cylinder face or several (exporters split bores into halves), analytic or
 B-spline; chamfers (cones), fillets (tori) and the rounded lug ends around it (convex cylinders on
 the same axis) are not part of it. Each boundary face is sampled on a grid of its parameters; a
 face is a cylinder candidate if gmsh types it 'Cylinder' or if a cylinder fits its sample points
-and normals. Candidates on one axis with one radius are grouped; a group is a bore if the material
-lies outside the radius (a hole, not a boss) and its faces go all the way round the axis (not a
-concave fillet).
+and normals. Candidates on one axis with one radius are grouped; a group is a hole if the material
+lies outside the radius (the face's outward normals point to the axis: not a boss). A hole whose faces go all the way round the axis is full (a
+bore, a screw hole, a counterbore); one that reaches half way round or more is open (a half bore);
+less is a concave fillet and not a hole. Which two full holes carry the pins: geometry.pin_pair.
 """
 
 from __future__ import annotations
@@ -21,9 +22,16 @@ from geometry.errors import GeometryError
 from geometry.link_mesh import Bore
 
 _ANGULAR_BINS = 12  # a bore's faces must reach every 30 degree sector around the axis
+_SAMPLES_EDGE = 17  # points per edge for the part's outline (a quarter arc sampled every 5.6 degrees)
 _SAMPLES_U, _SAMPLES_V = 48, 5  # u samples closer than one sector even on a half-cylinder face
 _FIT_TOL = 1e-4  # relative radius scatter of a fitted cylinder (B-spline bores fit to ~1e-15)
 _SAME_BORE_TOL = 1e-3  # relative: two faces on one bore share axis and radius to this
+# Concave cylinders reaching at least this many sectors but not all are open bores (a half bore
+# reaches 6 or 7); concave fillets span a quarter turn (3 or 4 sectors) and are left out.
+_OPEN_BORE_SECTORS = 6
+# Face types that are never cylinders: skipped without sampling, which keeps the search fast on
+# parts of thousands of faces.
+_NOT_CYLINDERS = frozenset({"Plane", "Cone", "Torus", "Sphere"})
 
 
 @dataclass(frozen=True)
@@ -77,12 +85,37 @@ class DetectedBore:
 
 
 def detect_bores(volumes: list[int], source: str) -> tuple[DetectedBore, DetectedBore]:
-    """The fixed and the loaded bore of the solid; GeometryError unless exactly two are found."""
+    """The fixed and the loaded bore of the solid, chosen among its holes (see geometry.pin_pair)."""
+    from geometry.pin_pair import BoreChoice, select_pin_bores
+
+    selection = select_pin_bores(find_holes(volumes), BoreChoice(), source)
+    return selection.fixed, selection.loaded
+
+
+@dataclass(frozen=True)
+class Holes:
+    """The concave cylinders of a solid: full round holes, and open ones (a half bore, a slot end),
+    with points on the solid's edges (how far the part reaches in any direction)."""
+
+    full: tuple[DetectedBore, ...]
+    open: tuple[tuple[DetectedBore, float], ...]  # (hole, the angle its faces span around the axis, degrees)
+    outline_m: np.ndarray  # (n, 3) points along every edge of the solid
+
+    def reach_m(self, direction: np.ndarray) -> tuple[float, float]:
+        """The part's extent along a unit direction: (min, max) of the outline's projections."""
+        s = self.outline_m @ direction
+        return float(s.min()), float(s.max())
+
+
+def find_holes(volumes: list[int]) -> Holes:
+    """Every concave cylinder of the solid, grouped by axis and radius (one entry per radius and axis)."""
     groups: list[tuple[Cylinder, list[int], list[np.ndarray]]] = []
     for face in _boundary_faces(volumes):
+        if gmsh.model.getType(2, face) in _NOT_CYLINDERS:
+            continue
         points, normals = _face_samples(face)
         cylinder = _analytic_cylinder(face) or fit_cylinder(points, normals)
-        if cylinder is None:
+        if cylinder is None or not _concave(cylinder, points, normals):
             continue
         for group_cylinder, faces, samples in groups:
             if group_cylinder.same_as(cylinder):
@@ -91,18 +124,18 @@ def detect_bores(volumes: list[int], source: str) -> tuple[DetectedBore, Detecte
                 break
         else:
             groups.append((cylinder, [face], [points]))
-    bores = []
+    full, open_ = [], []
     for cylinder, faces, samples in groups:
         points = np.vstack(samples)
-        if _goes_round(cylinder, points) and _is_hole(volumes, cylinder, points):
-            bores.append(DetectedBore(_bore_from_samples(cylinder, points), tuple(faces)))
-    if len(bores) != 2:
-        radii = ", ".join(f"{b.bore.radius_m * 1e3:.3f} mm" for b in bores)
-        raise GeometryError(
-            f"{source}: found {len(bores)} pin bores (full concave cylinders{': radii ' + radii if radii else ''}); "
-            "expected exactly 2 (pass bores=BoreOverride(...) for odd parts)"
-        )
-    return order_pair(bores[0], bores[1], source)
+        sectors = _sectors_reached(cylinder, points)
+        if sectors < _OPEN_BORE_SECTORS:
+            continue
+        hole = DetectedBore(_bore_from_samples(cylinder, points), tuple(faces))
+        if sectors == _ANGULAR_BINS:
+            full.append(hole)
+        else:
+            open_.append((hole, _span_deg(cylinder, points)))
+    return Holes(tuple(full), tuple(open_), _edge_samples(volumes))
 
 
 def bores_from_override(volumes: list[int], override: BoreOverride, source: str) -> tuple[DetectedBore, DetectedBore]:
@@ -188,6 +221,16 @@ def _boundary_faces(volumes: list[int]) -> list[int]:
     return sorted({abs(tag) for _, tag in faces})
 
 
+def _edge_samples(volumes: list[int]) -> np.ndarray:
+    """Points along every edge of the solid: a prismatic part reaches its extremes on its edges."""
+    edges = gmsh.model.getBoundary([(2, f) for f in _boundary_faces(volumes)], combined=False, oriented=False)
+    blocks = []
+    for tag in sorted({abs(t) for _, t in edges}):
+        lo, hi = gmsh.model.getParametrizationBounds(1, tag)
+        blocks.append(np.reshape(gmsh.model.getValue(1, tag, np.linspace(lo[0], hi[0], _SAMPLES_EDGE)), (-1, 3)))
+    return np.vstack(blocks)
+
+
 def _face_samples(face: int) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = gmsh.model.getParametrizationBounds(2, face)
     u = np.linspace(lo[0], hi[0], _SAMPLES_U)
@@ -198,26 +241,33 @@ def _face_samples(face: int) -> tuple[np.ndarray, np.ndarray]:
     return points, normals
 
 
-def _goes_round(cylinder: Cylinder, points: np.ndarray) -> bool:
+def _sectors_reached(cylinder: Cylinder, points: np.ndarray) -> int:
+    """How many of the 30 degree sectors around the axis the points reach (12: all the way round)."""
     basis = np.linalg.svd(np.eye(3) - np.outer(cylinder.axis, cylinder.axis))[0][:, :2]
     xy = (points - cylinder.point_m) @ basis
     sectors = np.floor((np.arctan2(xy[:, 1], xy[:, 0]) + math.pi) / (2 * math.pi) * _ANGULAR_BINS)
-    return len(np.unique(np.clip(sectors, 0, _ANGULAR_BINS - 1))) == _ANGULAR_BINS
+    return len(np.unique(np.clip(sectors, 0, _ANGULAR_BINS - 1)))
 
 
-def _is_hole(volumes: list[int], cylinder: Cylinder, points: np.ndarray) -> bool:
-    """Material just outside the radius and none just inside, at most sample points."""
+def _span_deg(cylinder: Cylinder, points: np.ndarray) -> float:
+    """The angle the points cover around the axis: a full turn less the widest gap between them."""
+    basis = np.linalg.svd(np.eye(3) - np.outer(cylinder.axis, cylinder.axis))[0][:, :2]
+    xy = (points - cylinder.point_m) @ basis
+    angles = np.sort(np.arctan2(xy[:, 1], xy[:, 0]))
+    gaps = np.diff(np.append(angles, angles[0] + 2 * math.pi))
+    return math.degrees(2 * math.pi - float(gaps.max()))
+
+
+def _concave(cylinder: Cylinder, points: np.ndarray, normals: np.ndarray) -> bool:
+    """A hole's face, not a boss's: its outward normals point toward the axis (into the hole).
+
+    gmsh gives OpenCASCADE faces' normals as the face is oriented in the solid's shell, i.e. out of
+    the material (checked against isInside probes on every part of the tests, sewn files included).
+    isInside itself, the first test here, cost 4-20 ms a call: minutes on a part with hundreds of holes.
+    """
     rel = points - cylinder.point_m
     radial = rel - np.outer(rel @ cylinder.axis, cylinder.axis)
-    radial /= np.linalg.norm(radial, axis=1)[:, None]
-    step = 0.02 * cylinder.radius_m
-    picks = np.linspace(0, len(points) - 1, 16).astype(int)
-    votes = 0
-    for p, e in zip(points[picks], radial[picks]):
-        outside_in_material = any(gmsh.model.isInside(3, v, list(p + step * e)) for v in volumes)
-        inside_in_material = any(gmsh.model.isInside(3, v, list(p - step * e)) for v in volumes)
-        votes += 1 if outside_in_material and not inside_in_material else -1
-    return votes > 0
+    return bool(np.mean(np.sum(radial * normals, axis=1) < 0) > 0.5)
 
 
 def _bore_from_samples(cylinder: Cylinder, points: np.ndarray) -> Bore:

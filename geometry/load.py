@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import math
 import os
+from pathlib import Path
 
 import gmsh
 import numpy as np
 
-from geometry.bores import BoreOverride, bores_from_override, detect_bores
+from geometry.assembly import LinkSource, as_link_source, pick_body
+from geometry.bores import BoreOverride, bores_from_override
 from geometry.dimensions import DEFAULT_LINK
 from geometry.errors import GeometryError
 from geometry.link_mesh import LinkMesh
@@ -25,7 +27,7 @@ MAX_TETS = 3_000_000
 
 
 def load_link(
-    source: str | os.PathLike | None = None,
+    source: str | os.PathLike | LinkSource | None = None,
     *,
     mesh_size_m: float | None = None,
     order: int = 1,
@@ -34,10 +36,12 @@ def load_link(
 ) -> LinkMesh:
     """Mesh one link: a STEP file (any length unit), or the built-in parametric link if None.
 
+    source: a path, or a `LinkSource` (a path with the user's choice of pin bores and link body). In a
+        file of several solids only the link body is meshed (geometry.assembly).
     mesh_size_m: element size away from the bores in metres (None: the part's bounding-box
         diagonal / 40). bore_refinement: element size at the bores as a fraction of mesh_size_m.
     order: 1 for linear tetrahedra; 2 also fills `tets10` (curved quadratic tetrahedra whose
-        mid-edge nodes lie on the CAD surfaces). bores: manual bores instead of detection.
+        mid-edge nodes lie on the CAD surfaces). bores: manual bores instead of detection (one solid).
     """
     if order not in (1, 2):
         raise GeometryError(f"order={order!r}: expected 1 or 2")
@@ -45,14 +49,27 @@ def load_link(
         raise GeometryError(f"bore_refinement={bore_refinement!r}: expected a fraction in (0, 1]")
     name = "default" if source is None else os.fspath(source)
     with gmsh_model("link"):
-        volumes = [add_link(DEFAULT_LINK)] if source is None else import_step(source)
-        if len(volumes) != 1:
-            raise GeometryError(f"{name}: holds {len(volumes)} solids; expected exactly one solid link")
+        volumes = [add_link(DEFAULT_LINK)] if source is None else import_step(name)
+        if bores is not None:
+            if len(volumes) != 1:
+                raise GeometryError(f"{name}: holds {len(volumes)} solids; expected exactly one solid link")
+            fixed, loaded = bores_from_override(volumes, bores, name)
+        else:
+            link_source = LinkSource(Path(name)) if source is None else as_link_source(source)
+            body, pins = pick_body(volumes, link_source, name)
+            fixed, loaded = pins.fixed, pins.loaded
+            _keep_only(volumes, body)
+            volumes = [body]
         cad_volume_m3 = sum(gmsh.model.occ.getMass(3, v) for v in volumes)
         size = _checked_mesh_size(mesh_size_m, cad_volume_m3, name)
-        fixed, loaded = detect_bores(volumes, name) if bores is None else bores_from_override(volumes, bores, name)
         volumes = split_at_loaded_half(volumes, fixed.bore, loaded.bore)
-        arrays = mesh_volumes(volumes, fixed, loaded, mesh_size_m=size, bore_size_m=bore_refinement * size, order=order)
+        try:
+            arrays = mesh_volumes(volumes, fixed, loaded, mesh_size_m=size, bore_size_m=bore_refinement * size, order=order)
+        except Exception as exc:  # gmsh reports a failed mesh as a bare Exception
+            if type(exc) is not Exception:
+                raise
+            raise GeometryError(f"{name}: gmsh could not mesh it at {size * 1e3:.3g} mm elements ({exc}); expected a size "
+                                "that resolves its smallest holes and walls: pass a smaller --mesh-size MM") from exc
     return LinkMesh(
         points_m=arrays.points_m,
         tets=arrays.tets,
@@ -65,6 +82,14 @@ def load_link(
         source=name,
         tets10=arrays.tets10,
     )
+
+
+def _keep_only(volumes: list[int], body: int) -> None:
+    """Remove every solid but the link body (its hardware is not meshed)."""
+    others = [(3, v) for v in volumes if v != body]
+    if others:
+        gmsh.model.occ.remove(others, recursive=True)
+        gmsh.model.occ.synchronize()
 
 
 def _checked_mesh_size(mesh_size_m: float | None, volume_m3: float, name: str) -> float:

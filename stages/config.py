@@ -33,6 +33,9 @@ class RunConfig:
     rpm_sweep: str | None
     settling_band_m: float
     station: str | None
+    link_source: object = None  # geometry.assembly.LinkSource: --geometry with --bores/--pitch/--bore-radius/--body
+    hardware_material: str | None = None  # --hardware-material: ids for the STEP file's hardware solids
+    hardware_from_step: bool = False  # --hardware-from-step: hardware mass from those solids, not --hardware-mass
     # the chain model (issue #11): see dynamics.clearance_sim
     model: str = "auto"
     pin_clearance_m: float = 94e-6  # dynamics.clearance.DEFAULT_PIN_CLEARANCE_M

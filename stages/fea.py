@@ -36,8 +36,11 @@ class MaterialFea:
 def fea_cache_settings(cfg: RunConfig, material, stiffness_tolerance: float | None) -> dict:
     from dataclasses import asdict
 
-    return {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order,
-            "stiffness_tolerance": stiffness_tolerance}
+    settings = {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order,
+                "stiffness_tolerance": stiffness_tolerance}
+    if cfg.link_source is not None and (cfg.link_source.bores.given or cfg.link_source.body is not None):
+        settings["part"] = repr((cfg.link_source.bores, cfg.link_source.body))  # another pair: another link
+    return settings
 
 
 def _fea_record(name: str, material, study) -> dict:
@@ -60,6 +63,11 @@ def _fea_record(name: str, material, study) -> dict:
     }
 
 
+def _part(cfg: RunConfig):
+    """What the FEA meshes: the STEP file with its part options, or the built-in link (None)."""
+    return cfg.link_source if cfg.link_source is not None else cfg.geometry
+
+
 def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress,
                solved_levels: dict | None) -> dict:
     """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
@@ -72,10 +80,10 @@ def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | Non
     if stiffness_tolerance is None:
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 3 mesh levels")
         sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
-        return stiffness_studies(cfg.geometry, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
+        return stiffness_studies(_part(cfg), materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
     progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
              f"{100 * stiffness_tolerance:.2g} %")
-    return stiffnesses_to_tolerance(cfg.geometry, materials, stiffness_tolerance, order=cfg.order, progress=progress,
+    return stiffnesses_to_tolerance(_part(cfg), materials, stiffness_tolerance, order=cfg.order, progress=progress,
                                     solved=solved_levels)
 
 

@@ -32,9 +32,12 @@ def write_step(path, build):
 
 
 def plate_with_holes(n_holes):
+    """n_holes equal holes at the corners of a 90 x 30 mm rectangle, in order (4: two equal diagonals)."""
+    corners = [(30, 15), (120, 45), (120, 15), (30, 45)]
+
     def build(occ):
         plate = occ.addBox(0, 0, 0, 150, 60, 20)
-        holes = [(3, occ.addCylinder(30 + 45 * i, 30, -5, 0, 0, 30, 8)) for i in range(n_holes)]
+        holes = [(3, occ.addCylinder(*corners[i], -5, 0, 0, 30, 8)) for i in range(n_holes)]
         if holes:
             occ.cut([(3, plate)], holes)
 
@@ -50,11 +53,12 @@ def bad_files(tmp_path_factory):
         "not STEP": d / "notes.step",
         "no solid": write_step(d / "face.step", lambda occ: occ.addRectangle(0, 0, 0, 100, 50)),
         "no bores": write_step(d / "block.step", plate_with_holes(0)),
-        "three bores": write_step(d / "three.step", plate_with_holes(3)),
+        "one bore": write_step(d / "one.step", plate_with_holes(1)),
+        "two equal pairs": write_step(d / "four.step", plate_with_holes(4)),
     }
 
 
-@pytest.mark.parametrize("case", ["missing file", "not STEP", "no solid", "no bores", "three bores"])
+@pytest.mark.parametrize("case", ["missing file", "not STEP", "no solid", "no bores", "one bore", "two equal pairs"])
 def test_bad_file_is_one_line_error_exit_2(bad_files, case):
     result = run_cli(bad_files[case])
     assert result.returncode == 2, result.stderr
