@@ -5,7 +5,7 @@ PY := $(VENV)/bin/python
 ARGS ?=
 PYTEST_ARGS ?=
 
-.PHONY: run test test-all bench charts report-check clean
+.PHONY: run test test-all bench charts report-check browser clean
 
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -16,10 +16,17 @@ $(VENV)/.installed: pyproject.toml
 run: $(VENV)/.installed
 	$(PY) pipeline.py $(ARGS)
 
-test: $(VENV)/.installed
+# The tests open the HTML pages in a real browser: Debian's chromium, installed here when missing.
+browser:
+	@command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || \
+		{ echo "installing chromium (apt-get) for the browser tests"; \
+		  $$( [ "$$(id -u)" = 0 ] || echo sudo ) apt-get update -qq && \
+		  DEBIAN_FRONTEND=noninteractive $$( [ "$$(id -u)" = 0 ] || echo sudo ) apt-get install -y -qq chromium >/dev/null; }
+
+test: $(VENV)/.installed browser
 	$(PY) -m pytest $(PYTEST_ARGS)
 
-test-all: $(VENV)/.installed
+test-all: $(VENV)/.installed browser
 	$(PY) -m pytest -m '' $(PYTEST_ARGS)
 
 bench: $(VENV)/.installed
@@ -29,8 +36,8 @@ bench: $(VENV)/.installed
 charts: $(VENV)/.installed
 	$(PY) benchmarks/charts.py $(ARGS)
 
-# Renders results/report.html in headless Chromium (apt-get install chromium) to results/report.png.
-report-check:
+# Renders results/report.html in headless Chromium to results/report.png.
+report-check: browser
 	chromium --headless --no-sandbox --disable-gpu --disable-background-networking --no-first-run \
 		--user-data-dir=$$(mktemp -d) --window-size=1300,4000 \
 		--screenshot=$(CURDIR)/results/report.png file://$(CURDIR)/results/report.html

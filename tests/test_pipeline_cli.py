@@ -8,9 +8,11 @@ import sys
 from html.parser import HTMLParser
 from pathlib import Path
 
+import matplotlib.image
 import pytest
 
 import pipeline
+from browser import page_in_browser, screenshot
 from geometry import EXAMPLE_STEP
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -101,6 +103,19 @@ def test_outputs_tables_plots_and_a_self_contained_report(default_run):
     assert all(src.startswith("data:image/png;base64,") for src in page.images)
     header = (default_run / "rms_table.csv").read_text().splitlines()[0]
     assert "cam input" in header and "al6061-t6 % difference" in header
+
+
+def test_report_opens_in_a_real_browser_with_every_picture_drawn(default_run, tmp_path):
+    seen = page_in_browser(default_run / "report.html")
+    assert seen.title == "link-conveyor: chain vibration report"
+    for section in ("Run", "Link stiffness and mass", "Which cam law", "Link tension and stress"):
+        assert section in seen.sections
+    assert seen.tables >= 5 and seen.text_chars > 2000
+    embedded = (default_run / "report.html").read_text().count("data:image/png;base64,")
+    assert seen.images == embedded >= 8
+    assert seen.images_drawn == seen.images  # every embedded PNG decoded to a picture with a size
+    pixels = matplotlib.image.imread(screenshot(default_run / "report.html", tmp_path / "report.png"))
+    assert pixels.shape[:2] == (2000, 1300) and pixels[..., :3].std() > 0.05  # drawn, not a blank page
 
 
 def test_second_run_with_another_cam_and_speed_reuses_the_fea(default_run, cache_dir, tmp_path):
