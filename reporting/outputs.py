@@ -437,7 +437,9 @@ def _model_paragraphs(summary: dict) -> str:
                 else "clearance chain (pin free play, impacts; explicit integrator)")
         css = "warn" if "NOT valid" in reason else None
         low, high = min(linear_min[model, reason]) / 1e3, max(linear_min[model, reason]) / 1e3
-        out += html.paragraph(f"Model: {name} for {', '.join(runs)}: {reason} (linear chain's minimum tension "
+        which = (f"all {len(runs)} scenarios (material x cam law)" if len(groups) == 1 and len(runs) > 1
+                 else ", ".join(runs))
+        out += html.paragraph(f"Model: {name} for {which}: {reason} (linear chain's minimum tension "
                               f"{low:.3g} to {high:.3g} kN).", css)
     for text in statements:
         out += html.paragraph(text, "warn")
