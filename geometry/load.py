@@ -9,7 +9,7 @@ import gmsh
 import numpy as np
 
 from geometry.bores import BoreOverride, bores_from_override, detect_bores
-from geometry.dimensions import DEFAULT_LINK
+from geometry.dimensions import DEFAULT_LINK, LinkDimensions
 from geometry.errors import GeometryError
 from geometry.link_mesh import LinkMesh
 from geometry.meshing import mesh_volumes, split_at_loaded_half
@@ -25,14 +25,15 @@ MAX_TETS = 3_000_000
 
 
 def load_link(
-    source: str | os.PathLike | None = None,
+    source: str | os.PathLike | LinkDimensions | None = None,
     *,
     mesh_size_m: float | None = None,
     order: int = 1,
     bore_refinement: float = 0.4,
     bores: BoreOverride | None = None,
 ) -> LinkMesh:
-    """Mesh one link: a STEP file (any length unit), or the built-in parametric link if None.
+    """Mesh one link: a STEP file (any length unit), the built-in parametric link if None, or the
+    parametric link with other `LinkDimensions` (a design study's geometry variant).
 
     mesh_size_m: element size away from the bores in metres (None: the part's bounding-box
         diagonal / 40). bore_refinement: element size at the bores as a fraction of mesh_size_m.
@@ -43,9 +44,9 @@ def load_link(
         raise GeometryError(f"order={order!r}: expected 1 or 2")
     if not (isinstance(bore_refinement, (int, float)) and 0 < bore_refinement <= 1):
         raise GeometryError(f"bore_refinement={bore_refinement!r}: expected a fraction in (0, 1]")
-    name = "default" if source is None else os.fspath(source)
+    name = source_name(source)
     with gmsh_model("link"):
-        volumes = [add_link(DEFAULT_LINK)] if source is None else import_step(source)
+        volumes = [add_link(parametric_dimensions(source))] if is_parametric(source) else import_step(source)
         if len(volumes) != 1:
             raise GeometryError(f"{name}: holds {len(volumes)} solids; expected exactly one solid link")
         cad_volume_m3 = sum(gmsh.model.occ.getMass(3, v) for v in volumes)
@@ -65,6 +66,22 @@ def load_link(
         source=name,
         tets10=arrays.tets10,
     )
+
+
+def is_parametric(source) -> bool:
+    """The source is the built-in parametric link (None) or a `LinkDimensions` variant of it."""
+    return source is None or isinstance(source, LinkDimensions)
+
+
+def parametric_dimensions(source: LinkDimensions | None) -> LinkDimensions:
+    return DEFAULT_LINK if source is None else source
+
+
+def source_name(source) -> str:
+    """How a link source is named in messages and in `LinkMesh.source`."""
+    if source is None:
+        return "default"
+    return f"parametric {source}" if isinstance(source, LinkDimensions) else os.fspath(source)
 
 
 def _checked_mesh_size(mesh_size_m: float | None, volume_m3: float, name: str) -> float:

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # importing geometry pulls in gmsh, which parsing options does not need
+    from geometry.dimensions import LinkDimensions
 
 
 @dataclass(frozen=True)
@@ -33,3 +37,5 @@ class RunConfig:
     rpm_sweep: str | None
     settling_band_m: float
     station: str | None
+    # the built-in link's dimensions when `geometry` is None (None: DEFAULT_LINK); a study varies them
+    link: LinkDimensions | None = None

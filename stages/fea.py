@@ -60,6 +60,11 @@ def _fea_record(name: str, material, study) -> dict:
     }
 
 
+def link_source(cfg: RunConfig):
+    """What the geometry stage meshes: the STEP file, else the parametric link's dimensions."""
+    return cfg.geometry if cfg.geometry is not None else cfg.link
+
+
 def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress,
                solved_levels: dict | None) -> dict:
     """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
@@ -68,14 +73,15 @@ def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | Non
     from fem.adaptive import stiffnesses_to_tolerance
     from fem.study import levels_for_finest
 
+    geometry = link_source(cfg)
     source = "built-in default link" if cfg.geometry is None else str(cfg.geometry)
     if stiffness_tolerance is None:
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 3 mesh levels")
         sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
-        return stiffness_studies(cfg.geometry, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
+        return stiffness_studies(geometry, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
     progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
              f"{100 * stiffness_tolerance:.2g} %")
-    return stiffnesses_to_tolerance(cfg.geometry, materials, stiffness_tolerance, order=cfg.order, progress=progress,
+    return stiffnesses_to_tolerance(geometry, materials, stiffness_tolerance, order=cfg.order, progress=progress,
                                     solved=solved_levels)
 
 
@@ -94,7 +100,8 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
     if unknown:
         raise FemError(f"--materials: unknown material {unknown[0]!r}; expected one of {', '.join(library)}")
     cache = FeaCache(cfg.cache_dir)
-    fingerprint = geometry_fingerprint(cfg.geometry, repr(DEFAULT_LINK))
+    # the parametric link is keyed by its dimensions (the default link's key is unchanged)
+    fingerprint = geometry_fingerprint(cfg.geometry, repr(cfg.link or DEFAULT_LINK))
     keys = {name: cache_key(fingerprint, fea_cache_settings(cfg, library[name], stiffness_tolerance))
             for name in cfg.materials}
     images = {name: cache.image_path(key) if cfg.images else None for name, key in keys.items()}
