@@ -35,7 +35,7 @@ class StudyResults:
 def assemble(spec: StudySpec, points: list[DesignPoint], store: ResultStore) -> StudyResults:
     """The table of the points that are stored (in point order), with feasibility and the front."""
     done = store.done_ids()
-    rows = [store.read_point(p.point_id) for p in points if p.point_id in done]
+    rows = [{**store.read_point(p.point_id), "point": p.index} for p in points if p.point_id in done]
     for row in rows:
         row["feasible"], row["infeasible_reason"] = feasibility(row, spec.constraints)
         row["pareto"] = False

@@ -68,12 +68,12 @@ def design_points(spec: StudySpec, base_config) -> list[DesignPoint]:
     points = []
     for sample in range_samples(spec):
         for combo in combos:
-            values = {**_held(spec, base_config), **sample, **dict(zip(choice_names, combo))}
-            points.append(_point(len(points), values, settings))
+            values = {**held_values(spec, base_config), **sample, **dict(zip(choice_names, combo))}
+            points.append(make_point(len(points), values, settings))
     return points
 
 
-def _held(spec: StudySpec, base_config) -> dict:
+def held_values(spec: StudySpec, base_config) -> dict:
     """Every run variable at its fixed value, or pipeline.py's default."""
     out = {}
     for name, variable in VARIABLES.items():
@@ -89,7 +89,8 @@ def _held(spec: StudySpec, base_config) -> dict:
     return out
 
 
-def _point(index: int, values: dict, settings: dict) -> DesignPoint:
+def make_point(index: int, values: dict, settings: dict) -> DesignPoint:
+    """The point of the given variable values (every variable set), with its ids."""
     link_fields = {f.name: getattr(LinkDimensions(), f.name) for f in fields(LinkDimensions)}
     geometry_values = {n: v for n, v in values.items() if VARIABLES[n].target in GEOMETRY_TARGETS}
     try:

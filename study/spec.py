@@ -11,7 +11,8 @@ nothing is written before the whole file is valid. The schema, by table:
     [sampling]     method = "grid" | "lhs" | "sobol", levels (grid), points (lhs, sobol), seed
     [[constraints]] metric, and min / max / equals
     [objectives]   minimise = [...], maximise = [...]
-    [optimise]     objective, popsize, maxiter, seed, tol (for --optimise)
+    [optimise]     objective, popsize, maxiter, seed, tol, held = {NAME = value} (for --optimise;
+                   list variables not held stay at their first value)
 
 Variable names are those of `study.variables.VARIABLES`; metric names those of
 `study.records.METRICS` (inputs may be constrained too).
@@ -85,6 +86,16 @@ class Constraint:
         return None
 
 
+    def amount(self, value) -> float:
+        """How far `value` is outside the constraint, relative to its bound (0 when it holds)."""
+        if self.violation(value) is None:
+            return 0.0
+        if value is None or isinstance(value, bool) or self.equals is not None or math.isnan(value):
+            return 1.0
+        bound = self.min if self.min is not None and value < self.min else self.max
+        return abs(value - bound) / max(abs(bound), 1e-300)
+
+
 @dataclass(frozen=True)
 class Objective:
     metric: str
@@ -94,6 +105,8 @@ class Objective:
 @dataclass(frozen=True)
 class OptimiseSpec:
     objective: str
+    sense: str = "min"
+    held: dict = field(default_factory=dict)  # list variables held at one value while optimising
     popsize: int = 5
     maxiter: int = 5
     seed: int = 0
@@ -152,7 +165,7 @@ def parse_study(data: dict) -> StudySpec:
     metrics = _metric_names()
     constraints = tuple(_constraint(i, c, metrics) for i, c in enumerate(_list(data, "constraints")))
     objectives = _objectives(_table(data, "objectives"), metrics)
-    optimise = _optimise(data.get("optimise"), objectives, metrics)
+    optimise = _optimise(data.get("optimise"), objectives, metrics, variables)
     return StudySpec(
         name=str(head.get("name", "study")),
         variables=variables,
@@ -364,16 +377,24 @@ def _objectives(table: dict, metrics: tuple[str, ...]) -> tuple[Objective, ...]:
     return tuple(out)
 
 
-def _optimise(table, objectives, metrics) -> OptimiseSpec | None:
+def _optimise(table, objectives, metrics, variables: dict) -> OptimiseSpec | None:
     if table is None:
         return None
     if not isinstance(table, dict):
         raise StudyError("optimise: expected a table [optimise]")
-    _only(table, ("objective", "popsize", "maxiter", "seed", "tol"), "optimise.")
+    _only(table, ("objective", "popsize", "maxiter", "seed", "tol", "held"), "optimise.")
     objective = table.get("objective", objectives[0].metric if objectives else None)
     if objective not in metrics:
         raise StudyError(f"optimise.objective: unknown metric {objective!r}; expected one of {', '.join(metrics)}")
+    sense = next((o.sense for o in objectives if o.metric == objective), "min")
     tol = _number(table.get("tol", 0.01), "optimise.tol")
-    return OptimiseSpec(objective, _int(table.get("popsize", 5), "optimise.popsize", 2),
+    held = table.get("held", {})
+    if not isinstance(held, dict):
+        raise StudyError(f"optimise.held: expected a table of list variables and one value each, got {held!r}")
+    for name, value in held.items():
+        if not isinstance(variables.get(name), Choices) or value not in variables[name].values:
+            raise StudyError(f"optimise.held.{name}: expected a variable listed in [variables] and one of its "
+                             f"values, got {value!r}")
+    return OptimiseSpec(objective, sense, dict(held), _int(table.get("popsize", 5), "optimise.popsize", 2),
                         _int(table.get("maxiter", 5), "optimise.maxiter", 1),
                         _int(table.get("seed", 0), "optimise.seed", 0), tol)
