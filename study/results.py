@@ -6,8 +6,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
 from study.pareto import feasibility, objective_matrix, pareto_mask, pick_spread
 from study.records import METRICS
 from study.sampling import DesignPoint
@@ -78,6 +76,3 @@ def summary_counts(results: StudyResults) -> dict:
     return {"points": len(results.rows), "computed": sum(r["status"] == "ok" for r in results.rows),
             "feasible": len(results.feasible), "pareto": len(results.front), "not_computed": reasons}
 
-
-def finite(values) -> np.ndarray:
-    return np.array([np.nan if v is None else float(v) for v in values], dtype=float)

@@ -124,7 +124,6 @@ class StudySpec:
     objectives: tuple[Objective, ...]
     optimise: OptimiseSpec | None
     report_best: int = 1
-    materials_known: tuple[str, ...] = field(default=(), compare=False)
 
     @property
     def ranges(self) -> dict[str, Range]:
@@ -176,7 +175,6 @@ def parse_study(data: dict) -> StudySpec:
         objectives=objectives,
         optimise=optimise,
         report_best=_int(head.get("report_best", 1), "study.report_best", 0),
-        materials_known=materials,
     )
 
 

@@ -17,17 +17,8 @@ ROOT = Path(__file__).resolve().parents[1]
 # Coarse on purpose (P1, 14 mm, 12 links, 1 sample per degree): each FEA takes a few seconds. A bore
 # larger than its lug makes two geometries infeasible; two speeds and two cam laws give the front
 # something to choose from.
-SMALL_STUDY = """
-[study]
-name = "small"
-report_best = {report_best}
-
-[variables]
-web_thickness_m = {{min = 0.004, max = 0.009}}
-bore_radius_m = [0.009525, 0.017]
-cam = ["modified-sine", "poly-345"]
-rpm = [150.0, 180.0]
-
+#: One material, a 12-link chain, P1 FEA at 14 mm: each FEA a few seconds (ends in [sampling]).
+COARSE = """
 [fixed]
 material = "al6061-t6"
 links = 12
@@ -39,6 +30,20 @@ samples_per_degree = 1
 
 [sampling]
 method = "grid"
+""".rstrip()
+
+SMALL_STUDY = """
+[study]
+name = "small"
+report_best = {report_best}
+
+[variables]
+web_thickness_m = {{min = 0.004, max = 0.009}}
+bore_radius_m = [0.009525, 0.017]
+cam = ["modified-sine", "poly-345"]
+rpm = [150.0, 180.0]
+
+{coarse}
 levels = {levels}
 
 [[constraints]]
@@ -50,9 +55,13 @@ minimise = ["body_mass_kg", "residual_vibration_m"]
 """
 
 
+def small_study(report_best: int = 0, levels: int = 2) -> str:
+    return SMALL_STUDY.format(report_best=report_best, levels=levels, coarse=COARSE)
+
+
 def write_study(folder: Path, report_best: int = 0, levels: int = 2) -> Path:
     path = folder / "small.toml"
-    path.write_text(SMALL_STUDY.format(report_best=report_best, levels=levels))
+    path.write_text(small_study(report_best, levels))
     return path
 
 

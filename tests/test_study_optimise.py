@@ -10,9 +10,9 @@ import pytest
 
 from study.optimise import INFEASIBLE_OFFSET, penalised
 from study.spec import parse_study
-from study_cluster import ROOT, env, study_command
+from study_cluster import COARSE, ROOT, env, study_command
 
-STUDY = """
+STUDY_TEMPLATE = """
 [study]
 name = "lightest web"
 report_best = 0
@@ -20,18 +20,8 @@ report_best = 0
 [variables]
 web_thickness_m = {min = 0.004, max = 0.012}
 
-[fixed]
-material = "al6061-t6"
-cam = "modified-sine"
-links = 12
-
-[settings]
-mesh_size_m = 0.014
-order = 1
-samples_per_degree = 1
-
-[sampling]
-method = "grid"
+cam = ["modified-sine"]
+{coarse}
 levels = 2
 
 [[constraints]]
@@ -46,6 +36,7 @@ popsize = 5
 maxiter = 2
 seed = 1
 """
+STUDY = STUDY_TEMPLATE.replace("{coarse}", COARSE)
 
 
 def test_penalty_orders_feasible_before_infeasible():

@@ -14,9 +14,9 @@ from study.pareto import pareto_mask
 from study.sampling import design_points
 from study.spec import StudyError, parse_study
 from study.tasks import base_config
-from study_cluster import ROOT, SMALL_STUDY
+from study_cluster import ROOT, small_study
 
-GOOD = SMALL_STUDY.format(report_best=0, levels=2)
+GOOD = small_study()
 
 BAD = {
     "unknown variable": (GOOD.replace("rpm = [150.0, 180.0]", "wing_span_m = [1.0, 2.0]"), "variables.wing_span_m"),
