@@ -126,3 +126,14 @@ def test_pareto_mask_against_brute_force(seed):
 def test_unknown_key_in_a_table():
     with pytest.raises(StudyError, match=r"settings\.mesh_sise_m: unknown key"):
         parse_study({"settings": {"mesh_sise_m": 0.01}})
+
+
+def test_workers_assemble_on_one_thread(monkeypatch):
+    """Dask's worker processes set OMP_NUM_THREADS=1: the FEA assembly follows it there (the
+    workers are the parallelism) and keeps its two threads elsewhere."""
+    from fem.assembly import ASSEMBLY_THREADS, assembly_threads
+
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")
+    assert assembly_threads() == 1
+    monkeypatch.delenv("OMP_NUM_THREADS")
+    assert assembly_threads() == ASSEMBLY_THREADS == 2
