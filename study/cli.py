@@ -102,7 +102,8 @@ def run_study(args, spec, out: Path, client) -> int:
 
     store = ResultStore(out)
     store.open()
-    shutil.copyfile(args.study, out / "study.toml")
+    if not (out / "study.toml").exists() or not (out / "study.toml").samefile(args.study):
+        shutil.copyfile(args.study, out / "study.toml")
     points = design_points(spec, base_config(spec.settings))
     done = store.done_ids()
     todo = [p for p in points if p.point_id not in done]

@@ -92,7 +92,8 @@ def run_points(client, points: list[DesignPoint], settings: Settings, store: Res
             store.write_point(row, run)
         outcome.ran += len(batch)
         store.append_timing({"run": run, "task": future.key, "kind": kind, "geometry": g, "points": len(batch),
-                             "seconds": result["seconds"], "worker": result["worker"]})
+                             "seconds": result["seconds"], "cpu_seconds": result["cpu_seconds"],
+                             "worker": result["worker"]})
         bar.task_done(kind, result["seconds"], len(batch))
     bar.show(final=True)
     return outcome
