@@ -117,7 +117,7 @@ def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings) -> dict
     with tempfile.TemporaryDirectory(prefix="study-report-") as scratch, _one_thread():
         out = Path(scratch) / "report"
         out.mkdir()
-        cfg = replace(point_config(settings, inputs), cams=tuple(cams), out=out, station=None)
+        cfg = replace(point_config(settings, inputs), cams=tuple(cams), out=out, station=None, images=True)
         progress = Progress(True)
         timing: dict = {}
         fea = run_fea(cfg, progress)

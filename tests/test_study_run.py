@@ -100,6 +100,7 @@ def test_page_and_best_report(local_run):
     assert page.count("data:image/png;base64,") == 3 and "Pareto front" in page
     reports = list((out / "best").glob("point-*/report.html"))
     assert len(reports) == 1 and f'href="best/{reports[0].parent.name}/report.html"' in page
+    assert (reports[0].parent / "al6061-t6_deformed.png").stat().st_size > 1000
     summary = json.loads((reports[0].parent / "summary.json").read_text())
     point = int(reports[0].parent.name.split("-")[1])
     row = next(r for r in _table(out) if r["point"] == point)
