@@ -35,7 +35,7 @@ def display_unit(name: str) -> tuple[str, float]:
 
 
 def _values(rows: list[dict], name: str) -> np.ndarray:
-    label, factor = display_unit(name)
+    factor = display_unit(name)[1]
     return np.array([np.nan if r.get(name) is None else float(r[name]) * factor for r in rows], dtype=float)
 
 
@@ -60,7 +60,7 @@ def plot_pareto(rows: list[dict], objectives: list[str], path: Path) -> Path:
     ax.set_ylabel(display_unit(y_name)[0])
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title("Pareto front" + (f" (objectives 3+ not drawn)" if len(objectives) > 2 else ""))
+    ax.set_title("Pareto front" + (" (objectives 3+ not drawn)" if len(objectives) > 2 else ""))
     return _save(fig, path)
 
 

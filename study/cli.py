@@ -37,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _checked_out(args, spec) -> Path:
+def _checked_out(args) -> Path:
     from study.store import ResultStore
 
     out = args.out if args.out is not None else Path(f"results-{args.study.stem}")
@@ -61,7 +61,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         spec = load_study(args.study)
-        out = _checked_out(args, spec)
+        out = _checked_out(args)
         if args.optimise and spec.optimise is None:
             raise StudyError(f"{args.study}: --optimise needs an [optimise] table (objective, popsize, maxiter)")
         if args.optimise and not spec.ranges:

@@ -39,7 +39,7 @@ def _best_reports(spec: StudySpec, results: StudyResults, out: Path, client, bar
 
     best = best_designs(spec, results)
     cams = tuple(spec.choices["cam"].values) if "cam" in spec.choices else (spec.fixed["cam"],)
-    futures = [client.submit(report_task, {k: r[k] for k in _inputs_of(results, r)}, cams, spec.settings,
+    futures = [client.submit(report_task, {k: r[k] for k in _inputs_of(results)}, cams, spec.settings,
                              pure=False) for r in best]
     links = []
     for row, future in zip(best, futures):
@@ -52,7 +52,7 @@ def _best_reports(spec: StudySpec, results: StudyResults, out: Path, client, bar
     return links
 
 
-def _inputs_of(results: StudyResults, row: dict) -> list[str]:
+def _inputs_of(results: StudyResults) -> list[str]:
     from study.results import IDENTITY, OUTCOME
     from study.records import METRICS
 

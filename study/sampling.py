@@ -16,7 +16,7 @@ import numpy as np
 
 from geometry.dimensions import LinkDimensions
 from geometry.errors import GeometryError
-from study.spec import Range, StudySpec
+from study.spec import StudySpec
 from study.variables import GEOMETRY_TARGETS, LINK, VARIABLES, link_dimensions
 
 
