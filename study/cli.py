@@ -93,6 +93,7 @@ def _connect(args):
 
 
 def run_study(args, spec, out: Path, client) -> int:
+    from fem.cache import write_text_atomic
     from study.execution import run_points, worker_threads
     from study.outputs import write_outputs
     from study.progress import ProgressBar
@@ -119,8 +120,8 @@ def run_study(args, spec, out: Path, client) -> int:
 
         history = optimise(client, spec, store, run, bar, out)
     write_outputs(spec, points, store, out, client, bar, history)
-    (out / "last_run.json").write_text(json.dumps({"run": run, "points": len(points), "ran": outcome.ran,
-                                                   "failed": outcome.failed}, indent=1))
+    write_text_atomic(out / "last_run.json", json.dumps({"run": run, "points": len(points), "ran": outcome.ran,
+                                                         "failed": outcome.failed}, indent=1))
     if outcome.failed:
         for line in outcome.failed:
             print(f"{PROG}: task failed: {line}", file=sys.stderr)
