@@ -137,3 +137,23 @@ def test_workers_assemble_on_one_thread(monkeypatch):
     assert assembly_threads() == 1
     monkeypatch.delenv("OMP_NUM_THREADS")
     assert assembly_threads() == ASSEMBLY_THREADS == 2
+
+
+def test_fea_of_a_link_variant_is_cached_under_its_dimensions(tmp_path):
+    """run_fea on two LinkDimensions sharing one cache: each solved (not the other's cached
+    result), each found again on a second call."""
+    from dataclasses import replace
+
+    from geometry import LinkDimensions
+    from stages.fea import run_fea
+    from stages.progress import Progress
+    from study.spec import Settings
+
+    settings = Settings(mesh_size_m=0.014, order=1)
+    base = replace(base_config(settings, tmp_path), materials=("al6061-t6",))
+    thin, thick = (replace(base, link=LinkDimensions(web_thickness_m=w)) for w in (0.004, 0.009))
+    first = {c.link.web_thickness_m: run_fea(c, Progress(True))["al6061-t6"] for c in (thin, thick)}
+    assert not any(r.cached for r in first.values())
+    assert first[0.009].body_mass_kg > first[0.004].body_mass_kg
+    again = run_fea(thin, Progress(True))["al6061-t6"]
+    assert again.cached and again.stiffness_N_per_m == first[0.004].stiffness_N_per_m
