@@ -56,7 +56,8 @@ def _inputs_of(results: StudyResults) -> list[str]:
     from study.results import IDENTITY, OUTCOME
     from study.records import METRICS
 
-    return [c for c in results.columns if c not in IDENTITY and c not in OUTCOME and c not in METRICS]
+    return [c for c in results.columns
+            if c not in IDENTITY and c not in OUTCOME and c not in METRICS and c != "fea_warnings"]
 
 
 def _write_page(spec: StudySpec, results: StudyResults, out: Path, reports, history) -> None:

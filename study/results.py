@@ -42,7 +42,7 @@ def assemble(spec: StudySpec, points: list[DesignPoint], store: ResultStore) -> 
         for row, on_front in zip(feasible, pareto_mask(objective_matrix(feasible, spec.objectives))):
             row["pareto"] = bool(on_front)
     inputs = list(points[0].inputs) if points else []
-    columns = [*IDENTITY, *inputs, *OUTCOME, *METRICS]
+    columns = [*IDENTITY, *inputs, *OUTCOME, "fea_warnings", *METRICS]
     return StudyResults(columns, rows)
 
 

@@ -7,6 +7,8 @@ its own wall time and worker so the client can keep per-task timings.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import socket
 import tempfile
@@ -69,7 +71,8 @@ def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings) -> di
         try:
             cfg = replace(point_config(settings, inputs, None if settings.fea_cache else Path(scratch)),
                           materials=tuple(materials))
-            fea = run_fea(cfg, Progress(True))
+            with contextlib.redirect_stderr(io.StringIO()):  # the cautions travel in the records instead
+                fea = run_fea(cfg, Progress(True))
         except (GeometryError, FemError, DynamicsError) as e:
             reason = f"geometry: {e}" if isinstance(e, GeometryError) else f"FEA: {e}"
     return {"fea": fea, "reason": reason, **_timing(start, cpu_start)}
@@ -98,11 +101,11 @@ def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: S
                 scenario = simulate_scenario(cfg, model, material, p["inputs"]["cam"], fea.pitch_m,
                                              settings.samples_per_degree)
             except DynamicsError as e:
-                rows.append(record(p, "infeasible", f"chain: {e}", fea_metrics(fea)))
+                rows.append(record(p, "infeasible", f"chain: {e}", fea_metrics(fea), fea.warnings))
                 continue
             metrics = {**fea_metrics(fea), **chain_metrics(scenario, fea, settings.station, model.link_mass_kg,
                                                            frequencies[model])}
-            rows.append(record(p, "ok", "", metrics))
+            rows.append(record(p, "ok", "", metrics, fea.warnings))
     return {"rows": rows, **_timing(start, cpu_start)}
 
 
