@@ -40,18 +40,19 @@ DEFAULT_MAX_DOFS = 400_000
 MIN_LEVELS = 3  # the error estimate uses three levels (two for q_inf, the third checks the pair)
 
 
-def bounding_diagonal_m(source: str | Path | None) -> float:
-    """Diagonal of the link's CAD bounding box in metres (the built-in link when None)."""
+def bounding_diagonal_m(source) -> float:
+    """Diagonal of the link's CAD bounding box in metres (a STEP path; None or `LinkDimensions`
+    for the parametric link)."""
     import gmsh
 
-    from geometry.dimensions import DEFAULT_LINK
+    from geometry.load import is_parametric, parametric_dimensions
     from geometry.parametric import add_link
     from geometry.session import gmsh_model, quiet_stdout
     from geometry.step_io import import_step
 
     with gmsh_model("bounding-box"):
-        if source is None:
-            add_link(DEFAULT_LINK)
+        if is_parametric(source):
+            add_link(parametric_dimensions(source))
         else:
             with quiet_stdout():
                 import_step(source)

@@ -11,12 +11,29 @@ Six scalar assemblies (K_ba = K_ab^T) give the same matrix as scikit-fem's
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 import scipy.sparse as sp
 from skfem import Basis, BilinearForm
 from skfem.helpers import dot
 
 DIM = 3
+
+
+#: Threads for the stiffness assembly (two: the measured best on this 2-core machine).
+ASSEMBLY_THREADS = 2
+
+
+def assembly_threads() -> int:
+    """ASSEMBLY_THREADS, or fewer where OMP_NUM_THREADS asks for fewer: Dask's worker processes
+    set it to 1 because the workers, one per core, are the parallelism (two threads each would
+    oversubscribe the cores and cost a design study its scaling)."""
+    try:
+        requested = int(os.environ.get("OMP_NUM_THREADS", ASSEMBLY_THREADS))
+    except ValueError:
+        requested = ASSEMBLY_THREADS
+    return max(1, min(ASSEMBLY_THREADS, requested))
 
 
 def _block_form(a: int, b: int, lam: float, mu: float, nthreads: int) -> BilinearForm:

@@ -21,7 +21,7 @@ from skfem.quadrature import get_quadrature
 from geometry.link_mesh import Bore, LinkMesh
 
 from . import locking, problem, quality, solvers
-from .assembly import elasticity_matrix
+from .assembly import assembly_threads, elasticity_matrix
 from .errors import FemError, FemWarning
 from .materials import Material
 from .problem import CURVED_INTORDER
@@ -183,7 +183,7 @@ def analyse_link(
     order: int = 2,
     load_N: float = 1000.0,
     solver: str = "auto",
-    nthreads: int = 2,
+    nthreads: int | None = None,
 ) -> LinkSolution:
     """Solve the link's load case; see the module docstring. SI units in and out."""
     problem.element(order)
@@ -213,7 +213,7 @@ def analyse_link(
     timing["basis_and_load"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    K = elasticity_matrix(basis, lam, mu, nthreads=nthreads)
+    K = elasticity_matrix(basis, lam, mu, nthreads=assembly_threads() if nthreads is None else nthreads)
     timing["assembly"] = time.perf_counter() - start
 
     start = time.perf_counter()

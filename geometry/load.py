@@ -11,7 +11,7 @@ import numpy as np
 
 from geometry.assembly import LinkSource, as_link_source, pick_body
 from geometry.bores import BoreOverride, bores_from_override
-from geometry.dimensions import DEFAULT_LINK
+from geometry.dimensions import DEFAULT_LINK, LinkDimensions
 from geometry.errors import GeometryError
 from geometry.link_mesh import LinkMesh
 from geometry.meshing import mesh_volumes, split_at_loaded_half
@@ -27,14 +27,15 @@ MAX_TETS = 3_000_000
 
 
 def load_link(
-    source: str | os.PathLike | LinkSource | None = None,
+    source: str | os.PathLike | LinkSource | LinkDimensions | None = None,
     *,
     mesh_size_m: float | None = None,
     order: int = 1,
     bore_refinement: float = 0.4,
     bores: BoreOverride | None = None,
 ) -> LinkMesh:
-    """Mesh one link: a STEP file (any length unit), or the built-in parametric link if None.
+    """Mesh one link: a STEP file (any length unit), the built-in parametric link if None, or the
+    parametric link with other `LinkDimensions` (a design study's geometry variant).
 
     source: a path, or a `LinkSource` (a path with the user's choice of pin bores and link body). In a
         file of several solids only the link body is meshed (geometry.assembly).
@@ -47,15 +48,15 @@ def load_link(
         raise GeometryError(f"order={order!r}: expected 1 or 2")
     if not (isinstance(bore_refinement, (int, float)) and 0 < bore_refinement <= 1):
         raise GeometryError(f"bore_refinement={bore_refinement!r}: expected a fraction in (0, 1]")
-    name = "default" if source is None else os.fspath(source)
+    name = source_name(source)
     with gmsh_model("link"):
-        volumes = [add_link(DEFAULT_LINK)] if source is None else import_step(name)
+        volumes = [add_link(parametric_dimensions(source))] if is_parametric(source) else import_step(name)
         if bores is not None:
             if len(volumes) != 1:
                 raise GeometryError(f"{name}: holds {len(volumes)} solids; expected exactly one solid link")
             fixed, loaded = bores_from_override(volumes, bores, name)
         else:
-            link_source = LinkSource(Path(name)) if source is None else as_link_source(source)
+            link_source = LinkSource(Path(name)) if is_parametric(source) else as_link_source(source)
             body, pins = pick_body(volumes, link_source, name)
             fixed, loaded = pins.fixed, pins.loaded
             _keep_only(volumes, body)
@@ -90,6 +91,20 @@ def _keep_only(volumes: list[int], body: int) -> None:
     if others:
         gmsh.model.occ.remove(others, recursive=True)
         gmsh.model.occ.synchronize()
+def is_parametric(source) -> bool:
+    """The source is the built-in parametric link (None) or a `LinkDimensions` variant of it."""
+    return source is None or isinstance(source, LinkDimensions)
+
+
+def parametric_dimensions(source: LinkDimensions | None) -> LinkDimensions:
+    return DEFAULT_LINK if source is None else source
+
+
+def source_name(source) -> str:
+    """How a link source is named in messages and in `LinkMesh.source`."""
+    if source is None:
+        return "default"
+    return f"parametric {source}" if isinstance(source, LinkDimensions) else os.fspath(source)
 
 
 def _checked_mesh_size(mesh_size_m: float | None, volume_m3: float, name: str) -> float:

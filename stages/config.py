@@ -4,6 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # importing geometry pulls in gmsh, which parsing options does not need
+    from geometry.dimensions import LinkDimensions
 
 
 @dataclass(frozen=True)
@@ -44,3 +48,5 @@ class RunConfig:
     tensioner_rate_N_per_m: float | None = None
     tensioner_mass_kg: float | None = None
     tensioner_damping_N_s_per_m: float | None = None
+    # the built-in link's dimensions when `geometry` is None (None: DEFAULT_LINK); a study varies them
+    link: LinkDimensions | None = None

@@ -64,8 +64,11 @@ def _fea_record(name: str, material, study) -> dict:
 
 
 def _part(cfg: RunConfig):
-    """What the FEA meshes: the STEP file with its part options, or the built-in link (None)."""
-    return cfg.link_source if cfg.link_source is not None else cfg.geometry
+    """What the FEA meshes: the STEP file with its part options, the STEP file, or else the built-in
+    parametric link's dimensions (None: the default link; a study varies them)."""
+    if cfg.link_source is not None:
+        return cfg.link_source
+    return cfg.geometry if cfg.geometry is not None else cfg.link
 
 
 def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress,
@@ -102,7 +105,8 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
     if unknown:
         raise FemError(f"--materials: unknown material {unknown[0]!r}; expected one of {', '.join(library)}")
     cache = FeaCache(cfg.cache_dir)
-    fingerprint = geometry_fingerprint(cfg.geometry, repr(DEFAULT_LINK))
+    # the parametric link is keyed by its dimensions (the default link's key is unchanged)
+    fingerprint = geometry_fingerprint(cfg.geometry, repr(cfg.link or DEFAULT_LINK))
     keys = {name: cache_key(fingerprint, fea_cache_settings(cfg, library[name], stiffness_tolerance))
             for name in cfg.materials}
     images = {name: cache.image_path(key) if cfg.images else None for name, key in keys.items()}

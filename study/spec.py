@@ -1,0 +1,398 @@
+"""The study file (TOML): its schema, read and validated into a `StudySpec`.
+
+Every problem is one line naming the key, what was expected and what was found (`StudyError`);
+nothing is written before the whole file is valid. The schema, by table:
+
+    [study]        name, report_best (full pipeline reports for that many best designs)
+    [variables]    NAME = {min = A, max = B} (a range) | [v1, v2, ...] (a list) | "all" (cam only)
+    [fixed]        NAME = value (a variable held at one value)
+    [settings]     mesh_size_m, order, samples_per_degree, solver, station, settling_band_m,
+                   steady_state, fea_cache
+    [sampling]     method = "grid" | "lhs" | "sobol", levels (grid), points (lhs, sobol), seed
+    [[constraints]] metric, and min / max / equals
+    [objectives]   minimise = [...], maximise = [...]
+    [optimise]     objective, popsize, maxiter, seed, tol, held = {NAME = value} (for --optimise;
+                   list variables not held stay at their first value)
+
+Variable names are those of `study.variables.VARIABLES`; metric names those of
+`study.records.METRICS` (inputs may be constrained too).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from study.variables import CAM, MATERIAL, VARIABLES
+
+SAMPLING_METHODS = ("grid", "lhs", "sobol")
+TABLES = ("study", "variables", "fixed", "settings", "sampling", "constraints", "objectives", "optimise")
+
+
+class StudyError(ValueError):
+    """A study file (or option) that cannot be used; the one-line message names the key."""
+
+
+@dataclass(frozen=True)
+class Range:
+    min: float
+    max: float
+
+
+@dataclass(frozen=True)
+class Choices:
+    values: tuple
+
+
+@dataclass(frozen=True)
+class Settings:
+    mesh_size_m: float | None = None  # finest FEA level; None: the pipeline's default levels
+    order: int = 2
+    samples_per_degree: int = 4
+    solver: str = "exact"
+    station: str = "tight-side"
+    settling_band_m: float = 0.0005
+    steady_state: bool = True
+    fea_cache: bool = True  # each worker's own on-disk FEA cache (no shared disk needed)
+
+
+@dataclass(frozen=True)
+class Sampling:
+    method: str = "grid"
+    levels: int = 3
+    points: int = 8
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class Constraint:
+    metric: str
+    min: float | None = None
+    max: float | None = None
+    equals: object = None
+
+    def violation(self, value) -> str | None:
+        """Why `value` breaks the constraint, or None when it holds."""
+        if value is None or (isinstance(value, float) and math.isnan(value)):
+            return f"{self.metric} not computed"
+        if self.equals is not None and value != self.equals:
+            return f"{self.metric} = {value} (required {self.equals})"
+        if self.min is not None and value < self.min:
+            return f"{self.metric} = {value:.4g} < {self.min:g}"
+        if self.max is not None and value > self.max:
+            return f"{self.metric} = {value:.4g} > {self.max:g}"
+        return None
+
+
+    def amount(self, value) -> float:
+        """How far `value` is outside the constraint, relative to its bound (0 when it holds)."""
+        if self.violation(value) is None:
+            return 0.0
+        if value is None or isinstance(value, bool) or self.equals is not None or math.isnan(value):
+            return 1.0
+        bound = self.min if self.min is not None and value < self.min else self.max
+        return abs(value - bound) / max(abs(bound), 1e-300)
+
+
+@dataclass(frozen=True)
+class Objective:
+    metric: str
+    sense: str  # "min" or "max"
+
+
+@dataclass(frozen=True)
+class OptimiseSpec:
+    objective: str
+    sense: str = "min"
+    held: dict = field(default_factory=dict)  # list variables held at one value while optimising
+    popsize: int = 5
+    maxiter: int = 5
+    seed: int = 0
+    tol: float = 0.01
+
+
+@dataclass(frozen=True)
+class StudySpec:
+    name: str
+    variables: dict  # name -> Range | Choices, in file order (varied)
+    fixed: dict  # name -> value (held)
+    settings: Settings
+    sampling: Sampling
+    constraints: tuple[Constraint, ...]
+    objectives: tuple[Objective, ...]
+    optimise: OptimiseSpec | None
+    report_best: int = 1
+
+    @property
+    def ranges(self) -> dict[str, Range]:
+        return {n: v for n, v in self.variables.items() if isinstance(v, Range)}
+
+    @property
+    def choices(self) -> dict[str, Choices]:
+        return {n: v for n, v in self.variables.items() if isinstance(v, Choices)}
+
+
+def load_study(path: Path) -> StudySpec:
+    """Read and validate a study file."""
+    try:
+        data = tomllib.loads(Path(path).read_text())
+    except OSError as e:
+        raise StudyError(f"{path}: cannot read the study file ({e.strerror or e})") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise StudyError(f"{path}: not a valid TOML file ({e})") from None
+    try:
+        return parse_study(data)
+    except StudyError as e:
+        raise StudyError(f"{path}: {e}") from None
+
+
+def parse_study(data: dict) -> StudySpec:
+    _only(data, TABLES, "")
+    head = _table(data, "study")
+    _only(head, ("name", "report_best"), "study.")
+    settings = _settings(_table(data, "settings"))
+    materials = _known_materials()
+    variables = {name: _variable(name, value, materials) for name, value in _table(data, "variables").items()}
+    fixed = {name: _fixed(name, value, materials) for name, value in _table(data, "fixed").items()}
+    both = [n for n in variables if n in fixed]
+    if both:
+        raise StudyError(f"fixed.{both[0]}: also in [variables]; expected a name in one table only")
+    _default_choices(variables, fixed)
+    sampling = _sampling(_table(data, "sampling"), variables)
+    metrics = _metric_names()
+    constraints = tuple(_constraint(i, c, metrics) for i, c in enumerate(_list(data, "constraints")))
+    objectives = _objectives(_table(data, "objectives"), metrics)
+    optimise = _optimise(data.get("optimise"), objectives, metrics, variables)
+    return StudySpec(
+        name=str(head.get("name", "study")),
+        variables=variables,
+        fixed=fixed,
+        settings=settings,
+        sampling=sampling,
+        constraints=constraints,
+        objectives=objectives,
+        optimise=optimise,
+        report_best=_int(head.get("report_best", 1), "study.report_best", 0),
+    )
+
+
+def _only(table: dict, allowed: tuple, prefix: str) -> None:
+    for key in table:
+        if key not in allowed:
+            raise StudyError(f"{prefix}{key}: unknown key; expected one of {', '.join(allowed)}")
+
+
+def _table(data: dict, name: str) -> dict:
+    value = data.get(name, {})
+    if not isinstance(value, dict):
+        raise StudyError(f"{name}: expected a table [{name}], got {type(value).__name__}")
+    return value
+
+
+def _list(data: dict, name: str) -> list:
+    value = data.get(name, [])
+    if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
+        raise StudyError(f"{name}: expected an array of tables [[{name}]]")
+    return value
+
+
+def _known_materials() -> tuple[str, ...]:
+    from fem import load_materials
+
+    return tuple(load_materials(None))
+
+
+def _cam_ids() -> tuple[str, ...]:
+    from pipeline import CAM_IDS, EXTRA_CAM_IDS
+
+    return CAM_IDS + EXTRA_CAM_IDS
+
+
+def _metric_names() -> tuple[str, ...]:
+    from study.records import METRICS
+
+    return tuple(METRICS) + tuple(VARIABLES)
+
+
+def _number(value, key: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise StudyError(f"{key}: expected a finite number, got {value!r}")
+    return float(value)
+
+
+def _int(value, key: str, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise StudyError(f"{key}: expected a whole number >= {minimum}, got {value!r}")
+    return value
+
+
+def _check_value(name: str, value, key: str, materials: tuple[str, ...]):
+    variable = VARIABLES[name]
+    if variable.target == MATERIAL:
+        if value not in materials:
+            raise StudyError(f"{key}: unknown material {value!r}; expected one of {', '.join(materials)}")
+        return value
+    if variable.target == CAM:
+        if value not in _cam_ids():
+            raise StudyError(f"{key}: unknown cam law {value!r}; expected one of {', '.join(_cam_ids())} or 'all'")
+        return value
+    number = _number(value, key)
+    if variable.kind is int and number != int(number):
+        raise StudyError(f"{key}: expected a whole number, got {value!r}")
+    if not variable.accepts(number):
+        raise StudyError(f"{key}: expected a value {variable.expected()}, got {value!r}")
+    return variable.kind(number)
+
+
+def _known(name: str, key: str) -> None:
+    if name not in VARIABLES:
+        raise StudyError(f"{key}: unknown variable; expected one of {', '.join(VARIABLES)}")
+
+
+def _variable(name: str, value, materials) -> Range | Choices:
+    key = f"variables.{name}"
+    _known(name, key)
+    choice = VARIABLES[name].kind is str
+    if value == "all" and VARIABLES[name].target == CAM:
+        from pipeline import CAM_IDS
+
+        return Choices(CAM_IDS)
+    if isinstance(value, list):
+        if not value:
+            raise StudyError(f"{key}: empty list; expected at least one value")
+        values = tuple(_check_value(name, v, f"{key}[{i}]", materials) for i, v in enumerate(value))
+        if len(set(values)) != len(values):
+            raise StudyError(f"{key}: repeated value in the list {list(value)}")
+        return Choices(values)
+    if isinstance(value, dict) and not choice:
+        _only(value, ("min", "max"), f"{key}.")
+        if "min" not in value or "max" not in value:
+            raise StudyError(f"{key}: a range needs both min and max, got {value}")
+        low = _check_value(name, value["min"], f"{key}.min", materials)
+        high = _check_value(name, value["max"], f"{key}.max", materials)
+        if not low < high:
+            raise StudyError(f"{key}: empty range, min {value['min']!r} >= max {value['max']!r}; "
+                             f"expected min < max (or a list, or [fixed] for one value)")
+        return Range(float(low), float(high))
+    form = "a list of names" + (" or 'all'" if VARIABLES[name].target == CAM else "") if choice else \
+        "{min = A, max = B} or a list of values"
+    raise StudyError(f"{key}: expected {form}, got {value!r}")
+
+
+def _fixed(name: str, value, materials):
+    key = f"fixed.{name}"
+    _known(name, key)
+    return _check_value(name, value, key, materials)
+
+
+def _default_choices(variables: dict, fixed: dict) -> None:
+    """Material and cam law default to pipeline.py's: both materials, every cam law."""
+    from pipeline import CAM_IDS, DEFAULT_MATERIALS
+
+    for name, default in (("material", DEFAULT_MATERIALS), ("cam", CAM_IDS)):
+        if name not in variables and name not in fixed:
+            variables[name] = Choices(tuple(default))
+
+
+def _settings(table: dict) -> Settings:
+    from dynamics.solvers import METHODS
+
+    defaults = Settings()
+    _only(table, tuple(Settings.__dataclass_fields__), "settings.")
+    values = {}
+    if "mesh_size_m" in table:
+        values["mesh_size_m"] = _number(table["mesh_size_m"], "settings.mesh_size_m")
+        if not values["mesh_size_m"] > 0:
+            raise StudyError(f"settings.mesh_size_m: expected an element size > 0 m, got {table['mesh_size_m']!r}")
+    if "order" in table and table["order"] not in (1, 2):
+        raise StudyError(f"settings.order: expected 1 or 2, got {table['order']!r}")
+    if "samples_per_degree" in table:
+        _int(table["samples_per_degree"], "settings.samples_per_degree", 1)
+    if "solver" in table and table["solver"] not in METHODS:
+        raise StudyError(f"settings.solver: unknown method {table['solver']!r}; expected one of {', '.join(METHODS)}")
+    stations = ("drive-end", "tight-side", "idler-end", "slack-side")
+    if "station" in table and table["station"] not in stations:
+        raise StudyError(f"settings.station: expected one of {', '.join(stations)}, got {table['station']!r}")
+    if "settling_band_m" in table and not _number(table["settling_band_m"], "settings.settling_band_m") > 0:
+        raise StudyError(f"settings.settling_band_m: expected a band > 0 m, got {table['settling_band_m']!r}")
+    for flag in ("steady_state", "fea_cache"):
+        if flag in table and not isinstance(table[flag], bool):
+            raise StudyError(f"settings.{flag}: expected true or false, got {table[flag]!r}")
+    for key in ("order", "samples_per_degree", "solver", "station", "steady_state", "fea_cache"):
+        if key in table:
+            values[key] = table[key]
+    if "settling_band_m" in table:
+        values["settling_band_m"] = float(table["settling_band_m"])
+    return Settings(**{**defaults.__dict__, **values})
+
+
+def _sampling(table: dict, variables: dict) -> Sampling:
+    _only(table, ("method", "levels", "points", "seed"), "sampling.")
+    method = table.get("method", "grid")
+    if method not in SAMPLING_METHODS:
+        raise StudyError(f"sampling.method: expected one of {', '.join(SAMPLING_METHODS)}, got {method!r}")
+    levels = _int(table.get("levels", 3), "sampling.levels", 2)
+    points = _int(table.get("points", 8), "sampling.points", 1)
+    seed = _int(table.get("seed", 0), "sampling.seed", 0)
+    has_range = any(isinstance(v, Range) for v in variables.values())
+    if method != "grid" and not has_range:
+        raise StudyError(f"sampling.method: {method} samples ranges, and [variables] has none; "
+                         "expected a {min, max} range or method = \"grid\"")
+    if method == "sobol" and points & (points - 1):
+        raise StudyError(f"sampling.points: Sobol sampling needs a power of 2 to stay balanced, got {points}")
+    if method != "grid" and "levels" in table:
+        raise StudyError(f"sampling.levels: only for method = \"grid\"; {method} takes points")
+    if method == "grid" and "points" in table:
+        raise StudyError("sampling.points: only for lhs and sobol; the grid takes levels per range")
+    return Sampling(method, levels, points, seed)
+
+
+def _constraint(i: int, table: dict, metrics: tuple[str, ...]) -> Constraint:
+    key = f"constraints[{i}]"
+    _only(table, ("metric", "min", "max", "equals"), f"{key}.")
+    metric = table.get("metric")
+    if metric not in metrics:
+        raise StudyError(f"{key}.metric: unknown metric {metric!r}; expected one of {', '.join(metrics)}")
+    bounds = {b: _number(table[b], f"{key}.{b}") for b in ("min", "max") if b in table}
+    if not bounds and "equals" not in table:
+        raise StudyError(f"{key}: expected min, max or equals for {metric}")
+    return Constraint(metric, bounds.get("min"), bounds.get("max"), table.get("equals"))
+
+
+def _objectives(table: dict, metrics: tuple[str, ...]) -> tuple[Objective, ...]:
+    _only(table, ("minimise", "maximise"), "objectives.")
+    out = []
+    for sense_key, sense in (("minimise", "min"), ("maximise", "max")):
+        names = table.get(sense_key, [])
+        if not isinstance(names, list):
+            raise StudyError(f"objectives.{sense_key}: expected a list of metric names, got {names!r}")
+        for name in names:
+            if name not in metrics:
+                raise StudyError(f"objectives.{sense_key}: unknown metric {name!r}; expected one of {', '.join(metrics)}")
+            out.append(Objective(name, sense))
+    return tuple(out)
+
+
+def _optimise(table, objectives, metrics, variables: dict) -> OptimiseSpec | None:
+    if table is None:
+        return None
+    if not isinstance(table, dict):
+        raise StudyError("optimise: expected a table [optimise]")
+    _only(table, ("objective", "popsize", "maxiter", "seed", "tol", "held"), "optimise.")
+    objective = table.get("objective", objectives[0].metric if objectives else None)
+    if objective not in metrics:
+        raise StudyError(f"optimise.objective: unknown metric {objective!r}; expected one of {', '.join(metrics)}")
+    sense = next((o.sense for o in objectives if o.metric == objective), "min")
+    tol = _number(table.get("tol", 0.01), "optimise.tol")
+    held = table.get("held", {})
+    if not isinstance(held, dict):
+        raise StudyError(f"optimise.held: expected a table of list variables and one value each, got {held!r}")
+    for name, value in held.items():
+        if not isinstance(variables.get(name), Choices) or value not in variables[name].values:
+            raise StudyError(f"optimise.held.{name}: expected a variable listed in [variables] and one of its "
+                             f"values, got {value!r}")
+    return OptimiseSpec(objective, sense, dict(held), _int(table.get("popsize", 5), "optimise.popsize", 2),
+                        _int(table.get("maxiter", 5), "optimise.maxiter", 1),
+                        _int(table.get("seed", 0), "optimise.seed", 0), tol)

@@ -1,0 +1,129 @@
+"""What runs on the workers: one FEA per geometry (one mesh per level, shared by its materials), a
+batch of chain runs per FEA result, and the full pipeline report of a chosen design.
+
+Each task takes and returns small picklable values, so workers need no shared disk; each returns
+its own wall time and worker so the client can keep per-task timings.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import os
+import socket
+import tempfile
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from study.records import chain_metrics, fea_metrics, record
+from study.spec import Settings
+from study.variables import GEOMETRY_TARGETS, VARIABLES, link_dimensions, run_fields
+
+
+def base_config(settings: Settings, cache_dir: Path | None = None):
+    """pipeline.py's defaults with the study's settings (quiet, no images)."""
+    from pipeline import parse_cli
+
+    cfg = parse_cli([])
+    return replace(cfg, quiet=True, images=False, mesh_size_m=settings.mesh_size_m, order=settings.order,
+                   samples_per_degree=settings.samples_per_degree, solver=settings.solver,
+                   settling_band_m=settings.settling_band_m, steady_state=settings.steady_state,
+                   cache_dir=cfg.cache_dir if cache_dir is None else cache_dir)
+
+
+def point_config(settings: Settings, inputs: dict, cache_dir: Path | None = None):
+    """The RunConfig of one design point."""
+    geometry_values = {n: v for n, v in inputs.items() if n in VARIABLES and VARIABLES[n].target in GEOMETRY_TARGETS
+                       and n != "rail_width_m"}
+    return replace(base_config(settings, cache_dir), link=link_dimensions(geometry_values), **run_fields(
+        {n: v for n, v in inputs.items() if n in VARIABLES and VARIABLES[n].target not in GEOMETRY_TARGETS}))
+
+
+def _worker() -> str:
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def _timing(start: float, cpu_start: float) -> dict:
+    """Wall seconds, CPU seconds of the worker process (CPU < wall: the task waited for a core)."""
+    return {"seconds": time.perf_counter() - start, "cpu_seconds": time.process_time() - cpu_start,
+            "worker": _worker()}
+
+
+def _one_thread():
+    """Parallelism comes from the workers: each task keeps BLAS/MKL to one thread."""
+    from threadpoolctl import threadpool_limits
+
+    return threadpool_limits(1)
+
+
+def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings) -> dict:
+    """k, mass and stress of one geometry for each material, or why the link cannot be built."""
+    from dynamics.errors import DynamicsError
+    from fem.errors import FemError
+    from geometry.errors import GeometryError
+    from stages.fea import run_fea
+    from stages.progress import Progress
+
+    start, cpu_start = time.perf_counter(), time.process_time()
+    reason, fea = None, None
+    with tempfile.TemporaryDirectory(prefix="study-fea-") as scratch, _one_thread():
+        try:
+            cfg = replace(point_config(settings, inputs, None if settings.fea_cache else Path(scratch)),
+                          materials=tuple(materials))
+            with contextlib.redirect_stderr(io.StringIO()):  # the cautions travel in the records instead
+                fea = run_fea(cfg, Progress(True))
+        except (GeometryError, FemError, DynamicsError) as e:
+            reason = f"geometry: {e}" if isinstance(e, GeometryError) else f"FEA: {e}"
+    return {"fea": fea, "reason": reason, **_timing(start, cpu_start)}
+
+
+def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: Settings) -> dict:
+    """The chain of every point in the batch, on one FEA result; one record per point."""
+    from dynamics.errors import DynamicsError
+    from dynamics.reduction import lowest_natural_frequencies_Hz
+    from stages.chain import chain_model, simulate_scenario
+
+    start, cpu_start = time.perf_counter(), time.process_time()
+    rows = []
+    if fea_outcome["reason"] is not None:
+        rows = [record(p, "infeasible", fea_outcome["reason"], {}) for p in points]
+        return {"rows": rows, **_timing(start, cpu_start)}
+    fea = fea_outcome["fea"][material]
+    frequencies: dict = {}
+    with _one_thread():
+        for p in points:
+            cfg = point_config(settings, p["inputs"])
+            model = chain_model(cfg, fea)
+            try:
+                if model not in frequencies:
+                    frequencies[model] = float(lowest_natural_frequencies_Hz(model, 1)[0])
+                scenario = simulate_scenario(cfg, model, material, p["inputs"]["cam"], fea.pitch_m,
+                                             settings.samples_per_degree)
+            except DynamicsError as e:
+                rows.append(record(p, "infeasible", f"chain: {e}", fea_metrics(fea), fea.warnings))
+                continue
+            metrics = {**fea_metrics(fea), **chain_metrics(scenario, fea, settings.station, model.link_mass_kg,
+                                                           frequencies[model])}
+            rows.append(record(p, "ok", "", metrics, fea.warnings))
+    return {"rows": rows, **_timing(start, cpu_start)}
+
+
+def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings) -> dict[str, bytes]:
+    """pipeline.py's full report of one design (its material, the study's cam laws): the files'
+    bytes, so the client writes them and the worker needs no shared disk."""
+    from reporting.outputs import write_default_outputs
+    from stages.chain import run_dynamics
+    from stages.fea import run_fea
+    from stages.progress import Progress
+
+    with tempfile.TemporaryDirectory(prefix="study-report-") as scratch, _one_thread():
+        out = Path(scratch) / "report"
+        out.mkdir()
+        cfg = replace(point_config(settings, inputs), cams=tuple(cams), out=out, station=None, images=True)
+        progress = Progress(True)
+        timing: dict = {}
+        fea = run_fea(cfg, progress)
+        models, scenarios = run_dynamics(cfg, fea, progress)
+        write_default_outputs(cfg, fea, models, scenarios, timing, progress)
+        return {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.is_file()}
