@@ -193,6 +193,51 @@ def test_step_stability_limit_both_sides(zeta):
         assert limit == pytest.approx(2.0)
 
 
+@pytest.mark.parametrize("zeta", [0.0, 0.13, 0.5])
+def test_ab2_predictor_stability_limit_both_sides_and_below_euler(zeta):
+    limit = verlet.stable_omega_h(zeta, "ab2")
+    assert verlet.spectral_radius(0.99 * limit, zeta, "ab2") <= 1.0 + 1e-12
+    assert verlet.spectral_radius(1.01 * limit, zeta, "ab2") > 1.0
+    assert limit <= verlet.stable_omega_h(zeta) + 1e-12
+
+
+def test_ab2_predictor_linear_chain_diverges_just_above_its_limit_and_not_just_below():
+    model = ClearanceChain(_chain(n=8), 0.0)
+    h_limit = verlet.stable_step_s(model, safety=1.0, predictor="ab2")
+    n = 4000
+    for factor, diverges in ((0.99, False), (1.01, True)):
+        h = factor * h_limit
+        tf = h * np.arange(n + 1)
+        _, v, a, _ = _cam().svaj(tf)
+        run = lambda: verlet.integrate(model, v, a, h, np.zeros(8), -v[0] * np.ones(8), out_every=n,  # noqa: E731
+                                       predictor="ab2")
+        if diverges:
+            with pytest.raises(SolverDivergedError, match="diverged"):
+                run()
+        else:
+            assert np.all(np.isfinite(run().y))
+
+
+def test_ab2_predictor_numpy_path_equals_the_compiled_path_and_kelvin_voigt_is_refused():
+    if verlet.numba is None:
+        pytest.skip("numba not installed: only the numpy path exists")
+    model = ClearanceChain(_chain(n=6, friction_coefficient=0.35), 94e-6, tensioner=Tensioner(2e5, 3.0, 50.0))
+    t = _times(degrees=20)
+    sub = 8
+    tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
+    _, v, a, _ = _cam().svaj(tf)
+    runs = [verlet.integrate(model, v, a, tf[1], np.zeros(6), -v[0] * np.ones(6), out_every=sub, compiled=c,
+                             predictor="ab2") for c in (True, False)]
+    np.testing.assert_allclose(runs[0].y, runs[1].y, rtol=0, atol=1e-12 * np.max(np.abs(runs[1].y)))
+    euler = verlet.integrate(model, v, a, tf[1], np.zeros(6), -v[0] * np.ones(6), out_every=sub)
+    assert np.max(np.abs(euler.y - runs[0].y)) > 1e-9 * np.max(np.abs(euler.y))  # the option is not ignored
+    kv = ClearanceChain(_chain(n=6), 94e-6, span_damping="kelvin-voigt")
+    with pytest.raises(DynamicsError, match="predictor"):
+        verlet.integrate(kv, v, a, tf[1], np.zeros(6), -v[0] * np.ones(6), out_every=sub, predictor="ab2")
+    with pytest.raises(DynamicsError, match="predictor"):
+        verlet.integrate(model, v, a, tf[1], np.zeros(6), -v[0] * np.ones(6), out_every=sub, predictor="rk4")
+
+
 def _final_state(model, h, duration):
     n = int(round(duration / h))
     tf = h * np.arange(n + 1)
