@@ -58,7 +58,7 @@ def test_fast_integrator_converges_to_the_reference_at_second_order(law):
 
 def test_ab2_predictor_converges_at_second_order_with_a_smaller_error_than_euler():
     """The global law with the Adams-Bashforth velocity predictor: same order, smaller error (in y on
-    this case 0.47-0.58 of euler's; on the 85-link station metrics about 0.25-0.3, README)."""
+    this case 0.47-0.58 of euler's; on the 85-link station metrics 0.2-0.5, README)."""
     chain = ChainModel(n_links=10, link_mass_kg=2.03, stiffness_N_per_m=9e7, preload_N=300.0,
                        friction_coefficient=0.35)
     model = ClearanceChain(chain, 94e-6)
