@@ -112,8 +112,8 @@ def _window_table(quick: bool) -> list[str]:
         for sub in ((default_sub,) if quick else (4, default_sub, 16, 32)):
             elapsed, x = _best(model, cam, t, sub, repeats)
             mark = " (default)" if sub == default_sub else ""
-            lines.append(f"| {law} | euler | {sub}{mark} | {1e6 * (t[1] - t[0]) / sub:.1f} | {1e3 * elapsed:.1f} ms | "
-                         f"{_error(x, ref):.1e} |")
+            lines.append(f"| {law} | euler | {sub}{mark} | {1e6 * (t[1] - t[0]) / sub:.1f} | "
+                         f"{1e3 * elapsed:.1f} ms | {_error(x, ref):.1e} |")
         if law == "global":
             model_ref = ref
             lines += _ab2_rows(model, cam, t, ref, quick, repeats)
@@ -137,7 +137,8 @@ def _ab2_rows(model, cam, t, ref, quick, repeats) -> list[str]:
     (interleaved runs, so the ratio holds under load)."""
     rows = []
     for sub in ((16,) if quick else (9, 12, 16, 18, 20, 24, 32)):
-        pairs = [(_fast(model, cam, t, sub)[0], _fast(model, cam, t, sub, predictor="ab2")[0]) for _ in range(repeats)]
+        pairs = [(_fast(model, cam, t, sub)[0], _fast(model, cam, t, sub, predictor="ab2")[0])
+                 for _ in range(repeats)]
         euler_s, ab2_s = min(p[0] for p in pairs), min(p[1] for p in pairs)
         x = _fast(model, cam, t, sub, predictor="ab2")[1]
         rows.append(f"| global | ab2 | {sub} | {1e6 * (t[1] - t[0]) / sub:.1f} | {1e3 * ab2_s:.1f} ms "

@@ -12,10 +12,10 @@ is continuous and piecewise linear in e (a kink at each contact change, no jump)
 change is resolved by the step itself without event location, at second order: the kink costs an
 O(h^2) local velocity error at each of the O(1) changes per unit time. The predicted velocity may
 instead be the Adams-Bashforth extrapolation w + h (3/2 a - 1/2 a_prev) (`predictor="ab2"`, global
-law only, see PREDICTORS): still one force evaluation per step, still second order, smaller error. Why not the exact linear
-propagator between switching events: with 85 spans each in one of three states, every switch
-changes the system matrix, and a new (2N)^2 exponential per switch costs more than thousands of
-explicit steps.
+law only, see PREDICTORS): still one force evaluation per step, still second order, smaller error.
+Why not the exact linear propagator between switching events: with 85 spans each in one of three
+states, every switch changes the system matrix, and a new (2N)^2 exponential per switch costs more
+than thousands of explicit steps.
 
 Stability: the step's amplification for one damped mode (omega, zeta) is `spectral_radius`; the
 largest stable omega h, `stable_omega_h(zeta)`, is 2 for zeta = 0 and falls with zeta. The step is
@@ -54,7 +54,7 @@ DEFAULT_SAFETY = 0.25
 N_ENERGY = 3
 # Velocity predictors for the velocity-dependent forces, w_pred = w + h (a + theta (a - a_prev)):
 # "euler" (theta 0: w + h a, off by O(h^2)), the default; "ab2" (theta 1/2, Adams-Bashforth 2: off
-# by O(h^3) where a is smooth), which cuts the global damping law's error about 4x at the same step
+# by O(h^3) where a is smooth), which cuts the global damping law's error 2-5x at the same step
 # (README, "The clearance chain") at a lower stability limit (`stable_omega_h`). Not for the
 # Kelvin-Voigt law: its dashpot force jumps at each impact, and there "ab2" loses the clean second
 # order (measured on the case of tests/test_clearance_fast_vs_reference.py: orders 1.2 and 1.5).
@@ -426,8 +426,8 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
         raise DynamicsError("integrate: compiled=True but numba is not installed")
     runner = _run_compiled if use_numba else _run
     with np.errstate(over="ignore", invalid="ignore"):
-        runner(y0, w0, float(u0), float(ud0), zd, zdd, float(step_s), theta, int(out_every), int(record_from), par, ipar,
-               cmat, bool(track_energy), *out, stats, energy)
+        runner(y0, w0, float(u0), float(ud0), zd, zdd, float(step_s), theta, int(out_every), int(record_from), par,
+               ipar, cmat, bool(track_energy), *out, stats, energy)
     if stats[6] or not np.all(np.isfinite(out[0])):
         where = stats[6] if stats[6] else "?"
         raise SolverDivergedError(
