@@ -170,16 +170,21 @@ def test_energy_balance(damping, clearance_m):
     assert abs(residual) <= 1e-6 * abs(r.cam_work_J)
 
 
-def test_numpy_path_equals_the_compiled_path():
-    if verlet.numba is None:
-        pytest.skip("numba not installed: only the numpy path exists")
-    model = ClearanceChain(_chain(n=6, friction_coefficient=0.35), 94e-6, tensioner=Tensioner(2e5, 3.0, 50.0))
+def _short_run(model, predictor="euler", compiled=None):
     t = _times(degrees=20)
     sub = 8
     tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
     _, v, a, _ = _cam().svaj(tf)
-    runs = [verlet.integrate(model, v, a, tf[1], np.zeros(6), -v[0] * np.ones(6), out_every=sub, compiled=c)
-            for c in (True, False)]
+    return verlet.integrate(model, v, a, tf[1], np.zeros(6), -v[0] * np.ones(6), out_every=sub, compiled=compiled,
+                            predictor=predictor)
+
+
+@pytest.mark.parametrize("predictor", ["euler", "ab2"])
+def test_numpy_path_equals_the_compiled_path(predictor):
+    if verlet.numba is None:
+        pytest.skip("numba not installed: only the numpy path exists")
+    model = ClearanceChain(_chain(n=6, friction_coefficient=0.35), 94e-6, tensioner=Tensioner(2e5, 3.0, 50.0))
+    runs = [_short_run(model, predictor, c) for c in (True, False)]
     np.testing.assert_allclose(runs[0].y, runs[1].y, rtol=0, atol=1e-12 * np.max(np.abs(runs[1].y)))
     assert runs[0].impacts == runs[1].impacts
 
@@ -191,6 +196,41 @@ def test_step_stability_limit_both_sides(zeta):
     assert verlet.spectral_radius(1.01 * limit, zeta) > 1.0
     if zeta == 0.0:
         assert limit == pytest.approx(2.0)
+
+
+@pytest.mark.parametrize("zeta", [0.0, 0.13, 0.5])
+def test_ab2_predictor_stability_limit_both_sides_and_below_euler(zeta):
+    limit = verlet.stable_omega_h(zeta, "ab2")
+    assert verlet.spectral_radius(0.99 * limit, zeta, "ab2") <= 1.0 + 1e-12
+    assert verlet.spectral_radius(1.01 * limit, zeta, "ab2") > 1.0
+    assert limit <= verlet.stable_omega_h(zeta) + 1e-12
+
+
+def test_ab2_predictor_linear_chain_diverges_just_above_its_limit_and_not_just_below():
+    model = ClearanceChain(_chain(n=8), 0.0)
+    h_limit = verlet.stable_step_s(model, safety=1.0, predictor="ab2")
+    n = 4000
+    for factor, diverges in ((0.99, False), (1.01, True)):
+        h = factor * h_limit
+        tf = h * np.arange(n + 1)
+        _, v, a, _ = _cam().svaj(tf)
+        run = lambda: verlet.integrate(model, v, a, h, np.zeros(8), -v[0] * np.ones(8), out_every=n,  # noqa: E731
+                                       predictor="ab2")
+        if diverges:
+            with pytest.raises(SolverDivergedError, match="diverged"):
+                run()
+        else:
+            assert np.all(np.isfinite(run().y))
+
+
+def test_ab2_predictor_changes_the_run_and_is_refused_for_kelvin_voigt():
+    model = ClearanceChain(_chain(n=6, friction_coefficient=0.35), 94e-6, tensioner=Tensioner(2e5, 3.0, 50.0))
+    euler, ab2 = _short_run(model), _short_run(model, "ab2")
+    assert np.max(np.abs(euler.y - ab2.y)) > 1e-9 * np.max(np.abs(euler.y))  # the option is not ignored
+    with pytest.raises(DynamicsError, match="predictor"):
+        _short_run(ClearanceChain(_chain(n=6), 94e-6, span_damping="kelvin-voigt"), "ab2")
+    with pytest.raises(DynamicsError, match="predictor"):
+        _short_run(model, "rk4")
 
 
 def _final_state(model, h, duration):

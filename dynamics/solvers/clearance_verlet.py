@@ -10,10 +10,12 @@ velocity-dependent forces (damping, friction) are evaluated at the predicted vel
 is off by O(h^2), so the scheme stays second order with one force evaluation per step. The span law
 is continuous and piecewise linear in e (a kink at each contact change, no jump), so every contact
 change is resolved by the step itself without event location, at second order: the kink costs an
-O(h^2) local velocity error at each of the O(1) changes per unit time. Why not the exact linear
-propagator between switching events: with 85 spans each in one of three states, every switch
-changes the system matrix, and a new (2N)^2 exponential per switch costs more than thousands of
-explicit steps.
+O(h^2) local velocity error at each of the O(1) changes per unit time. The predicted velocity may
+instead be the Adams-Bashforth extrapolation w + h (3/2 a - 1/2 a_prev) (`predictor="ab2"`, global
+law only, see PREDICTORS): still one force evaluation per step, still second order, smaller error.
+Why not the exact linear propagator between switching events: with 85 spans each in one of three
+states, every switch changes the system matrix, and a new (2N)^2 exponential per switch costs more
+than thousands of explicit steps.
 
 Stability: the step's amplification for one damped mode (omega, zeta) is `spectral_radius`; the
 largest stable omega h, `stable_omega_h(zeta)`, is 2 for zeta = 0 and falls with zeta. The step is
@@ -24,7 +26,8 @@ Speed: with numba installed the step loop runs compiled (`_run_loops`: loops ove
 arrays, no temporaries; about 3 us per step at N = 85 with the global damping law, whose dense C w
 product is half of it, and under 1 us with the Kelvin-Voigt law); without numba the vectorised
 numpy form (`_run`, the same steps and outputs, tested equal) runs, about 50x slower. Measured in
-benchmarks/bench_clearance.py.
+benchmarks/bench_clearance.py. A hand-written fastmath loop for C w was measured no faster than
+numba's np.dot (BLAS dgemv) at N = 85, so the dot stays.
 """
 
 from __future__ import annotations
@@ -49,6 +52,13 @@ DEFAULT_SAFETY = 0.25
 # stats: impacts, free-play span-steps, recorded span-steps, peak T, min T, peak impact force, diverged
 # at step; energy: cam work, damping dissipation (tensioner's included), friction dissipation
 N_ENERGY = 3
+# Velocity predictors for the velocity-dependent forces, w_pred = w + h (a + theta (a - a_prev)):
+# "euler" (theta 0: w + h a, off by O(h^2)), the default; "ab2" (theta 1/2, Adams-Bashforth 2: off
+# by O(h^3) where a is smooth), which cuts the global damping law's error 2-5x at the same step
+# (README, "The clearance chain") at a lower stability limit (`stable_omega_h`). Not for the
+# Kelvin-Voigt law: its dashpot force jumps at each impact, and there "ab2" loses the clean second
+# order (measured on the case of tests/test_clearance_fast_vs_reference.py: orders 1.2 and 1.5).
+PREDICTORS = {"euler": 0.0, "ab2": 0.5}
 
 
 def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
@@ -73,24 +83,26 @@ def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
     push = d <= -kg
     contact = pull | push
     t_el = np.where(pull, d, np.where(push, d + kg, 0.0))
+    # the span forces' net on each link first (neighbouring preloads cancel exactly), then the damping
+    # and drive forces as `cw` (subtracted): added to preload-sized terms they would lose their low bits
+    f = np.empty(n)
+    f[1:] = t_el[1:] - t_el[: n - 1]
+    f[0] = t_el[0] - t_el[n - 1]
     if kv:
         dash = np.where(contact, beta * k * ed, 0.0)
         t_all = t_el + dash
+        cw = np.empty(n)
+        cw[1:] = dash[: n - 1] - dash[1:]
+        cw[0] = beta * kd * w[0] - dash[0] + dash[n - 1]
         p_damp = np.sum(dash * ed) + beta * kd * w[0] * w[0]
         f_cam = -kd * y[0] - beta * kd * w[0]
     else:
         t_all = t_el
-    f = np.empty(n)
-    f[1:] = t_all[1:] - t_all[: n - 1]
-    f[0] = t_all[0] - t_all[n - 1]
-    if kv:
-        f[0] -= kd * y[0] + beta * kd * w[0]
-    else:
         cw = np.dot(cmat, w)
-        f -= cw
-        f[0] -= kd * y[0]
         p_damp = np.dot(w, cw)
         f_cam = -kd * y[0] - np.sum(cw)
+    cw[0] += kd * y[0]
+    f -= cw
     fr = -fc * np.tanh((zd + w) * inv_vs)
     f += fr
     p_fric = -np.sum(fr * (zd + w))
@@ -102,13 +114,14 @@ def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
     return a, au, t_el, contact, f_cam * zd, p_damp, p_fric
 
 
-def _run(y, w, u, ud, zd, zdd, h, out_every, record_from, par, ipar, cmat, track_energy,
+def _run(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat, track_energy,
          out_y, out_w, out_a, out_u, out_ud, stats, energy):
     """Steps over the nodes of zd/zdd (len n_steps + 1); writes outputs every `out_every` steps
     (out_* have n_steps // out_every + 1 rows), statistics from step `record_from` on."""
     n_steps = zd.shape[0] - 1
     bound = par[12]
     a, au, t_el, contact, pc, pd, pf = _accel(y, w, u, ud, zd[0], zdd[0], par, ipar, cmat)
+    a_prev, au_prev = a, au  # the first step's predictor is w + h a whatever theta
     powers = np.array([pc, pd, pf])
     free = ~contact
     phase = np.zeros(y.shape[0], dtype=np.bool_)
@@ -121,8 +134,9 @@ def _run(y, w, u, ud, zd, zdd, h, out_every, record_from, par, ipar, cmat, track
         uh = ud + 0.5 * h * au
         y = y + h * wh
         u = u + h * uh
-        wp = w + h * a
-        up = ud + h * au
+        wp = w + h * (a + theta * (a - a_prev))
+        up = ud + h * (au + theta * (au - au_prev))
+        a_prev, au_prev = a, au
         a, au, t_el, contact, pc2, pd2, pf2 = _accel(y, wp, u, up, zd[i + 1], zdd[i + 1], par, ipar, cmat)
         w = wh + 0.5 * h * a
         ud = uh + 0.5 * h * au
@@ -181,21 +195,22 @@ def _accel_into(y, w, u, ud, zd, zdd, par, ipar, cmat, cw, a, t_el, contact):
     n = y.shape[0]
     p_damp = 0.0
     p_fric = 0.0
+    # as in `_accel`: the span forces' net in `a`, the damping and drive forces in `cw` (subtracted)
+    for i in range(n):
+        a[i] = 0.0
     if kv:
         f_cam = -kd * y[0] - beta * kd * w[0]
         p_damp = beta * kd * w[0] * w[0]
         for i in range(n):
-            a[i] = 0.0
-        a[0] = f_cam
+            cw[i] = 0.0
+        cw[0] = beta * kd * w[0]
     else:
         cw[:] = np.dot(cmat, w)
         total = 0.0
         for i in range(n):
-            a[i] = -cw[i]
             total += cw[i]
             p_damp += w[i] * cw[i]
         f_cam = -kd * y[0] - total
-        a[0] -= kd * y[0]
     t_s = 0.0
     for j in range(n):
         l = j + 1 if j + 1 < n else 0
@@ -215,19 +230,22 @@ def _accel_into(y, w, u, ud, zd, zdd, par, ipar, cmat, cw, a, t_el, contact):
             t = 0.0
             contact[j] = False
         t_el[j] = t
+        a[j] += t
+        a[l] -= t
         if kv and contact[j]:
             dash = beta * k * ed
+            cw[j] -= dash
+            cw[l] += dash
             t += dash
             p_damp += dash * ed
         if j == s:
             t_s = t
-        a[j] += t
-        a[l] -= t
+    cw[0] += kd * y[0]
     for i in range(n):
         v_abs = zd + w[i]
         fr = -fc * np.tanh(v_abs * inv_vs)
         p_fric -= fr * v_abs
-        a[i] = (a[i] + fr) / m - zdd
+        a[i] = (a[i] - cw[i] + fr) / m - zdd
     au = 0.0
     if tens:
         mt, kt, ct, f0 = par[8], par[9], par[10], par[11]
@@ -236,7 +254,7 @@ def _accel_into(y, w, u, ud, zd, zdd, par, ipar, cmat, cw, a, t_el, contact):
     return au, f_cam * zd, p_damp, p_fric
 
 
-def _run_loops(y, w, u, ud, zd, zdd, h, out_every, record_from, par, ipar, cmat, track_energy,
+def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat, track_energy,
                out_y, out_w, out_a, out_u, out_ud, stats, energy):
     """`_run` as loops over preallocated arrays (compiled with numba); same steps, same outputs."""
     n_steps = zd.shape[0] - 1
@@ -254,6 +272,8 @@ def _run_loops(y, w, u, ud, zd, zdd, h, out_every, record_from, par, ipar, cmat,
     free = np.empty(n, dtype=np.bool_)
     phase = np.zeros(n, dtype=np.bool_)
     au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, cmat, cw, a, t_el, contact)
+    a_prev = a.copy()  # the first step's predictor is w + h a whatever theta
+    au_prev = au
     powers = np.array([pc, pd, pf])
     p_new = np.empty(3)
     for j in range(n):
@@ -266,10 +286,12 @@ def _run_loops(y, w, u, ud, zd, zdd, h, out_every, record_from, par, ipar, cmat,
         for j in range(n):
             wh[j] = w[j] + 0.5 * h * a[j]
             y[j] += h * wh[j]
-            wp[j] = w[j] + h * a[j]
+            wp[j] = w[j] + h * (a[j] + theta * (a[j] - a_prev[j]))
+            a_prev[j] = a[j]
         uh = ud + 0.5 * h * au
         u += h * uh
-        up = ud + h * au
+        up = ud + h * (au + theta * (au - au_prev))
+        au_prev = au
         au, pc2, pd2, pf2 = _accel_into(y, wp, u, up, zd[i + 1], zdd[i + 1], par, ipar, cmat, cw, a, t_el, contact)
         for j in range(n):
             w[j] = wh[j] + 0.5 * h * a[j]
@@ -318,30 +340,31 @@ else:  # pragma: no cover
     _run_compiled = None
 
 
-def spectral_radius(omega_h: float, zeta: float) -> float:
+def spectral_radius(omega_h: float, zeta: float, predictor: str = "euler") -> float:
     """Largest |eigenvalue| of one step on the mode q'' + 2 zeta omega q' + omega^2 q = 0 (state q,
-    q', carried acceleration)."""
+    q', carried acceleration, the previous step's acceleration) with the given velocity predictor."""
+    theta = PREDICTORS[predictor]
     wh, c = float(omega_h), 2.0 * zeta * float(omega_h)  # accelerations scaled by h^2: -wh^2 q - c h q'
-    # state (q, h q', h^2 a)
-    m = np.zeros((3, 3))
-    for col in range(3):
-        q, v, a = np.eye(3)[col]
+    # state (q, h q', h^2 a, h^2 a_prev)
+    m = np.zeros((4, 4))
+    for col in range(4):
+        q, v, a, a_prev = np.eye(4)[col]
         v_half = v + 0.5 * a
         q1 = q + v_half
-        v_pred = v + a
+        v_pred = v + a + theta * (a - a_prev)
         a1 = -wh * wh * q1 - c * v_pred
-        m[:, col] = (q1, v_half + 0.5 * a1, a1)
+        m[:, col] = (q1, v_half + 0.5 * a1, a1, a)
     return float(np.max(np.abs(np.linalg.eigvals(m))))
 
 
-def stable_omega_h(zeta: float) -> float:
+def stable_omega_h(zeta: float, predictor: str = "euler") -> float:
     """Largest omega h with spectral radius <= 1 (bisection; 2 for zeta = 0)."""
     lo, hi = 0.0, 2.0 + 1e-12
-    if spectral_radius(hi, zeta) <= 1.0 + 1e-12:
+    if spectral_radius(hi, zeta, predictor) <= 1.0 + 1e-12:
         return hi
     for _ in range(60):
         mid = 0.5 * (lo + hi)
-        if spectral_radius(mid, zeta) <= 1.0 + 1e-12:
+        if spectral_radius(mid, zeta, predictor) <= 1.0 + 1e-12:
             lo = mid
         else:
             hi = mid
@@ -371,10 +394,15 @@ class Run:
 
 def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 0.0, ud0: float = 0.0,
               out_every: int = 1, record_from: int = 0, track_energy: bool = False,
-              compiled: bool | None = None) -> Run:
+              compiled: bool | None = None, predictor: str = "euler") -> Run:
     """Step the clearance chain `model` (dynamics.clearance.ClearanceChain) over the nodes at which
     the cam's velocity and acceleration are given (uniform step `step_s`, len n_steps + 1), from
-    (y0, w0, u0, ud0). `compiled`: None = numba when installed, False = the numpy path."""
+    (y0, w0, u0, ud0). `compiled`: None = numba when installed, False = the numpy path. `predictor`:
+    the velocity at which the damping and friction forces are taken (PREDICTORS)."""
+    theta = PREDICTORS[_predictor(predictor)]
+    if theta and model.span_damping != "global":
+        raise DynamicsError(f"predictor: {predictor!r} is for the global damping law (the Kelvin-Voigt dashpot "
+                            f"jumps at impacts); use predictor='euler'")
     zd = np.ascontiguousarray(zd_nodes, dtype=float)
     zdd = np.ascontiguousarray(zdd_nodes, dtype=float)
     n_steps = zd.size - 1
@@ -398,8 +426,8 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
         raise DynamicsError("integrate: compiled=True but numba is not installed")
     runner = _run_compiled if use_numba else _run
     with np.errstate(over="ignore", invalid="ignore"):
-        runner(y0, w0, float(u0), float(ud0), zd, zdd, float(step_s), int(out_every), int(record_from), par, ipar,
-               cmat, bool(track_energy), *out, stats, energy)
+        runner(y0, w0, float(u0), float(ud0), zd, zdd, float(step_s), theta, int(out_every), int(record_from), par,
+               ipar, cmat, bool(track_energy), *out, stats, energy)
     if stats[6] or not np.all(np.isfinite(out[0])):
         where = stats[6] if stats[6] else "?"
         raise SolverDivergedError(
@@ -427,14 +455,20 @@ def packed_parameters(model, bound: float = np.inf):
     return par, ipar, cmat
 
 
-def stable_step_s(model, safety: float = DEFAULT_SAFETY) -> float:
+def stable_step_s(model, safety: float = DEFAULT_SAFETY, predictor: str = "euler") -> float:
     """`safety` times the largest stable step at the highest full-contact frequency."""
     if not (0 < safety <= 1):
         raise DynamicsError(f"safety: expected a fraction in (0, 1], got {safety!r}")
     omega = model.max_frequency_rad_s()
-    return safety * stable_omega_h(model.damping_ratio_at(omega)) / omega
+    return safety * stable_omega_h(model.damping_ratio_at(omega), _predictor(predictor)) / omega
 
 
-def substeps_for(model, output_step_s: float, safety: float = DEFAULT_SAFETY) -> int:
+def substeps_for(model, output_step_s: float, safety: float = DEFAULT_SAFETY, predictor: str = "euler") -> int:
     """Steps per output interval so that the step is at most `safety` of the stability limit."""
-    return max(1, int(math.ceil(output_step_s / stable_step_s(model, safety) - 1e-9)))
+    return max(1, int(math.ceil(output_step_s / stable_step_s(model, safety, predictor) - 1e-9)))
+
+
+def _predictor(name: str) -> str:
+    if name not in PREDICTORS:
+        raise DynamicsError(f"predictor: expected one of {', '.join(PREDICTORS)}, got {name!r}")
+    return name
