@@ -540,8 +540,10 @@ class _Integrator:
                     change_times.extend([t_now] * self.switch(state))
                     if len(change_times) > self.max_events:
                         raise SolverFailedError(
-                            f"clearance reference: more than {self.max_events} contact changes by t = {t_now:.9g} s "
-                            "(a contact chattering onto its stop?); raise max_events or add contact damping")
+                            f"clearance reference: more than {self.max_events} contact changes (max_events) by "
+                            f"t = {t_now:.9g} s, each one a restart of solve_ivp (contacts chattering?): raise "
+                            "max_events, or use the fast integrator dynamics.solvers.clearance_verlet, whose cost "
+                            "does not grow with contact changes")
                     continue
                 state = sol.y[:, -1]
                 break
