@@ -1,13 +1,14 @@
 """Where the clearance chain's methods fail (issue #11), each limit asserted on both sides: the
 event-located reference's contact-change budget (max_events), central difference's stiffness limit on
 the common interface, and the accuracy limit of the exact solver's Heun splitting of the span law.
-The fast integrator's own step limit is in tests/test_clearance_chain.py. Cases: 10 links, the first
+The reference's absolute tolerance against the contact stiffness, too. The fast integrator's own step
+limit is in tests/test_clearance_chain.py. Cases: 10 links, the first
 30 degrees of an index from rest (dynamics.clearance_stability.small_case)."""
 
 import numpy as np
 import pytest
 
-from dynamics.clearance_stability import method_case, small_case
+from dynamics.clearance_stability import event_case, method_case, small_case
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import max_frequency
@@ -60,3 +61,17 @@ def test_exact_solver_heun_splitting_loses_accuracy_at_large_contact_steps():
     assert fine.setting < 1.2 and fine.outcome == "accurate"
     assert coarse.setting > 3.0 and coarse.outcome == "inaccurate"
     assert np.isfinite(coarse.relative_error) and coarse.relative_error < 1.0
+
+
+def test_reference_at_loose_tolerance_loses_stiff_contacts_unless_atol_follows_the_response():
+    """The reference's default atol (rtol x 10 um, sized for the default chain's stretch P/k = 24 um)
+    is 5e-4 of the 2.2 um response of a 1e10 N/m chain at rtol 1e-4: off by 1.3e-2 (measured); at
+    rtol 1e-6, or with atol set to the response's scale, it is accurate (9e-6, 2e-7)."""
+    loose = event_case(1e10, 1e-5, rtol=1e-4)
+    assert loose.outcome == "inaccurate" and loose.relative_error > 5e-3
+    tight = event_case(1e10, 1e-5, rtol=1e-6)
+    assert tight.outcome == "accurate" and tight.relative_error < 1e-4
+    case = small_case(1e10, 1e-5)
+    fast = case.fast(verlet.stable_step_s(case.model, safety=1.0) / 32).y
+    scaled = case.reference(1e-4, atol=1e-13)
+    assert np.max(np.abs(scaled.y_m - fast)) < 1e-4 * np.max(np.abs(fast))
