@@ -83,7 +83,7 @@ def make(out_dir: Path, quick: bool) -> list[str]:
 def _legend(ax, outcomes=OUTCOMES):
     for outcome in outcomes:
         ax.scatter([], [], color=COLORS[outcome], edgecolors="k", label=outcome)
-    ax.legend(fontsize=8, loc="best")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
 
 
 def _event_chart(out_dir: Path, quick: bool):
