@@ -43,11 +43,7 @@ def make(out_dir: Path, quick: bool) -> list[str]:
         for c in (c for c in cases if c.clearance_m == g):
             ax.scatter(c.step_factor, c.stiffness_N_per_m, color=COLORS[c.outcome], edgecolors="k", s=40)
         ax.axvline(1.0, color="k", ls="--", lw=1)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("step / stability limit (full-contact top frequency)")
-        ax.set_title(f"pin clearance {g * 1e3:g} mm", fontsize=10)
-        ax.grid(True, which="both", alpha=0.3)
+        _log_axes(ax, "step / stability limit (full-contact top frequency)", f"pin clearance {g * 1e3:g} mm")
     axes[0].set_ylabel("link stiffness k (N/m)")
     for outcome, color in COLORS.items():
         axes[-1].scatter([], [], color=color, edgecolors="k", label=outcome)
@@ -80,6 +76,14 @@ def make(out_dir: Path, quick: bool) -> list[str]:
             + [f"wrote {p}" for p in (map_path, wp_path, event_path, method_path, methods_wp_path)])
 
 
+def _log_axes(ax, xlabel: str, title: str, fontsize: int = 10) -> None:
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel(xlabel)
+    ax.set_title(title, fontsize=fontsize)
+    ax.grid(True, which="both", alpha=0.3)
+
+
 def _legend(ax, outcomes=OUTCOMES):
     for outcome in outcomes:
         ax.scatter([], [], color=COLORS[outcome], edgecolors="k", label=outcome)
@@ -96,11 +100,7 @@ def _event_chart(out_dir: Path, quick: bool):
             ax.scatter(c.clearance_m, c.stiffness_N_per_m, color=COLORS[c.outcome], edgecolors="k", s=60)
             ax.annotate(f"{c.contact_changes}\n{c.wall_s:.1f}s", (c.clearance_m, c.stiffness_N_per_m), fontsize=6,
                         xytext=(6, -2), textcoords="offset points")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("pin clearance g (m)")
-        ax.set_title(f"rtol {rtol:g}", fontsize=10)
-        ax.grid(True, which="both", alpha=0.3)
+        _log_axes(ax, "pin clearance g (m)", f"rtol {rtol:g}")
     axes[0].set_ylabel("link stiffness k (N/m)")
     _legend(axes[-1], ("accurate", "inaccurate", "failed"))
     fig.suptitle(f"Event-located reference (solve_ivp DOP853, restarted at every contact change): 10 links, "
@@ -122,17 +122,14 @@ def _method_chart(out_dir: Path, quick: bool):
     for ax, method in zip(axes, methods):
         for c in (c for c in cases if c.method == method):
             ax.scatter(c.setting, c.stiffness_N_per_m, color=COLORS[c.outcome], edgecolors="k", s=50)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        title = {"exact": "exact (Heun splitting of the span law)"}.get(method, method)
         if method in FIXED_STEP:
-            ax.set_xlabel("omega_max h (full-contact top frequency)")
+            _log_axes(ax, "omega_max h (full-contact top frequency)", title, fontsize=9)
             if method == "central-difference":
                 ax.axvline(2.0, color="k", ls="--", lw=1)
         else:
-            ax.set_xlabel("rtol")
+            _log_axes(ax, "rtol", title, fontsize=9)
             ax.invert_xaxis()
-        ax.set_title({"exact": "exact (Heun splitting of the span law)"}.get(method, method), fontsize=9)
-        ax.grid(True, which="both", alpha=0.3)
     axes[0].set_ylabel("link stiffness k (N/m)")
     _legend(axes[-1])
     fig.suptitle("Clearance chain on the common interface (ClearanceChain.system(), dynamics.solvers.solve): "
