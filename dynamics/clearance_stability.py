@@ -177,8 +177,8 @@ class SmallCase:
         return verlet.integrate(self.model, np.interp(tf, self.t, self.v), np.interp(tf, self.t, self.a),
                                 tf[1] - tf[0], np.zeros(n), -self.v[0] * np.ones(n), out_every=sub)
 
-    def reference(self, rtol: float, max_events: int = 100_000, atol: float | None = None):
-        from dynamics.clearance_reference import reference_response
+    def reference(self, rtol: float, max_events: int | None = None, atol: float | None = None):
+        from dynamics.clearance_reference import MAX_EVENTS, reference_response
 
         c = self.model.chain
         kelvin_voigt = self.model.span_damping == "kelvin-voigt"
@@ -188,7 +188,7 @@ class SmallCase:
             cam=_cam(), t_eval_s=self.t, damping_matrix=None if kelvin_voigt else self.model.damping_matrix,
             span_damping_beta_s=self.model.beta_s if kelvin_voigt else 0.0,
             friction_force_N=c.coulomb_force_N, friction_velocity_scale_m_s=c.friction_velocity_scale_m_s,
-            rtol=rtol, atol=atol, max_events=max_events)
+            rtol=rtol, atol=atol, max_events=MAX_EVENTS if max_events is None else max_events)
 
     def common(self, method: str, **options):
         """ClearanceChain.system() by dynamics.solvers.solve (friction must be 0: see the module doc)."""
