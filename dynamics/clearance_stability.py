@@ -47,7 +47,6 @@ from dynamics.clearance import ClearanceChain
 from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedError
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import solve
-from dynamics.solvers._common import max_frequency
 from dynamics.system import SampledForce
 
 OUTCOMES = ("accurate", "inaccurate", "diverged", "failed")
@@ -270,7 +269,7 @@ class MethodCase:
 def _steps_per_output(case: SmallCase, omega_h: float) -> tuple[int, float]:
     """Whole steps per output interval giving omega_max h closest to omega_h (at or above it), and the
     omega_max h they give."""
-    omega = max_frequency(case.model.system())
+    omega = case.model.max_frequency_rad_s()
     dt_out = case.t[1] - case.t[0]
     sub = max(int(np.floor(omega * dt_out / omega_h)), 1)
     return sub, omega * dt_out / sub

@@ -11,7 +11,6 @@ import pytest
 from dynamics.clearance_stability import event_case, method_case, small_case
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.solvers import clearance_verlet as verlet
-from dynamics.solvers._common import max_frequency
 
 
 def test_reference_within_its_event_budget_agrees_and_one_change_over_is_refused():
@@ -32,7 +31,7 @@ def test_reference_within_its_event_budget_agrees_and_one_change_over_is_refused
 def _stiffness_for_omega_h(omega_h, k0=1e8):
     """The link stiffness at which one step per output interval has omega_max h = omega_h."""
     case = small_case(k0, 94e-6, friction_coefficient=0.0)
-    omega_h0 = max_frequency(case.model.system()) * (case.t[1] - case.t[0])
+    omega_h0 = case.model.max_frequency_rad_s() * (case.t[1] - case.t[0])
     return k0 * (omega_h / omega_h0) ** 2
 
 
