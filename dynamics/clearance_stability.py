@@ -18,13 +18,13 @@ the event-located reference (dynamics.clearance_reference, rtol 1e-10, the same 
 error in the station links' displacement and acceleration versus wall time; the reference's own
 cost at looser tolerances for comparison.
 
-Where event location fails (`event_map`): the reference restarts at every contact change, so its cost
-is one solve_ivp restart per change on top of a step set by the contact frequency (its steps shrink
-as 1/sqrt(k)). Per clearance g and stiffness k (10 links, the first `EVENT_DEGREES` of an index from
-rest, rtol 1e-4 / 1e-6 / 1e-8, a budget of `max_events` contact changes): contact changes, function evaluations,
-wall time and outcome against the fast integrator at h_max / 32 (its error there is below 1e-5 of the
-peak): "accurate" (within 1e-3), "inaccurate", or "failed" (more contact changes than the budget:
-refused with a DynamicsError naming max_events, or a solve_ivp failure).
+Where event location fails (`event_map`): the reference restarts at every output time and every
+contact change, and its steps shrink as 1/sqrt(k) once they are shorter than an output interval. Per
+clearance g, stiffness k and rtol (10 links, the first `EVENT_DEGREES` of an index from rest, a budget
+of `max_events` contact changes): contact changes, function evaluations, wall time and outcome
+against the fast integrator at h_max / 32 (its own error there about 1e-5 of the peak or less):
+"accurate" (within 1e-3), "inaccurate", or "failed" (more contact changes than the budget: refused
+with a DynamicsError naming max_events, or a solve_ivp failure).
 
 The common-interface methods (`method_map`, `method_work_precision`): ClearanceChain.system() (global
 law, no tensioner, friction 0: the form has no cam velocity) solved by dynamics.solvers.solve.
