@@ -71,6 +71,10 @@ _EPS = np.finfo(float).eps
 # Default absolute tolerance on displacements, per unit rtol: the scale of the contact stretches
 # (P/k is 24 um for the default chain, pin clearances are tens of um).
 ATOL_LENGTH_SCALE_M = 1e-5
+# Default budget of contact changes: 10x the most any window here locates (about 2000, 85 links over
+# 180 degrees). A restart costs 4-6 ms (10 to 85 links, measured under load), so a chattering run is
+# refused after 1.5-2 minutes; a budget of 100 000 would run 7-10 minutes first, like a hang.
+MAX_EVENTS = 20_000
 
 
 class HeldCam:
@@ -185,7 +189,7 @@ def reference_response(
     rtol: float = 1e-10,
     atol: float | None = None,
     max_step: float = np.inf,
-    max_events: int = 100_000,
+    max_events: int = MAX_EVENTS,
 ) -> ReferenceResponse:
     """The clearance chain's response at t_eval_s, from the state (y0, ydot0) at t_eval_s[0].
 
@@ -200,7 +204,7 @@ def reference_response(
     (DOP853 by default, the fastest here: Radau took 20x longer with a 1e11 N/m tensioner).
     atol: on displacements in metres (default rtol x ATOL_LENGTH_SCALE_M, 10 um); velocities get
     atol times the chain's highest frequency bound. max_events: contact changes allowed before the
-    run stops (chatter)."""
+    run stops with a one-line error (chatter; `MAX_EVENTS` by default)."""
     model = _Model.build(n_links, link_mass_kg, stiffness_N_per_m, drive_stiffness_N_per_m, preload_N, clearance_m,
                          damping_matrix, span_damping_beta_s, friction_force_N, friction_velocity_scale_m_s,
                          tensioner, idler_span)
@@ -540,8 +544,10 @@ class _Integrator:
                     change_times.extend([t_now] * self.switch(state))
                     if len(change_times) > self.max_events:
                         raise SolverFailedError(
-                            f"clearance reference: more than {self.max_events} contact changes by t = {t_now:.9g} s "
-                            "(a contact chattering onto its stop?); raise max_events or add contact damping")
+                            f"clearance reference: more than {self.max_events} contact changes (max_events) by "
+                            f"t = {t_now:.9g} s, each one a restart of solve_ivp (contacts chattering?): raise "
+                            "max_events, or use the fast integrator dynamics.solvers.clearance_verlet, whose cost "
+                            "does not grow with contact changes")
                     continue
                 state = sol.y[:, -1]
                 break

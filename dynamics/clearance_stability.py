@@ -17,6 +17,21 @@ Work-precision (`work_precision`): the fast integrator at several steps per outp
 the event-located reference (dynamics.clearance_reference, rtol 1e-10, the same sampled cam input),
 error in the station links' displacement and acceleration versus wall time; the reference's own
 cost at looser tolerances for comparison.
+
+Where event location fails (`event_map`): the reference restarts at every output time and every
+contact change, and its steps shrink as 1/sqrt(k) once they are shorter than an output interval. Per
+clearance g, stiffness k and rtol (10 links, the first `EVENT_DEGREES` of an index from rest, a budget
+of `max_events` contact changes): contact changes, function evaluations, wall time and outcome
+against the fast integrator at h_max / 32 (its own error there about 1e-5 of the peak or less):
+"accurate" (within 1e-3), "inaccurate", or "failed" (more contact changes than the budget: refused
+with a DynamicsError naming max_events, or a solve_ivp failure).
+
+The common-interface methods (`method_map`, `method_work_precision`): ClearanceChain.system() (global
+law, no tensioner, friction 0: the form has no cam velocity) solved by dynamics.solvers.solve.
+Fixed-step methods are placed by omega_max h (omega_max the full-contact top frequency), adaptive ones
+by rtol; outcomes against the fast integrator at h_max / 64: "accurate" within 1e-2, "inaccurate",
+"diverged" (SolverDivergedError), "failed" (SolverFailedError). Newmark and HHT take no nonlinear
+force, so they have no place on the nonlinear chain.
 """
 
 from __future__ import annotations
@@ -29,10 +44,12 @@ import numpy as np
 from dynamics.cams import CamProgram
 from dynamics.chain import ChainModel
 from dynamics.clearance import ClearanceChain
-from dynamics.errors import SolverDivergedError
+from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedError
 from dynamics.solvers import clearance_verlet as verlet
+from dynamics.solvers import solve
+from dynamics.system import SampledForce
 
-OUTCOMES = ("accurate", "inaccurate", "diverged")
+OUTCOMES = ("accurate", "inaccurate", "diverged", "failed")
 STEP_FACTORS = (0.5, 0.9, 0.99, 1.01, 1.1, 1.5, 2.0)
 STIFFNESSES_N_PER_M = (1e7, 1e8, 1e9)
 CLEARANCES_M = (0.0, 94e-6, 376e-6)
@@ -129,4 +146,222 @@ def work_precision(n_links: int = 20, substeps=(4, 8, 16, 32, 64), rtols=(1e-6, 
         wall = time.perf_counter() - start
         points.append(WorkPoint(f"reference, rtol {rtol:g}", wall, float(np.max(np.abs(loose.y_m - ref.y_m)) / sx),
                                 float(np.max(np.abs(loose.yddot_m_s2 - ref.yddot_m_s2)) / sa)))
+    return points
+
+
+# --- where event location fails, and the common-interface methods ------------------------------------
+
+EVENT_DEGREES = 30.0
+EVENT_CLEARANCES_M = (1e-7, 1e-6, 1e-5, 1e-4, 1e-3)
+EVENT_STIFFNESSES_N_PER_M = (1e6, 1e7, 1e8, 1e9, 1e10)
+EVENT_RTOLS = (1e-4, 1e-6, 1e-8)
+EVENT_BUDGET = 1000
+
+
+@dataclass(frozen=True)
+class SmallCase:
+    """A short window of the chain from rest: the cam's velocity and acceleration at the output times t
+    (4 samples per degree), held linearly in between by every method."""
+
+    model: ClearanceChain
+    t: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+
+    def fast(self, step_s: float):
+        """The fast integrator at about `step_s` (a whole number of steps per output interval)."""
+        sub = max(int(np.ceil((self.t[1] - self.t[0]) / step_s)), 1)
+        tf = np.linspace(self.t[0], self.t[-1], sub * (self.t.size - 1) + 1)
+        n = self.model.n_links
+        return verlet.integrate(self.model, np.interp(tf, self.t, self.v), np.interp(tf, self.t, self.a),
+                                tf[1] - tf[0], np.zeros(n), -self.v[0] * np.ones(n), out_every=sub)
+
+    def reference(self, rtol: float, max_events: int | None = None, atol: float | None = None):
+        from dynamics.clearance_reference import MAX_EVENTS, reference_response
+
+        c = self.model.chain
+        kelvin_voigt = self.model.span_damping == "kelvin-voigt"
+        return reference_response(
+            n_links=c.n_links, link_mass_kg=c.link_mass_kg, stiffness_N_per_m=c.stiffness_N_per_m,
+            drive_stiffness_N_per_m=c.drive_stiffness, preload_N=c.preload_N, clearance_m=self.model.clearance_m,
+            cam=_cam(), t_eval_s=self.t, damping_matrix=None if kelvin_voigt else self.model.damping_matrix,
+            span_damping_beta_s=self.model.beta_s if kelvin_voigt else 0.0,
+            friction_force_N=c.coulomb_force_N, friction_velocity_scale_m_s=c.friction_velocity_scale_m_s,
+            rtol=rtol, atol=atol, max_events=MAX_EVENTS if max_events is None else max_events)
+
+    def common(self, method: str, **options):
+        """ClearanceChain.system() by dynamics.solvers.solve (friction must be 0: see the module doc)."""
+        c, n = self.model.chain, self.model.n_links
+        force = SampledForce(self.t, c.base_excitation_force(self.a))
+        return solve(self.model.system(), force, self.t, method=method, x0=np.zeros(n),
+                     v0=-self.v[0] * np.ones(n), **options)
+
+
+def small_case(stiffness_N_per_m: float, clearance_m: float, *, n_links: int = 10, degrees: float = EVENT_DEGREES,
+               friction_coefficient: float = 0.35, span_damping: str = "global") -> SmallCase:
+    chain = ChainModel(n_links=n_links, link_mass_kg=2.0, stiffness_N_per_m=stiffness_N_per_m,
+                       friction_coefficient=friction_coefficient)
+    t = np.arange(int(round(4 * degrees)) + 1) / 4 / (6 * 180.0)
+    _, v, a, _ = _cam().svaj(t)
+    return SmallCase(ClearanceChain(chain, clearance_m, span_damping=span_damping), t, v, a)
+
+
+@dataclass(frozen=True)
+class EventCase:
+    stiffness_N_per_m: float
+    clearance_m: float
+    rtol: float
+    outcome: str  # accurate / inaccurate / failed
+    contact_changes: int  # located (at failure: the budget)
+    function_evaluations: int  # 0 at failure
+    wall_s: float
+    relative_error: float  # nan when failed
+    message: str  # the error's line when failed
+
+
+def _relative(y, ref) -> float:
+    return float(np.max(np.abs(y - ref)) / np.max(np.abs(ref)))
+
+
+def event_case(stiffness_N_per_m: float, clearance_m: float, *, max_events: int = EVENT_BUDGET,
+               rtol: float = 1e-8, accuracy: float = 1e-3, degrees: float = EVENT_DEGREES,
+               span_damping: str = "global") -> EventCase:
+    case = small_case(stiffness_N_per_m, clearance_m, degrees=degrees, span_damping=span_damping)
+    converged = case.fast(verlet.stable_step_s(case.model, safety=1.0) / 32).y
+    start = time.perf_counter()
+    try:
+        ref = case.reference(rtol, max_events)
+    except (SolverFailedError, DynamicsError) as e:
+        return EventCase(stiffness_N_per_m, clearance_m, rtol, "failed", max_events, 0, time.perf_counter() - start,
+                         np.nan, str(e))
+    wall = time.perf_counter() - start
+    rel = _relative(ref.y_m, converged)
+    return EventCase(stiffness_N_per_m, clearance_m, rtol, "accurate" if rel <= accuracy else "inaccurate",
+                     ref.n_contact_changes, ref.n_function_evaluations, wall, rel, "")
+
+
+def event_map(stiffnesses=EVENT_STIFFNESSES_N_PER_M, clearances=EVENT_CLEARANCES_M, rtols=EVENT_RTOLS,
+              **kw) -> list[EventCase]:
+    return [event_case(k, g, rtol=r, **kw) for r in rtols for k in stiffnesses for g in clearances]
+
+
+METHOD_STIFFNESSES_N_PER_M = (1e6, 1e7, 1e8, 1e9, 1e10)
+# fixed-step methods: omega_max h; adaptive ones: rtol
+METHOD_SETTINGS = {
+    "central-difference": (0.5, 1.0, 1.98, 2.02, 3.0),
+    "exact": (0.5, 1.0, 2.0, 4.0, 16.0),
+    "rk45": (1e-3, 1e-5, 1e-7),
+    "radau": (1e-3, 1e-5),
+}
+FIXED_STEP = ("central-difference", "exact")
+
+
+@dataclass(frozen=True)
+class MethodCase:
+    method: str
+    stiffness_N_per_m: float
+    setting: float  # omega_max h (fixed step) or rtol
+    outcome: str
+    wall_s: float
+    relative_error: float  # nan when diverged or failed
+
+
+def _steps_per_output(case: SmallCase, omega_h: float) -> tuple[int, float]:
+    """Whole steps per output interval giving omega_max h closest to omega_h (at or above it), and the
+    omega_max h they give."""
+    omega = case.model.max_frequency_rad_s()
+    dt_out = case.t[1] - case.t[0]
+    sub = max(int(np.floor(omega * dt_out / omega_h)), 1)
+    return sub, omega * dt_out / sub
+
+
+def method_run(case: SmallCase, method: str, setting: float):
+    """One common-interface solve: the response and the setting actually used."""
+    if method in FIXED_STEP:
+        sub, omega_h = _steps_per_output(case, setting)
+        dt = (case.t[1] - case.t[0]) / sub
+        options = {"dt": dt * (1 + 1e-12)} if method == "central-difference" else {"substeps": sub}
+        return case.common(method, **options), omega_h
+    return case.common(method, rtol=setting, atol=setting * 1e-5), setting
+
+
+def method_case(method: str, stiffness_N_per_m: float, setting: float, *, clearance_m: float = 94e-6,
+                accuracy: float = 1e-2, degrees: float = EVENT_DEGREES) -> MethodCase:
+    case = small_case(stiffness_N_per_m, clearance_m, degrees=degrees, friction_coefficient=0.0)
+    converged = case.fast(verlet.stable_step_s(case.model, safety=1.0) / 64).y
+    used = _steps_per_output(case, setting)[1] if method in FIXED_STEP else setting
+    start = time.perf_counter()
+    try:
+        r = method_run(case, method, setting)[0]
+    except SolverDivergedError:
+        return MethodCase(method, stiffness_N_per_m, used, "diverged", time.perf_counter() - start, np.nan)
+    except SolverFailedError:
+        return MethodCase(method, stiffness_N_per_m, used, "failed", time.perf_counter() - start, np.nan)
+    wall = time.perf_counter() - start
+    rel = _relative(r.x, converged)
+    return MethodCase(method, stiffness_N_per_m, used, "accurate" if rel <= accuracy else "inaccurate", wall, rel)
+
+
+def method_map(stiffnesses=METHOD_STIFFNESSES_N_PER_M, settings=METHOD_SETTINGS) -> list[MethodCase]:
+    """Every method x stiffness x setting; a fixed step is whole steps per output interval, so soft
+    chains reach only the small omega_max h of one step per output, done once."""
+    cases, done = [], set()
+    for method, values in settings.items():
+        for k in stiffnesses:
+            for value in values:
+                if method in FIXED_STEP:
+                    case = small_case(k, 94e-6, friction_coefficient=0.0)
+                    key = (method, k, _steps_per_output(case, value)[0])
+                    if key in done:
+                        continue
+                    done.add(key)
+                cases.append(method_case(method, k, value))
+    return cases
+
+
+def method_work_precision(stiffness_N_per_m: float = 9.0092e7, clearance_m: float = 94e-6,
+                          degrees: float = 90.0) -> list[WorkPoint]:
+    """Every method that solves the nonlinear chain, step or tolerance swept, against the reference at
+    rtol 1e-10 (10 links, friction 0, `degrees` of an index from rest)."""
+    case = small_case(stiffness_N_per_m, clearance_m, degrees=degrees, friction_coefficient=0.0)
+    ref = case.reference(1e-10)
+    sx, sa = np.max(np.abs(ref.y_m)), np.max(np.abs(ref.yddot_m_s2))
+    h_max = verlet.stable_step_s(case.model, safety=1.0)
+
+    def timed(label, run, warm=True):
+        if warm:
+            run()  # compile / warm caches
+        walls = []
+        while not walls or (warm and len(walls) < 5 and sum(walls) < 0.2):  # best of a few for short runs
+            start = time.perf_counter()
+            y, a = run()
+            walls.append(time.perf_counter() - start)
+        wall = min(walls)
+        return WorkPoint(label, wall, float(np.max(np.abs(y - ref.y_m)) / sx),
+                         float(np.max(np.abs(a - ref.yddot_m_s2)) / sa))
+
+    def fast(f):
+        def run():
+            r = case.fast(h_max * f)
+            return r.y, r.a
+        return run
+
+    def common(method, setting):
+        def run():
+            r = method_run(case, method, setting)[0]
+            return r.x, r.a
+        return run
+
+    def reference(rtol):
+        def run():
+            r = case.reference(rtol)
+            return r.y_m, r.yddot_m_s2
+        return run
+
+    points = [timed(f"fast, h = {f:g} h_max", fast(f)) for f in (0.5, 0.25, 0.125, 0.0625)]
+    points += [timed(f"central-difference, omega h = {w:g}", common("central-difference", w)) for w in (1.0, 0.5, 0.25)]
+    points += [timed(f"exact (Heun splitting), omega h = {w:g}", common("exact", w)) for w in (1.0, 0.5, 0.25)]
+    points += [timed(f"rk45, rtol {r:g}", common("rk45", r)) for r in (1e-4, 1e-6, 1e-8)]
+    points += [timed(f"radau, rtol {r:g}", common("radau", r)) for r in (1e-4, 1e-6)]
+    points += [timed(f"reference, rtol {r:g}", reference(r), warm=False) for r in (1e-6, 1e-8)]
     return points
