@@ -41,6 +41,8 @@ from dataclasses import dataclass, fields
 
 from geometry.errors import GeometryError
 
+FILLET_FIELDS = ("lug_fillet_radius_m", "pocket_corner_radius_m", "pocket_floor_radius_m")
+
 AL_DENSITY_KG_PER_M3 = 2700.0
 TI_DENSITY_KG_PER_M3 = 4510.0
 REPORT_LINK_MASS_AL_KG = 1.10
@@ -67,15 +69,20 @@ class LinkDimensions:
     body_height_m: float = 0.030
     bore_radius_m: float = 0.009525
     lug_radius_m: float = 0.016
-    recess_length_m: float = 0.078029
+    recess_length_m: float = 0.079657
     recess_width_m: float = 0.07493
     web_thickness_m: float = 0.006858
+    lug_fillet_radius_m: float = 0.010
+    pocket_corner_radius_m: float = 0.008
+    pocket_floor_radius_m: float = 0.001
 
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise GeometryError(f"LinkDimensions.{f.name}={value!r}: expected a positive length in metres")
+            lowest = 0.0 if f.name in FILLET_FIELDS else None  # a fillet radius of 0 is a sharp corner
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and (value >= 0 if lowest == 0.0 else value > 0)):
+                expected = "a length >= 0 in metres (0: sharp)" if lowest == 0.0 else "a positive length in metres"
+                raise GeometryError(f"LinkDimensions.{f.name}={value!r}: expected {expected}")
         checks = [
             (self.bore_radius_m < self.lug_radius_m, "bore_radius_m < lug_radius_m"),
             (2 * self.lug_radius_m < self.body_width_m, "2 * lug_radius_m < body_width_m"),
@@ -86,12 +93,82 @@ class LinkDimensions:
                 self.recess_length_m / 2 < self.pitch_m / 2 - self.bore_radius_m,
                 "recess_length_m / 2 < pitch_m / 2 - bore_radius_m (recess clear of the bores)",
             ),
+            (
+                2 * self.pocket_corner_radius_m < min(self.recess_length_m, self.recess_width_m),
+                "2 * pocket_corner_radius_m < recess_length_m and recess_width_m",
+            ),
+            (
+                self.pocket_floor_radius_m <= self.pocket_corner_radius_m or self.pocket_corner_radius_m == 0,
+                "pocket_floor_radius_m <= pocket_corner_radius_m",
+            ),
+            (
+                self.pocket_floor_radius_m < min(self.body_height_m - self.web_thickness_m, (self.body_width_m - self.recess_width_m) / 2),
+                "pocket_floor_radius_m below the recess depth and the side rail width",
+            ),
+            (
+                _lug_fillet_reach_m(self) < self.body_width_m / 2,
+                "lug_fillet_radius_m small enough that the fillet ends on the body's end face (below body_width_m / 2)",
+            ),
         ]
         for ok, rule in checks:
             if not ok:
                 raise GeometryError(f"LinkDimensions {self}: expected {rule}")
 
 
+def _lug_fillet_centre_m(dims: LinkDimensions) -> tuple[float, float]:
+    """Centre (x, y) of the fillet at the corner (body_length/2, lug_radius) of the +x lug neck.
+
+    The fillet is tangent to the body's end face x = body_length/2 and to the lug's outline: the
+    tongue's side y = lug_radius if it is short enough, else the lug's half disc around the bore.
+    """
+    a, b, c, rho = dims.body_length_m / 2, dims.lug_radius_m, dims.pitch_m / 2, dims.lug_fillet_radius_m
+    if rho <= c - a:
+        return a + rho, b + rho
+    return a + rho, math.sqrt((b + rho) ** 2 - (a + rho - c) ** 2)
+
+
+def _lug_fillet_reach_m(dims: LinkDimensions) -> float:
+    """|y| where the lug-neck fillet meets the body's end face."""
+    return _lug_fillet_centre_m(dims)[1] if dims.lug_fillet_radius_m > 0 else dims.lug_radius_m
+
+
+def _segment_m2(radius: float, angle: float) -> float:
+    """Area between a circular arc of `angle` (rad) and its chord."""
+    return radius**2 / 2 * (angle - math.sin(angle))
+
+
+def lug_fillet_area_m2(dims: LinkDimensions) -> float:
+    """Plan area one lug-neck fillet adds (four of them, each the full body height)."""
+    a, b, c, rho = dims.body_length_m / 2, dims.lug_radius_m, dims.pitch_m / 2, dims.lug_fillet_radius_m
+    if rho <= c - a:
+        return (1 - math.pi / 4) * rho**2
+    fx, fy = _lug_fillet_centre_m(dims)
+    # Polygon corner Q -> end of the tongue P -> tangent point on the disc T2 -> tangent point on
+    # the end face T1, less the two circular segments its arcs cut off the chords.
+    t2 = (c + b * (fx - c) / (b + rho), b * fy / (b + rho))
+    polygon = [(a, b), (c, b), t2, (a, fy)]
+    shoelace = 0.5 * abs(sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(polygon, polygon[1:] + polygon[:1])))
+    disc_angle = math.pi / 2 - math.atan2(t2[1], t2[0] - c)
+    fillet_angle = math.acos((fx - c) / (b + rho))
+    return shoelace - _segment_m2(b, disc_angle) - _segment_m2(rho, fillet_angle)
+
+
+def _floor_cove_m2(dims: LinkDimensions) -> tuple[float, float]:
+    """Cross-section area of the pocket's floor fillet and its centroid's distance from the wall."""
+    f = dims.pocket_floor_radius_m
+    return (1 - math.pi / 4) * f**2, f * (10 - 3 * math.pi) / (3 * (4 - math.pi))
+
+
+def recess_volume_m3(dims: LinkDimensions) -> float:
+    """Volume the pocket removes: rounded-rectangle prism less the floor fillet's cove (Pappus)."""
+    length, width, corner = dims.recess_length_m, dims.recess_width_m, dims.pocket_corner_radius_m
+    depth = dims.body_height_m - dims.web_thickness_m
+    cove_m2, centroid_m = _floor_cove_m2(dims)
+    cove_path_m = 2 * (length - 2 * corner) + 2 * (width - 2 * corner) + 2 * math.pi * (corner - centroid_m)
+    return (length * width - (4 - math.pi) * corner**2) * depth - cove_m2 * cove_path_m
+
+
+#: The built-in link (the calibrated dimensions above).
 DEFAULT_LINK = LinkDimensions()
 
 
@@ -101,14 +178,17 @@ def nominal_volume_m3(dims: LinkDimensions) -> float:
     return (
         dims.body_length_m * dims.body_width_m * dims.body_height_m
         + 2 * lug_outside_body_m2 * dims.body_height_m
+        + 4 * lug_fillet_area_m2(dims) * dims.body_height_m
         - 2 * math.pi * dims.bore_radius_m**2 * dims.body_height_m
-        - dims.recess_length_m * dims.recess_width_m * (dims.body_height_m - dims.web_thickness_m)
+        - recess_volume_m3(dims)
     )
 
 
 def recess_length_for_volume(dims: LinkDimensions, volume_m3: float) -> float:
-    """The recess length that gives the link `volume_m3`, other dimensions kept (calibration step 1)."""
-    without_recess = nominal_volume_m3(dims) + dims.recess_length_m * dims.recess_width_m * (
-        dims.body_height_m - dims.web_thickness_m
-    )
-    return (without_recess - volume_m3) / (dims.recess_width_m * (dims.body_height_m - dims.web_thickness_m))
+    """The recess length that gives the link `volume_m3`, other dimensions kept (calibration step 1).
+
+    The volume is linear in the recess length: each metre removes the pocket's cross-section less
+    its two floor coves."""
+    depth = dims.body_height_m - dims.web_thickness_m
+    per_length_m2 = dims.recess_width_m * depth - 2 * _floor_cove_m2(dims)[0]
+    return dims.recess_length_m + (nominal_volume_m3(dims) - volume_m3) / per_length_m2
