@@ -67,9 +67,9 @@ class LinkDimensions:
     body_length_m: float = 0.110
     body_width_m: float = 0.080
     body_height_m: float = 0.030
-    bore_radius_m: float = 0.009525
+    bore_radius_m: float = 0.00873125
     lug_radius_m: float = 0.016
-    recess_length_m: float = 0.079657
+    recess_length_m: float = 0.081233
     recess_width_m: float = 0.07493
     web_thickness_m: float = 0.006858
     lug_fillet_radius_m: float = 0.010
