@@ -182,7 +182,7 @@ def stiffnesses_to_tolerance(
         if first[-1].dofs > max_dofs:
             raise FemError(_unreached(rel_tolerance, sizes, solutions, f"this level already has {first[-1].dofs} DOFs, above max_dofs = {max_dofs}"))
         h /= ratio
-    return {name: estimate_from_levels(sizes, sols, mesh_time / len(materials), fit_last=MIN_LEVELS)
+    return {name: estimate_from_levels(sizes, sols, mesh_time / len(materials), fit_last=MIN_LEVELS, order=order)
             for name, sols in solutions.items()}
 
 

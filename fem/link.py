@@ -201,6 +201,7 @@ def analyse_link_materials(
     load_N: float = 1000.0,
     solver: str = "auto",
     nthreads: int = 2,
+    stress: bool = True,
 ) -> dict[str, LinkSolution]:
     """`analyse_link` for several materials on one mesh, keyed by material name.
 
@@ -209,7 +210,8 @@ def analyse_link_materials(
     with the same Poisson's ratio is that solution scaled by the ratio of Young's moduli (exact); any
     other is solved by CG preconditioned with the first one's factorisation (PARDISO; a few
     back-substitutions, converged to a 1e-10 residual), or directly with other solvers.
-    Shared costs are booked in the first material's `timing_s`.
+    Shared costs are booked in the first material's `timing_s`. stress=False skips the stress
+    evaluation (its fields are NaN): a study needs stresses on its finest level only.
     """
     problem.element(order)
     if not (np.isfinite(load_N) and load_N > 0):
@@ -245,7 +247,7 @@ def analyse_link_materials(
     shared["assembly"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    stress_points = _StressPoints(basis, sk_mesh, fixed, mesh.fixed_bore.radius_m)
+    stress_points = _StressPoints(basis, sk_mesh, fixed, mesh.fixed_bore.radius_m) if stress else None
     shared["post"] = time.perf_counter() - start
 
     results: dict[str, LinkSolution] = {}
@@ -322,11 +324,14 @@ class _StressPoints:
 
 
 def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: int, load_N: float, f: np.ndarray,
-              u: np.ndarray, free: np.ndarray, K, method: str, points: _StressPoints, timing: dict) -> LinkSolution:
+              u: np.ndarray, free: np.ndarray, K, method: str, points: _StressPoints | None,
+              timing: dict) -> LinkSolution:
     work = float(f @ u)
     if not work > 0:
         raise FemError("the link did not deform under the load: check the bore facet sets")
     lam, mu = material.lame_Pa
+    if points is None:
+        return _solution_without_stress(mesh, sk_mesh, basis, material, order, load_N, work, u, free, K, method, timing)
     vm = points.von_mises(u, lam, mu)
     dofs = points.element_dofs
     at_dofs = np.bincount(dofs.ravel(), vm.ravel(), basis.N) / np.bincount(dofs.ravel(), minlength=basis.N)
@@ -360,4 +365,24 @@ def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: 
         displacement_m=problem.as_components(u).copy(),
         von_mises_at_dofs_Pa=at_dofs,
         away_from_clamp_at_dofs=points.away_at_dofs,
+    )
+
+
+def _solution_without_stress(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: int, load_N: float,
+                             work: float, u: np.ndarray, free: np.ndarray, K, method: str,
+                             timing: dict) -> LinkSolution:
+    nan = float("nan")
+    return LinkSolution(
+        material=material, order=order, curved=not sk_mesh.affine, load_N=float(load_N),
+        stiffness_N_per_m=load_N**2 / work,
+        stiffness_from_energy_N_per_m=load_N**2 / float(u[free] @ (K @ u[free])),
+        volume_m3=float(mesh.cad_volume_m3), mesh_volume_m3=float(np.sum(basis.dx)),
+        mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),
+        peak_von_mises_Pa_per_N=nan, peak_von_mises_location_m=[nan] * 3,
+        peak_von_mises_away_from_clamp_Pa_per_N=nan, peak_von_mises_away_location_m=[nan] * 3,
+        clamp_exclusion_radius_m=CLAMP_EXCLUSION_RADIUS_FRACTION * mesh.fixed_bore.radius_m,
+        pitch_m=mesh.pitch_m, bore_radius_m=float(mesh.loaded_bore.radius_m), mesh_size_m=float(mesh.mesh_size_m),
+        n_tets=int(mesh.tets.shape[1]), dofs=int(3 * basis.N), solver=method, timing_s=timing, link=mesh,
+        basis=basis, displacement_m=problem.as_components(u).copy(),
+        von_mises_at_dofs_Pa=np.full(basis.N, nan), away_from_clamp_at_dofs=np.zeros(basis.N, dtype=bool),
     )
