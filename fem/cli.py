@@ -44,6 +44,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--json", action="store_true", help="print one JSON object (SI units) instead of text")
     parser.add_argument("--image", metavar="PNG", help="write an off-screen picture of the deformed link to this .png")
     parser.add_argument("--vtu", metavar="VTU", help="write the finest level's mesh with displacement (m) and von Mises stress (Pa) at --load, for ParaView")
+    parser.add_argument("--converge-stress", action="store_true",
+                        help="refine the mesh at the stress hot spots until the peak von Mises stress changes by <= 5 %% "
+                             "(fem.stress; several more solves); without it the peak is the k mesh's, not converged")
     parser.add_argument("--scalar", choices=("von_mises", "displacement"), default="von_mises", help="colouring of --image (default: %(default)s)")
     return parser
 
@@ -113,6 +116,11 @@ def _text(r: dict) -> str:
         f"levels          {levels}",
         "timing          " + ", ".join(f"{k} {v:.2f} s" for k, v in t.items()),
     ]
+    if "peak_von_mises_converged_Pa_per_N" in r:
+        lines.insert(10, f"  converged     {r['peak_von_mises_converged_Pa_per_N'] * 1e-3:.4g} MPa per kN at "
+                         f"{_mm(r['peak_von_mises_converged_location_m'])} mm: {r['stress_description']}")
+    else:
+        lines.insert(10, "  (the k mesh's peaks, not converged under refinement: --converge-stress converges them)")
     if "image" in r:
         lines.append(f"image           {r['image']} (deformation x{r['exaggeration']:g})")
     if "vtu" in r:
@@ -134,6 +142,16 @@ def run(argv: list[str] | None = None) -> dict:
         raise FemError(f"--vtu {args.vtu!r}: expected a .vtu path")
     estimate = stiffness_study(args.step, material, mesh_sizes_m=sizes, order=args.order, load_N=load_N, solver=args.solver)
     result = report(estimate)
+    if args.converge_stress:
+        from .stress import stress_study
+
+        stress = stress_study(args.step, [material], base_mesh_size_m=estimate.finest.mesh_size_m, order=args.order,
+                              solver=args.solver, base={material.name: estimate.finest})[material.name]
+        result |= {"peak_von_mises_converged_Pa_per_N": stress.peak_Pa_per_N,
+                   "peak_von_mises_converged_rel_change": stress.rel_change,
+                   "peak_von_mises_converged_location_m": list(stress.location_m),
+                   "stress_converged": stress.converged, "stress_description": stress.description,
+                   "stress_seconds": stress.timing_s}
     if args.image is not None:
         from .render import render_deformed
 

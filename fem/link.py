@@ -25,7 +25,7 @@ from . import locking, problem, quality, solvers
 from .assembly import elasticity_parts, rigid_body_modes
 from .errors import FemError, FemWarning
 from .materials import Material
-from .problem import CURVED_INTORDER
+from .problem import JACOBIAN_CHECK_INTORDER
 
 # "Away from the clamp": element nodes farther than this fraction of the fixed bore's radius from
 # the rim curves where the clamped bore surface ends. The clamp's rim is a stress singularity
@@ -104,7 +104,7 @@ def skfem_mesh(link: LinkMesh, order: int, curved: bool = True) -> tuple[MeshTet
 
 def _curved_jacobian_ratio(mesh: MeshTet2) -> np.ndarray:
     """Per element: min over quadrature points and vertices of det J (curved) / det J (straight)."""
-    points = np.hstack([get_quadrature(mesh.elem.refdom, CURVED_INTORDER)[0], np.eye(3, 4, 1)])
+    points = np.hstack([get_quadrature(mesh.elem.refdom, JACOBIAN_CHECK_INTORDER)[0], np.eye(3, 4, 1)])
     curved = mesh._mapping().detDF(points)
     straight = MeshTet1(np.ascontiguousarray(mesh.p[:, : mesh.nvertices]), mesh.t)._mapping().detDF(points[:, :1])
     return curved.min(axis=1) / straight[:, 0]

@@ -11,13 +11,15 @@ Each level is meshed once and solved for all materials at once (`link.analyse_li
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
-from .errors import FemError
+from . import quality
+from .errors import FemError, FemWarning
 from .link import LinkSolution, analyse_link_materials
 from .materials import Material
 from .problem import element
@@ -157,6 +159,10 @@ def stiffness_studies(
     for level, h in enumerate(sizes, start=1):
         start = time.perf_counter()
         link = geometry.load_link(source, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
+        if level == len(sizes):
+            wall = quality.thin_wall_warning(link)
+            if wall:
+                warnings.warn(wall, FemWarning, stacklevel=2)
         mesh_time += time.perf_counter() - start
         solved = analyse_link_materials(link, materials, order=order, load_N=load_N, solver=solver,
                                         stress=level == len(sizes))
