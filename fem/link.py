@@ -253,6 +253,7 @@ def analyse_link_materials(
     results: dict[str, LinkSolution] = {}
     first: tuple[Material, np.ndarray] | None = None
     factor = None
+    modes = rigid_body_modes(problem.dof_locations(basis))[free] if method == "amg" else None
     try:
         for material in materials:
             timing = dict(shared) if first is None else {}
@@ -267,11 +268,10 @@ def analyse_link_materials(
                     factor = solvers.Factorization(K)
                     u[free] = factor.solve(f[free])
                 else:
-                    modes = rigid_body_modes(problem.dof_locations(basis))[free] if method == "amg" else None
                     u[free] = solvers.solve(K, f[free], method, near_nullspace=modes)
                 first = (material, u)
             else:
-                u[free] = _reuse(first, material, K, f[free], free, factor, method)
+                u[free] = _reuse(first, material, K, f[free], free, factor, method, modes)
             timing["solve"] = time.perf_counter() - start
             start = time.perf_counter()
             results[material.name] = _solution(mesh, sk_mesh, basis, material, order, load_N, f, u, free, K, method,
@@ -288,14 +288,14 @@ def _same_poisson_ratio(a: Material, b: Material) -> bool:
 
 
 def _reuse(first: tuple[Material, np.ndarray], material: Material, K, f_free: np.ndarray, free: np.ndarray,
-           factor, method: str) -> np.ndarray:
+           factor, method: str, modes: np.ndarray | None) -> np.ndarray:
     """Displacement (free DOFs) of `material` from the first material's solution on the same mesh."""
     first_material, first_u = first
     scale = first_material.youngs_modulus_Pa / material.youngs_modulus_Pa
     if _same_poisson_ratio(first_material, material):
         return first_u[free] * scale  # K is E times a matrix that depends on nu only
     if factor is None:
-        return solvers.solve(K, f_free, method)
+        return solvers.solve(K, f_free, method, near_nullspace=modes)
     # CG does not care how the preconditioner is scaled; the start is the E-scaled first solution.
     u, _ = solvers.preconditioned_cg(K, f_free, factor.solve, first_u[free] * scale)
     return u

@@ -32,6 +32,7 @@ POOR_QUALITY_THRESHOLD = 0.1
 # tet flattened to q = 5e-14 PARDISO and SuperLU still reproduce EA/L to 1e-12, AMG-CG stops
 # converging below q ~ 5e-13, and an exactly flat tet makes PARDISO fail with a zero pivot.
 DEGENERATE_QUALITY = 1e-12
+QUALITY_WARNING_PREFIX = "mesh quality"
 
 
 @dataclass(frozen=True)
@@ -112,7 +113,7 @@ def quality_warning(quality: MeshQuality) -> str | None:
     if quality.below_threshold == 0:
         return None
     return (
-        f"mesh quality: {quality.below_threshold} of {quality.n_tets} tetrahedra have radius ratio below "
+        f"{QUALITY_WARNING_PREFIX}: {quality.below_threshold} of {quality.n_tets} tetrahedra have radius ratio below "
         f"{quality.threshold:g} (worst {quality.worst:.3g} at tet {quality.worst_tet}); stresses there are "
         f"unreliable, consider remeshing"
     )

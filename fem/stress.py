@@ -20,13 +20,15 @@ without bound under refinement. So:
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
-from .errors import FemError
+from .errors import FemError, FemWarning
+from .quality import QUALITY_WARNING_PREFIX
 from .link import LinkSolution, analyse_link_materials
 from .materials import Material
 
@@ -119,13 +121,16 @@ def stress_study(
     current = {n: base[n] for n in names}
     local = base_mesh_size_m
     radius = BALL_RADIUS_ELEMENTS * base_mesh_size_m
+    caught: list = []
     for _ in range(MAX_LEVELS):
         spots = hot_spots(current[names[0]], separation_m=radius)
         local /= 2
         balls = [Refinement(tuple(float(x) for x in s), radius, local) for s in spots]
         with refined(balls):
             link = geometry.load_link(source, mesh_size_m=base_mesh_size_m, order=mesh_order, bore_refinement=bore_refinement)
-        current = analyse_link_materials(link, materials, order=order, solver=solver)
+        with warnings.catch_warnings(record=True) as caught:  # re-issued for the finest level only
+            warnings.simplefilter("always", FemWarning)
+            current = analyse_link_materials(link, materials, order=order, solver=solver)
         for n in names:
             levels[n].append((local, current[n].dofs, current[n].peak_von_mises_away_from_clamp_Pa_per_N))
         changes = [_change(levels[n]) for n in names]
@@ -136,6 +141,9 @@ def stress_study(
                      + f", change {max(changes) * 100:.2g} %")
         if max(changes) <= tolerance:
             break
+    for w in caught:
+        if str(w.message).startswith(QUALITY_WARNING_PREFIX):
+            warnings.warn(f"stress study's finest mesh: {w.message}", FemWarning, stacklevel=2)
     elapsed = time.perf_counter() - start
     return {n: _estimate(levels[n], current[n], tolerance, elapsed / len(names)) for n in names}
 
