@@ -53,7 +53,8 @@ class StressEstimate:
     clamp_distance_m: float  # stress within this distance of the clamped bore's rims is left out
     levels: tuple[tuple[float, int, float], ...]  # (local element size m, DOFs, peak Pa/N), coarse to fine
     finest: LinkSolution
-    timing_s: float
+    timing_s: float  # this material's share of the study's wall time
+    level_seconds: tuple[float, ...] = ()  # wall time from the study's start to the end of each level
 
     @property
     def description(self) -> str:
@@ -118,6 +119,7 @@ def stress_study(
         link = geometry.load_link(source, mesh_size_m=base_mesh_size_m, order=mesh_order, bore_refinement=bore_refinement)
         base = analyse_link_materials(link, materials, order=order, solver=solver)
     levels = {n: [(base_mesh_size_m, base[n].dofs, base[n].peak_von_mises_away_from_clamp_Pa_per_N)] for n in names}
+    seconds = [time.perf_counter() - start]
     current = {n: base[n] for n in names}
     local = base_mesh_size_m
     radius = BALL_RADIUS_ELEMENTS * base_mesh_size_m
@@ -133,6 +135,7 @@ def stress_study(
             current = analyse_link_materials(link, materials, order=order, solver=solver)
         for n in names:
             levels[n].append((local, current[n].dofs, current[n].peak_von_mises_away_from_clamp_Pa_per_N))
+        seconds.append(time.perf_counter() - start)
         changes = [_change(levels[n]) for n in names]
         if progress is not None:
             progress(f"stress level {len(levels[names[0]]) - 1}: local element {local * 1e3:.2g} mm at {len(spots)} hot "
@@ -145,14 +148,15 @@ def stress_study(
         if str(w.message).startswith(QUALITY_WARNING_PREFIX):
             warnings.warn(f"stress study's finest mesh: {w.message}", FemWarning, stacklevel=2)
     elapsed = time.perf_counter() - start
-    return {n: _estimate(levels[n], current[n], tolerance, elapsed / len(names)) for n in names}
+    return {n: _estimate(levels[n], current[n], tolerance, elapsed / len(names), tuple(seconds)) for n in names}
 
 
 def _change(levels: list[tuple[float, int, float]]) -> float:
     return abs(levels[-1][2] - levels[-2][2]) / levels[-1][2]
 
 
-def _estimate(levels, solution: LinkSolution, tolerance: float, seconds: float) -> StressEstimate:
+def _estimate(levels, solution: LinkSolution, tolerance: float, seconds: float,
+              level_seconds: tuple[float, ...]) -> StressEstimate:
     change = _change(levels)
     return StressEstimate(
         peak_Pa_per_N=levels[-1][2],
@@ -164,6 +168,7 @@ def _estimate(levels, solution: LinkSolution, tolerance: float, seconds: float) 
         levels=tuple(levels),
         finest=solution,
         timing_s=seconds,
+        level_seconds=level_seconds,
     )
 
 
