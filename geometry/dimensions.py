@@ -14,24 +14,31 @@ the link, z along the pin axes; bores at x = -pitch/2 and +pitch/2, z from 0 to 
 - a through bore of `bore_radius_m` at each lug (the pins, bushings and rollers are not modelled);
 - a recess pocketed from the top, `recess_length_m x recess_width_m`, leaving a floor
   (web) of `web_thickness_m`, so the thinnest section is the web, 6.858 x 74.93 mm, plus the two
-  side rails of (body_width_m - recess_width_m) / 2 that the pocket leaves standing.
+  side rails of (body_width_m - recess_width_m) / 2 that the pocket leaves standing;
+- fillets at every re-entrant corner, as a machine shop cuts an aluminium link: the CNC design
+  rule "internal vertical corner radius >= 1/3 of the cut's depth" (e.g. Hubs' CNC machining
+  design guide) gives the pocket's vertical corners `pocket_corner_radius_m` = 8 mm (23.1 mm deep)
+  and the lug necks, where the outer profile is cut through the 30 mm body, `lug_fillet_radius_m`
+  = 10 mm; the pocket floor edges get `pocket_floor_radius_m` = 1 mm (a bull-nose end mill's corner,
+  below the wall radii and the 2.5 mm rails). 0 gives a sharp corner (the link before fillets).
 
 Calibration (two unknowns, two conditions):
 
 1. Mass. Both report masses are body plus the same steel hardware, m = rho * V + m_hw, so
    V = (1.35 - 1.10) / (4510 - 2700) = 1.3812e-4 m3 and m_hw = 1.10 - 2700 V = 0.7271 kg
    (`DEFAULT_HARDWARE_MASS_KG`). Given the other dimensions, the recess length is solved from the
-   closed-form volume (`nominal_volume_m3`, `recess_length_for_volume`) for that V: 78.029 mm.
+   closed-form volume (`nominal_volume_m3`, fillets included; `recess_length_for_volume`) for
+   that V: 81.233 mm.
 2. Stiffness. The pins load the link over its full height while the web lies at the bottom, so
    the web and the two 2.535 mm side rails the recess leaves standing bend under the eccentric
    load: that, not the web's AE/L (3.147e8 N/m, report equation 8), sets k. With the volume fixed,
    a larger bore shortens the recess and stiffens the link; the bore radius was chosen by P2 FEA of
    the issue's load case (fixed bore clamped, cosine bearing pressure on the loaded bore,
-   k = F^2 / 2U) in 6061-T6 (E = 68.9 GPa, nu = 0.33): r = 8 mm gave 8.5e7 N/m (straight P2), r = 9.525 mm (a 3/4
-   inch bushing bore) gives, with curved P2 (`fem.analyse_link`, bore_refinement 0.4), 9.19e7 /
-   9.14e7 / 9.10e7 / 9.07e7 N/m at 8 / 6 / 4.5 / 3.4 mm, and `python -m fem --material al6061-t6`
-   extrapolates 9.01e7 N/m (+-0.5 %): 2.8 % below the report's 9.27e7, inside the issue's 15 %.
-   (Titanium, E = 105 GPa, nu = 0.37: 1.37e8 N/m against the report's 1.439e8.)
+   k = F^2 / 2U) in 6061-T6 (E = 68.9 GPa, nu = 0.33). The sharp-cornered link had r = 9.525 mm
+   (3/4 inch) and k = 9.01e7 N/m (-2.8 %); the fillets stiffen the lug necks (9.63e7 N/m at that
+   bore), and r = 8.731 mm (an 11/16 inch bushing bore) gives `python -m fem` k = 9.32e7 N/m
+   (+-0.9 %): +0.6 % against the report's 9.27e7. (Titanium, E = 105 GPa, nu = 0.37: 1.416e8 N/m
+   against the report's 1.439e8.)
 """
 
 from __future__ import annotations
