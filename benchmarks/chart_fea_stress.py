@@ -15,6 +15,7 @@ import time
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+from chart_fea_workprecision import _finish  # benchmarks/ is on the path (charts.py)
 
 import fem
 import geometry
@@ -60,10 +61,4 @@ def make(out_dir: Path, quick: bool) -> list[str]:
     ax.set_ylabel("relative difference to the finest local-refinement peak")
     ax.set_title(f"Peak von Mises stress work-precision, default link, aluminium: {best * 1e-3:.4g} MPa per kN "
                  f"at {tuple(round(x * 1e3, 1) for x in local.location_m)} mm", fontsize=9)
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    path = out_dir / "fea_stress_work_precision.png"
-    fig.savefig(path)
-    plt.close(fig)
-    return lines + [local.description, f"wrote {path}"]
+    return lines + [local.description, _finish(fig, ax, out_dir / "fea_stress_work_precision.png")]

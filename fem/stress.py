@@ -29,6 +29,7 @@ import numpy as np
 
 from .errors import FemError, FemWarning
 from .quality import QUALITY_WARNING_PREFIX
+from .study import DEFAULT_BORE_REFINEMENT
 from .link import LinkSolution, analyse_link_materials
 from .materials import Material
 
@@ -95,7 +96,7 @@ def stress_study(
     base_mesh_size_m: float,
     order: int = 2,
     solver: str = "auto",
-    bore_refinement: float = 0.7,
+    bore_refinement: float = DEFAULT_BORE_REFINEMENT,
     tolerance: float = DEFAULT_TOLERANCE,
     base: dict[str, LinkSolution] | None = None,
     progress: Callable[[str], None] | None = None,
