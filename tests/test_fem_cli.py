@@ -115,3 +115,13 @@ def test_help_explains_units():
     result = run_cli("--help")
     assert result.returncode == 0
     assert "millimetres" in result.stdout and "N/m" in result.stdout
+
+
+def test_converge_stress_reports_the_converged_peak_and_what_it_is():
+    result = run_cli("--mesh-size", "9", "--order", "1", "--converge-stress", "--json", timeout=600)
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["peak_von_mises_converged_Pa_per_N"] > 0
+    assert isinstance(report["stress_converged"], bool)
+    assert (report["peak_von_mises_converged_rel_change"] <= 0.05) == report["stress_converged"]
+    assert "away from the clamped bore" in report["stress_description"]
