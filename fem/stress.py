@@ -28,10 +28,10 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .errors import FemError, FemWarning
-from .quality import QUALITY_WARNING_PREFIX
-from .study import DEFAULT_BORE_REFINEMENT
 from .link import LinkSolution, analyse_link_materials
 from .materials import Material
+from .quality import QUALITY_WARNING_PREFIX
+from .study import DEFAULT_BORE_REFINEMENT
 
 DEFAULT_TOLERANCE = 0.05
 HOT_SPOT_FRACTION = 0.8  # element nodes within 20 % of the peak are refined around
