@@ -121,6 +121,11 @@ def test_stress_study_converges_to_five_percent(part, tmp_path):
     estimate = stress_study(source, [material], base_mesh_size_m=default_mesh_sizes(source)[-1])[material.name]
     assert estimate.converged and estimate.rel_change <= 0.05
     assert len(estimate.levels) >= 2
-    # Away from the clamp: the reported point is farther than the documented distance from the
-    # clamped bore's axis by more than a bore radius (not at its rim).
-    assert estimate.clamp_distance_m > 0
+    # Away from the clamp: the reported point is farther than the documented distance from both
+    # rims (circles) of the clamped bore.
+    bore = estimate.finest.link.fixed_bore
+    rel = np.asarray(estimate.location_m) - bore.center_m
+    axial = rel @ bore.axis
+    radial = np.linalg.norm(rel - axial * bore.axis)
+    to_rims = [np.hypot(radial - bore.radius_m, axial - end) for end in (-bore.length_m / 2, bore.length_m / 2)]
+    assert min(to_rims) > estimate.clamp_distance_m > 0
