@@ -3,8 +3,8 @@
 Two ways to a peak stress, against wall time (meshing + solve + stress, cumulative):
 - uniform refinement: the peak away from the clamped bore on meshes of 6, 4.5, 3.4 (and 2.6) mm;
 - local refinement at the hot spots (`fem.stress.stress_study` from the 4.5 mm mesh of the
-  stiffness study, ball sizes halved per level), run past its 5 % stopping rule to 2 % here so the
-  chart shows where it goes.
+  stiffness study, ball sizes halved per level) with its 5 % stopping rule (2 % in the full run, so
+  the chart shows where it goes).
 The y axis is the relative difference to the finest local-refinement value; the grey band is that
 value's own last change under refinement (its estimate): differences inside it are not resolved.
 """

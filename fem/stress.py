@@ -37,8 +37,9 @@ DEFAULT_TOLERANCE = 0.05
 HOT_SPOT_FRACTION = 0.8  # element nodes within 20 % of the peak are refined around
 MAX_HOT_SPOTS = 8
 MAX_LEVELS = 4  # refinement levels after the base mesh (local size base / 2^4 at most)
-# Ball radius around a hot spot, in base element sizes: the peak must stay inside it as it moves
-# by a fraction of an element from level to level.
+# Ball radius around a hot spot, in the previous level's element sizes: the peak must stay inside it
+# as it moves by a fraction of an element from level to level; the balls shrink with the elements,
+# so each level adds about as many DOFs as the one before.
 BALL_RADIUS_ELEMENTS = 1.5
 
 
@@ -123,9 +124,9 @@ def stress_study(
     seconds = [time.perf_counter() - start]
     current = {n: base[n] for n in names}
     local = base_mesh_size_m
-    radius = BALL_RADIUS_ELEMENTS * base_mesh_size_m
     caught: list = []
     for _ in range(MAX_LEVELS):
+        radius = BALL_RADIUS_ELEMENTS * local
         spots = hot_spots(current[names[0]], separation_m=radius)
         local /= 2
         balls = [Refinement(tuple(float(x) for x in s), radius, local) for s in spots]
