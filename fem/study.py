@@ -89,8 +89,6 @@ def part_scale(source: str | Path | None) -> tuple[float, float]:
 
     if source is None:
         return DEFAULT_LINK.pitch_m, DEFAULT_LINK.bore_radius_m
-    import gmsh  # noqa: F401  (the session below needs it)
-
     from geometry.bores import detect_bores
     from geometry.session import gmsh_model, quiet_stdout
     from geometry.step_io import import_step
