@@ -6,8 +6,10 @@ basis/load + assembly + solve; stress post-processing excluded), log-log, for
 - P2 on straight tets (order-1 mesh, quadratic field),
 - P2 on curved tets (isoparametric, the default),
 each over mesh sizes h = 16 mm x (3/4)^i (bore refinement 0.7, as stiffness_study), plus the
-adaptive `stiffness_to_tolerance` runs (tolerances 5 % and 1 %: their total time against their
-actual error, the cost of a certified answer).
+studies that certify their answer, each drawn as its actual error (filled) and its estimate
+(open, same time) joined by a line: the previous default (three uniform levels 6.5 / 4.5 / 3.5 mm),
+the new default (two levels relative to the part: 6 / 4.5 mm on this link) and the same with a
+finer pair, and the adaptive `stiffness_to_tolerance` runs (tolerances 5 % and 1 %).
 Reference: Richardson extrapolation (fem.richardson) of curved P2 on the three finest levels, each
 with more DOFs than any plotted point; its own estimated error is drawn as a band: errors below it
 are not resolved.
@@ -89,6 +91,7 @@ class Measurements(NamedTuple):
     curved_levels: list[Point]  # every curved-P2 level, the reference's three last
     reference: Extrapolation
     adaptive: dict[float, StiffnessEstimate]  # stiffness_to_tolerance runs by tolerance
+    studies: dict[str, StiffnessEstimate]  # fixed-level studies, by label
 
 
 def measure(quick: bool) -> Measurements:
@@ -108,7 +111,13 @@ def measure(quick: bool) -> Measurements:
         raise RuntimeError("the reference levels must have more DOFs than every plotted point")
     material = fem.get_material(MATERIAL)
     adaptive = {tol: stiffness_to_tolerance(None, material, tol) for tol in ((0.05,) if quick else (0.05, 0.01))}
-    return Measurements(curves, curved, reference, adaptive)
+    studies = {
+        "previous default: 3 uniform levels 6.5/4.5/3.5 mm": fem.stiffness_study(None, material, mesh_sizes_m=(0.0065, 0.0045, 0.0035)),
+        "new default: 2 levels relative to the part (6/4.5 mm)": fem.stiffness_study(None, material),
+    }
+    if not quick:
+        studies["2 levels 4.5/3.4 mm"] = fem.stiffness_study(None, material, mesh_sizes_m=(0.0045, 0.003375))
+    return Measurements(curves, curved, reference, adaptive, studies)
 
 
 def relative_error(k: float, reference: Extrapolation) -> float:
@@ -135,22 +144,24 @@ def plot_work_precision(m: Measurements, path: Path) -> list[str]:
         for p, e in zip(pts, errors):
             lines.append(f"{kind}: h = {p.mesh_size_m * 1e3:.3g} mm, {p.dofs} DOFs, k = {p.stiffness_N_per_m:.6e} N/m, "
                          f"error {e:.2e}, {p.wall_s:.2f} s (mesh {p.timing_s['mesh']:.2f}, assembly {p.timing_s['assembly']:.2f}, solve {p.timing_s['solve']:.2f})")
-    for tol, est in m.adaptive.items():
+    certified = {f"stiffness_to_tolerance({tol:g})": est for tol, est in m.adaptive.items()} | m.studies
+    for (label, est), marker in zip(certified.items(), "*DPXhv"):
         actual = relative_error(est.stiffness_N_per_m, ref)
         wall = adaptive_wall_s(est)
-        ax.loglog([wall], [actual], "k*", markersize=12)
-        ax.annotate(f"stiffness_to_tolerance({tol:g}):\n{len(est.levels)} levels, estimate {est.stiffness_rel_error_estimate:.1e}",
-                    (wall, actual), textcoords="offset points", xytext=(8, -4), fontsize=7)
-        lines.append(f"stiffness_to_tolerance({tol:g}): {len(est.levels)} levels, estimated error {est.stiffness_rel_error_estimate:.2e}, "
-                     f"actual {actual:.2e}, {wall:.1f} s (excluding stress post-processing)")
+        estimate = est.stiffness_rel_error_estimate
+        ax.loglog([wall, wall], [actual, estimate], "k-", lw=0.8)
+        ax.loglog([wall], [actual], "k" + marker, markersize=9, label=f"{label}: actual error (filled), estimate (open)")
+        ax.loglog([wall], [estimate], marker, color="k", markerfacecolor="none", markersize=9)
+        lines.append(f"{label}: {len(est.levels)} levels, estimated error {estimate:.2e}, "
+                     f"actual {actual:.2e}, {wall:.1f} s (meshing + assembly + solve)")
     ax.axhspan(1e-6, ref.rel_error_estimate, color="grey", alpha=0.2,
                label=f"below the reference's own estimated error ({ref.rel_error_estimate:.1e}): not resolved")
     ax.set_xlabel("wall time (s): meshing + assembly + solve, 2 cores")
     ax.set_ylabel("relative error of k against the reference")
     ax.set_title(f"FEA work-precision, default link, aluminium; reference k = {ref.extrapolated / 1e6:.2f} MN/m (Richardson, curved P2)", fontsize=9)
     ax.set_ylim(bottom=1e-4)
-    walls = [p.wall_s for pts in m.curves.values() for p in pts] + [adaptive_wall_s(e) for e in m.adaptive.values()]
-    ax.set_xlim(0.8 * min(walls), 4 * max(walls))  # room for the annotations on the right
+    walls = [p.wall_s for pts in m.curves.values() for p in pts] + [adaptive_wall_s(e) for e in certified.values()]
+    ax.set_xlim(0.8 * min(walls), 1.5 * max(walls))
     return lines + [_finish(fig, ax, path)]
 
 

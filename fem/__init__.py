@@ -2,10 +2,11 @@
 
 from .errors import FemError
 from .export import write_solution_vtu
-from .link import LinkSolution, analyse_link
+from .link import LinkSolution, analyse_link, analyse_link_materials
 from .materials import Material, get_material, load_materials
 from .render import render_deformed
 from .richardson import Extrapolation, extrapolate
+from .stress import StressEstimate, stress_study
 from .study import StiffnessEstimate, stiffness_studies, stiffness_study
 
 __all__ = [
@@ -15,11 +16,14 @@ __all__ = [
     "Material",
     "StiffnessEstimate",
     "analyse_link",
+    "analyse_link_materials",
     "extrapolate",
     "get_material",
     "load_materials",
     "render_deformed",
     "stiffness_studies",
     "stiffness_study",
+    "StressEstimate",
+    "stress_study",
     "write_solution_vtu",
 ]

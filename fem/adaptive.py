@@ -2,8 +2,9 @@
 
 `stiffness_to_tolerance` solves the link at mesh sizes h0, h0/r, h0/r^2, ... (r = 4/3: each level
 has about r^3 = 2.4x the DOFs of the one before), one solve per new level, and after every level
-from the third on extrapolates k from the last three levels (`richardson.extrapolate`, the same
-estimate `stiffness_study` reports). It stops at the first level whose estimated relative error of
+from the second on extrapolates k from the last two levels (`richardson.extrapolate`, the same
+bound `stiffness_study` reports; a third level's pair check would keep the pre-asymptotic coarse
+start in the estimate). It stops at the first level whose estimated relative error of
 the extrapolated k is <= the tolerance. Before meshing a level it predicts that level's DOFs from
 the growth between the last two; a level above `max_dofs` (or a mesh size geometry refuses) ends
 the refinement with a FemError that states the best estimate reached, so a caller never waits for
@@ -26,7 +27,7 @@ from .errors import FemError
 from .link import LinkSolution, analyse_link
 from .materials import Material
 from .problem import element
-from .richardson import extrapolate
+from .richardson import extrapolate, rate_bracket
 from .solvers import resolve
 from .study import DEFAULT_BORE_REFINEMENT, StiffnessEstimate, estimate_from_levels
 
@@ -37,7 +38,7 @@ REFINEMENT_RATIO = 4 / 3
 START_SIZE_FRACTION = 1 / 14
 # About 20 s and 3 GB for a P2 solve with PARDISO on 2 cores (field notes: 381k DOFs, 25 s).
 DEFAULT_MAX_DOFS = 400_000
-MIN_LEVELS = 3  # the error estimate uses three levels (two for q_inf, the third checks the pair)
+MIN_LEVELS = 2  # the error bound needs two levels (see richardson)
 
 
 def bounding_diagonal_m(source) -> float:
@@ -175,7 +176,7 @@ def stiffnesses_to_tolerance(
             worst = None if None in errors.values() else max(errors.values())
             progress(
                 f"FEA level {len(sizes)}: h = {h * 1e3:.3g} mm, {first[-1].dofs} DOFs, k (N/m) {ks}, "
-                f"estimated error {'n/a (needs 3 levels)' if worst is None else f'{worst:.2e}'}, "
+                f"estimated error {f'n/a (needs {MIN_LEVELS} levels)' if worst is None else f'{worst:.2e}'}, "
                 + ("solved in an earlier pass" if reused else f"{time.perf_counter() - level_start:.1f} s")
             )
         if None not in errors.values() and max(errors.values()) <= rel_tolerance:
@@ -183,7 +184,7 @@ def stiffnesses_to_tolerance(
         if first[-1].dofs > max_dofs:
             raise FemError(_unreached(rel_tolerance, sizes, solutions, f"this level already has {first[-1].dofs} DOFs, above max_dofs = {max_dofs}"))
         h /= ratio
-    return {name: estimate_from_levels(sizes, sols, mesh_time / len(materials), fit_last=MIN_LEVELS)
+    return {name: estimate_from_levels(sizes, sols, mesh_time / len(materials), fit_last=MIN_LEVELS, order=order)
             for name, sols in solutions.items()}
 
 
@@ -191,13 +192,14 @@ def _error(solutions: list[LinkSolution]) -> float | None:
     if len(solutions) < MIN_LEVELS:
         return None
     last = solutions[-MIN_LEVELS:]
-    return extrapolate([s.stiffness_N_per_m for s in last], [s.dofs for s in last]).rel_error_estimate
+    return extrapolate([s.stiffness_N_per_m for s in last], [s.dofs for s in last],
+                       rate_bracket(last[-1].order)).rel_error_estimate
 
 
 def _unreached(rel_tolerance: float, sizes: list[float], solutions: dict[str, list[LinkSolution]], why: str) -> str:
     errors = [_error(sols) for sols in solutions.values()]
     error = None if None in errors else max(errors)
-    reached = "fewer than 3 levels solved" if error is None else f"best estimated error {error:.2e} at h = {sizes[-1] * 1e3:.3g} mm"
+    reached = f"fewer than {MIN_LEVELS} levels solved" if error is None else f"best estimated error {error:.2e} at h = {sizes[-1] * 1e3:.3g} mm"
     return f"rel_tolerance={rel_tolerance:g} not reached: {why} ({reached}); expected a looser tolerance or a larger max_dofs"
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass, replace
+from typing import Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -21,10 +22,10 @@ from skfem.quadrature import get_quadrature
 from geometry.link_mesh import Bore, LinkMesh
 
 from . import locking, problem, quality, solvers
-from .assembly import assembly_threads, elasticity_matrix
+from .assembly import elasticity_parts, rigid_body_modes
 from .errors import FemError, FemWarning
 from .materials import Material
-from .problem import CURVED_INTORDER
+from .problem import JACOBIAN_CHECK_INTORDER
 
 # "Away from the clamp": element nodes farther than this fraction of the fixed bore's radius from
 # the rim curves where the clamped bore surface ends. The clamp's rim is a stress singularity
@@ -54,6 +55,7 @@ class LinkSolution:
     peak_von_mises_Pa_per_N: float  # overall, includes the clamp-rim singularity
     peak_von_mises_location_m: list[float]  # where the overall peak is (an element node)
     peak_von_mises_away_from_clamp_Pa_per_N: float
+    peak_von_mises_away_location_m: list[float]  # where that peak is (an element node)
     clamp_exclusion_radius_m: float
     pitch_m: float
     bore_radius_m: float  # loaded bore
@@ -66,6 +68,7 @@ class LinkSolution:
     basis: Basis  # scalar basis; displacement component c is displacement_m[c] in it
     displacement_m: np.ndarray  # (3, basis.N) at load_N
     von_mises_at_dofs_Pa: np.ndarray  # (basis.N,) element-node values averaged per DOF, at load_N
+    away_from_clamp_at_dofs: np.ndarray  # (basis.N,) bool: the DOF is beyond clamp_exclusion_radius_m of the rims
 
 
 def _check_mesh_and_material(mesh: LinkMesh, material: Material, order: int) -> None:
@@ -101,7 +104,7 @@ def skfem_mesh(link: LinkMesh, order: int, curved: bool = True) -> tuple[MeshTet
 
 def _curved_jacobian_ratio(mesh: MeshTet2) -> np.ndarray:
     """Per element: min over quadrature points and vertices of det J (curved) / det J (straight)."""
-    points = np.hstack([get_quadrature(mesh.elem.refdom, CURVED_INTORDER)[0], np.eye(3, 4, 1)])
+    points = np.hstack([get_quadrature(mesh.elem.refdom, JACOBIAN_CHECK_INTORDER)[0], np.eye(3, 4, 1)])
     curved = mesh._mapping().detDF(points)
     straight = MeshTet1(np.ascontiguousarray(mesh.p[:, : mesh.nvertices]), mesh.t)._mapping().detDF(points[:, :1])
     return curved.min(axis=1) / straight[:, 0]
@@ -186,15 +189,41 @@ def analyse_link(
     nthreads: int | None = None,
 ) -> LinkSolution:
     """Solve the link's load case; see the module docstring. SI units in and out."""
+    return analyse_link_materials(mesh, [material], order=order, load_N=load_N, solver=solver,
+                                  nthreads=nthreads)[material.name]
+
+
+def analyse_link_materials(
+    mesh: LinkMesh,
+    materials: Sequence[Material],
+    *,
+    order: int = 2,
+    load_N: float = 1000.0,
+    solver: str = "auto",
+    nthreads: int | None = None,
+    stress: bool = True,
+) -> dict[str, LinkSolution]:
+    """`analyse_link` for several materials on one mesh, keyed by material name.
+
+    Everything but the material is built once: basis, load, clamp and the material-free parts of
+    the stiffness matrix (`assembly.ElasticityParts`). The first material is factorised; a material
+    with the same Poisson's ratio is that solution scaled by the ratio of Young's moduli (exact); any
+    other is solved by CG preconditioned with the first one's factorisation (PARDISO; a few
+    back-substitutions, converged to a 1e-10 residual), or directly with other solvers.
+    Shared costs are booked in the first material's `timing_s`. stress=False skips the stress
+    evaluation (its fields are NaN): a study needs stresses on its finest level only.
+    """
     problem.element(order)
     if not (np.isfinite(load_N) and load_N > 0):
         raise FemError(f"load_N must be a positive number, got {load_N!r}")
+    if not materials or len({m.name for m in materials}) != len(materials):
+        raise FemError(f"materials: expected a non-empty list of distinct materials, got {[m.name for m in materials]}")
     method = solvers.resolve(solver)
-    timing: dict[str, float] = {}
-    lam, mu = material.lame_Pa
+    shared: dict[str, float] = {}
 
     start = time.perf_counter()
-    _check_mesh_and_material(mesh, material, order)
+    for material in materials:
+        _check_mesh_and_material(mesh, material, order)
     sk_mesh, index = skfem_mesh(mesh, order)
     try:
         basis, fixed, unit = _discretise(mesh, sk_mesh, index, order)
@@ -209,49 +238,121 @@ def analyse_link(
     if not resultant_per_Pa > 0:
         raise FemError("LinkMesh.loaded_bore_facets: the bearing pressure has no resultant along the load direction")
     f = unit * (load_N / resultant_per_Pa)
-    clamped = problem.fixed_vector_dofs(basis, fixed)
-    timing["basis_and_load"] = time.perf_counter() - start
+    clamped = np.unique(problem.fixed_vector_dofs(basis, fixed))
+    free = np.setdiff1d(np.arange(f.size), clamped)
+    shared["basis_and_load"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    K = elasticity_matrix(basis, lam, mu, nthreads=assembly_threads() if nthreads is None else nthreads)
-    timing["assembly"] = time.perf_counter() - start
+    parts = elasticity_parts(basis, nthreads=nthreads).restricted(free)
+    shared["assembly"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    u = problem.solve_displacement(K, f, clamped, problem.dof_locations(basis), solver=method)
-    timing["solve"] = time.perf_counter() - start
+    stress_points = _StressPoints(basis, sk_mesh, fixed, mesh.fixed_bore.radius_m) if stress else None
+    shared["post"] = time.perf_counter() - start
 
-    start = time.perf_counter()
+    results: dict[str, LinkSolution] = {}
+    first: tuple[Material, np.ndarray] | None = None
+    factor = None
+    modes = rigid_body_modes(problem.dof_locations(basis))[free] if method == "amg" else None
+    try:
+        for material in materials:
+            timing = dict(shared) if first is None else {}
+            lam, mu = material.lame_Pa
+            start = time.perf_counter()
+            K = parts.matrix(lam, mu)
+            timing["assembly"] = timing.get("assembly", 0.0) + time.perf_counter() - start
+            start = time.perf_counter()
+            u = np.zeros(f.size)
+            if first is None:
+                if method == "pardiso":
+                    factor = solvers.Factorization(K)
+                    u[free] = factor.solve(f[free])
+                else:
+                    u[free] = solvers.solve(K, f[free], method, near_nullspace=modes)
+                first = (material, u)
+            else:
+                u[free] = _reuse(first, material, K, f[free], free, factor, method, modes)
+            timing["solve"] = time.perf_counter() - start
+            start = time.perf_counter()
+            results[material.name] = _solution(mesh, sk_mesh, basis, material, order, load_N, f, u, free, K, method,
+                                               stress_points, timing)
+            timing["post"] = timing.get("post", 0.0) + time.perf_counter() - start
+    finally:
+        if factor is not None:
+            factor.free()
+    return results
+
+
+def _same_poisson_ratio(a: Material, b: Material) -> bool:
+    return abs(a.poisson_ratio - b.poisson_ratio) <= 1e-12 * abs(a.poisson_ratio)
+
+
+def _reuse(first: tuple[Material, np.ndarray], material: Material, K, f_free: np.ndarray, free: np.ndarray,
+           factor, method: str, modes: np.ndarray | None) -> np.ndarray:
+    """Displacement (free DOFs) of `material` from the first material's solution on the same mesh."""
+    first_material, first_u = first
+    scale = first_material.youngs_modulus_Pa / material.youngs_modulus_Pa
+    if _same_poisson_ratio(first_material, material):
+        return first_u[free] * scale  # K is E times a matrix that depends on nu only
+    if factor is None:
+        return solvers.solve(K, f_free, method, near_nullspace=modes)
+    # CG does not care how the preconditioner is scaled; the start is the E-scaled first solution.
+    u, _ = solvers.preconditioned_cg(K, f_free, factor.solve, first_u[free] * scale)
+    return u
+
+
+class _StressPoints:
+    """Material-free data of the stress evaluation: element-node points, their distance from the
+    clamped bore's rim, and the basis that evaluates gradients there."""
+
+    def __init__(self, basis: Basis, sk_mesh, fixed_facets: np.ndarray, fixed_radius_m: float):
+        local = basis.elem.doflocs.T
+        self.at_nodes = Basis(basis.mesh, basis.elem, quadrature=(local, np.ones(local.shape[1])))
+        self.where = np.asarray(basis.mapping.F(local))  # (3, n_elements, n_local)
+        self.exclusion_radius_m = CLAMP_EXCLUSION_RADIUS_FRACTION * fixed_radius_m
+        distance, _ = cKDTree(_rim_points(sk_mesh, fixed_facets)).query(self.where.reshape(3, -1).T)
+        self.away = distance.reshape(self.where.shape[1:]) > self.exclusion_radius_m
+        self.element_dofs = basis.element_dofs.T  # (n_elements, n_local)
+        flat = self.element_dofs.ravel()
+        near = np.bincount(flat, ~self.away.ravel(), basis.N)
+        self.away_at_dofs = near == 0
+
+    def von_mises(self, u: np.ndarray, lam: float, mu: float) -> np.ndarray:
+        components = problem.as_components(u)
+        grads = np.array([np.asarray(self.at_nodes.interpolate(components[c]).grad) for c in range(3)])
+        return problem.von_mises_Pa(grads, lam, mu)  # (n_elements, n_local)
+
+
+def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: int, load_N: float, f: np.ndarray,
+              u: np.ndarray, free: np.ndarray, K, method: str, points: _StressPoints | None,
+              timing: dict) -> LinkSolution:
     work = float(f @ u)
     if not work > 0:
         raise FemError("the link did not deform under the load: check the bore facet sets")
-    stiffness = load_N**2 / work
-    stiffness_energy = load_N**2 / float(u @ (K @ u))
-    local = basis.elem.doflocs.T
-    grads = problem.displacement_gradients(basis, u, local)
-    vm = problem.von_mises_Pa(grads, lam, mu)  # (n_elements, n_local)
-    where = np.asarray(basis.mapping.F(local))  # (3, n_elements, n_local)
-    radius = CLAMP_EXCLUSION_RADIUS_FRACTION * mesh.fixed_bore.radius_m
-    distance, _ = cKDTree(_rim_points(sk_mesh, fixed)).query(where.reshape(3, -1).T)
-    away = distance.reshape(vm.shape) > radius
-    dofs = basis.element_dofs.T  # (n_elements, n_local)
+    lam, mu = material.lame_Pa
+    if points is None:
+        return _solution_without_stress(mesh, sk_mesh, basis, material, order, load_N, work, u, free, K, method, timing)
+    vm = points.von_mises(u, lam, mu)
+    dofs = points.element_dofs
     at_dofs = np.bincount(dofs.ravel(), vm.ravel(), basis.N) / np.bincount(dofs.ravel(), minlength=basis.N)
-    mesh_volume = float(np.sum(basis.dx))
-    timing["post"] = time.perf_counter() - start
-
+    away = points.away
+    where = points.where.reshape(3, -1)
+    away_peak = int(np.argmax(np.where(away, vm, -np.inf))) if away.any() else int(np.argmax(vm))
     return LinkSolution(
         material=material,
         order=order,
         curved=not sk_mesh.affine,
         load_N=float(load_N),
-        stiffness_N_per_m=stiffness,
-        stiffness_from_energy_N_per_m=stiffness_energy,
+        stiffness_N_per_m=load_N**2 / work,
+        stiffness_from_energy_N_per_m=load_N**2 / float(u[free] @ (K @ u[free])),
         volume_m3=float(mesh.cad_volume_m3),
-        mesh_volume_m3=mesh_volume,
+        mesh_volume_m3=float(np.sum(basis.dx)),
         mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),
         peak_von_mises_Pa_per_N=float(vm.max()) / load_N,
-        peak_von_mises_location_m=where.reshape(3, -1)[:, int(np.argmax(vm))].tolist(),
+        peak_von_mises_location_m=where[:, int(np.argmax(vm))].tolist(),
         peak_von_mises_away_from_clamp_Pa_per_N=float(vm[away].max()) / load_N if away.any() else float("nan"),
-        clamp_exclusion_radius_m=radius,
+        peak_von_mises_away_location_m=where[:, away_peak].tolist(),
+        clamp_exclusion_radius_m=points.exclusion_radius_m,
         pitch_m=mesh.pitch_m,
         bore_radius_m=float(mesh.loaded_bore.radius_m),
         mesh_size_m=float(mesh.mesh_size_m),
@@ -263,4 +364,25 @@ def analyse_link(
         basis=basis,
         displacement_m=problem.as_components(u).copy(),
         von_mises_at_dofs_Pa=at_dofs,
+        away_from_clamp_at_dofs=points.away_at_dofs,
+    )
+
+
+def _solution_without_stress(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: int, load_N: float,
+                             work: float, u: np.ndarray, free: np.ndarray, K, method: str,
+                             timing: dict) -> LinkSolution:
+    nan = float("nan")
+    return LinkSolution(
+        material=material, order=order, curved=not sk_mesh.affine, load_N=float(load_N),
+        stiffness_N_per_m=load_N**2 / work,
+        stiffness_from_energy_N_per_m=load_N**2 / float(u[free] @ (K @ u[free])),
+        volume_m3=float(mesh.cad_volume_m3), mesh_volume_m3=float(np.sum(basis.dx)),
+        mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),
+        peak_von_mises_Pa_per_N=nan, peak_von_mises_location_m=[nan] * 3,
+        peak_von_mises_away_from_clamp_Pa_per_N=nan, peak_von_mises_away_location_m=[nan] * 3,
+        clamp_exclusion_radius_m=CLAMP_EXCLUSION_RADIUS_FRACTION * mesh.fixed_bore.radius_m,
+        pitch_m=mesh.pitch_m, bore_radius_m=float(mesh.loaded_bore.radius_m), mesh_size_m=float(mesh.mesh_size_m),
+        n_tets=int(mesh.tets.shape[1]), dofs=int(3 * basis.N), solver=method, timing_s=timing, link=mesh,
+        basis=basis, displacement_m=problem.as_components(u).copy(),
+        von_mises_at_dofs_Pa=np.full(basis.N, nan), away_from_clamp_at_dofs=np.zeros(basis.N, dtype=bool),
     )

@@ -24,14 +24,16 @@ import numpy as np
 
 from .errors import FemError
 
-# gmsh's optimised HXT meshes of the default link have min q of 0.21-0.33 (measured at 3.8-12 mm
-# elements); moving one vertex of a good mesh to a tenth of its distance from the centroid of the
+# gmsh's optimised HXT meshes of the sharp-cornered default link had min q of 0.21-0.33 (measured
+# at 3.8-12 mm elements); the filleted one has 0.18 / 0.14 at 4.5 / 6 mm, but 0.08 at 12 mm, where
+# the elements meet its 1 mm pocket-floor fillet (so coarse meshes of it warn); moving one vertex of a good mesh to a tenth of its distance from the centroid of the
 # opposite face gives q = 0.05. 0.1 separates the two with a margin on both sides.
 POOR_QUALITY_THRESHOLD = 0.1
 # Measured on a bar whose exact solution is linear (tests/test_fea_failure_slivers.py): with one
 # tet flattened to q = 5e-14 PARDISO and SuperLU still reproduce EA/L to 1e-12, AMG-CG stops
 # converging below q ~ 5e-13, and an exactly flat tet makes PARDISO fail with a zero pivot.
 DEGENERATE_QUALITY = 1e-12
+QUALITY_WARNING_PREFIX = "mesh quality"
 
 
 @dataclass(frozen=True)
@@ -112,7 +114,69 @@ def quality_warning(quality: MeshQuality) -> str | None:
     if quality.below_threshold == 0:
         return None
     return (
-        f"mesh quality: {quality.below_threshold} of {quality.n_tets} tetrahedra have radius ratio below "
+        f"{QUALITY_WARNING_PREFIX}: {quality.below_threshold} of {quality.n_tets} tetrahedra have radius ratio below "
         f"{quality.threshold:g} (worst {quality.worst:.3g} at tet {quality.worst_tet}); stresses there are "
         f"unreliable, consider remeshing"
     )
+
+
+# A wall counts if it covers at least this fraction of the part's surface (a few facets at a
+# chamfer or a fillet's foot are not a wall); it is "thinner than the elements" below this
+# fraction of the element size: a P2 element then has no node inside the wall's thickness.
+WALL_AREA_FRACTION = 0.01
+THIN_WALL_ELEMENT_FRACTION = 0.5
+# Facets count as the two sides of one wall when their outward normals are within ~25 degrees of
+# opposite and one lies across the material from the other.
+OPPOSITE_NORMALS_COS = -0.9
+
+
+def boundary_facets(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Boundary triangles (3, n) of a tet mesh (4, m), with the vertex opposite each one (n,)."""
+    faces = np.hstack([tets[[1, 2, 3]], tets[[0, 2, 3]], tets[[0, 1, 3]], tets[[0, 1, 2]]])
+    opposite = np.concatenate([tets[0], tets[1], tets[2], tets[3]])
+    _, index, counts = np.unique(np.sort(faces, axis=0), axis=1, return_index=True, return_counts=True)
+    once = index[counts == 1]
+    return faces[:, once], opposite[once]
+
+
+def thinnest_wall_m(points_m: np.ndarray, tets: np.ndarray, search_radius_m: float) -> float:
+    """Thickness of the thinnest wall (m) covering >= WALL_AREA_FRACTION of the surface; inf if
+    no wall is thinner than `search_radius_m`.
+
+    The local thickness at a boundary facet is the distance, along its inward normal, to the
+    nearest facet facing the other way across the material (within search_radius_m).
+    """
+    from scipy.spatial import cKDTree
+
+    tri, opposite = boundary_facets(np.asarray(tets))
+    a, b, c = (points_m[:, tri[i]].T for i in range(3))
+    normal = np.cross(b - a, c - a)
+    area = 0.5 * np.linalg.norm(normal, axis=1)
+    normal /= 2 * area[:, None]
+    centroid = (a + b + c) / 3
+    outward = np.sign(np.einsum("ij,ij->i", normal, centroid - points_m[:, opposite].T))
+    normal *= outward[:, None]
+    pairs = cKDTree(centroid).query_pairs(search_radius_m, output_type="ndarray")
+    i, j = np.concatenate([pairs[:, 0], pairs[:, 1]]), np.concatenate([pairs[:, 1], pairs[:, 0]])
+    facing = np.einsum("ij,ij->i", normal[i], normal[j]) < OPPOSITE_NORMALS_COS
+    i, j = i[facing], j[facing]
+    offset = centroid[j] - centroid[i]
+    depth = -np.einsum("ij,ij->i", offset, normal[i])
+    lateral = np.linalg.norm(offset + depth[:, None] * normal[i], axis=1)
+    across = (depth > 0) & (lateral < np.maximum(depth, np.sqrt(area[i])))
+    thickness = np.full(len(area), np.inf)
+    np.minimum.at(thickness, i[across], depth[across])
+    order = np.argsort(thickness)
+    covered = np.cumsum(area[order]) / area.sum()
+    k = int(np.searchsorted(covered, WALL_AREA_FRACTION))
+    return float(thickness[order[min(k, len(order) - 1)]])
+
+
+def thin_wall_warning(link) -> str | None:
+    """One-line warning when a wall of the link (a geometry.LinkMesh) is thinner than its elements."""
+    size = float(link.mesh_size_m)
+    wall = thinnest_wall_m(link.points_m, link.tets, search_radius_m=THIN_WALL_ELEMENT_FRACTION * size)
+    if not wall < THIN_WALL_ELEMENT_FRACTION * size:
+        return None
+    return (f"mesh: a wall about {wall * 1e3:.3g} mm thick is thinner than half the {size * 1e3:.3g} mm elements; "
+            f"k and stresses in it are unreliable, pass a smaller mesh size (--mesh-size)")

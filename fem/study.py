@@ -1,24 +1,39 @@
-"""Link stiffness with a discretisation-error estimate: 2-3 mesh levels + Richardson extrapolation."""
+"""Link stiffness with a discretisation-error estimate: 2-3 mesh levels + Richardson extrapolation.
+
+Default levels are relative to the part (`default_mesh_sizes`), not fixed millimetres: the finest
+element is the smaller of PITCH_FRACTION x pitch and BORE_FRACTION x bore radius, and one level
+LEVEL_RATIO coarser gives the second point for the extrapolation. On the default link (pitch
+112.5 mm, bore radius 8.73 mm) that is 4.5 and 6 mm; a 12.7 mm-pitch roller-chain plate gets
+0.5 / 0.68 mm and a link scaled to 300 mm pitch 12 / 16 mm, the same mesh relative to the part.
+Each level is meshed once and solved for all materials at once (`link.analyse_link_materials`).
+"""
 
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
-from .errors import FemError
-from .link import LinkSolution, analyse_link
+from . import quality
+from .errors import FemError, FemWarning
+from .link import LinkSolution, analyse_link_materials
 from .materials import Material
 from .problem import element
-from .richardson import Extrapolation, extrapolate
+from .richardson import Extrapolation, extrapolate, rate_bracket
 from .solvers import resolve
 
-# Chosen by measurement on the default link (see the report / README): three curved-P2 levels
-# whose total wall time (meshing + assembly + solve) stays under 20 s on 2 cores.
-DEFAULT_MESH_SIZES_M = (0.0065, 0.0045, 0.0035)
+# Relative sizes, chosen by measurement on the default link (README, FEA work-precision): two
+# curved-P2 levels (6 and 4.5 mm there) put k's guaranteed-under-the-model estimate below 1 %.
+# Coarser levels are not in the asymptotic range there: above ~6.5 mm the 6.9 mm web under the
+# pocket is crossed by flattened elements and k jumps by 1.5 % (measured, 7.5 -> 6 mm).
+PITCH_FRACTION = 1 / 25
+BORE_FRACTION = 0.52
+LEVEL_RATIO = 4 / 3
+DEFAULT_LEVELS = 2
 # Element size at the bores as a fraction of the size elsewhere. On the default link the stiffness
 # error lives mostly away from the bores (thin rails, sharp pocket edges): per DOF, 0.7 was more
 # accurate than 0.4 (geometry's default), 0.25 and 0.15 (measured, see the report).
@@ -33,7 +48,7 @@ class StiffnessEstimate:
     stiffness_rel_error_estimate: float  # estimated relative error of stiffness_N_per_m
     stiffness_finest_N_per_m: float  # finest mesh itself: FE is too stiff, an upper bound
     finest_rel_error_estimate: float  # (k_finest - k) / k
-    convergence_rate: float  # p used in k(h) = k_inf + C h^p, h = DOFs^(-1/3)
+    rate_bracket: tuple[float, float]  # rates p in k(h) = k_inf + C h^p, h = DOFs^(-1/3), the estimate covers
     observed_convergence_rate: float | None  # from three levels, for information
     monotone: bool
     levels: tuple[tuple[float, int, float], ...]  # (mesh_size_m, dofs, stiffness_N_per_m), coarse to fine
@@ -52,9 +67,40 @@ def _check_sizes(sizes: Sequence[float]) -> tuple[float, ...]:
     return sizes
 
 
-def levels_for_finest(finest_m: float, n_levels: int = 3, ratio: float = 4 / 3) -> tuple[float, ...]:
+def levels_for_finest(finest_m: float, n_levels: int = DEFAULT_LEVELS, ratio: float = LEVEL_RATIO) -> tuple[float, ...]:
     """Mesh sizes coarse to fine ending at `finest_m`, successive ratio `ratio`."""
     return tuple(finest_m * ratio**i for i in reversed(range(n_levels)))
+
+
+def finest_size_for(pitch_m: float, bore_radius_m: float) -> float:
+    """The default finest element size of a link with this pitch and (smaller) bore radius."""
+    return min(PITCH_FRACTION * pitch_m, BORE_FRACTION * bore_radius_m)
+
+
+def default_mesh_sizes(source: str | Path | None) -> tuple[float, ...]:
+    """Default levels (coarse to fine) for the link: relative to its pitch and bore radius."""
+    pitch_m, bore_radius_m = part_scale(source)
+    return levels_for_finest(finest_size_for(pitch_m, bore_radius_m))
+
+
+def part_scale(source: str | Path | None) -> tuple[float, float]:
+    """(pitch, smaller bore radius) in metres of a STEP link, or of the built-in one (None)."""
+    from geometry.dimensions import DEFAULT_LINK
+
+    if source is None:
+        return DEFAULT_LINK.pitch_m, DEFAULT_LINK.bore_radius_m
+    from geometry.bores import detect_bores
+    from geometry.session import gmsh_model, quiet_stdout
+    from geometry.step_io import import_step
+
+    with gmsh_model("part-scale"):
+        with quiet_stdout():
+            volumes = import_step(source)
+        fixed, loaded = detect_bores(volumes, str(source))
+    axis = fixed.bore.axis
+    offset = loaded.bore.center_m - fixed.bore.center_m
+    pitch = float(np.linalg.norm(offset - (offset @ axis) * axis))
+    return pitch, float(min(fixed.bore.radius_m, loaded.bore.radius_m))
 
 
 def stiffness_study(
@@ -69,7 +115,8 @@ def stiffness_study(
     bore_refinement: float = DEFAULT_BORE_REFINEMENT,
     progress: Callable[[str], None] | None = None,
 ) -> StiffnessEstimate:
-    """Mesh the link (None = built-in default) at 2-3 sizes, solve each, extrapolate k.
+    """Mesh the link (None = built-in default) at 2-3 sizes (None: `default_mesh_sizes`), solve
+    each, extrapolate k.
 
     `curved` asks geometry for isoparametric quadratic cells when order == 2.
     """
@@ -102,27 +149,39 @@ def stiffness_studies(
         raise FemError("stiffness_studies: expected at least one material")
     element(order)  # validate before meshing
     resolve(solver)
-    sizes = _check_sizes(DEFAULT_MESH_SIZES_M if mesh_sizes_m is None else mesh_sizes_m)
+    start = time.perf_counter()
+    sizes = _check_sizes(default_mesh_sizes(source) if mesh_sizes_m is None else mesh_sizes_m)
     mesh_order = 2 if (order == 2 and curved) else 1
-    mesh_time = 0.0
+    mesh_time = time.perf_counter() - start
     solutions: dict[str, list[LinkSolution]] = {m.name: [] for m in materials}
     for level, h in enumerate(sizes, start=1):
         start = time.perf_counter()
         link = geometry.load_link(source, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
+        if level == len(sizes):
+            wall = quality.thin_wall_warning(link)
+            if wall:
+                warnings.warn(wall, FemWarning, stacklevel=2)
         mesh_time += time.perf_counter() - start
+        with warnings.catch_warnings():
+            if level < len(sizes):  # shape warnings concern the mesh whose stresses are reported
+                warnings.filterwarnings("ignore", message=quality.QUALITY_WARNING_PREFIX, category=FemWarning)
+            solved = analyse_link_materials(link, materials, order=order, load_N=load_N, solver=solver,
+                                            stress=level == len(sizes))
         for material in materials:
-            solution = analyse_link(link, material, order=order, load_N=load_N, solver=solver)
+            solution = solved[material.name]
             solutions[material.name].append(solution)
             if progress is not None:
                 progress(f"FEA level {level}/{len(sizes)}, {material.name}: h = {h * 1e3:.2f} mm, "
                          f"{solution.dofs} DOFs, k = {solution.stiffness_N_per_m:.5g} N/m, "
                          f"{sum(solution.timing_s.values()):.1f} s")
-    # Meshing is shared: each material's timing carries its share of it.
-    return {name: estimate_from_levels(sizes, sols, mesh_time / len(materials)) for name, sols in solutions.items()}
+    # Meshing is shared and booked to the first material, as analyse_link_materials books the
+    # shared assembly: the first material's timing is the cost of the study, the others' the extra.
+    return {name: estimate_from_levels(sizes, sols, mesh_time if i == 0 else 0.0, order=order)
+            for i, (name, sols) in enumerate(solutions.items())}
 
 
 def estimate_from_levels(sizes: Sequence[float], solutions: list[LinkSolution], mesh_time_s: float,
-                         fit_last: int | None = None) -> StiffnessEstimate:
+                         fit_last: int | None = None, order: int = 2) -> StiffnessEstimate:
     """The estimate from solved levels (coarse to fine); k is extrapolated from the last `fit_last`
     levels (all when None), every level is recorded."""
     timing: dict[str, float] = {"mesh": mesh_time_s}
@@ -132,13 +191,13 @@ def estimate_from_levels(sizes: Sequence[float], solutions: list[LinkSolution], 
     timing["total"] = sum(timing.values())
     fitted = solutions if fit_last is None else solutions[-fit_last:]
     k = [s.stiffness_N_per_m for s in fitted]
-    fit: Extrapolation = extrapolate(k, [s.dofs for s in fitted])
+    fit: Extrapolation = extrapolate(k, [s.dofs for s in fitted], rate_bracket(order))
     return StiffnessEstimate(
         stiffness_N_per_m=fit.extrapolated,
         stiffness_rel_error_estimate=fit.rel_error_estimate,
         stiffness_finest_N_per_m=k[-1],
         finest_rel_error_estimate=fit.finest_rel_error_estimate,
-        convergence_rate=fit.rate,
+        rate_bracket=fit.rate_bracket,
         observed_convergence_rate=fit.observed_rate,
         monotone=fit.monotone,
         levels=tuple((h, s.dofs, s.stiffness_N_per_m) for h, s in zip(sizes, solutions)),

@@ -7,8 +7,12 @@ from dataclasses import dataclass
 
 import gmsh
 
-from geometry.dimensions import LinkDimensions
+from geometry.dimensions import LinkDimensions, _lug_fillet_centre_m
 from geometry.errors import GeometryError
+
+# Entity look-up by bounding box, as a fraction of the pitch: OpenCASCADE pads boxes by its
+# tolerance (~1e-7 m), and no other edge of the link lies within this distance of a wanted one.
+BOX_TOLERANCE = 1e-4
 
 
 @dataclass(frozen=True)
@@ -43,15 +47,12 @@ def add_link(dims: LinkDimensions, features: LinkFeatures = LinkFeatures()) -> i
     for x in (-half_pitch, half_pitch):
         parts.append((3, occ.addCylinder(x, 0, 0, 0, 0, height, dims.lug_radius_m)))
         parts.append((3, occ.addBox(min(0.0, x), -dims.lug_radius_m, 0, abs(x), 2 * dims.lug_radius_m, height)))
+    if dims.lug_fillet_radius_m > 0:
+        parts += _lug_neck_fillets(dims)
     body, _ = occ.fuse(parts[:1], parts[1:])
     # Tools overshoot the faces they cut through so no coplanar faces are left to the boolean.
     overshoot = 0.1 * height
-    tools = [
-        (3, occ.addBox(
-            -dims.recess_length_m / 2, -dims.recess_width_m / 2, dims.web_thickness_m,
-            dims.recess_length_m, dims.recess_width_m, height - dims.web_thickness_m + overshoot,
-        ))
-    ]
+    tools = [(3, _pocket_tool(dims, overshoot))]
     for x in (-half_pitch, half_pitch):
         tools += _bore_tool(x, dims.bore_radius_m, -overshoot, height + 2 * overshoot, features)
     link, _ = occ.cut(body, tools)
@@ -62,6 +63,59 @@ def add_link(dims: LinkDimensions, features: LinkFeatures = LinkFeatures()) -> i
     if features.bore_edge_break_m > 0:
         volume = _break_bore_edges(volume, dims, features.bore_edge_break_m)
     return volume
+
+
+def _lug_neck_fillets(dims: LinkDimensions) -> list[tuple[int, int]]:
+    """Material of the four lug-neck fillets (to be fused with the body), built from planes and
+    cylinders so that the solid stays analytic (OpenCASCADE's rolling-ball fillet is a B-spline
+    approximation, 1.5e-7 off in volume): a prism over the quadrilateral lug axis (or the foot below
+    the centre) - fillet centre - end face, less the fillet's cylinder. Its edges cross both circles at right angles, and what of it
+    is not fillet lies inside the body (see `dimensions.lug_fillet_area_m2`)."""
+    occ = gmsh.model.occ
+    fx, fy = _lug_fillet_centre_m(dims)
+    c, a, rho, height = dims.pitch_m / 2, dims.body_length_m / 2, dims.lug_fillet_radius_m, dims.body_height_m
+    inside = a - rho  # a little way into the body, behind its end face
+    # The fillet's tangent point on the lug outline lies on the line from its centre to the lug's
+    # bore axis (half-disc part) or straight below its centre (tongue side, a short fillet).
+    foot = c if rho > c - a else fx
+    pieces = []
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            corners = [(sx * foot, 0.0), (sx * fx, sy * fy), (sx * inside, sy * fy), (sx * inside, 0.0)]
+            points = [occ.addPoint(x, y, 0) for x, y in corners]
+            lines = [occ.addLine(p, q) for p, q in zip(points, points[1:] + points[:1])]
+            face = occ.addPlaneSurface([occ.addCurveLoop(lines)])
+            prism = [dt for dt in occ.extrude([(2, face)], 0, 0, height) if dt[0] == 3]
+            cutter = occ.addCylinder(sx * fx, sy * fy, -0.1 * height, 0, 0, 1.2 * height, rho)
+            piece, _ = occ.cut(prism, [(3, cutter)])
+            pieces += piece
+    return pieces
+
+
+def _pocket_tool(dims: LinkDimensions, overshoot: float) -> int:
+    """The recess as an end mill leaves it: vertical corners and floor edges rounded (convex on the tool)."""
+    occ = gmsh.model.occ
+    floor = dims.web_thickness_m
+    tool = occ.addBox(-dims.recess_length_m / 2, -dims.recess_width_m / 2, floor,
+                      dims.recess_length_m, dims.recess_width_m, dims.body_height_m - floor + overshoot)
+    occ.synchronize()
+    if dims.pocket_corner_radius_m > 0:
+        vertical = _tool_edges(tool, lambda box: box[5] - box[2] > 0.5 * dims.body_height_m)
+        tool = occ.fillet([tool], vertical, [dims.pocket_corner_radius_m])[0][1]
+        occ.synchronize()
+    if dims.pocket_floor_radius_m > 0:
+        tol = BOX_TOLERANCE * dims.pitch_m
+        bottom = _tool_edges(tool, lambda box: abs(box[2] - floor) < tol and abs(box[5] - floor) < tol)
+        tool = occ.fillet([tool], bottom, [dims.pocket_floor_radius_m])[0][1]
+        occ.synchronize()
+    return tool
+
+
+def _tool_edges(tool: int, keep) -> list[int]:
+    """Curves of a tool volume whose bounding box (xmin, ymin, zmin, xmax, ymax, zmax) passes `keep`."""
+    faces = gmsh.model.getBoundary([(3, tool)], combined=False, oriented=False)
+    curves = {abs(c) for _, c in gmsh.model.getBoundary(faces, combined=False, oriented=False)}
+    return sorted(c for c in curves if keep(gmsh.model.getBoundingBox(1, c)))
 
 
 def _bore_tool(x: float, radius: float, z0: float, length: float, features: LinkFeatures) -> list[tuple[int, int]]:

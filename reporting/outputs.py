@@ -130,7 +130,7 @@ def _contact_summary(contact) -> dict:
 
 def _scenario_summary(scenario, fea, band_m: float) -> dict:
     peak_N, min_N = _tension_extremes_N(scenario)
-    peak_stress = peak_N * fea.peak_von_mises_away_from_clamp_Pa_per_N if fea is not None else None
+    peak_stress = peak_N * fea.peak_von_mises_converged_Pa_per_N if fea is not None else None
     out = {
         "stations": {name: {**_station_dict(s), "settling_time_s": _settling(scenario.settling_time_s[scenario.history.column(s.link)]),
                             "settling_band_m": band_m}
@@ -180,6 +180,9 @@ def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict)
                 "natural_frequencies_Hz": lowest_natural_frequencies_Hz(models[name], 10).tolist(),
                 "peak_von_mises_Pa_per_N": r.peak_von_mises_Pa_per_N,
                 "peak_von_mises_away_from_clamp_Pa_per_N": r.peak_von_mises_away_from_clamp_Pa_per_N,
+                "peak_von_mises_converged_Pa_per_N": r.peak_von_mises_converged_Pa_per_N,
+                "peak_von_mises_converged_rel_change": r.peak_von_mises_converged_rel_change,
+                "safety_factor_stress": r.safety_factor_stress,
                 "yield_strength_Pa": r.yield_strength_Pa,
                 "fea_dofs": r.dofs,
                 "fea_mesh_size_m": r.mesh_size_m,
@@ -307,11 +310,11 @@ def _material_plots(staged: StagedOutput, histories: list[CamHistory], links: di
 def _fea_table(fea: dict, models: dict) -> Table:
     rows = tuple((name, r.stiffness_N_per_m, 100 * r.stiffness_rel_error_estimate, r.body_mass_kg,
                   models[name].link_mass_kg, float(lowest_natural_frequencies_Hz(models[name], 10)[0]),
-                  r.peak_von_mises_away_from_clamp_Pa_per_N * 1e3 / 1e6, r.dofs, "yes" if r.cached else "no")
+                  r.peak_von_mises_converged_Pa_per_N * 1e3 / 1e6, r.dofs, "yes" if r.cached else "no")
                  for name, r in fea.items())
     return Table("Link stiffness and mass (FEA) and the chain they make",
                  ("material", "k (N/m)", "k error estimate (%)", "body mass (kg)", "lumped mass (kg)",
-                  "chain f1 (Hz)", "peak von Mises per kN (MPa)", "FEA DOFs", "from cache"), rows)
+                  "chain f1 (Hz)", "converged peak von Mises per kN (MPa)", "FEA DOFs", "from cache"), rows)
 
 
 def _station_table(scenarios: dict, band_m: float) -> Table:
@@ -336,8 +339,9 @@ def _tension_table(summary_materials: dict) -> Table:
                          c.get("impacts_per_cycle", 0.0), c.get("peak_impact_force_N", 0.0) / 1e3,
                          c.get("preload_for_full_contact_N", float("nan")) / 1e3, c["peak_link_stress_Pa"] / 1e6,
                          c["yield_safety_factor"]))
+    used = "; ".join(f"{m}: {data['safety_factor_stress']}" for m, data in summary_materials.items())
     return Table("Link tension, contact and stress (min tension < 0: a span pushing after its free play closed; "
-                 "stress = peak tension x FEA peak von Mises per newton, away from the clamped bore)",
+                 f"stress = peak tension x the FEA's {used})",
                  ("material", "cam law", "model", "peak tension (kN)", "min tension (kN)", "contact lost",
                   "free play (% span-time)", "impacts per cycle", "peak impact force (kN)",
                   "preload for full contact (kN)", "peak stress (MPa)", "safety factor on yield"), tuple(rows))

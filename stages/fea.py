@@ -24,6 +24,9 @@ class MaterialFea:
     bore_radius_m: float
     peak_von_mises_Pa_per_N: float
     peak_von_mises_away_from_clamp_Pa_per_N: float
+    peak_von_mises_converged_Pa_per_N: float  # converged by local refinement (fem.stress): the design stress
+    peak_von_mises_converged_rel_change: float  # its last change under refinement (estimated error)
+    safety_factor_stress: str  # which stress the yield safety factor uses, in words
     yield_strength_Pa: float
     dofs: int
     mesh_size_m: float
@@ -36,14 +39,16 @@ class MaterialFea:
 def fea_cache_settings(cfg: RunConfig, material, stiffness_tolerance: float | None) -> dict:
     from dataclasses import asdict
 
+    from fem.stress import DEFAULT_TOLERANCE
+
     settings = {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order,
-                "stiffness_tolerance": stiffness_tolerance}
+                "stiffness_tolerance": stiffness_tolerance, "stress_tolerance": DEFAULT_TOLERANCE}
     if cfg.link_source is not None and (cfg.link_source.bores.given or cfg.link_source.body is not None):
         settings["part"] = repr((cfg.link_source.bores, cfg.link_source.body))  # another pair: another link
     return settings
 
 
-def _fea_record(name: str, material, study) -> dict:
+def _fea_record(name: str, material, study, stress) -> dict:
     fine = study.finest
     return {
         "material": name,
@@ -55,6 +60,9 @@ def _fea_record(name: str, material, study) -> dict:
         "bore_radius_m": fine.bore_radius_m,
         "peak_von_mises_Pa_per_N": fine.peak_von_mises_Pa_per_N,
         "peak_von_mises_away_from_clamp_Pa_per_N": fine.peak_von_mises_away_from_clamp_Pa_per_N,
+        "peak_von_mises_converged_Pa_per_N": stress.peak_Pa_per_N,
+        "peak_von_mises_converged_rel_change": stress.rel_change,
+        "safety_factor_stress": stress.description,
         "yield_strength_Pa": material.yield_strength_Pa,
         "dofs": fine.dofs,
         "mesh_size_m": fine.mesh_size_m,
@@ -72,22 +80,29 @@ def _part(cfg: RunConfig):
 
 
 def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress,
-               solved_levels: dict | None) -> dict:
+               solved_levels: dict | None) -> tuple[dict, dict]:
     """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
-    (reusing the levels in `solved_levels`, see fem.adaptive)."""
+    (reusing the levels in `solved_levels`, see fem.adaptive); then the peak stress converged by
+    local refinement from the finest level (fem.stress). Returns (stiffness, stress) per material."""
     from fem import stiffness_studies
     from fem.adaptive import stiffnesses_to_tolerance
+    from fem.stress import stress_study
     from fem.study import levels_for_finest
 
     source = "built-in default link" if cfg.geometry is None else str(cfg.geometry)
     if stiffness_tolerance is None:
-        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 3 mesh levels")
+        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 2 mesh levels")
         sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
-        return stiffness_studies(_part(cfg), materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
-    progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
-             f"{100 * stiffness_tolerance:.2g} %")
-    return stiffnesses_to_tolerance(_part(cfg), materials, stiffness_tolerance, order=cfg.order, progress=progress,
-                                    solved=solved_levels)
+        studies = stiffness_studies(_part(cfg), materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
+    else:
+        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
+                 f"{100 * stiffness_tolerance:.2g} %")
+        studies = stiffnesses_to_tolerance(_part(cfg), materials, stiffness_tolerance, order=cfg.order,
+                                           progress=progress, solved=solved_levels)
+    finest = {name: study.finest for name, study in studies.items()}
+    stresses = stress_study(_part(cfg), materials, base_mesh_size_m=next(iter(finest.values())).mesh_size_m,
+                            order=cfg.order, base=finest, progress=progress)
+    return studies, stresses
 
 
 def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None,
@@ -119,13 +134,13 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
     missing = [library[name] for name in cfg.materials if name not in out]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
-        studies = _solve_fea(cfg, missing, stiffness_tolerance, progress, solved_levels) if missing else {}
+        studies, stresses = _solve_fea(cfg, missing, stiffness_tolerance, progress, solved_levels) if missing else ({}, {})
     cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
     for message in cautions:
         print(f"pipeline.py: warning: {message}", file=sys.stderr)
     for material in missing:
         name, study = material.name, studies[material.name]
-        stored = {**_fea_record(name, material, study), "warnings": cautions}
+        stored = {**_fea_record(name, material, study, stresses[name]), "warnings": cautions}
         progress(f"FEA {name}: k = {study.stiffness_N_per_m:.5g} N/m "
                  f"(estimated error {100 * study.stiffness_rel_error_estimate:.2g} %)")
         if images[name] is not None:

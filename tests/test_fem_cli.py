@@ -98,7 +98,7 @@ def test_json_report_and_image_on_a_coarse_default_link(tmp_path):
         assert key in report
     assert report["mass_kg"] == pytest.approx(4510.0 * report["volume_m3"], rel=1e-12)
     assert report["pitch_m"] == pytest.approx(0.1125, rel=1e-9)
-    assert [level["mesh_size_m"] for level in report["levels"]] == pytest.approx([0.016, 0.012, 0.009])
+    assert [level["mesh_size_m"] for level in report["levels"]] == pytest.approx([0.012, 0.009])  # two levels, x4/3
     assert report["material"] == "ti-grade2"
     assert image.stat().st_size > 10_000
     written = meshio.read(vtu)  # the finest level, curved P2 cells, fields at the 1 kN default load
@@ -119,3 +119,13 @@ def test_help_explains_units():
     result = run_cli("--help")
     assert result.returncode == 0
     assert "millimetres" in result.stdout and "N/m" in result.stdout
+
+
+def test_converge_stress_reports_the_converged_peak_and_what_it_is():
+    result = run_cli("--mesh-size", "9", "--order", "1", "--converge-stress", "--json", timeout=600)
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["peak_von_mises_converged_Pa_per_N"] > 0
+    assert isinstance(report["stress_converged"], bool)
+    assert (report["peak_von_mises_converged_rel_change"] <= 0.05) == report["stress_converged"]
+    assert "away from the clamped bore" in report["stress_description"]

@@ -9,9 +9,9 @@ from geometry import DEFAULT_LINK, EXAMPLE_STEP, LinkFeatures, load_link, nomina
 
 ALUMINIUM = get_material("al6061-t6")
 REPORT_K_AL_N_PER_M = 9.27e7
-# Coarse meshes keep these tests fast; at 8 mm curved P2 is ~2.5 % stiff (measured k 9.25e7
-# against an extrapolated 9.01e7), while two different 8 mm meshes of the same part scatter
-# by <= 0.1 % (measured), so "same part, same k" is checked to 0.5 %.
+# Coarse meshes keep these tests fast; at 8 mm curved P2 is ~3 % stiff (against an extrapolated
+# 9.32e7 N/m), while two different 8 mm meshes of the same part scatter by <= 0.1 % (measured on
+# the sharp-cornered link), so "same part, same k" is checked to 0.5 %.
 COARSE_M = 0.008
 SAME_PART_REL = 5e-3
 
@@ -29,7 +29,21 @@ def default():
 def test_mass_is_density_times_the_closed_form_cad_volume(default):
     # geometry's closed-form volume of the parametric solid; OpenCASCADE's is exact to round-off.
     assert default.mass_kg == pytest.approx(2700.0 * nominal_volume_m3(DEFAULT_LINK), rel=1e-6)
-    assert default.mesh_volume_m3 == pytest.approx(default.volume_m3, rel=1e-4)  # curved cells
+
+
+def test_curved_cells_hold_the_cad_volume_once_they_resolve_the_fillets():
+    # The 1 mm pocket-floor fillet cannot be represented by 8 mm cells (0.3 % too much volume
+    # there, measured); at the default finest size, 4.5 mm, curved P2 cells hold the volume to
+    # 4e-4 (measured), straight ones not (concave fillets and bores cut by chords).
+    import numpy as np
+    from skfem import Basis, ElementTetP2
+
+    from fem.link import skfem_mesh
+
+    link = load_link(None, mesh_size_m=0.0045, order=2, bore_refinement=0.7)
+    volumes = [float(np.sum(Basis(skfem_mesh(link, 2, curved=c)[0], ElementTetP2(), intorder=2).dx)) for c in (True, False)]
+    assert volumes[0] == pytest.approx(link.cad_volume_m3, rel=5e-4)
+    assert abs(volumes[0] / link.cad_volume_m3 - 1) < 0.5 * abs(volumes[1] / link.cad_volume_m3 - 1)
 
 
 def test_calibration_against_the_report(default):
@@ -45,20 +59,29 @@ def test_k_scales_exactly_with_E_at_fixed_poisson_ratio(default):
 
 def test_k_decreases_under_refinement_towards_the_extrapolated_value():
     # FE stiffness is an upper bound that decreases as the mesh is refined.
-    estimate = stiffness_study(None, ALUMINIUM, mesh_sizes_m=(0.011, 0.008, 0.0065))
+    estimate = stiffness_study(None, ALUMINIUM, mesh_sizes_m=COARSE_LEVELS_M)
     ks = [k for _, _, k in estimate.levels]
     assert ks[0] > ks[1] > ks[2] > estimate.stiffness_N_per_m
-    assert estimate.stiffness_rel_error_estimate < 0.05
     assert estimate.monotone
 
 
+# Levels coarser than the default: their elements are thicker than the 6.9 mm web, so k is not yet
+# in its asymptotic range there and the estimate is wide (7 %, measured); whether its interval
+# holds the finer default study's k is the slow test's business.
+COARSE_LEVELS_M = (0.011, 0.008, 0.0065)
+
+
 @pytest.mark.slow
-def test_default_study_meets_the_one_percent_target():
+def test_default_study_meets_the_one_percent_target_and_the_reports_figures():
     # The done-when: error estimate below 1 % with the default levels (timing is in the
-    # report / README, not asserted). Measured: k = 9.009e7 N/m, estimate 0.53 %.
+    # README, not asserted). Measured: k = 9.328e7 N/m +- 0.91 % (aluminium), +0.6 % against the
+    # report's 9.27e7 (the sharp-cornered link was -2.8 %); titanium 1.416e8 +- 0.94 %, -1.6 % against 1.439e8.
     estimate = stiffness_study(None, ALUMINIUM)
     assert estimate.stiffness_rel_error_estimate < 0.01
-    assert estimate.stiffness_N_per_m == pytest.approx(REPORT_K_AL_N_PER_M, rel=0.15)
+    assert estimate.stiffness_N_per_m == pytest.approx(REPORT_K_AL_N_PER_M, rel=0.03)
+    coarse = stiffness_study(None, ALUMINIUM, mesh_sizes_m=COARSE_LEVELS_M)
+    gap = abs(coarse.stiffness_N_per_m - estimate.stiffness_N_per_m) / estimate.stiffness_N_per_m
+    assert gap <= coarse.stiffness_rel_error_estimate + estimate.stiffness_rel_error_estimate
 
 
 @pytest.fixture(scope="module")

@@ -41,7 +41,7 @@ def test_tolerance_outside_zero_one_is_refused():
 def test_stiffness_sensitivity_of_the_chain_metrics_is_measured_not_assumed():
     # A real scenario: metrics move when k moves by 1 %, and not at all when it does not move.
     cfg = pipeline.parse_cli(["--links", "12", "--friction", "0", "--cams", "modified-sine"])
-    fea = MaterialFea("al6061-t6", 9e7, 0.01, 0.373, 1.38e-4, 0.1125, 0.0095, 1e5, 1e5, 276e6, 1000,
+    fea = MaterialFea("al6061-t6", 9e7, 0.01, 0.373, 1.38e-4, 0.1125, 0.0095, 1e5, 1e5, 1e5, 0.0, "test", 276e6, 1000,
                                0.005, {}, [], False, None)
 
     def stations_with_k(k):

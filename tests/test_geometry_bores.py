@@ -1,5 +1,6 @@
 """Pin-bore detection across the ways CAD exporters write the same bores, and the manual override."""
 
+import dataclasses
 import math
 
 import gmsh
@@ -58,9 +59,11 @@ def test_shipped_example_step():
 
 def test_concave_fillets_and_coaxial_lug_ends_are_not_bores(tmp_path):
     # The recess's four vertical inner corners become concave quarter cylinders; the lug ends are
-    # convex half cylinders on the bores' axes. Neither may count as a bore.
+    # convex half cylinders on the bores' axes. Neither may count as a bore. (Built on the
+    # sharp-cornered variant: the default link has its own fillets since #13.)
+    sharp = dataclasses.replace(DEFAULT_LINK, lug_fillet_radius_m=0.0, pocket_corner_radius_m=0.0, pocket_floor_radius_m=0.0)
     with gmsh_model("filleted"):
-        volume = add_link(DEFAULT_LINK)
+        volume = add_link(sharp)
         h = DEFAULT_LINK.body_height_m
         recess_edges = gmsh.model.getEntitiesInBoundingBox(
             -0.05, -0.039, DEFAULT_LINK.web_thickness_m - 1e-6, 0.05, 0.039, h + 1e-6, dim=1

@@ -116,14 +116,20 @@ def test_meshing_is_deterministic():
     np.testing.assert_array_equal(a.points_m, b.points_m)
 
 
-def test_straight_tet_volume_is_close_to_the_cad_volume():
-    m = load_link(mesh_size_m=SIZE)
+def _straight_tet_volume(m):
     p = m.points_m[:, m.tets]
-    volume = np.einsum("ij,ij->j", np.cross((p[:, 1] - p[:, 0]).T, (p[:, 2] - p[:, 0]).T).T, p[:, 3] - p[:, 0]).sum() / 6
-    # Flat facets on the bores add volume, on the lug ends remove it; each is under 1 % of the
-    # small volume of the curved layer, so well under 0.5 % of the part.
-    assert volume == pytest.approx(m.cad_volume_m3, rel=5e-3)
-    assert volume != m.cad_volume_m3
+    return np.einsum("ij,ij->j", np.cross((p[:, 1] - p[:, 0]).T, (p[:, 2] - p[:, 0]).T).T, p[:, 3] - p[:, 0]).sum() / 6
+
+
+def test_straight_tet_volume_approaches_the_cad_volume():
+    # Flat facets on concave faces (bores, the lug-neck and pocket fillets) add volume, on the lug
+    # ends remove it. With the default link's fillets (the pocket floor's is 1 mm, far below the
+    # element size) the excess was 0.6 % at 8 mm, 0.29 % at 6 mm and 0.12 % at 3 mm (measured): it
+    # is positive and shrinks under refinement (chord error ~ h^2 once the fillets are resolved).
+    coarse, fine = load_link(mesh_size_m=SIZE), load_link(mesh_size_m=SIZE / 2)
+    excess = [_straight_tet_volume(m) / m.cad_volume_m3 - 1 for m in (coarse, fine)]
+    assert 0 < excess[1] < excess[0] / 2
+    assert excess[0] < 1e-2
 
 
 @pytest.mark.parametrize("order", [1, 2])
