@@ -38,9 +38,11 @@ def pipeline(*args):
 
 @pytest.mark.slow
 def test_fem_on_a_link_with_nest_screw_holes_prints_the_pair_and_the_ignored_holes(parts):
-    # 2.6 mm: coarser levels do not mesh the 3 mm grease hole (HXT); P1 keeps the run short.
-    r = fem(parts["nest_holes"][0], "--mesh-size", "2.6", "--order", "1")
+    # default sizes: the 3 mm grease hole sets them (2 x its radius: 3 mm finest, 4 mm coarse, both
+    # mesh; 4.4 mm did not); P1 keeps the run short.
+    r = fem(parts["nest_holes"][0], "--order", "1")
     assert r.returncode == 0, r.stderr
+    assert "mesh            finest 3 mm" in r.stdout
     lines = r.stdout.splitlines()
     assert lines[0].startswith("pin bores       fixed at (0.00, 0.00, 8.00) mm, loaded at (101.60, 0.00, 8.00) mm")
     assert sum("ignored hole" in line for line in lines) == 7
@@ -135,7 +137,7 @@ def test_pipeline_refusals_are_one_line_exit_2_and_leave_out_untouched(parts, tm
 @pytest.mark.slow
 def test_pipeline_runs_the_link_with_nest_screw_holes(parts, tmp_path):
     out = tmp_path / "out"
-    r = pipeline("--geometry", parts["nest_holes"][0], "--mesh-size", "2.6", "--links", "12", "--samples-per-degree",
+    r = pipeline("--geometry", parts["nest_holes"][0], "--links", "12", "--samples-per-degree",
                  "2", "--materials", "al6061-t6", "--cams", "modified-sine", "--no-images", "--out", out,
                  "--cache-dir", tmp_path / "cache")
     assert r.returncode == 0, r.stderr

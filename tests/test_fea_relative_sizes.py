@@ -55,7 +55,7 @@ def test_default_link_levels_are_6_and_4_5_mm():
 
 
 def test_sizes_scale_with_the_part(parts):
-    pitch, bore = part_scale(parts["large"])
+    pitch, bore, hole = part_scale(parts["large"])
     assert pitch == pytest.approx(0.300, rel=1e-9)
     assert bore == pytest.approx(DEFAULT_LINK.bore_radius_m * LARGE_SCALE, rel=1e-9)
     for big, small in zip(default_mesh_sizes(parts["large"]), default_mesh_sizes(None)):
@@ -63,7 +63,7 @@ def test_sizes_scale_with_the_part(parts):
 
 
 def test_roller_plate_gets_elements_well_inside_its_thickness(parts):
-    assert part_scale(parts["plate"]) == pytest.approx((ROLLER_PITCH_M, ROLLER_BORE_RADIUS_M), rel=1e-9)
+    assert part_scale(parts["plate"]) == pytest.approx((ROLLER_PITCH_M, ROLLER_BORE_RADIUS_M, float("inf")), rel=1e-9)
     finest = default_mesh_sizes(parts["plate"])[-1]
     assert finest == pytest.approx(ROLLER_PITCH_M / 25, rel=1e-9)  # the pitch governs here
     assert finest < ROLLER_THICKNESS_M / 2.5
@@ -89,3 +89,23 @@ def test_one_default_gives_about_one_percent_on_a_small_plate_and_a_large_link(p
         assert estimate.stiffness_rel_error_estimate < 0.01
     # Geometrically similar parts with meshes scaled alike: k scales with the length (k ~ E L).
     assert large.stiffness_N_per_m / LARGE_SCALE == pytest.approx(default.stiffness_N_per_m, rel=0.005)
+
+
+def test_a_small_hole_sets_the_size_and_an_assembly_is_scaled_by_its_body(tmp_path):
+    from geometry.assembly import LinkSource
+    from geometry.sample_parts import write_part
+
+    write_part("nest_holes", tmp_path / "nest.step")
+    pitch, bore, hole = part_scale(tmp_path / "nest.step")
+    assert (pitch, bore, hole) == pytest.approx((0.1016, 0.00635, 0.0015), rel=1e-6)  # the 3 mm grease hole
+    assert default_mesh_sizes(tmp_path / "nest.step") == pytest.approx((0.004, 0.003), rel=1e-6)
+    write_part("assembly", tmp_path / "assembly.step")  # body, pins and bushings: the body's pair counts
+    assert part_scale(LinkSource(tmp_path / "assembly.step"))[:2] == part_scale(tmp_path / "assembly.step")[:2]
+    assert part_scale(tmp_path / "assembly.step")[0] > 0
+
+
+def test_a_variant_of_the_built_in_link_is_scaled_by_its_own_dimensions():
+    from dataclasses import replace
+
+    variant = replace(DEFAULT_LINK, bore_radius_m=0.006)
+    assert part_scale(variant) == (variant.pitch_m, 0.006, float("inf"))
