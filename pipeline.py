@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import tempfile
 from pathlib import Path
 
 from stages.config import RunConfig
@@ -249,14 +248,11 @@ def _check_solver(method: str, friction: float) -> None:
 
 def check_writable_out(out: Path) -> None:
     """Fail before any work if --out cannot be created or written."""
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--out: {str(out)!r} exists and is not a folder")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=out, prefix=".write-test-"):
-            pass
-    except OSError as e:
-        raise InputError(f"--out: cannot write to {str(out)!r} ({e.strerror or e})") from None
+    from stages.output_folder import out_folder_problem
+
+    problem = out_folder_problem(out, create=True)
+    if problem is not None:
+        raise InputError(problem)
 
 
 def run(cfg: RunConfig, progress: Progress) -> None:

@@ -12,7 +12,6 @@ import argparse
 import json
 import shutil
 import sys
-import tempfile
 from pathlib import Path
 
 from study.spec import StudyError, load_study
@@ -38,22 +37,18 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _checked_out(args) -> Path:
+    from stages.output_folder import out_folder_problem
     from study.store import ResultStore
 
     out = args.out if args.out is not None else Path(f"results-{args.study.stem}")
     if args.workers < 1:
         raise StudyError(f"--workers: expected a number of worker processes >= 1, got {args.workers}")
-    if out.exists() and not out.is_dir():
-        raise StudyError(f"--out: {str(out)!r} exists and is not a folder")
+    problem = out_folder_problem(out, create=False)
+    if problem is not None:
+        raise StudyError(problem)
     if ResultStore(out).exists() and not args.resume:
         raise StudyError(f"--out: {str(out)!r} already holds a study; pass --resume to continue it or choose "
                          "another --out")
-    parent = out if out.exists() else next((p for p in out.absolute().parents if p.exists()), Path("/"))
-    try:
-        with tempfile.NamedTemporaryFile(dir=parent, prefix=".write-test-"):
-            pass
-    except OSError as e:
-        raise StudyError(f"--out: cannot write to {str(out)!r} ({e.strerror or e})") from None
     return out
 
 

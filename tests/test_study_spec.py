@@ -157,3 +157,14 @@ def test_fea_of_a_link_variant_is_cached_under_its_dimensions(tmp_path):
     assert first[0.009].body_mass_kg > first[0.004].body_mass_kg
     again = run_fea(thin, Progress(True))["al6061-t6"]
     assert again.cached and again.stiffness_N_per_m == first[0.004].stiffness_N_per_m
+
+
+def test_out_that_is_a_file_is_refused_in_one_line(tmp_path, capsys):
+    study = tmp_path / "s.toml"
+    study.write_text(GOOD)
+    blocker = tmp_path / "out"
+    blocker.write_text("not a folder")
+    assert main([str(study), "--out", str(blocker), "-q"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--out" in err and "is not a folder" in err
+    assert blocker.read_text() == "not a folder"
