@@ -186,11 +186,9 @@ def analyse_link(
     order: int = 2,
     load_N: float = 1000.0,
     solver: str = "auto",
-    nthreads: int | None = None,
 ) -> LinkSolution:
     """Solve the link's load case; see the module docstring. SI units in and out."""
-    return analyse_link_materials(mesh, [material], order=order, load_N=load_N, solver=solver,
-                                  nthreads=nthreads)[material.name]
+    return analyse_link_materials(mesh, [material], order=order, load_N=load_N, solver=solver)[material.name]
 
 
 def analyse_link_materials(
@@ -200,7 +198,6 @@ def analyse_link_materials(
     order: int = 2,
     load_N: float = 1000.0,
     solver: str = "auto",
-    nthreads: int | None = None,
     stress: bool = True,
 ) -> dict[str, LinkSolution]:
     """`analyse_link` for several materials on one mesh, keyed by material name.
@@ -243,7 +240,7 @@ def analyse_link_materials(
     shared["basis_and_load"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    parts = elasticity_parts(basis, nthreads=nthreads).restricted(free)
+    parts = elasticity_parts(basis).restricted(free)
     shared["assembly"] = time.perf_counter() - start
 
     start = time.perf_counter()

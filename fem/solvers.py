@@ -29,6 +29,19 @@ REUSE_RELATIVE_TOLERANCE = 1e-6
 REUSE_MAX_ITERATIONS = 200
 
 
+# MKL PARDISO settings (1-based iparm numbers as in Intel's documentation), measured on the default
+# link's P2 system (72k DOFs), each against MKL's defaults:
+# - 1 = 1: use the values below, the rest stay 0;
+# - 2 = 2: METIS nested dissection (MKL's default ordering, named because 1 = 1 leaves it at 0);
+# - 37 = -90: let PARDISO find the 3 x 3 nodal blocks of the vector field (variable block rows where
+#   90 % of the pattern agrees): the ordering and symbolic analysis work on 1/9 of the graph,
+#   0.50 -> 0.37 s, the factorisation unchanged;
+# - 8 = 0: no iterative refinement after a solve. For an SPD matrix without pivot perturbation it
+#   buys nothing here (relative residual 3.7e-10 without, 2.8e-10 with) and cost 2 extra products:
+#   a solve took 0.03 s instead of 0.09 s, which is most of a further material's CG.
+PARDISO_IPARM = {1: 1, 2: 2, 8: 0, 37: -90}
+
+
 def _point_pypardiso_at_mkl() -> None:
     """Tell pypardiso where MKL's runtime is, if it sits where the mkl wheel puts it.
 
@@ -51,6 +64,8 @@ class Factorization:
         import pypardiso
 
         self._solver = pypardiso.PyPardisoSolver(mtype=2)  # real symmetric positive definite
+        for one_based, value in PARDISO_IPARM.items():
+            self._solver.set_iparm(one_based, value)
         self._upper = sp.triu(A, format="csr")
         self._solver.factorize(self._upper)
 

@@ -19,6 +19,7 @@ from pathlib import Path
 from study.records import chain_metrics, fea_metrics, record
 from study.spec import Settings
 from study.variables import GEOMETRY_TARGETS, VARIABLES, link_dimensions, run_fields
+from study.worker_malloc import keep_large_arrays_on_heap
 
 
 def base_config(settings: Settings, cache_dir: Path | None = None):
@@ -65,6 +66,7 @@ def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings) -> di
     from stages.fea import run_fea
     from stages.progress import Progress
 
+    keep_large_arrays_on_heap()
     start, cpu_start = time.perf_counter(), time.process_time()
     reason, fea = None, None
     with tempfile.TemporaryDirectory(prefix="study-fea-") as scratch, _one_thread():
@@ -117,6 +119,7 @@ def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings) -> dict
     from stages.fea import run_fea
     from stages.progress import Progress
 
+    keep_large_arrays_on_heap()
     with tempfile.TemporaryDirectory(prefix="study-report-") as scratch, _one_thread():
         out = Path(scratch) / "report"
         out.mkdir()

@@ -128,17 +128,6 @@ def test_unknown_key_in_a_table():
         parse_study({"settings": {"mesh_sise_m": 0.01}})
 
 
-def test_workers_assemble_on_one_thread(monkeypatch):
-    """Dask's worker processes set OMP_NUM_THREADS=1: the FEA assembly follows it there (the
-    workers are the parallelism) and keeps its two threads elsewhere."""
-    from fem.assembly import ASSEMBLY_THREADS, assembly_threads
-
-    monkeypatch.setenv("OMP_NUM_THREADS", "1")
-    assert assembly_threads() == 1
-    monkeypatch.delenv("OMP_NUM_THREADS")
-    assert assembly_threads() == ASSEMBLY_THREADS == 2
-
-
 def test_fea_of_a_link_variant_is_cached_under_its_dimensions(tmp_path):
     """run_fea on two LinkDimensions sharing one cache: each solved (not the other's cached
     result), each found again on a second call."""
