@@ -108,20 +108,24 @@ def source_name(source) -> str:
 
 
 def _checked_mesh_size(mesh_size_m: float | None, volume_m3: float, name: str) -> float:
+    """The element size to mesh with. Refusals name the library's argument (metres) and the command
+    lines' --mesh-size (mm), which reaches here as one mesh level's size."""
     xmin, ymin, zmin, xmax, ymax, zmax = gmsh.model.getBoundingBox(-1, -1)
     extents = np.array([xmax - xmin, ymax - ymin, zmax - zmin])
     if mesh_size_m is None:
         return float(np.linalg.norm(extents) * DEFAULT_SIZE_FRACTION)
     if not (isinstance(mesh_size_m, (int, float)) and math.isfinite(mesh_size_m) and mesh_size_m > 0):
-        raise GeometryError(f"mesh_size_m={mesh_size_m!r}: expected a positive element size in metres")
+        raise GeometryError(f"mesh_size_m={mesh_size_m!r}: expected a positive element size in metres "
+                            "(on the command line: a positive --mesh-size in mm)")
     if mesh_size_m > extents.max():
         raise GeometryError(
-            f"mesh_size_m={mesh_size_m!r}: larger than {name} ({extents.max():.4g} m); expected an element size in metres"
+            f"mesh_size_m={mesh_size_m!r}: larger than {name} ({1e3 * extents.max():.4g} mm across); expected an "
+            "element size in metres (on the command line: a smaller --mesh-size in mm)"
         )
     regular_tet_m3 = mesh_size_m**3 / (6 * math.sqrt(2))
     if volume_m3 / regular_tet_m3 > MAX_TETS:
         raise GeometryError(
             f"mesh_size_m={mesh_size_m!r}: would give about {volume_m3 / regular_tet_m3:.3g} tetrahedra for {name}; "
-            f"expected at most {MAX_TETS:.3g} (a larger size)"
+            f"expected at most {MAX_TETS:.3g} (a larger size; on the command line: a larger --mesh-size in mm)"
         )
     return float(mesh_size_m)

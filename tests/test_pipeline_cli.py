@@ -205,6 +205,16 @@ def test_bad_input_is_one_line_exit_2_and_out_untouched(args, named, existing_ou
     assert sorted(p.name for p in existing_out.iterdir()) == ["summary.json"]
 
 
+@pytest.mark.parametrize("size_mm", ["0.00001", "500"])
+def test_a_mesh_size_the_part_refuses_names_the_option(size_mm, tmp_path, existing_out):
+    # Refused when the part is meshed (too many tetrahedra / larger than the part), not by the parser.
+    r = _cli("--mesh-size", size_mm, "--out", str(existing_out), "--cache-dir", str(tmp_path / "c"), "-q")
+    assert r.returncode == 2
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--mesh-size in mm" in lines[0] and "Traceback" not in r.stderr
+    assert sorted(p.name for p in existing_out.iterdir()) == ["summary.json"]
+
+
 def test_a_geometry_file_that_is_not_step_is_refused(tmp_path, existing_out):
     fake = tmp_path / "link.step"
     fake.write_text("this is not a STEP file\n")
