@@ -12,8 +12,9 @@ share the scalar matrix's sparsity, and G_ab^T at (i, j) is G_ba at (i, j), so o
 gradients, summed into the scalar pattern once, and both material-free parts (`ElasticityParts`)
 are laid out on one interleaved pattern, so K = lam A + mu B for any isotropic material is a sum of
 two data arrays. Against six scikit-fem scalar assemblies joined with `scipy.sparse.bmat` and a
-permutation, then restricted by fancy indexing: 1.9 s to 1.2 s for the default link's two levels
-(profiled), and a material's matrix is no longer a sparse sum.
+permutation, then restricted by fancy indexing: 2.1 s to 1.7 s for the default link's two levels
+(the assembly line of `benchmarks/bench_fea_time_to_k.py`, run here and on a checkout of the commit
+before, a4bc287), and a material's matrix is no longer a sparse sum.
 """
 
 from __future__ import annotations
@@ -31,9 +32,8 @@ DIM = 3
 class ElasticityParts:
     """K = lam_Pa * volumetric + mu_Pa * shear for any isotropic material (interleaved, N/m per Pa).
 
-    Both parts live on one sparsity pattern (`indptr`, `indices`, sorted), so a material's matrix,
-    the restriction to free DOFs and the upper triangle for a Cholesky solver are array operations
-    on the data."""
+    Both parts live on one sparsity pattern (`indptr`, `indices`, sorted), so a material's matrix
+    and the restriction to free DOFs are array operations on the data."""
 
     indptr: np.ndarray
     indices: np.ndarray
@@ -46,14 +46,6 @@ class ElasticityParts:
         matrix.has_sorted_indices = True
         return matrix
 
-    @property
-    def volumetric(self) -> sp.csr_matrix:
-        return self._csr(self.volumetric_data)
-
-    @property
-    def shear(self) -> sp.csr_matrix:
-        return self._csr(self.shear_data)
-
     def matrix(self, lam_Pa: float, mu_Pa: float) -> sp.csr_matrix:
         return self._csr(lam_Pa * self.volumetric_data + mu_Pa * self.shear_data)
 
@@ -62,13 +54,18 @@ class ElasticityParts:
         kept_dof = np.zeros(self.size, dtype=bool)
         kept_dof[keep] = True
         new_index = np.cumsum(kept_dof) - 1
-        rows = np.repeat(np.arange(self.size), np.diff(self.indptr))
+        rows = _entry_rows(self.indptr)
         kept = kept_dof[rows] & kept_dof[self.indices]
         size = int(kept_dof.sum())
         indptr = np.zeros(size + 1, dtype=self.indptr.dtype)
         np.cumsum(np.bincount(new_index[rows[kept]], minlength=size), out=indptr[1:])
         return ElasticityParts(indptr, new_index[self.indices[kept]].astype(self.indices.dtype),
                                self.volumetric_data[kept], self.shear_data[kept], size)
+
+
+def _entry_rows(indptr: np.ndarray) -> np.ndarray:
+    """The row of every stored entry of a CSR pattern."""
+    return np.repeat(np.arange(len(indptr) - 1), np.diff(indptr))
 
 
 def elasticity_parts(basis: Basis) -> ElasticityParts:
@@ -106,7 +103,7 @@ def _interleaved_parts(indptr: np.ndarray, indices: np.ndarray, volumetric: np.n
                        n: int) -> ElasticityParts:
     """Interleave scalar-pattern 3 x 3 blocks: scalar entry (i, j) becomes rows 3i + a, columns 3j + b."""
     lengths = np.diff(indptr)
-    rows = np.repeat(np.arange(n), lengths)
+    rows = _entry_rows(indptr)
     position = np.arange(len(indices)) - indptr[rows]
     a = np.arange(DIM)[None, :, None]
     b = np.arange(DIM)[None, None, :]
