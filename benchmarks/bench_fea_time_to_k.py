@@ -9,6 +9,8 @@ machine):
 - previous default levels on the same code: three uniform levels 6.5 / 4.5 / 3.5 mm;
 - a second material: `stiffness_studies(None, [al6061-t6, ti-grade2])` less the first's time
   (the extra cost of titanium on the same meshes: shared assembly, CG on aluminium's factor);
+- where the new default's time goes: its timing_s (meshing, basis and load, assembly, PARDISO, post)
+  from the first run;
 - with --old-tree DIR (a checkout of the code before this change, e.g. `git worktree add DIR
   <commit>`): that tree's own `python -m fem --json` (its default: three levels, its geometry), the
   whole process, as a user runs it.
@@ -39,7 +41,7 @@ first = result[materials[0].name]
 print(json.dumps({{"import_s": t1 - t0, "wall_s": time.perf_counter() - t1, "cpu_s": time.process_time() - c1,
                   "k": {{n: e.stiffness_N_per_m for n, e in result.items()}},
                   "estimate": {{n: e.stiffness_rel_error_estimate for n, e in result.items()}},
-                  "dofs": [d for _, d, _ in first.levels]}}))
+                  "dofs": [d for _, d, _ in first.levels], "parts_s": first.timing_s}}))
 """
 
 PATHS = {
@@ -88,6 +90,9 @@ def main(argv=None) -> int:
         ks = ", ".join(f"{n} {k:.5g}" for n, k in r["k"].items())
         est = ", ".join(f"{e * 100:.2f} %" for e in r["estimate"].values())
         print(f"{name} | {wall:.2f} | {cpu:.2f} | {statistics.median(x['import_s'] for x in results):.2f} | {ks} | {est} | {r['dofs']}")
+    parts = runs["new default (2 relative levels)"][0]["parts_s"]
+    print("new default, where the study's time goes (first run, both levels; solve = PARDISO): "
+          + ", ".join(f"{name} {seconds:.2f} s" for name, seconds in parts.items()))
     both, one = medians["new default, aluminium + titanium"], medians["new default (2 relative levels)"]
     print(f"titanium on aluminium's meshes: +{both[0] - one[0]:.2f} s wall, +{both[1] - one[1]:.2f} s CPU")
     prev = medians["previous default levels (6.5/4.5/3.5 mm), same code"]

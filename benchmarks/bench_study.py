@@ -15,6 +15,7 @@ reported apart).
 from __future__ import annotations
 
 import os
+import statistics
 import tempfile
 import time
 from pathlib import Path
@@ -80,6 +81,40 @@ def _run_study(spec, workers: int) -> dict:
             "load": os.getloadavg()}
 
 
+FEA_TASK_IN_A_PROCESS = """
+import json, sys
+sys.path.insert(0, "benchmarks")
+import study.tasks as tasks
+from bench_study import _spec
+from study.sampling import design_points
+
+if not {remedy}:
+    tasks.keep_large_arrays_on_heap = lambda: False
+spec = _spec(2)
+point = design_points(spec, tasks.base_config(spec.settings))[0]
+cpu = [tasks.fea_task(point.inputs, ("al6061-t6", "ti-grade2"), spec.settings)["cpu_seconds"] for _ in range(2)]
+print(json.dumps(cpu))
+"""
+
+
+def _fea_task_cpu_s(dask_malloc_variable: bool, remedy: bool) -> float:
+    """CPU seconds of one study FEA task (the second of two in the process, so imports are paid) in
+    a fresh process started with or without the MALLOC_TRIM_THRESHOLD_ that Dask's nanny gives its
+    workers, with or without the task's remedy (`study/worker_malloc.py`)."""
+    import json
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": str(root), "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
+    env.pop("MALLOC_TRIM_THRESHOLD_", None)
+    if dask_malloc_variable:
+        env["MALLOC_TRIM_THRESHOLD_"] = "65536"
+    out = subprocess.run([sys.executable, "-c", FEA_TASK_IN_A_PROCESS.format(remedy=remedy)], cwd=root, env=env,
+                         capture_output=True, text=True, check=True)
+    return json.loads(out.stdout.strip().splitlines()[-1])[-1]
+
+
 def _tiny_task_s(client) -> float:
     """Round trip of a task that does nothing, submitted as the study submits (one future each)."""
     from distributed import wait
@@ -92,6 +127,10 @@ def _tiny_task_s(client) -> float:
 def run(quick: bool) -> list[str]:
     geometries = GEOMETRIES_QUICK if quick else GEOMETRIES
     spec = _spec(geometries)
+    # the three cases alternate; medians of three rounds (one task's CPU swings by about 10 %)
+    cases = ((False, False), (True, False), (True, True))
+    rounds = [[_fea_task_cpu_s(*case) for case in cases] for _ in range(1 if quick else 3)]
+    malloc = {case: statistics.median(r[i] for r in rounds) for i, case in enumerate(cases)}
     one, two = _run_study(spec, 1), _run_study(spec, 2)
     mean_fea = sum(one["fea_s"]) / len(one["fea_s"])
     speedup = one["wall_s"] / two["wall_s"]
@@ -117,6 +156,9 @@ def run(quick: bool) -> list[str]:
         f"scheduling overhead per task (1 worker, wall - task time): {1e3 * overhead:.0f} ms = "
         f"{100 * overhead / mean_fea:.2f} % of an FEA task ({mean_fea:.2f} s, both materials) (target < 5 %)",
         f"empty task round trip: {1e3 * one['tiny_task_s']:.1f} ms",
+        f"one FEA task's CPU (median of {len(rounds)}) in a plain process {malloc[False, False]:.2f} s; with Dask's worker "
+        f"MALLOC_TRIM_THRESHOLD_=65536 {malloc[True, False]:.2f} s; with it and the task's remedy "
+        f"(study/worker_malloc.py) {malloc[True, True]:.2f} s",
         f"one design: FEA {mean_fea:.2f} s per geometry (both materials), chain {1e3 * chain:.0f} ms per "
         f"material x cam x speed x preload scenario",
         f"sizing, {designs} geometries x 2 materials x 5 cams: worker time FEA {fea_total_h:.1f} h + chain "

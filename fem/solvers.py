@@ -29,16 +29,17 @@ REUSE_RELATIVE_TOLERANCE = 1e-6
 REUSE_MAX_ITERATIONS = 200
 
 
-# MKL PARDISO settings (1-based iparm numbers as in Intel's documentation), measured on the default
-# link's P2 system (72k DOFs), each against MKL's defaults:
+# MKL PARDISO settings (1-based iparm numbers as in Intel's documentation), against MKL's defaults
+# on the default link's 72k-DOF P2 system (`python benchmarks/run.py --only pardiso_settings`, one
+# thread, medians of 5): analysis 0.88 -> 0.47 s, one solve 0.14 -> 0.07 s, factorisation
+# 1.68 / 1.80 s (unchanged within the spread), relative residual 1.1e-11 / 1.3e-11.
 # - 1 = 1: use the values below, the rest stay 0;
 # - 2 = 2: METIS nested dissection (MKL's default ordering, named because 1 = 1 leaves it at 0);
 # - 37 = -90: let PARDISO find the 3 x 3 nodal blocks of the vector field (variable block rows where
-#   90 % of the pattern agrees): the ordering and symbolic analysis work on 1/9 of the graph,
-#   0.50 -> 0.37 s, the factorisation unchanged;
-# - 8 = 0: no iterative refinement after a solve. For an SPD matrix without pivot perturbation it
-#   buys nothing here (relative residual 3.7e-10 without, 2.8e-10 with) and cost 2 extra products:
-#   a solve took 0.03 s instead of 0.09 s, which is most of a further material's CG.
+#   90 % of the pattern agrees): the ordering and symbolic analysis work on 1/9 of the graph;
+# - 8 = 0: no iterative refinement after a solve: for an SPD matrix without pivot perturbation it
+#   does not change the residual's order here and costs extra products and back-substitutions,
+#   which are most of a further material's CG.
 PARDISO_IPARM = {1: 1, 2: 2, 8: 0, 37: -90}
 
 

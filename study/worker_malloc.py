@@ -3,10 +3,11 @@
 Dask's nanny starts each worker with MALLOC_TRIM_THRESHOLD_=65536 (its
 `distributed.nanny.pre-spawn-environ`), and setting any glibc malloc tunable freezes malloc's
 dynamic mmap threshold at 128 KiB. Every array above that is then a fresh mapping, page-faulted
-in on first touch and unmapped when freed: the FEA, which allocates large temporaries level after
-level, ran 1.4-1.6x slower in a worker than in a plain process (3.6 s against 5.1-5.8 s per study
-FEA task, measured). Raising the mmap threshold to glibc's maximum (32 MiB on 64-bit) at run time
-puts those arrays back on the reused heap (3.5 s); Dask's trim threshold still returns idle memory.
+in on first touch and unmapped when freed. The FEA allocates large temporaries level after level:
+one study FEA task took 3.62 s of CPU in a plain process and 4.47 s with Dask's variable. Raising
+the mmap threshold to glibc's maximum (32 MiB on 64-bit) at run time puts those arrays back on the
+reused heap: 3.55 s (`python benchmarks/run.py --only study`, medians of three alternating fresh
+processes). Dask's trim threshold still returns idle memory.
 Done in the task, not in the cluster's environment, so workers started by hand on other machines
 (`dask worker ...`) get it too.
 """
