@@ -5,12 +5,15 @@
 Each path runs in a fresh process (imports timed apart), the paths alternate, and the median of
 `--repeats` runs is reported with wall and CPU time (CPU is steadier when other jobs share the
 machine):
-- new default: `stiffness_study(None, al6061-t6)` (two levels relative to the part, 6 / 4.5 mm);
+- new default: `stiffness_study(None, al6061-t6)` (two levels relative to the part, 6 / 4.5 mm, solved
+  side by side in two threads, finest first);
+- the same with the levels one after the other (`concurrent_levels=False`, as the study's workers run);
 - previous default levels on the same code: three uniform levels 6.5 / 4.5 / 3.5 mm;
 - a second material: `stiffness_studies(None, [al6061-t6, ti-grade2])` less the first's time
   (the extra cost of titanium on the same meshes: shared assembly, CG on aluminium's factor);
 - where the new default's time goes: its timing_s (meshing, basis and load, assembly, PARDISO, post)
   from the first run;
+- this tree's own `python -m fem --json`, the whole process (imports included), as a user runs it;
 - with --old-tree DIR (a checkout of the code before this change, e.g. `git worktree add DIR
   <commit>`): that tree's own `python -m fem --json` (its default: three levels, its geometry), the
   whole process, as a user runs it.
@@ -36,7 +39,7 @@ from fem import get_material, stiffness_studies
 t1 = time.perf_counter()
 c1 = time.process_time()
 materials = [get_material(n) for n in {materials!r}]
-result = stiffness_studies(None, materials, mesh_sizes_m={sizes!r})
+result = stiffness_studies(None, materials, mesh_sizes_m={sizes!r}, concurrent_levels={concurrent!r})
 first = result[materials[0].name]
 print(json.dumps({{"import_s": t1 - t0, "wall_s": time.perf_counter() - t1, "cpu_s": time.process_time() - c1,
                   "k": {{n: e.stiffness_N_per_m for n, e in result.items()}},
@@ -44,28 +47,30 @@ print(json.dumps({{"import_s": t1 - t0, "wall_s": time.perf_counter() - t1, "cpu
                   "dofs": [d for _, d, _ in first.levels], "parts_s": first.timing_s}}))
 """
 
-PATHS = {
-    "new default (2 relative levels)": (["al6061-t6"], None),
-    "previous default levels (6.5/4.5/3.5 mm), same code": (["al6061-t6"], (0.0065, 0.0045, 0.0035)),
-    "new default, aluminium + titanium": (["al6061-t6", "ti-grade2"], None),
+PATHS = {  # materials, mesh sizes, levels solved side by side
+    "new default (2 relative levels)": (["al6061-t6"], None, True),
+    "new default, levels one after the other": (["al6061-t6"], None, False),
+    "previous default levels (6.5/4.5/3.5 mm), same code": (["al6061-t6"], (0.0065, 0.0045, 0.0035), True),
+    "new default, aluminium + titanium": (["al6061-t6", "ti-grade2"], None, True),
 }
 
 
-def run_study(materials, sizes) -> dict:
-    code = STUDY.format(materials=materials, sizes=sizes)
+def run_study(materials, sizes, concurrent) -> dict:
+    code = STUDY.format(materials=materials, sizes=sizes, concurrent=concurrent)
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True,
                          env={**__import__("os").environ, "PYTHONPATH": str(ROOT)})
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def run_old_tree(tree: Path) -> dict:
+def run_cli(tree: Path) -> dict:
+    """`python -m fem --json` of the tree, the whole process, as a user runs it."""
     start = time.perf_counter()
     out = subprocess.run([sys.executable, "-m", "fem", "--json"], cwd=tree, capture_output=True, text=True, check=True,
                          env={**__import__("os").environ, "PYTHONPATH": str(tree)})
     wall = time.perf_counter() - start
     report = json.loads(out.stdout)
     return {"wall_s": wall, "k": report["stiffness_N_per_m"], "estimate": report["stiffness_rel_error_estimate"],
-            "study_s": report["timing_s"]["total"]}
+            "study_s": report["timing_s"].get("wall", report["timing_s"]["total"])}
 
 
 def main(argv=None) -> int:
@@ -75,11 +80,13 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     runs: dict[str, list[dict]] = {name: [] for name in PATHS}
     old: list[dict] = []
+    cli: list[dict] = []
     for _ in range(args.repeats):
-        for name, (materials, sizes) in PATHS.items():
-            runs[name].append(run_study(materials, sizes))
+        for name, (materials, sizes, concurrent) in PATHS.items():
+            runs[name].append(run_study(materials, sizes, concurrent))
+        cli.append(run_cli(ROOT))
         if args.old_tree is not None:
-            old.append(run_old_tree(args.old_tree))
+            old.append(run_cli(args.old_tree))
     print("path | study wall s (median) | CPU s | imports s | k (N/m) | estimate | DOFs")
     medians = {}
     for name, results in runs.items():
@@ -97,6 +104,12 @@ def main(argv=None) -> int:
     print(f"titanium on aluminium's meshes: +{both[0] - one[0]:.2f} s wall, +{both[1] - one[1]:.2f} s CPU")
     prev = medians["previous default levels (6.5/4.5/3.5 mm), same code"]
     print(f"new default vs previous levels: {prev[0] / one[0]:.2f}x wall, {prev[1] / one[1]:.2f}x CPU")
+    apart = medians["new default, levels one after the other"]
+    print(f"levels side by side vs one after the other: {one[0]:.2f} vs {apart[0]:.2f} s wall "
+          f"({apart[0] / one[0]:.2f}x), CPU {one[1]:.2f} vs {apart[1]:.2f} s")
+    walls = [c["wall_s"] for c in cli]
+    print(f"this tree's python -m fem: {statistics.median(walls):.2f} s whole process (median; runs "
+          f"{', '.join(f'{w:.2f}' for w in walls)} s), k {cli[0]['k']:.5g} +- {cli[0]['estimate'] * 100:.2f} %")
     if old:
         wall = statistics.median(o["wall_s"] for o in old)
         study = statistics.median(o["study_s"] for o in old)

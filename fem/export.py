@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import meshio
 import numpy as np
 
 from geometry.atomic import atomic_target
@@ -18,6 +17,8 @@ def write_solution_vtu(solution: LinkSolution, path: str | Path) -> Path:
 
     scikit-fem's P1/P2 node order is meshio's "tetra"/"tetra10" (VTK) order. Written atomically.
     """
+    import meshio  # here, not at the top: 0.2 s of imports that only writing a file needs
+
     path = Path(path)
     if path.suffix.lower() != ".vtu":
         raise FemError(f"solution path {str(path)!r}: expected a .vtu file")

@@ -71,12 +71,16 @@ class LinkSolution:
     away_from_clamp_at_dofs: np.ndarray  # (basis.N,) bool: the DOF is beyond clamp_exclusion_radius_m of the rims
 
 
-def _check_mesh_and_material(mesh: LinkMesh, material: Material, order: int) -> None:
-    """Refuse numerically flat elements (the solver would fail obscurely) and warn about slivers and
-    about P1 near incompressibility (volumetric locking), one line each."""
+def check_mesh_and_materials(mesh: LinkMesh, materials: Sequence[Material], order: int, *,
+                             warn_quality: bool = True) -> None:
+    """Refuse numerically flat elements (the solver would fail obscurely) and warn about slivers
+    (unless warn_quality is False) and about P1 near incompressibility (volumetric locking), one
+    line each."""
     q = quality.link_quality(mesh)
     quality.require_valid(q)
-    for message in (quality.quality_warning(q), locking.locking_warning(material, order)):
+    messages = [quality.quality_warning(q) if warn_quality else None]
+    messages += [locking.locking_warning(material, order) for material in materials]
+    for message in messages:
         if message:
             warnings.warn(message, FemWarning, stacklevel=3)
 
@@ -199,6 +203,7 @@ def analyse_link_materials(
     load_N: float = 1000.0,
     solver: str = "auto",
     stress: bool = True,
+    checked: bool = False,
 ) -> dict[str, LinkSolution]:
     """`analyse_link` for several materials on one mesh, keyed by material name.
 
@@ -208,7 +213,9 @@ def analyse_link_materials(
     other is solved by CG preconditioned with the first one's factorisation (PARDISO; a few
     back-substitutions, converged to a 1e-10 residual), or directly with other solvers.
     Shared costs are booked in the first material's `timing_s`. stress=False skips the stress
-    evaluation (its fields are NaN): a study needs stresses on its finest level only.
+    evaluation (its fields are NaN): a study needs stresses on its finest level only. checked=True:
+    the caller has run `check_mesh_and_materials` (a study does, before it solves the level in a
+    thread of its own, so that its warnings come from the caller's thread).
     """
     problem.element(order)
     if not (np.isfinite(load_N) and load_N > 0):
@@ -219,8 +226,8 @@ def analyse_link_materials(
     shared: dict[str, float] = {}
 
     start = time.perf_counter()
-    for material in materials:
-        _check_mesh_and_material(mesh, material, order)
+    if not checked:
+        check_mesh_and_materials(mesh, materials, order)
     sk_mesh, index = skfem_mesh(mesh, order)
     try:
         basis, fixed, unit = _discretise(mesh, sk_mesh, index, order)

@@ -6,13 +6,16 @@ the radius of the smallest other hole (screw and grease holes), and one level
 LEVEL_RATIO coarser gives the second point for the extrapolation. On the default link (pitch
 112.5 mm, bore radius 8.73 mm) that is 4.5 and 6 mm; a 12.7 mm-pitch roller-chain plate gets
 0.5 / 0.68 mm and a link scaled to 300 mm pitch 12 / 16 mm, the same mesh relative to the part.
-Each level is meshed once and solved for all materials at once (`link.analyse_link_materials`).
+Each level is meshed once and solved for all materials at once (`link.analyse_link_materials`),
+the finest first and each in a thread of its own, so that the coarser levels are meshed and solved
+on the second core beside the finest one's solve.
 """
 
 from __future__ import annotations
 
 import time
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Sequence
@@ -21,7 +24,7 @@ import numpy as np
 
 from . import quality
 from .errors import FemError, FemWarning
-from .link import LinkSolution, analyse_link_materials
+from .link import LinkSolution, analyse_link_materials, check_mesh_and_materials
 from .materials import Material
 from .problem import element
 from .richardson import Extrapolation, extrapolate, rate_bracket
@@ -56,7 +59,7 @@ class StiffnessEstimate:
     monotone: bool
     levels: tuple[tuple[float, int, float], ...]  # (mesh_size_m, dofs, stiffness_N_per_m), coarse to fine
     finest: LinkSolution
-    timing_s: dict[str, float]  # summed over levels: mesh, assembly, load, solve, post, total
+    timing_s: dict[str, float]  # summed over levels: mesh, assembly, load, solve, post, total; the study's wall
 
 
 def _check_sizes(sizes: Sequence[float]) -> tuple[float, ...]:
@@ -140,10 +143,15 @@ def stiffness_studies(
     curved: bool = True,
     bore_refinement: float = DEFAULT_BORE_REFINEMENT,
     progress: Callable[[str], None] | None = None,
+    concurrent_levels: bool = True,
 ) -> dict[str, StiffnessEstimate]:
     """`stiffness_study` for several materials, meshing each level once for all of them.
 
     `progress`, if given, gets one line per solve (level, material, DOFs, k, seconds).
+    `concurrent_levels`: solve each level in a thread of its own as soon as it is meshed, so that
+    meshing the next level and the levels' solves overlap on the machine's cores (gmsh, numpy and
+    PARDISO release the GIL; the levels share nothing). Pass False where the caller already keeps
+    every core busy, as the design study's workers do (one task per core).
     """
     import geometry
 
@@ -151,46 +159,59 @@ def stiffness_studies(
         raise FemError("stiffness_studies: expected at least one material")
     element(order)  # validate before meshing
     resolve(solver)
-    start = time.perf_counter()
+    start = study_start = time.perf_counter()
     sizes = _check_sizes(default_mesh_sizes(source) if mesh_sizes_m is None else mesh_sizes_m)
     mesh_order = 2 if (order == 2 and curved) else 1
     mesh_time = time.perf_counter() - start
-    solutions: dict[str, list[LinkSolution]] = {m.name: [] for m in materials}
-    for level, h in enumerate(sizes, start=1):
-        start = time.perf_counter()
-        link = geometry.load_link(source, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
-        if level == len(sizes):
-            wall = quality.thin_wall_warning(link)
-            if wall:
-                warnings.warn(wall, FemWarning, stacklevel=2)
-        mesh_time += time.perf_counter() - start
-        with warnings.catch_warnings():
-            if level < len(sizes):  # shape warnings concern the mesh whose stresses are reported
-                warnings.filterwarnings("ignore", message=quality.QUALITY_WARNING_PREFIX, category=FemWarning)
-            solved = analyse_link_materials(link, materials, order=order, load_N=load_N, solver=solver,
-                                            stress=level == len(sizes))
-        for material in materials:
-            solution = solved[material.name]
-            solutions[material.name].append(solution)
-            if progress is not None:
-                progress(f"FEA level {level}/{len(sizes)}, {material.name}: h = {h * 1e3:.2f} mm, "
+    # finest first: it is the longest solve, so the coarser levels are meshed and solved beside it
+    with ThreadPoolExecutor(max_workers=len(sizes) if concurrent_levels else 1,
+                            thread_name_prefix="fem-level") as pool:
+        pending = {}
+        for level in reversed(range(len(sizes))):
+            start = time.perf_counter()
+            link = geometry.load_link(source, mesh_size_m=sizes[level], order=mesh_order,
+                                      bore_refinement=bore_refinement)
+            finest = level == len(sizes) - 1
+            if finest:
+                wall = quality.thin_wall_warning(link)
+                if wall:
+                    warnings.warn(wall, FemWarning, stacklevel=2)
+            mesh_time += time.perf_counter() - start
+            # shape warnings concern the mesh whose stresses are reported
+            check_mesh_and_materials(link, materials, order, warn_quality=finest)
+            pending[level] = pool.submit(analyse_link_materials, link, materials, order=order, load_N=load_N,
+                                         solver=solver, stress=finest, checked=True)
+            if not concurrent_levels:
+                pending[level].result()  # an error stops the study before the next level is meshed
+        solved = [pending[level].result() for level in range(len(sizes))]
+    solutions: dict[str, list[LinkSolution]] = {m.name: [s[m.name] for s in solved] for m in materials}
+    if progress is not None:
+        for level, (h, by_material) in enumerate(zip(sizes, solved), start=1):
+            for solution in by_material.values():
+                progress(f"FEA level {level}/{len(sizes)}, {solution.material.name}: h = {h * 1e3:.2f} mm, "
                          f"{solution.dofs} DOFs, k = {solution.stiffness_N_per_m:.5g} N/m, "
                          f"{sum(solution.timing_s.values()):.1f} s")
     # Meshing is shared and booked to the first material, as analyse_link_materials books the
     # shared assembly: the first material's timing is the cost of the study, the others' the extra.
-    return {name: estimate_from_levels(sizes, sols, mesh_time if i == 0 else 0.0, order=order)
+    # Its "wall" is the study's elapsed time (less than the stages' sum where levels overlap).
+    wall_s = time.perf_counter() - study_start
+    return {name: estimate_from_levels(sizes, sols, mesh_time if i == 0 else 0.0, order=order,
+                                       wall_s=wall_s if i == 0 else None)
             for i, (name, sols) in enumerate(solutions.items())}
 
 
 def estimate_from_levels(sizes: Sequence[float], solutions: list[LinkSolution], mesh_time_s: float,
-                         fit_last: int | None = None, order: int = 2) -> StiffnessEstimate:
+                         fit_last: int | None = None, order: int = 2, wall_s: float | None = None) -> StiffnessEstimate:
     """The estimate from solved levels (coarse to fine); k is extrapolated from the last `fit_last`
-    levels (all when None), every level is recorded."""
+    levels (all when None), every level is recorded. `wall_s`, if given, is recorded as the
+    timing's "wall" beside the stages' sum ("total")."""
     timing: dict[str, float] = {"mesh": mesh_time_s}
     for solution in solutions:
         for key, value in solution.timing_s.items():
             timing[key] = timing.get(key, 0.0) + value
     timing["total"] = sum(timing.values())
+    if wall_s is not None:
+        timing["wall"] = wall_s
     fitted = solutions if fit_last is None else solutions[-fit_last:]
     k = [s.stiffness_N_per_m for s in fitted]
     fit: Extrapolation = extrapolate(k, [s.dofs for s in fitted], rate_bracket(order))

@@ -5,7 +5,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import meshio
 import numpy as np
 
 from geometry.atomic import atomic_target
@@ -25,6 +24,8 @@ def write_vtu(
     point_data arrays have one row per node of `mesh.points_m` (n_nodes, ...), cell_data arrays one
     row per tetrahedron (n_tets, ...). The file appears atomically (temporary file + rename).
     """
+    import meshio  # here, not at the top: 0.2 s of imports that only writing a file needs
+
     path = Path(path)
     cells = [("tetra10", mesh.tets10.T)] if mesh.tets10 is not None else [("tetra", mesh.tets.T)]
     n_points, n_cells = mesh.points_m.shape[1], mesh.tets.shape[1]

@@ -80,7 +80,7 @@ def _part(cfg: RunConfig):
 
 
 def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress,
-               solved_levels: dict | None) -> tuple[dict, dict]:
+               solved_levels: dict | None, concurrent_levels: bool) -> tuple[dict, dict]:
     """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
     (reusing the levels in `solved_levels`, see fem.adaptive); then the peak stress converged by
     local refinement from the finest level (fem.stress). Returns (stiffness, stress) per material."""
@@ -93,7 +93,8 @@ def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | Non
     if stiffness_tolerance is None:
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 2 mesh levels")
         sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
-        studies = stiffness_studies(_part(cfg), materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress)
+        studies = stiffness_studies(_part(cfg), materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress,
+                                    concurrent_levels=concurrent_levels)
     else:
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
                  f"{100 * stiffness_tolerance:.2g} %")
@@ -106,8 +107,9 @@ def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | Non
 
 
 def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None,
-            solved_levels: dict | None = None) -> dict[str, MaterialFea]:
-    """Stiffness, mass and stress per material, from the cache when nothing they depend on changed."""
+            solved_levels: dict | None = None, concurrent_levels: bool = True) -> dict[str, MaterialFea]:
+    """Stiffness, mass and stress per material, from the cache when nothing they depend on changed.
+    `concurrent_levels`: see fem.stiffness_studies (False where every core already runs a task)."""
     import warnings
 
     from fem import load_materials, render_deformed
@@ -134,7 +136,8 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
     missing = [library[name] for name in cfg.materials if name not in out]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
-        studies, stresses = _solve_fea(cfg, missing, stiffness_tolerance, progress, solved_levels) if missing else ({}, {})
+        studies, stresses = (_solve_fea(cfg, missing, stiffness_tolerance, progress, solved_levels, concurrent_levels)
+                             if missing else ({}, {}))
     cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
     for message in cautions:
         print(f"pipeline.py: warning: {message}", file=sys.stderr)

@@ -74,7 +74,7 @@ def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings) -> di
             cfg = replace(point_config(settings, inputs, None if settings.fea_cache else Path(scratch)),
                           materials=tuple(materials))
             with contextlib.redirect_stderr(io.StringIO()):  # the cautions travel in the records instead
-                fea = run_fea(cfg, Progress(True))
+                fea = run_fea(cfg, Progress(True), concurrent_levels=False)  # one task per core already
         except (GeometryError, FemError, DynamicsError) as e:
             reason = f"geometry: {e}" if isinstance(e, GeometryError) else f"FEA: {e}"
     return {"fea": fea, "reason": reason, **_timing(start, cpu_start)}

@@ -175,18 +175,66 @@ def _short_run(model, predictor="euler", compiled=None):
     sub = 8
     tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
     _, v, a, _ = _cam().svaj(tf)
-    return verlet.integrate(model, v, a, tf[1], np.zeros(6), -v[0] * np.ones(6), out_every=sub, compiled=compiled,
+    n = model.n_links
+    return verlet.integrate(model, v, a, tf[1], np.zeros(n), -v[0] * np.ones(n), out_every=sub, compiled=compiled,
                             predictor=predictor)
 
 
+@pytest.mark.parametrize("n_links", [6, 7])  # even and odd: one or two links on the mirror line
 @pytest.mark.parametrize("predictor", ["euler", "ab2"])
-def test_numpy_path_equals_the_compiled_path(predictor):
+def test_numpy_path_equals_the_compiled_path(predictor, n_links):
     if verlet.numba is None:
         pytest.skip("numba not installed: only the numpy path exists")
-    model = ClearanceChain(_chain(n=6, friction_coefficient=0.35), 94e-6, tensioner=Tensioner(2e5, 3.0, 50.0))
+    model = ClearanceChain(_chain(n=n_links, friction_coefficient=0.35), 94e-6, tensioner=Tensioner(2e5, 3.0, 50.0))
     runs = [_short_run(model, predictor, c) for c in (True, False)]
     np.testing.assert_allclose(runs[0].y, runs[1].y, rtol=0, atol=1e-12 * np.max(np.abs(runs[1].y)))
     assert runs[0].impacts == runs[1].impacts
+
+
+def _blocked(cmat: np.ndarray, w: np.ndarray) -> np.ndarray:
+    blocks = verlet.reflection_blocks(cmat)
+    work = tuple(np.zeros(n) for n in (blocks[0].shape[1], blocks[1].shape[1], blocks[0].shape[0],
+                                       blocks[1].shape[0]))
+    out = np.zeros(cmat.shape[0])
+    verlet._blocked_product(blocks, work, w, out)
+    return out
+
+
+@pytest.mark.parametrize("n_links", [3, 4, 7, 8, 85])
+@pytest.mark.parametrize("rayleigh", [None, (3.0, 2e-5)])
+def test_the_damping_product_in_reflection_blocks_equals_the_whole_matrix(n_links, rayleigh):
+    if verlet.numba is None:
+        pytest.skip("numba not installed: the blocks serve the compiled path only")
+    cmat = ClearanceChain(_chain(n=n_links, rayleigh_coefficients=rayleigh), 94e-6).damping_matrix
+    sym, anti, fixed, lo, hi = verlet.reflection_blocks(cmat)
+    assert fixed.size + 2 * lo.size == n_links and lo.size == (n_links - 1) // 2  # the chain is symmetric
+    if n_links == 85:  # padded blocks: 4224 multiply-adds against 7225
+        assert sym.size + anti.size < 0.6 * n_links**2
+    w = np.random.default_rng(n_links).standard_normal(n_links)
+    np.testing.assert_allclose(_blocked(cmat, w), cmat @ w, rtol=0, atol=1e-13 * np.abs(cmat).max() * np.abs(w).sum())
+
+
+def test_a_damping_matrix_without_the_mirror_symmetry_is_multiplied_whole():
+    if verlet.numba is None:
+        pytest.skip("numba not installed: the blocks serve the compiled path only")
+    rng = np.random.default_rng(1)
+    cmat = rng.standard_normal((9, 9))
+    cmat = cmat + cmat.T
+    _, anti, fixed, lo, _ = verlet.reflection_blocks(cmat)
+    assert fixed.size == 9 and lo.size == 0 and anti.size == 0
+    w = rng.standard_normal(9)
+    np.testing.assert_allclose(_blocked(cmat, w), cmat @ w, rtol=1e-13)
+
+
+def test_the_friction_tanh_shortcut_is_exact():
+    import math
+
+    assert math.tanh(verlet.TANH_IS_ONE) == 1.0 and math.tanh(-verlet.TANH_IS_ONE) == -1.0
+    x = np.concatenate([np.linspace(-40, 40, 8001), [verlet.TANH_IS_ONE, np.nextafter(verlet.TANH_IS_ONE, 0)]])
+    tanh = verlet._tanh if verlet.numba is None else verlet._tanh.py_func
+    assert all(tanh(float(v)) == math.tanh(float(v)) for v in x)
+    if verlet.numba is not None:
+        assert all(verlet._tanh(float(v)) == math.tanh(float(v)) for v in x[::7])
 
 
 @pytest.mark.parametrize("zeta", [0.0, 0.13, 0.5])

@@ -23,11 +23,12 @@ a fraction `safety` of that limit at the highest full-contact frequency (free pl
 chain), and divides the output interval evenly.
 
 Speed: with numba installed the step loop runs compiled (`_run_loops`: loops over preallocated
-arrays, no temporaries; about 3 us per step at N = 85 with the global damping law, whose dense C w
-product is half of it, and under 1 us with the Kelvin-Voigt law); without numba the vectorised
-numpy form (`_run`, the same steps and outputs, tested equal) runs, about 50x slower. Measured in
-benchmarks/bench_clearance.py. A hand-written fastmath loop for C w was measured no faster than
-numba's np.dot (BLAS dgemv) at N = 85, so the dot stays.
+arrays, no temporaries); without numba the vectorised numpy form (`_run`, the same steps and
+outputs, tested equal) runs, about 50x slower. With the global damping law the product C w was
+half of a step (about 1 us of 2.5 at N = 85, BLAS dgemv). The compiled step takes it in the two
+blocks of the chain's mirror symmetry (`reflection_blocks`: 4224 padded multiply-adds instead of
+7225, four rows per pass over w) and skips the friction law's tanh where it is exactly +-1
+(`TANH_IS_ONE`). Measured in benchmarks/bench_clearance.py (README, "The clearance chain").
 """
 
 from __future__ import annotations
@@ -59,6 +60,15 @@ N_ENERGY = 3
 # Kelvin-Voigt law: its dashpot force jumps at each impact, and there "ab2" loses the clean second
 # order (measured on the case of tests/test_clearance_fast_vs_reference.py: orders 1.2 and 1.5).
 PREDICTORS = {"euler": 0.0, "ab2": 0.5}
+# Above this argument tanh rounds to 1 in double precision (1 - tanh x ~ 2 exp(-2x) falls below half an
+# ulp of 1, 2^-54, from x = 55 ln 2 / 2 = 19.06), so the friction law skips the library call: the
+# links sliding faster than 19 velocity scales (95 mm/s by default) through the indexing motion.
+TANH_IS_ONE = 19.1
+# Rows of a damping block are padded to a multiple of 4 (`_rows_times` takes four at a time) and its
+# columns to a multiple of 16 (whole vector iterations of the inner loop: no scalar remainder).
+ROW_MULTIPLE, COLUMN_MULTIPLE = 4, 16
+# C counts as symmetric under the loop's reflection when it is to this fraction of its largest entry.
+REFLECTION_TOL = 1e-12
 
 
 def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
@@ -187,9 +197,11 @@ def _record(t_el, contact, phase, stats, count_impacts, new_impacts):
         stats[5] = max(stats[5], np.max(np.abs(t_el[phase])))
 
 
-def _accel_into(y, w, u, ud, zd, zdd, par, ipar, cmat, cw, a, t_el, contact):
-    """`_accel` written as loops into preallocated arrays (the compiled path: no temporaries).
-    Returns (carriage acceleration, cam power, damping power, friction power)."""
+def _accel_into(y, w, u, ud, zd, zdd, par, ipar, blocks, work, cw, a, t_el, contact):
+    """`_accel` written as loops into preallocated arrays (the compiled path: no temporaries), with
+    the damping product C w taken in the reflection blocks (`reflection_blocks`; `work` is
+    `block_workspace(blocks)`). Returns (carriage acceleration, cam power, damping power, friction
+    power)."""
     m, k, kd, preload, kg, beta, fc, inv_vs = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
     s, tens, kv = ipar[0], ipar[1], ipar[2]
     n = y.shape[0]
@@ -205,7 +217,7 @@ def _accel_into(y, w, u, ud, zd, zdd, par, ipar, cmat, cw, a, t_el, contact):
             cw[i] = 0.0
         cw[0] = beta * kd * w[0]
     else:
-        cw[:] = np.dot(cmat, w)
+        _blocked_product(blocks, work, w, cw)
         total = 0.0
         for i in range(n):
             total += cw[i]
@@ -243,7 +255,7 @@ def _accel_into(y, w, u, ud, zd, zdd, par, ipar, cmat, cw, a, t_el, contact):
     cw[0] += kd * y[0]
     for i in range(n):
         v_abs = zd + w[i]
-        fr = -fc * np.tanh(v_abs * inv_vs)
+        fr = -fc * _tanh(v_abs * inv_vs)
         p_fric -= fr * v_abs
         a[i] = (a[i] - cw[i] + fr) / m - zdd
     au = 0.0
@@ -254,9 +266,10 @@ def _accel_into(y, w, u, ud, zd, zdd, par, ipar, cmat, cw, a, t_el, contact):
     return au, f_cam * zd, p_damp, p_fric
 
 
-def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat, track_energy,
+def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, blocks, track_energy,
                out_y, out_w, out_a, out_u, out_ud, stats, energy):
-    """`_run` as loops over preallocated arrays (compiled with numba); same steps, same outputs."""
+    """`_run` as loops over preallocated arrays (compiled with numba); same steps, same outputs. The
+    damping matrix comes as `reflection_blocks`."""
     n_steps = zd.shape[0] - 1
     n = y.shape[0]
     bound = par[12]
@@ -271,7 +284,9 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
     contact = np.empty(n, dtype=np.bool_)
     free = np.empty(n, dtype=np.bool_)
     phase = np.zeros(n, dtype=np.bool_)
-    au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, cmat, cw, a, t_el, contact)
+    work = (np.zeros(blocks[0].shape[1]), np.zeros(blocks[1].shape[1]), np.zeros(blocks[0].shape[0]),
+            np.zeros(blocks[1].shape[0]))
+    au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, blocks, work, cw, a, t_el, contact)
     a_prev = a.copy()  # the first step's predictor is w + h a whatever theta
     au_prev = au
     powers = np.array([pc, pd, pf])
@@ -292,14 +307,15 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
         u += h * uh
         up = ud + h * (au + theta * (au - au_prev))
         au_prev = au
-        au, pc2, pd2, pf2 = _accel_into(y, wp, u, up, zd[i + 1], zdd[i + 1], par, ipar, cmat, cw, a, t_el, contact)
+        au, pc2, pd2, pf2 = _accel_into(y, wp, u, up, zd[i + 1], zdd[i + 1], par, ipar, blocks, work, cw, a, t_el,
+                                        contact)
         for j in range(n):
             w[j] = wh[j] + 0.5 * h * a[j]
         ud = uh + 0.5 * h * au
         on_output = (i + 1) % out_every == 0
         if track_energy or on_output:
-            au_out, pc2, pd2, pf2 = _accel_into(y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar, cmat, cw, a_out,
-                                                t_el, contact)
+            au_out, pc2, pd2, pf2 = _accel_into(y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar, blocks, work, cw,
+                                                a_out, t_el, contact)
             p_new[0], p_new[1], p_new[2] = pc2, pd2, pf2
             row = _keep(i, h, row, y, w, a_out, u, ud, p_new, powers, track_energy, on_output,
                         out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
@@ -311,6 +327,56 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
             for j in range(n):
                 phase[j] = (phase[j] or (contact[j] and free[j])) and contact[j]
                 free[j] = not contact[j]
+
+
+def _blocked_product(blocks, work, w, out):
+    """out = C w with C given as `reflection_blocks`: w split into its symmetric and antisymmetric
+    parts (`work`: their padded coordinates and products), each multiplied by its block."""
+    sym, anti, fixed, lo, hi = blocks
+    ws, wa, cs, ca = work
+    nf = fixed.shape[0]
+    r = math.sqrt(0.5)
+    for j in range(nf):
+        ws[j] = w[fixed[j]]
+    for p in range(lo.shape[0]):
+        ws[nf + p] = r * (w[lo[p]] + w[hi[p]])
+        wa[p] = r * (w[lo[p]] - w[hi[p]])
+    _rows_times(sym, ws, cs)
+    _rows_times(anti, wa, ca)
+    for j in range(nf):
+        out[fixed[j]] = cs[j]
+    for p in range(lo.shape[0]):
+        out[lo[p]] = r * (cs[nf + p] + ca[p])
+        out[hi[p]] = r * (cs[nf + p] - ca[p])
+
+
+def _rows_times(mat, x, out):
+    """out = mat x, four rows at a time (rows a multiple of 4, `_padded`): each load of x serves
+    four rows, and the compiler vectorises the inner loop (fastmath: the sums may be reassociated)."""
+    for i in range(0, mat.shape[0], 4):
+        s0 = 0.0
+        s1 = 0.0
+        s2 = 0.0
+        s3 = 0.0
+        for j in range(mat.shape[1]):
+            xj = x[j]
+            s0 += mat[i, j] * xj
+            s1 += mat[i + 1, j] * xj
+            s2 += mat[i + 2, j] * xj
+            s3 += mat[i + 3, j] * xj
+        out[i] = s0
+        out[i + 1] = s1
+        out[i + 2] = s2
+        out[i + 3] = s3
+
+
+def _tanh(x):
+    """math.tanh, without the library call where it is exactly +-1 in double precision."""
+    if x > TANH_IS_ONE:
+        return 1.0
+    if x < -TANH_IS_ONE:
+        return -1.0
+    return math.tanh(x)
 
 
 def _record_loops(t_el, contact, phase, free, stats, count_impacts):
@@ -333,6 +399,9 @@ def _record_loops(t_el, contact, phase, free, stats, count_impacts):
 
 if numba is not None:
     _keep = numba.njit(cache=True)(_keep)
+    _rows_times = numba.njit(cache=True, fastmath=True)(_rows_times)
+    _blocked_product = numba.njit(cache=True)(_blocked_product)
+    _tanh = numba.njit(cache=True)(_tanh)
     _accel_into = numba.njit(cache=True)(_accel_into)
     _record_loops = numba.njit(cache=True)(_record_loops)
     _run_compiled = numba.njit(cache=True)(_run_loops)
@@ -424,10 +493,10 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
     use_numba = (numba is not None) if compiled is None else compiled
     if use_numba and numba is None:
         raise DynamicsError("integrate: compiled=True but numba is not installed")
-    runner = _run_compiled if use_numba else _run
+    runner, damping = (_run_compiled, reflection_blocks(cmat)) if use_numba else (_run, cmat)
     with np.errstate(over="ignore", invalid="ignore"):
         runner(y0, w0, float(u0), float(ud0), zd, zdd, float(step_s), theta, int(out_every), int(record_from), par,
-               ipar, cmat, bool(track_energy), *out, stats, energy)
+               ipar, damping, bool(track_energy), *out, stats, energy)
     if stats[6] or not np.all(np.isfinite(out[0])):
         where = stats[6] if stats[6] else "?"
         raise SolverDivergedError(
@@ -453,6 +522,43 @@ def packed_parameters(model, bound: float = np.inf):
     ipar = np.array([model.idler_span, int(t is not None), int(kv)], dtype=np.int64)
     cmat = np.zeros((1, 1)) if kv else np.ascontiguousarray(model.damping_matrix)
     return par, ipar, cmat
+
+
+def reflection_blocks(cmat: np.ndarray):
+    """C as the compiled step takes it: (symmetric block, antisymmetric block, fixed links, pair
+    links lo, hi), blocks padded (`_padded`).
+
+    The loop's reflection that keeps link 1 (link i <-> link N + 2 - i, 1-based) maps the chain onto
+    itself: equal links and spans, the drive on link 1, the idler span onto itself. C commutes with
+    it, so in the coordinates w_fixed and (w_lo +- w_hi) / sqrt 2 of each mirrored pair it is block
+    diagonal: about N^2 / 2 multiply-adds instead of N^2. A C without that symmetry comes back whole
+    (every link fixed, no pairs)."""
+    n = cmat.shape[0]
+    pairs = (n - 1) // 2
+    lo = np.arange(1, pairs + 1)
+    hi = n - lo
+    fixed = np.array([0] if n % 2 else [0, n // 2])
+    mirror = (n - np.arange(n)) % n
+    scale = np.max(np.abs(cmat), initial=0.0)
+    if n < 3 or np.max(np.abs(cmat[np.ix_(mirror, mirror)] - cmat)) > REFLECTION_TOL * scale:
+        none = np.zeros(0, dtype=np.int64)
+        return _padded(cmat), _padded(np.zeros((0, 0))), np.arange(n), none, none
+    r = math.sqrt(0.5)
+    sym, anti = np.zeros((n, fixed.size + pairs)), np.zeros((n, pairs))
+    sym[fixed, np.arange(fixed.size)] = 1.0
+    sym[lo, fixed.size + np.arange(pairs)] = r
+    sym[hi, fixed.size + np.arange(pairs)] = r
+    anti[lo, np.arange(pairs)] = r
+    anti[hi, np.arange(pairs)] = -r
+    return _padded(sym.T @ cmat @ sym), _padded(anti.T @ cmat @ anti), fixed, lo, hi
+
+
+def _padded(block: np.ndarray) -> np.ndarray:
+    rows = -(-block.shape[0] // ROW_MULTIPLE) * ROW_MULTIPLE
+    cols = -(-block.shape[1] // COLUMN_MULTIPLE) * COLUMN_MULTIPLE
+    out = np.zeros((rows, cols))
+    out[: block.shape[0], : block.shape[1]] = block
+    return out
 
 
 def stable_step_s(model, safety: float = DEFAULT_SAFETY, predictor: str = "euler") -> float:
