@@ -5,8 +5,9 @@
 Each path runs in a fresh process (imports timed apart), the paths alternate, and the median of
 `--repeats` runs is reported with wall and CPU time (CPU is steadier when other jobs share the
 machine):
-- new default: `stiffness_study(None, al6061-t6)` (two levels relative to the part, 6 / 4.5 mm, solved
-  side by side in two threads, finest first);
+- new default: `stiffness_study(None, al6061-t6)` (two levels relative to the part, 6 / 4.5 mm,
+  solved side by side in two threads, finest first, the finest on the link's mirror half);
+- the same on the whole link (`mirror_symmetry=False`, as `python -m fem --full-model` runs);
 - the same with the levels one after the other (`concurrent_levels=False`, as the study's workers run);
 - previous default levels on the same code: three uniform levels 6.5 / 4.5 / 3.5 mm;
 - a second material: `stiffness_studies(None, [al6061-t6, ti-grade2])` less the first's time
@@ -39,7 +40,8 @@ from fem import get_material, stiffness_studies
 t1 = time.perf_counter()
 c1 = time.process_time()
 materials = [get_material(n) for n in {materials!r}]
-result = stiffness_studies(None, materials, mesh_sizes_m={sizes!r}, concurrent_levels={concurrent!r})
+result = stiffness_studies(None, materials, mesh_sizes_m={sizes!r}, concurrent_levels={concurrent!r},
+                           mirror_symmetry={mirror!r})
 first = result[materials[0].name]
 print(json.dumps({{"import_s": t1 - t0, "wall_s": time.perf_counter() - t1, "cpu_s": time.process_time() - c1,
                   "k": {{n: e.stiffness_N_per_m for n, e in result.items()}},
@@ -47,16 +49,17 @@ print(json.dumps({{"import_s": t1 - t0, "wall_s": time.perf_counter() - t1, "cpu
                   "dofs": [d for _, d, _ in first.levels], "parts_s": first.timing_s}}))
 """
 
-PATHS = {  # materials, mesh sizes, levels solved side by side
-    "new default (2 relative levels)": (["al6061-t6"], None, True),
-    "new default, levels one after the other": (["al6061-t6"], None, False),
-    "previous default levels (6.5/4.5/3.5 mm), same code": (["al6061-t6"], (0.0065, 0.0045, 0.0035), True),
-    "new default, aluminium + titanium": (["al6061-t6", "ti-grade2"], None, True),
+PATHS = {  # materials, mesh sizes, levels solved side by side, mirror half
+    "new default (2 relative levels)": (["al6061-t6"], None, True, True),
+    "new default on the whole link": (["al6061-t6"], None, True, False),
+    "new default, levels one after the other": (["al6061-t6"], None, False, True),
+    "previous default levels (6.5/4.5/3.5 mm), same code, whole link": (["al6061-t6"], (0.0065, 0.0045, 0.0035), True, False),
+    "new default, aluminium + titanium": (["al6061-t6", "ti-grade2"], None, True, True),
 }
 
 
-def run_study(materials, sizes, concurrent) -> dict:
-    code = STUDY.format(materials=materials, sizes=sizes, concurrent=concurrent)
+def run_study(materials, sizes, concurrent, mirror) -> dict:
+    code = STUDY.format(materials=materials, sizes=sizes, concurrent=concurrent, mirror=mirror)
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True,
                          env={**__import__("os").environ, "PYTHONPATH": str(ROOT)})
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -82,8 +85,8 @@ def main(argv=None) -> int:
     old: list[dict] = []
     cli: list[dict] = []
     for _ in range(args.repeats):
-        for name, (materials, sizes, concurrent) in PATHS.items():
-            runs[name].append(run_study(materials, sizes, concurrent))
+        for name, (materials, sizes, concurrent, mirror) in PATHS.items():
+            runs[name].append(run_study(materials, sizes, concurrent, mirror))
         cli.append(run_cli(ROOT))
         if args.old_tree is not None:
             old.append(run_cli(args.old_tree))
@@ -102,8 +105,11 @@ def main(argv=None) -> int:
           + ", ".join(f"{name} {seconds:.2f} s" for name, seconds in parts.items()))
     both, one = medians["new default, aluminium + titanium"], medians["new default (2 relative levels)"]
     print(f"titanium on aluminium's meshes: +{both[0] - one[0]:.2f} s wall, +{both[1] - one[1]:.2f} s CPU")
-    prev = medians["previous default levels (6.5/4.5/3.5 mm), same code"]
+    prev = medians["previous default levels (6.5/4.5/3.5 mm), same code, whole link"]
     print(f"new default vs previous levels: {prev[0] / one[0]:.2f}x wall, {prev[1] / one[1]:.2f}x CPU")
+    whole = medians["new default on the whole link"]
+    print(f"mirror half vs whole link: {one[0]:.2f} vs {whole[0]:.2f} s wall ({whole[0] / one[0]:.2f}x), "
+          f"CPU {one[1]:.2f} vs {whole[1]:.2f} s")
     apart = medians["new default, levels one after the other"]
     print(f"levels side by side vs one after the other: {one[0]:.2f} vs {apart[0]:.2f} s wall "
           f"({apart[0] / one[0]:.2f}x), CPU {one[1]:.2f} vs {apart[1]:.2f} s")

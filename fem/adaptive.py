@@ -192,7 +192,7 @@ def _error(solutions: list[LinkSolution]) -> float | None:
     if len(solutions) < MIN_LEVELS:
         return None
     last = solutions[-MIN_LEVELS:]
-    return extrapolate([s.stiffness_N_per_m for s in last], [s.dofs for s in last],
+    return extrapolate([s.stiffness_N_per_m for s in last], [s.whole_link_dofs for s in last],
                        rate_bracket(last[-1].order)).rel_error_estimate
 
 

@@ -5,6 +5,10 @@ pressure p0 max(0, cos phi) acting along the outward radial direction e_r (from 
 the material), phi measured about the bore axis from the load direction d (fixed axis -> loaded
 axis), uniform along the bore. p0 is set so that the discrete resultant along d equals F exactly.
 k = F / delta with the work-conjugate displacement delta = (1/F) integral(t . u dA) = f . u / F.
+
+A `LinkMesh` with a mirror plane is the half of a symmetric link: it carries F / 2 and its normal
+displacement is held at zero on the plane, so its field is the whole link's under F; the work,
+strain energy and mesh volume are doubled to give the whole link's k and volume.
 """
 
 from __future__ import annotations
@@ -61,7 +65,8 @@ class LinkSolution:
     bore_radius_m: float  # loaded bore
     mesh_size_m: float
     n_tets: int
-    dofs: int  # vector DOFs, constrained ones included
+    dofs: int  # vector DOFs solved (of the half link, if mirrored), constrained ones included
+    whole_link_dofs: int  # dofs, or for a mirrored half those of its mesh joined with its mirror image
     solver: str
     timing_s: dict[str, float]
     link: LinkMesh
@@ -69,6 +74,41 @@ class LinkSolution:
     displacement_m: np.ndarray  # (3, basis.N) at load_N
     von_mises_at_dofs_Pa: np.ndarray  # (basis.N,) element-node values averaged per DOF, at load_N
     away_from_clamp_at_dofs: np.ndarray  # (basis.N,) bool: the DOF is beyond clamp_exclusion_radius_m of the rims
+
+    @property
+    def mirrored(self) -> bool:
+        """Solved on the half of a mirror-symmetric link: mesh, n_tets, dofs and fields are that half's."""
+        return self.link.mirror_plane is not None
+
+
+@dataclass(frozen=True, eq=False)
+class NodalFields:
+    """A solution's nodes, cells (VTK node order) and fields at them, for pictures and files."""
+
+    points_m: np.ndarray  # (3, n)
+    cells: np.ndarray  # (n_cells, 4 or 10)
+    displacement_m: np.ndarray  # (3, n)
+    von_mises_Pa: np.ndarray  # (n,)
+
+
+def whole_link_fields(solution: LinkSolution) -> NodalFields:
+    """The solution on the whole link: as solved, or a mirrored half joined with its mirror image
+    (positions reflected, the normal displacement component reversed, von Mises unchanged)."""
+    points, cells = solution.basis.doflocs, solution.basis.element_dofs  # scikit-fem's node order is VTK's
+    u, vm = solution.displacement_m, solution.von_mises_at_dofs_Pa
+    if not solution.mirrored:
+        return NodalFields(points, cells.T, u, vm)
+    plane = solution.link.mirror_plane
+    whole_points, whole_cells, image = plane.whole(points, cells)
+    mirrored_u = u.copy()
+    mirrored_u[plane.axis] *= -1
+    displacement = np.empty((3, whole_points.shape[1]))
+    displacement[:, image] = mirrored_u
+    displacement[:, : u.shape[1]] = u
+    von_mises = np.empty(whole_points.shape[1])
+    von_mises[image] = vm
+    von_mises[: vm.size] = vm
+    return NodalFields(whole_points, whole_cells.T, displacement, von_mises)
 
 
 def check_mesh_and_materials(mesh: LinkMesh, materials: Sequence[Material], order: int, *,
@@ -148,12 +188,27 @@ def _facets(mesh, index: np.ndarray, triangles: np.ndarray, name: str) -> np.nda
 
 
 def _discretise(link: LinkMesh, sk_mesh, index: np.ndarray, order: int):
-    """Basis, clamped facets and the load vector of a unit bearing pressure p0 = 1 Pa."""
+    """Basis, clamped facets, the load vector of a unit bearing pressure p0 = 1 Pa and the DOFs
+    held by the load case (the clamp, and the normal component on a mirror plane)."""
     fixed = _facets(sk_mesh, index, link.fixed_bore_facets, "fixed_bore_facets")
     loaded = _facets(sk_mesh, index, link.loaded_bore_facets, "loaded_bore_facets")
     basis = problem.scalar_basis(sk_mesh, order)
     unit = problem.traction_load(basis, loaded, bearing_traction(link.loaded_bore, link.load_direction, 1.0))
-    return basis, fixed, unit
+    held = [problem.fixed_vector_dofs(basis, fixed)]
+    if link.mirror_plane is not None:
+        if link.mirror_facets is None:
+            raise FemError("LinkMesh.mirror_facets: expected the facets on the mirror plane of a half link")
+        mirror = _facets(sk_mesh, index, link.mirror_facets, "mirror_facets")
+        held.append(problem.fixed_vector_dofs(basis, mirror, components=(link.mirror_plane.axis,)))
+    return basis, fixed, unit, np.unique(np.concatenate(held))
+
+
+def _whole_link_dofs(link: LinkMesh, basis: Basis, index: np.ndarray, sk_mesh) -> int:
+    """Vector DOFs of the whole link's mesh: a mirrored half's twice, less the shared plane's once."""
+    if link.mirror_plane is None:
+        return 3 * basis.N
+    on_plane = basis.get_dofs(facets=_facets(sk_mesh, index, link.mirror_facets, "mirror_facets")).flatten()
+    return 3 * (2 * basis.N - len(np.unique(on_plane)))
 
 
 def bearing_traction(bore: Bore, direction: np.ndarray, p0_Pa: float):
@@ -172,12 +227,16 @@ def bearing_traction(bore: Bore, direction: np.ndarray, p0_Pa: float):
     return traction
 
 
-def _rim_points(mesh, facets: np.ndarray, samples_per_edge: int = 4) -> np.ndarray:
-    """Points (n, 3) along the boundary curves of a facet set (edges used by one facet only)."""
+def _rim_points(mesh, facets: np.ndarray, mirror_plane=None, samples_per_edge: int = 4) -> np.ndarray:
+    """Points (n, 3) along the boundary curves of a facet set (edges used by one facet only), less
+    the edges on a mirror plane (there the facet set continues in the other half)."""
     tri = mesh.facets[:, facets]
     edges = np.sort(np.hstack([tri[[0, 1]], tri[[1, 2]], tri[[0, 2]]]), axis=0)
     unique, counts = np.unique(edges, axis=1, return_counts=True)
     rim = unique[:, counts == 1]
+    if mirror_plane is not None:
+        on_plane = mirror_plane.on_plane(mesh.p[:, rim], float(np.ptp(mesh.p, axis=1).max()))  # (2, n_edges)
+        rim = rim[:, ~on_plane.all(axis=0)]
     s = np.linspace(0.0, 1.0, samples_per_edge + 1)
     a, b = mesh.p[:, rim[0]], mesh.p[:, rim[1]]
     return (a[:, :, None] * (1 - s) + b[:, :, None] * s).reshape(3, -1).T
@@ -230,20 +289,20 @@ def analyse_link_materials(
         check_mesh_and_materials(mesh, materials, order)
     sk_mesh, index = skfem_mesh(mesh, order)
     try:
-        basis, fixed, unit = _discretise(mesh, sk_mesh, index, order)
+        basis, fixed, unit, clamped = _discretise(mesh, sk_mesh, index, order)
     except Exception as exc:  # scikit-fem raises a bare Exception when its inverse map fails
         if sk_mesh.affine or "Newton iteration" not in str(exc):
             raise
         # Some curved cells too distorted for the isoparametric facet map: use straight cells.
         sk_mesh, index = skfem_mesh(mesh, order, curved=False)
-        basis, fixed, unit = _discretise(mesh, sk_mesh, index, order)
+        basis, fixed, unit, clamped = _discretise(mesh, sk_mesh, index, order)
     direction = mesh.load_direction
     resultant_per_Pa = float(direction @ problem.as_components(unit).sum(axis=1))
     if not resultant_per_Pa > 0:
         raise FemError("LinkMesh.loaded_bore_facets: the bearing pressure has no resultant along the load direction")
-    f = unit * (load_N / resultant_per_Pa)
-    clamped = np.unique(problem.fixed_vector_dofs(basis, fixed))
+    f = unit * (load_N / _copies(mesh) / resultant_per_Pa)
     free = np.setdiff1d(np.arange(f.size), clamped)
+    whole_dofs = _whole_link_dofs(mesh, basis, index, sk_mesh)
     shared["basis_and_load"] = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -251,7 +310,7 @@ def analyse_link_materials(
     shared["assembly"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    stress_points = _StressPoints(basis, sk_mesh, fixed, mesh.fixed_bore.radius_m) if stress else None
+    stress_points = _StressPoints(basis, sk_mesh, fixed, mesh.fixed_bore.radius_m, mesh.mirror_plane) if stress else None
     shared["post"] = time.perf_counter() - start
 
     results: dict[str, LinkSolution] = {}
@@ -279,12 +338,17 @@ def analyse_link_materials(
             timing["solve"] = time.perf_counter() - start
             start = time.perf_counter()
             results[material.name] = _solution(mesh, sk_mesh, basis, material, order, load_N, f, u, free, K, method,
-                                               stress_points, timing)
+                                               stress_points, timing, whole_dofs)
             timing["post"] = timing.get("post", 0.0) + time.perf_counter() - start
     finally:
         if factor is not None:
             factor.free()
     return results
+
+
+def _copies(mesh: LinkMesh) -> int:
+    """How many copies of the meshed part make the link (2 for a mirrored half)."""
+    return 1 if mesh.mirror_plane is None else 2
 
 
 def _same_poisson_ratio(a: Material, b: Material) -> bool:
@@ -309,12 +373,12 @@ class _StressPoints:
     """Material-free data of the stress evaluation: element-node points, their distance from the
     clamped bore's rim, and the basis that evaluates gradients there."""
 
-    def __init__(self, basis: Basis, sk_mesh, fixed_facets: np.ndarray, fixed_radius_m: float):
+    def __init__(self, basis: Basis, sk_mesh, fixed_facets: np.ndarray, fixed_radius_m: float, mirror_plane=None):
         local = basis.elem.doflocs.T
         self.at_nodes = Basis(basis.mesh, basis.elem, quadrature=(local, np.ones(local.shape[1])))
         self.where = np.asarray(basis.mapping.F(local))  # (3, n_elements, n_local)
         self.exclusion_radius_m = CLAMP_EXCLUSION_RADIUS_FRACTION * fixed_radius_m
-        distance, _ = cKDTree(_rim_points(sk_mesh, fixed_facets)).query(self.where.reshape(3, -1).T)
+        distance, _ = cKDTree(_rim_points(sk_mesh, fixed_facets, mirror_plane)).query(self.where.reshape(3, -1).T)
         self.away = distance.reshape(self.where.shape[1:]) > self.exclusion_radius_m
         self.element_dofs = basis.element_dofs.T  # (n_elements, n_local)
         flat = self.element_dofs.ravel()
@@ -329,13 +393,14 @@ class _StressPoints:
 
 def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: int, load_N: float, f: np.ndarray,
               u: np.ndarray, free: np.ndarray, K, method: str, points: _StressPoints | None,
-              timing: dict) -> LinkSolution:
-    work = float(f @ u)
+              timing: dict, whole_dofs: int) -> LinkSolution:
+    work = _copies(mesh) * float(f @ u)  # of the whole link
     if not work > 0:
         raise FemError("the link did not deform under the load: check the bore facet sets")
     lam, mu = material.lame_Pa
     if points is None:
-        return _solution_without_stress(mesh, sk_mesh, basis, material, order, load_N, work, u, free, K, method, timing)
+        return _solution_without_stress(mesh, sk_mesh, basis, material, order, load_N, work, u, free, K, method, timing,
+                                        whole_dofs)
     vm = points.von_mises(u, lam, mu)
     dofs = points.element_dofs
     at_dofs = np.bincount(dofs.ravel(), vm.ravel(), basis.N) / np.bincount(dofs.ravel(), minlength=basis.N)
@@ -348,9 +413,9 @@ def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: 
         curved=not sk_mesh.affine,
         load_N=float(load_N),
         stiffness_N_per_m=load_N**2 / work,
-        stiffness_from_energy_N_per_m=load_N**2 / float(u[free] @ (K @ u[free])),
+        stiffness_from_energy_N_per_m=load_N**2 / (_copies(mesh) * float(u[free] @ (K @ u[free]))),
         volume_m3=float(mesh.cad_volume_m3),
-        mesh_volume_m3=float(np.sum(basis.dx)),
+        mesh_volume_m3=_copies(mesh) * float(np.sum(basis.dx)),
         mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),
         peak_von_mises_Pa_per_N=float(vm.max()) / load_N,
         peak_von_mises_location_m=where[:, int(np.argmax(vm))].tolist(),
@@ -362,6 +427,7 @@ def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: 
         mesh_size_m=float(mesh.mesh_size_m),
         n_tets=int(mesh.tets.shape[1]),
         dofs=int(3 * basis.N),
+        whole_link_dofs=whole_dofs,
         solver=method,
         timing_s=timing,
         link=mesh,
@@ -374,19 +440,19 @@ def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: 
 
 def _solution_without_stress(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: int, load_N: float,
                              work: float, u: np.ndarray, free: np.ndarray, K, method: str,
-                             timing: dict) -> LinkSolution:
+                             timing: dict, whole_dofs: int) -> LinkSolution:
     nan = float("nan")
     return LinkSolution(
         material=material, order=order, curved=not sk_mesh.affine, load_N=float(load_N),
         stiffness_N_per_m=load_N**2 / work,
-        stiffness_from_energy_N_per_m=load_N**2 / float(u[free] @ (K @ u[free])),
-        volume_m3=float(mesh.cad_volume_m3), mesh_volume_m3=float(np.sum(basis.dx)),
+        stiffness_from_energy_N_per_m=load_N**2 / (_copies(mesh) * float(u[free] @ (K @ u[free]))),
+        volume_m3=float(mesh.cad_volume_m3), mesh_volume_m3=_copies(mesh) * float(np.sum(basis.dx)),
         mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),
         peak_von_mises_Pa_per_N=nan, peak_von_mises_location_m=[nan] * 3,
         peak_von_mises_away_from_clamp_Pa_per_N=nan, peak_von_mises_away_location_m=[nan] * 3,
         clamp_exclusion_radius_m=CLAMP_EXCLUSION_RADIUS_FRACTION * mesh.fixed_bore.radius_m,
         pitch_m=mesh.pitch_m, bore_radius_m=float(mesh.loaded_bore.radius_m), mesh_size_m=float(mesh.mesh_size_m),
-        n_tets=int(mesh.tets.shape[1]), dofs=int(3 * basis.N), solver=method, timing_s=timing, link=mesh,
+        n_tets=int(mesh.tets.shape[1]), dofs=int(3 * basis.N), whole_link_dofs=whole_dofs, solver=method, timing_s=timing, link=mesh,
         basis=basis, displacement_m=problem.as_components(u).copy(),
         von_mises_at_dofs_Pa=np.full(basis.N, nan), away_from_clamp_at_dofs=np.zeros(basis.N, dtype=bool),
     )

@@ -139,12 +139,14 @@ def boundary_facets(tets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return faces[:, once], opposite[once]
 
 
-def thinnest_wall_m(points_m: np.ndarray, tets: np.ndarray, search_radius_m: float) -> float:
+def thinnest_wall_m(points_m: np.ndarray, tets: np.ndarray, search_radius_m: float, mirror_plane=None) -> float:
     """Thickness of the thinnest wall (m) covering >= WALL_AREA_FRACTION of the surface; inf if
     no wall is thinner than `search_radius_m`.
 
     The local thickness at a boundary facet is the distance, along its inward normal, to the
-    nearest facet facing the other way across the material (within search_radius_m).
+    nearest facet facing the other way across the material (within search_radius_m). On the half
+    of a mirrored link (`mirror_plane`, a geometry.link_mesh.MirrorPlane) a wall that ends on the
+    plane goes on in the other half: it is twice as thick as seen from the half.
     """
     from scipy.spatial import cKDTree
 
@@ -162,6 +164,9 @@ def thinnest_wall_m(points_m: np.ndarray, tets: np.ndarray, search_radius_m: flo
     i, j = i[facing], j[facing]
     offset = centroid[j] - centroid[i]
     depth = -np.einsum("ij,ij->i", offset, normal[i])
+    if mirror_plane is not None:
+        on_plane = mirror_plane.on_plane(points_m[:, tri], float(np.ptp(points_m, axis=1).max())).all(axis=0)
+        depth = np.where(on_plane[i] | on_plane[j], 2 * depth, depth)
     lateral = np.linalg.norm(offset + depth[:, None] * normal[i], axis=1)
     across = (depth > 0) & (lateral < np.maximum(depth, np.sqrt(area[i])))
     thickness = np.full(len(area), np.inf)
@@ -175,7 +180,8 @@ def thinnest_wall_m(points_m: np.ndarray, tets: np.ndarray, search_radius_m: flo
 def thin_wall_warning(link) -> str | None:
     """One-line warning when a wall of the link (a geometry.LinkMesh) is thinner than its elements."""
     size = float(link.mesh_size_m)
-    wall = thinnest_wall_m(link.points_m, link.tets, search_radius_m=THIN_WALL_ELEMENT_FRACTION * size)
+    wall = thinnest_wall_m(link.points_m, link.tets, search_radius_m=THIN_WALL_ELEMENT_FRACTION * size,
+                           mirror_plane=link.mirror_plane)
     if not wall < THIN_WALL_ELEMENT_FRACTION * size:
         return None
     return (f"mesh: a wall about {wall * 1e3:.3g} mm thick is thinner than half the {size * 1e3:.3g} mm elements; "

@@ -11,7 +11,7 @@ import numpy as np
 from geometry.atomic import atomic_target
 
 from .errors import FemError
-from .link import LinkSolution
+from .link import LinkSolution, NodalFields, whole_link_fields
 
 # Without a display VTK first tries X, warns, then falls back to EGL; asking for EGL directly
 # skips that attempt. Must be set before VTK creates its first render window.
@@ -31,18 +31,21 @@ def nice_factor(raw: float) -> float:
 
 
 def exaggeration_factor(solution: LinkSolution) -> float:
-    points = solution.basis.doflocs
+    return _exaggeration(whole_link_fields(solution))
+
+
+def _exaggeration(fields: NodalFields) -> float:
+    points = fields.points_m
     size = float(np.linalg.norm(points.max(axis=1) - points.min(axis=1)))
-    peak = float(np.max(np.linalg.norm(solution.displacement_m, axis=0)))
+    peak = float(np.max(np.linalg.norm(fields.displacement_m, axis=0)))
     return nice_factor(DEFORMATION_FRACTION * size / peak) if peak > 0 else 1.0
 
 
-def _grid(solution: LinkSolution):
+def _grid(fields: NodalFields):
     import pyvista as pv
 
-    cells = solution.basis.element_dofs.T  # scikit-fem's P1/P2 node order is VTK's
-    cell_type = pv.CellType.QUADRATIC_TETRA if cells.shape[1] == 10 else pv.CellType.TETRA
-    return pv.UnstructuredGrid({cell_type: cells}, np.ascontiguousarray(solution.basis.doflocs.T))
+    cell_type = pv.CellType.QUADRATIC_TETRA if fields.cells.shape[1] == 10 else pv.CellType.TETRA
+    return pv.UnstructuredGrid({cell_type: fields.cells}, np.ascontiguousarray(fields.points_m.T))
 
 
 def render_deformed(
@@ -61,20 +64,21 @@ def render_deformed(
         raise FemError(f"image path {str(path)!r}: expected a .png file")
     import pyvista as pv
 
-    factor = exaggeration_factor(solution)
+    fields = whole_link_fields(solution)  # a mirrored half is pictured whole
+    factor = _exaggeration(fields)
     load = solution.load_N
-    grid = _grid(solution)
+    grid = _grid(fields)
     if scalar == "von_mises":
-        grid.point_data["value"] = solution.von_mises_at_dofs_Pa / 1e6
+        grid.point_data["value"] = fields.von_mises_Pa / 1e6
         bar = f"von Mises stress [MPa] at {load:g} N"
         # The clamp rim is singular; scale the colours to the converged peak away from it.
         upper = solution.peak_von_mises_away_from_clamp_Pa_per_N * load / 1e6
         clim = (0.0, upper if np.isfinite(upper) and upper > 0 else float(grid.point_data["value"].max()))
     else:
-        grid.point_data["value"] = np.linalg.norm(solution.displacement_m, axis=0) * 1e6
+        grid.point_data["value"] = np.linalg.norm(fields.displacement_m, axis=0) * 1e6
         bar = f"displacement [um] at {load:g} N"
         clim = (0.0, float(grid.point_data["value"].max()))
-    grid.point_data["u"] = np.ascontiguousarray(solution.displacement_m.T)
+    grid.point_data["u"] = np.ascontiguousarray(fields.displacement_m.T)
     subdivision = 2 if grid.celltypes[0] == pv.CellType.QUADRATIC_TETRA else 0
     undeformed = grid.extract_surface(algorithm="dataset_surface", nonlinear_subdivision=subdivision)
     deformed = grid.warp_by_vector("u", factor=factor).extract_surface(algorithm="dataset_surface", nonlinear_subdivision=subdivision)

@@ -107,7 +107,9 @@ def stress_study(
     `base`, if given, holds the materials' solutions on the base mesh (e.g. the finest level of a
     stiffness study at `base_mesh_size_m`), which are then not solved again. The hot spots are
     those of the first material (Poisson's ratio barely moves them); every level is solved for all
-    materials on one mesh (`analyse_link_materials`).
+    materials on one mesh (`analyse_link_materials`). The refined levels mesh the whole link; a
+    base solved on a mirror half has its hot spots refined on both sides (on the half, local balls
+    left 37 slivers on the default link at 4.5 mm, P1: tests/test_pipeline_cli.py's locking case).
     """
     import geometry
     from geometry.meshing import Refinement, refined
@@ -127,7 +129,7 @@ def stress_study(
     caught: list = []
     for _ in range(MAX_LEVELS):
         radius = BALL_RADIUS_ELEMENTS * local
-        spots = hot_spots(current[names[0]], separation_m=radius)
+        spots = _both_sides(hot_spots(current[names[0]], separation_m=radius), current[names[0]], radius)
         local /= 2
         balls = [Refinement(tuple(float(x) for x in s), radius, local) for s in spots]
         with refined(balls):
@@ -151,6 +153,14 @@ def stress_study(
             warnings.warn(f"stress study's finest mesh: {w.message}", FemWarning, stacklevel=2)
     elapsed = time.perf_counter() - start
     return {n: _estimate(levels[n], current[n], tolerance, elapsed / len(names), tuple(seconds)) for n in names}
+
+
+def _both_sides(spots: list[np.ndarray], solution: LinkSolution, separation_m: float) -> list[np.ndarray]:
+    """The hot spots and, for a solution on a mirror half, their mirror images (where apart)."""
+    if not solution.mirrored:
+        return spots
+    plane = solution.link.mirror_plane
+    return spots + [plane.reflect(s) for s in spots if abs(plane.distance_m(s)) > separation_m / 2]
 
 
 def _change(levels: list[tuple[float, int, float]]) -> float:

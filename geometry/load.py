@@ -18,6 +18,7 @@ from geometry.meshing import mesh_volumes, split_at_loaded_half
 from geometry.parametric import add_link
 from geometry.session import gmsh_model
 from geometry.step_io import import_step
+from geometry.symmetry import bore_plane, is_mirror_symmetric, keep_positive_half
 
 #: Default element size as a fraction of the part's bounding-box diagonal (4.2 mm on the default
 #: link: a mesh of a few seconds whose P2 stiffness is within about 1 %).
@@ -33,6 +34,7 @@ def load_link(
     order: int = 1,
     bore_refinement: float = 0.4,
     bores: BoreOverride | None = None,
+    mirror: bool = False,
 ) -> LinkMesh:
     """Mesh one link: a STEP file (any length unit), the built-in parametric link if None, or the
     parametric link with other `LinkDimensions` (a design study's geometry variant).
@@ -43,6 +45,9 @@ def load_link(
         diagonal / 40). bore_refinement: element size at the bores as a fraction of mesh_size_m.
     order: 1 for linear tetrahedra; 2 also fills `tets10` (curved quadratic tetrahedra whose
         mid-edge nodes lie on the CAD surfaces). bores: manual bores instead of detection (one solid).
+    mirror: if the link is mirror symmetric about the plane through both bore axes (checked, see
+        geometry.symmetry), mesh only its half on the positive side of that plane
+        (`LinkMesh.mirror_plane` says so); otherwise, or if False, the whole link.
     """
     if order not in (1, 2):
         raise GeometryError(f"order={order!r}: expected 1 or 2")
@@ -63,9 +68,13 @@ def load_link(
             volumes = [body]
         cad_volume_m3 = sum(gmsh.model.occ.getMass(3, v) for v in volumes)
         size = _checked_mesh_size(mesh_size_m, cad_volume_m3, name)
+        plane = _mirror_plane(volumes, fixed.bore, loaded.bore) if mirror else None
+        if plane is not None:
+            volumes = keep_positive_half(volumes, plane)
         volumes = split_at_loaded_half(volumes, fixed.bore, loaded.bore)
         try:
-            arrays = mesh_volumes(volumes, fixed, loaded, mesh_size_m=size, bore_size_m=bore_refinement * size, order=order)
+            arrays = mesh_volumes(volumes, fixed, loaded, mesh_size_m=size, bore_size_m=bore_refinement * size, order=order,
+                                  mirror_plane=plane)
         except Exception as exc:  # gmsh reports a failed mesh as a bare Exception
             if type(exc) is not Exception:
                 raise
@@ -82,7 +91,15 @@ def load_link(
         mesh_size_m=size,
         source=name,
         tets10=arrays.tets10,
+        mirror_plane=plane,
+        mirror_facets=arrays.mirror_facets,
     )
+
+
+def _mirror_plane(volumes: list[int], fixed, loaded):
+    """The plane through both bore axes if the solid is mirror symmetric about it, else None."""
+    plane = bore_plane(fixed, loaded)
+    return plane if plane is not None and is_mirror_symmetric(volumes, plane) else None
 
 
 def _keep_only(volumes: list[int], body: int) -> None:

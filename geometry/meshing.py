@@ -18,7 +18,9 @@ import gmsh
 import numpy as np
 
 from geometry.bores import DetectedBore, faces_on_bore
-from geometry.link_mesh import Bore
+from geometry.errors import GeometryError
+from geometry.link_mesh import Bore, MirrorPlane
+from geometry.symmetry import faces_on_plane
 
 # gmsh's tet10 numbers the last two mid-edge nodes (edges 2-3 and 1-3) the other way round from
 # VTK/meshio "tetra10" (edges 1-3 and 2-3).
@@ -62,6 +64,7 @@ class MeshArrays:
     tets10: np.ndarray | None  # (10, n_tets) meshio order, or None for order 1
     fixed_bore_facets: np.ndarray  # (3, n)
     loaded_bore_facets: np.ndarray  # (3, n)
+    mirror_facets: np.ndarray | None = None  # (3, n) on the mirror plane, if meshing a half
 
 
 def split_at_loaded_half(volumes: list[int], fixed: Bore, loaded: Bore) -> list[int]:
@@ -93,19 +96,29 @@ def mesh_volumes(
     mesh_size_m: float,
     bore_size_m: float,
     order: int,
+    mirror_plane: MirrorPlane | None = None,
 ) -> MeshArrays:
-    """Mesh the volumes with tetrahedra of `order`; size `bore_size_m` at the bores, `mesh_size_m` away."""
+    """Mesh the volumes with tetrahedra of `order`; size `bore_size_m` at the bores, `mesh_size_m` away.
+    With a `mirror_plane` (the volumes are a half link) the facets on that plane are returned too."""
     fixed_faces = faces_on_bore(volumes, fixed.bore)
     loaded_faces = faces_on_bore(volumes, loaded.bore)
+    mirror_faces = faces_on_plane(volumes, mirror_plane) if mirror_plane is not None else None
+    if mirror_plane is not None and not mirror_faces:
+        raise GeometryError(f"the half link has no face on its mirror plane {mirror_plane.name}; expected the cut face")
     _refine_near(fixed_faces + loaded_faces, mesh_size_m, bore_size_m, min(fixed.bore.radius_m, loaded.bore.radius_m))
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT: 4-6x faster than Delaunay here
     # One thread: HXT then gives the same mesh on every run (with two it did not, and it was no
     # faster on these ~40k-tet meshes).
     gmsh.option.setNumber("General.NumThreads", 1)
+    # Surfaces of a half link by MeshAdapt (1), of a whole one by gmsh's default Frontal-Delaunay (6):
+    # on the default link's half, Frontal-Delaunay meshed the cut 1 mm pocket fillets as strips of
+    # flat triangles, and 40-140 tets of radius ratio ~3e-4 followed at every size from 3 to 8 mm;
+    # MeshAdapt leaves none below 0.1 at 3-4.5 mm (tests/test_fem_mirror.py checks the default level).
+    gmsh.option.setNumber("Mesh.Algorithm", 1 if mirror_plane is not None else 6)
     gmsh.model.mesh.generate(3)
     if order == 2:
         gmsh.model.mesh.setOrder(2)  # mid-edge nodes placed on the CAD surfaces
-    return _mesh_arrays(fixed_faces, loaded_faces, order)
+    return _mesh_arrays(fixed_faces, loaded_faces, order, mirror_faces)
 
 
 def _refine_near(faces: list[int], size_far: float, size_near: float, radius: float) -> None:
@@ -148,7 +161,8 @@ def _ball(ball: Refinement, size_far: float) -> int:
     return tag
 
 
-def _mesh_arrays(fixed_faces: list[int], loaded_faces: list[int], order: int) -> MeshArrays:
+def _mesh_arrays(fixed_faces: list[int], loaded_faces: list[int], order: int,
+                 mirror_faces: list[int] | None = None) -> MeshArrays:
     node_tags, coords, _ = gmsh.model.mesh.getNodes()
     _, tet_nodes = gmsh.model.mesh.getElementsByType(_TET[order])
     n_nodes_per_tet = 4 if order == 1 else 10
@@ -167,6 +181,7 @@ def _mesh_arrays(fixed_faces: list[int], loaded_faces: list[int], order: int) ->
         tets10=tets10,
         fixed_bore_facets=_facets(fixed_faces, index_of_tag, order),
         loaded_bore_facets=_facets(loaded_faces, index_of_tag, order),
+        mirror_facets=_facets(mirror_faces, index_of_tag, order) if mirror_faces else None,
     )
 
 

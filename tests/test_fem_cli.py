@@ -104,6 +104,9 @@ def test_json_report_and_image_on_a_coarse_default_link(tmp_path):
     written = meshio.read(vtu)  # the finest level, curved P2 cells, fields at the 1 kN default load
     assert written.cells[0].type == "tetra10"
     assert {"displacement_m", "von_mises_Pa"} <= set(written.point_data)
+    # the solve ran on the link's mirror half; the file holds the whole link
+    assert report["mirror_plane"] == "y = 0 mm"
+    assert written.points[:, 1].min() == pytest.approx(-written.points[:, 1].max(), rel=1e-9)
 
 
 def test_text_report_names_the_quantities_and_units(tmp_path):
