@@ -15,7 +15,7 @@ from pathlib import Path
 
 from geometry.atomic import atomic_target
 
-CACHE_FORMAT = 3  # 2: k is the Richardson-extrapolated value; 3: FEA warnings stored
+CACHE_FORMAT = 4  # 2: k is the Richardson-extrapolated value; 3: FEA warnings stored; 4: finest level on the mirror half
 
 
 def default_cache_dir() -> Path:
