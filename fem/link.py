@@ -26,7 +26,7 @@ from skfem.quadrature import get_quadrature
 from geometry.link_mesh import Bore, LinkMesh
 
 from . import locking, problem, quality, solvers
-from .assembly import elasticity_parts, rigid_body_modes
+from .assembly import DIM, elasticity_parts, rigid_body_modes
 from .errors import FemError, FemWarning
 from .materials import Material
 from .problem import JACOBIAN_CHECK_INTORDER
@@ -188,27 +188,19 @@ def _facets(mesh, index: np.ndarray, triangles: np.ndarray, name: str) -> np.nda
 
 
 def _discretise(link: LinkMesh, sk_mesh, index: np.ndarray, order: int):
-    """Basis, clamped facets, the load vector of a unit bearing pressure p0 = 1 Pa and the DOFs
-    held by the load case (the clamp, and the normal component on a mirror plane)."""
+    """Basis, clamped facets, the load vector of a unit bearing pressure p0 = 1 Pa, and the scalar
+    DOFs on the mirror plane of a half link (none for a whole one)."""
     fixed = _facets(sk_mesh, index, link.fixed_bore_facets, "fixed_bore_facets")
     loaded = _facets(sk_mesh, index, link.loaded_bore_facets, "loaded_bore_facets")
     basis = problem.scalar_basis(sk_mesh, order)
     unit = problem.traction_load(basis, loaded, bearing_traction(link.loaded_bore, link.load_direction, 1.0))
-    held = [problem.fixed_vector_dofs(basis, fixed)]
+    on_plane = np.zeros(0, dtype=np.int64)
     if link.mirror_plane is not None:
         if link.mirror_facets is None:
             raise FemError("LinkMesh.mirror_facets: expected the facets on the mirror plane of a half link")
         mirror = _facets(sk_mesh, index, link.mirror_facets, "mirror_facets")
-        held.append(problem.fixed_vector_dofs(basis, mirror, components=(link.mirror_plane.axis,)))
-    return basis, fixed, unit, np.unique(np.concatenate(held))
-
-
-def _whole_link_dofs(link: LinkMesh, basis: Basis, index: np.ndarray, sk_mesh) -> int:
-    """Vector DOFs of the whole link's mesh: a mirrored half's twice, less the shared plane's once."""
-    if link.mirror_plane is None:
-        return 3 * basis.N
-    on_plane = basis.get_dofs(facets=_facets(sk_mesh, index, link.mirror_facets, "mirror_facets")).flatten()
-    return 3 * (2 * basis.N - len(np.unique(on_plane)))
+        on_plane = np.unique(basis.get_dofs(facets=mirror).flatten())
+    return basis, fixed, unit, on_plane
 
 
 def bearing_traction(bore: Bore, direction: np.ndarray, p0_Pa: float):
@@ -289,20 +281,25 @@ def analyse_link_materials(
         check_mesh_and_materials(mesh, materials, order)
     sk_mesh, index = skfem_mesh(mesh, order)
     try:
-        basis, fixed, unit, clamped = _discretise(mesh, sk_mesh, index, order)
+        basis, fixed, unit, on_plane = _discretise(mesh, sk_mesh, index, order)
     except Exception as exc:  # scikit-fem raises a bare Exception when its inverse map fails
         if sk_mesh.affine or "Newton iteration" not in str(exc):
             raise
         # Some curved cells too distorted for the isoparametric facet map: use straight cells.
         sk_mesh, index = skfem_mesh(mesh, order, curved=False)
-        basis, fixed, unit, clamped = _discretise(mesh, sk_mesh, index, order)
+        basis, fixed, unit, on_plane = _discretise(mesh, sk_mesh, index, order)
     direction = mesh.load_direction
     resultant_per_Pa = float(direction @ problem.as_components(unit).sum(axis=1))
     if not resultant_per_Pa > 0:
         raise FemError("LinkMesh.loaded_bore_facets: the bearing pressure has no resultant along the load direction")
     f = unit * (load_N / _copies(mesh) / resultant_per_Pa)
-    free = np.setdiff1d(np.arange(f.size), clamped)
-    whole_dofs = _whole_link_dofs(mesh, basis, index, sk_mesh)
+    # the clamp, and on a mirror plane the displacement normal to it
+    held = problem.fixed_vector_dofs(basis, fixed)
+    if mesh.mirror_plane is not None:
+        held = np.concatenate([held, DIM * on_plane + mesh.mirror_plane.axis])
+    free = np.setdiff1d(np.arange(f.size), held)
+    # the whole link's mesh: a mirrored half's DOFs twice, less the shared plane's once
+    whole_dofs = DIM * (_copies(mesh) * basis.N - (_copies(mesh) - 1) * len(on_plane))
     shared["basis_and_load"] = time.perf_counter() - start
 
     start = time.perf_counter()

@@ -30,11 +30,7 @@ def nice_factor(raw: float) -> float:
     return 10.0**exponent
 
 
-def exaggeration_factor(solution: LinkSolution) -> float:
-    return _exaggeration(whole_link_fields(solution))
-
-
-def _exaggeration(fields: NodalFields) -> float:
+def exaggeration_factor(fields: NodalFields) -> float:
     points = fields.points_m
     size = float(np.linalg.norm(points.max(axis=1) - points.min(axis=1)))
     peak = float(np.max(np.linalg.norm(fields.displacement_m, axis=0)))
@@ -65,7 +61,7 @@ def render_deformed(
     import pyvista as pv
 
     fields = whole_link_fields(solution)  # a mirrored half is pictured whole
-    factor = _exaggeration(fields)
+    factor = exaggeration_factor(fields)
     load = solution.load_N
     grid = _grid(fields)
     if scalar == "von_mises":

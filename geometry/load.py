@@ -18,7 +18,7 @@ from geometry.meshing import mesh_volumes, split_at_loaded_half
 from geometry.parametric import add_link
 from geometry.session import gmsh_model
 from geometry.step_io import import_step
-from geometry.symmetry import bore_plane, is_mirror_symmetric, keep_positive_half
+from geometry.symmetry import keep_positive_half, symmetry_plane
 
 #: Default element size as a fraction of the part's bounding-box diagonal (4.2 mm on the default
 #: link: a mesh of a few seconds whose P2 stiffness is within about 1 %).
@@ -68,7 +68,7 @@ def load_link(
             volumes = [body]
         cad_volume_m3 = sum(gmsh.model.occ.getMass(3, v) for v in volumes)
         size = _checked_mesh_size(mesh_size_m, cad_volume_m3, name)
-        plane = _mirror_plane(volumes, fixed.bore, loaded.bore) if mirror else None
+        plane = symmetry_plane(volumes, fixed.bore, loaded.bore) if mirror else None
         if plane is not None:
             volumes = keep_positive_half(volumes, plane)
         volumes = split_at_loaded_half(volumes, fixed.bore, loaded.bore)
@@ -94,12 +94,6 @@ def load_link(
         mirror_plane=plane,
         mirror_facets=arrays.mirror_facets,
     )
-
-
-def _mirror_plane(volumes: list[int], fixed, loaded):
-    """The plane through both bore axes if the solid is mirror symmetric about it, else None."""
-    plane = bore_plane(fixed, loaded)
-    return plane if plane is not None and is_mirror_symmetric(volumes, plane) else None
 
 
 def _keep_only(volumes: list[int], body: int) -> None:

@@ -111,9 +111,10 @@ def mesh_volumes(
     # faster on these ~40k-tet meshes).
     gmsh.option.setNumber("General.NumThreads", 1)
     # Surfaces of a half link by MeshAdapt (1), of a whole one by gmsh's default Frontal-Delaunay (6):
-    # on the default link's half, Frontal-Delaunay meshed the cut 1 mm pocket fillets as strips of
-    # flat triangles, and 40-140 tets of radius ratio ~3e-4 followed at every size from 3 to 8 mm;
-    # MeshAdapt leaves none below 0.1 at 3-4.5 mm (tests/test_fem_mirror.py checks the default level).
+    # in exploratory runs on the default link's half, Frontal-Delaunay meshed the cut 1 mm pocket
+    # fillets as strips of flat triangles, and 40-140 tets of radius ratio ~3e-4 followed at every
+    # size from 3 to 8 mm; MeshAdapt left none below 0.1 at 3-4.5 mm (tests/test_fem_mirror.py
+    # checks the default level).
     gmsh.option.setNumber("Mesh.Algorithm", 1 if mirror_plane is not None else 6)
     gmsh.model.mesh.generate(3)
     if order == 2:

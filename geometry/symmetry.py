@@ -4,15 +4,16 @@ A pin-loaded link whose solid is mirror symmetric about the plane holding both b
 load case with the same symmetry (clamp on the whole fixed bore, bearing pressure symmetric about
 the load direction, which lies in the plane), so its solution is symmetric too: half the link,
 with the normal displacement held at zero on the plane, gives the whole link's k and stresses at
-half the unknowns. A direct solve of 3D elasticity costs about the square of the unknowns, so the
-half is 3-4x cheaper to solve and about 2x cheaper to mesh and assemble.
+about half the unknowns (the default link's stiffness study: 4.90 to 3.20 s with its finest level
+on the half, `benchmarks/bench_fea_time_to_k.py`).
 
 Symmetry is accepted only where it is checked, and only for a plane normal to a coordinate axis
 (so that the condition on the plane is one displacement component held): every face and every
 edge of the solid must have a mirror image of the same area or length with its centroid at the
 mirror image of the centroid, and the solid's centroid must lie on the plane. That rejects a
-screw hole, a flat or a chamfer on one side only; the cost is milliseconds (an OpenCASCADE boolean
-of the solid with its mirror image was exact, but took 0.8 s on the default link).
+screw hole, a flat or a chamfer on one side only, at the cost of a few OpenCASCADE property queries
+(an OpenCASCADE boolean of the solid with its mirror image would be exact, but took 0.8 s on the
+default link in an exploratory run).
 """
 
 from __future__ import annotations
@@ -47,11 +48,22 @@ def bore_plane(fixed: Bore, loaded: Bore) -> MirrorPlane | None:
     return MirrorPlane(offset_m=float(fixed.center_m[index]), axis=index)
 
 
+def symmetry_plane(volumes: list[int], fixed: Bore, loaded: Bore) -> MirrorPlane | None:
+    """The plane through both bore axes if the solid is mirror symmetric about it, else None."""
+    plane = bore_plane(fixed, loaded)
+    return plane if plane is not None and is_mirror_symmetric(volumes, plane) else None
+
+
+def _model_size_m() -> float:
+    """The diagonal of the current model's bounding box."""
+    xmin, ymin, zmin, xmax, ymax, zmax = gmsh.model.getBoundingBox(-1, -1)
+    return float(np.linalg.norm([xmax - xmin, ymax - ymin, zmax - zmin]))
+
+
 def is_mirror_symmetric(volumes: list[int], plane: MirrorPlane) -> bool:
     """Every face and edge of the solid has its mirror image, and the centroid lies on the plane."""
     occ = gmsh.model.occ
-    xmin, ymin, zmin, xmax, ymax, zmax = gmsh.model.getBoundingBox(-1, -1)
-    tolerance = MATCH_TOLERANCE * float(np.linalg.norm([xmax - xmin, ymax - ymin, zmax - zmin]))
+    tolerance = MATCH_TOLERANCE * _model_size_m()
     volume = sum(occ.getMass(3, v) for v in volumes)
     centroid = sum(np.array(occ.getCenterOfMass(3, v)) * occ.getMass(3, v) for v in volumes) / volume
     if abs(plane.distance_m(centroid)) > tolerance:
@@ -77,7 +89,7 @@ def keep_positive_half(volumes: list[int], plane: MirrorPlane) -> list[int]:
     """Replace the solid by its part on the positive side of the plane; the new volume tags."""
     occ = gmsh.model.occ
     xmin, ymin, zmin, xmax, ymax, zmax = gmsh.model.getBoundingBox(-1, -1)
-    pad = 0.01 * float(np.linalg.norm([xmax - xmin, ymax - ymin, zmax - zmin]))
+    pad = 0.01 * _model_size_m()
     low, high = np.array([xmin, ymin, zmin]) - pad, np.array([xmax, ymax, zmax]) + pad
     low[plane.axis] = plane.offset_m
     box = occ.addBox(*low, *(high - low))
@@ -88,9 +100,8 @@ def keep_positive_half(volumes: list[int], plane: MirrorPlane) -> list[int]:
 
 def faces_on_plane(volumes: list[int], plane: MirrorPlane) -> list[int]:
     """Boundary faces of the solid lying in the plane."""
-    xmin, ymin, zmin, xmax, ymax, zmax = gmsh.model.getBoundingBox(-1, -1)
     # OpenCASCADE pads bounding boxes by its tolerance (1e-7 model units, here metres)
-    tolerance = MATCH_TOLERANCE * float(np.linalg.norm([xmax - xmin, ymax - ymin, zmax - zmin])) + BOX_PADDING_M
+    tolerance = MATCH_TOLERANCE * _model_size_m() + BOX_PADDING_M
     faces = gmsh.model.getBoundary([(3, v) for v in volumes], combined=False, oriented=False)
     found = []
     for tag in sorted({abs(t) for _, t in faces}):
