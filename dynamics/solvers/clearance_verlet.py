@@ -23,12 +23,14 @@ a fraction `safety` of that limit at the highest full-contact frequency (free pl
 chain), and divides the output interval evenly.
 
 Speed: with numba installed the step loop runs compiled (`_run_loops`: loops over preallocated
-arrays, no temporaries); without numba the vectorised numpy form (`_run`, the same steps and
-outputs, tested equal) runs, about 50x slower. With the global damping law the product C w was
-half of a step (about 1 us of 2.5 at N = 85, BLAS dgemv). The compiled step takes it in the two
-blocks of the chain's mirror symmetry (`reflection_blocks`: 4224 padded multiply-adds instead of
-7225, four rows per pass over w) and skips the friction law's tanh where it is exactly +-1
-(`TANH_IS_ONE`). Measured in benchmarks/bench_clearance.py (README, "The clearance chain").
+arrays, no temporaries, its helpers inlined); without numba the vectorised numpy form (`_run`, the
+same steps and outputs, tested equal) runs, about 50x slower (benchmarks/bench_clearance.py; README,
+"The clearance chain"). What makes the compiled step fast: the global law's product C w, otherwise half of a step, is taken in the two blocks of the chain's mirror
+symmetry (`reflection_blocks`: 4224 padded multiply-adds instead of 7225, four rows per pass over w,
+the blocks computed once per chain); the span law, the friction law's saturated branch and the
+contact statistics are written without branches, so that they vectorise; tanh is computed from one
+exp (`_tanh`) and only where it is not exactly +-1 (`TANH_IS_ONE`); the step fuses the force
+evaluation with the velocity update and leaves out the powers, which only output steps need.
 """
 
 from __future__ import annotations
@@ -39,6 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError
+from dynamics.solvers import cache
 
 try:  # optional: the compiled loop (README, "Dependencies and why")
     import numba
@@ -61,14 +64,18 @@ N_ENERGY = 3
 # order (measured on the case of tests/test_clearance_fast_vs_reference.py: orders 1.2 and 1.5).
 PREDICTORS = {"euler": 0.0, "ab2": 0.5}
 # Above this argument tanh rounds to 1 in double precision (1 - tanh x ~ 2 exp(-2x) falls below half an
-# ulp of 1, 2^-54, from x = 55 ln 2 / 2 = 19.06), so the friction law skips the library call: the
-# links sliding faster than 19 velocity scales (95 mm/s by default) through the indexing motion.
+# ulp of 1, 2^-54, from x = 55 ln 2 / 2 = 19.06), so the friction law takes +-F_c there without computing
+# it: the links sliding faster than 19 velocity scales (95 mm/s by default) through the indexing motion.
 TANH_IS_ONE = 19.1
 # Rows of a damping block are padded to a multiple of 4 (`_rows_times` takes four at a time) and its
 # columns to a multiple of 16 (whole vector iterations of the inner loop: no scalar remainder).
 ROW_MULTIPLE, COLUMN_MULTIPLE = 4, 16
 # C counts as symmetric under the loop's reflection when it is to this fraction of its largest entry.
 REFLECTION_TOL = 1e-12
+# numba fast-math flags of the compiled step: reassociation (so that the damping product's sums
+# vectorise), FMA contraction, division by reciprocal, signed zeros ignored. Not "nnan" or "ninf": the
+# pull-only chain's k g is inf, and the divergence check must see NaN.
+FASTMATH = {"reassoc", "contract", "arcp", "nsz"}
 
 
 def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
@@ -113,7 +120,7 @@ def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
         f_cam = -kd * y[0] - np.sum(cw)
     cw[0] += kd * y[0]
     f -= cw
-    fr = -fc * np.tanh((zd + w) * inv_vs)
+    fr = -fc * _tanh_array((zd + w) * inv_vs)
     f += fr
     p_fric = -np.sum(fr * (zd + w))
     a = f / m - zdd
@@ -122,6 +129,12 @@ def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
         au = (f0 - kt * u - ct * ud - 2.0 * t_all[s]) / mt
         p_damp += ct * ud * ud
     return a, au, t_el, contact, f_cam * zd, p_damp, p_fric
+
+
+def _tanh_array(x):
+    """tanh, element-wise, in the compiled path's form (`_tanh`)."""
+    q = np.exp(-2.0 * np.abs(x))
+    return np.copysign((1.0 - q) / (1.0 + q), x)
 
 
 def _run(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat, track_energy,
@@ -197,162 +210,9 @@ def _record(t_el, contact, phase, stats, count_impacts, new_impacts):
         stats[5] = max(stats[5], np.max(np.abs(t_el[phase])))
 
 
-def _accel_into(y, w, u, ud, zd, zdd, par, ipar, blocks, work, cw, a, t_el, contact):
-    """`_accel` written as loops into preallocated arrays (the compiled path: no temporaries), with
-    the damping product C w taken in the reflection blocks (`reflection_blocks`; `work` is
-    `block_workspace(blocks)`). Returns (carriage acceleration, cam power, damping power, friction
-    power)."""
-    m, k, kd, preload, kg, beta, fc, inv_vs = par[0], par[1], par[2], par[3], par[4], par[5], par[6], par[7]
-    s, tens, kv = ipar[0], ipar[1], ipar[2]
-    n = y.shape[0]
-    p_damp = 0.0
-    p_fric = 0.0
-    # as in `_accel`: the span forces' net in `a`, the damping and drive forces in `cw` (subtracted)
-    for i in range(n):
-        a[i] = 0.0
-    if kv:
-        f_cam = -kd * y[0] - beta * kd * w[0]
-        p_damp = beta * kd * w[0] * w[0]
-        for i in range(n):
-            cw[i] = 0.0
-        cw[0] = beta * kd * w[0]
-    else:
-        _blocked_product(blocks, work, w, cw)
-        total = 0.0
-        for i in range(n):
-            total += cw[i]
-            p_damp += w[i] * cw[i]
-        f_cam = -kd * y[0] - total
-    t_s = 0.0
-    for j in range(n):
-        l = j + 1 if j + 1 < n else 0
-        e = y[l] - y[j]
-        ed = w[l] - w[j]
-        if tens and j == s:
-            e += 2.0 * u
-            ed += 2.0 * ud
-        d = preload + k * e
-        if d >= 0.0:
-            t = d
-            contact[j] = True
-        elif d <= -kg:
-            t = d + kg
-            contact[j] = True
-        else:
-            t = 0.0
-            contact[j] = False
-        t_el[j] = t
-        a[j] += t
-        a[l] -= t
-        if kv and contact[j]:
-            dash = beta * k * ed
-            cw[j] -= dash
-            cw[l] += dash
-            t += dash
-            p_damp += dash * ed
-        if j == s:
-            t_s = t
-    cw[0] += kd * y[0]
-    for i in range(n):
-        v_abs = zd + w[i]
-        fr = -fc * _tanh(v_abs * inv_vs)
-        p_fric -= fr * v_abs
-        a[i] = (a[i] - cw[i] + fr) / m - zdd
-    au = 0.0
-    if tens:
-        mt, kt, ct, f0 = par[8], par[9], par[10], par[11]
-        au = (f0 - kt * u - ct * ud - 2.0 * t_s) / mt
-        p_damp += ct * ud * ud
-    return au, f_cam * zd, p_damp, p_fric
-
-
-def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, blocks, track_energy,
-               out_y, out_w, out_a, out_u, out_ud, stats, energy):
-    """`_run` as loops over preallocated arrays (compiled with numba); same steps, same outputs. The
-    damping matrix comes as `reflection_blocks`."""
-    n_steps = zd.shape[0] - 1
-    n = y.shape[0]
-    bound = par[12]
-    y = y.copy()
-    w = w.copy()
-    a = np.empty(n)
-    a_out = np.empty(n)
-    cw = np.empty(n)
-    wh = np.empty(n)
-    wp = np.empty(n)
-    t_el = np.empty(n)
-    contact = np.empty(n, dtype=np.bool_)
-    free = np.empty(n, dtype=np.bool_)
-    phase = np.zeros(n, dtype=np.bool_)
-    work = (np.zeros(blocks[0].shape[1]), np.zeros(blocks[1].shape[1]), np.zeros(blocks[0].shape[0]),
-            np.zeros(blocks[1].shape[0]))
-    au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, blocks, work, cw, a, t_el, contact)
-    a_prev = a.copy()  # the first step's predictor is w + h a whatever theta
-    au_prev = au
-    powers = np.array([pc, pd, pf])
-    p_new = np.empty(3)
-    for j in range(n):
-        free[j] = not contact[j]
-    row = _keep(-1, h, 0, y, w, a, u, ud, powers, powers, False, True, out_y, out_w, out_a, out_u, out_ud, energy,
-                stats, np.inf)
-    if record_from == 0:
-        _record_loops(t_el, contact, phase, free, stats, False)
-    for i in range(n_steps):
-        for j in range(n):
-            wh[j] = w[j] + 0.5 * h * a[j]
-            y[j] += h * wh[j]
-            wp[j] = w[j] + h * (a[j] + theta * (a[j] - a_prev[j]))
-            a_prev[j] = a[j]
-        uh = ud + 0.5 * h * au
-        u += h * uh
-        up = ud + h * (au + theta * (au - au_prev))
-        au_prev = au
-        au, pc2, pd2, pf2 = _accel_into(y, wp, u, up, zd[i + 1], zdd[i + 1], par, ipar, blocks, work, cw, a, t_el,
-                                        contact)
-        for j in range(n):
-            w[j] = wh[j] + 0.5 * h * a[j]
-        ud = uh + 0.5 * h * au
-        on_output = (i + 1) % out_every == 0
-        if track_energy or on_output:
-            au_out, pc2, pd2, pf2 = _accel_into(y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar, blocks, work, cw,
-                                                a_out, t_el, contact)
-            p_new[0], p_new[1], p_new[2] = pc2, pd2, pf2
-            row = _keep(i, h, row, y, w, a_out, u, ud, p_new, powers, track_energy, on_output,
-                        out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
-            if row < 0:
-                return
-        if i + 1 >= record_from:
-            _record_loops(t_el, contact, phase, free, stats, True)
-        else:
-            for j in range(n):
-                phase[j] = (phase[j] or (contact[j] and free[j])) and contact[j]
-                free[j] = not contact[j]
-
-
-def _blocked_product(blocks, work, w, out):
-    """out = C w with C given as `reflection_blocks`: w split into its symmetric and antisymmetric
-    parts (`work`: their padded coordinates and products), each multiplied by its block."""
-    sym, anti, fixed, lo, hi = blocks
-    ws, wa, cs, ca = work
-    nf = fixed.shape[0]
-    r = math.sqrt(0.5)
-    for j in range(nf):
-        ws[j] = w[fixed[j]]
-    for p in range(lo.shape[0]):
-        ws[nf + p] = r * (w[lo[p]] + w[hi[p]])
-        wa[p] = r * (w[lo[p]] - w[hi[p]])
-    _rows_times(sym, ws, cs)
-    _rows_times(anti, wa, ca)
-    for j in range(nf):
-        out[fixed[j]] = cs[j]
-    for p in range(lo.shape[0]):
-        out[lo[p]] = r * (cs[nf + p] + ca[p])
-        out[hi[p]] = r * (cs[nf + p] - ca[p])
-
-
 def _rows_times(mat, x, out):
     """out = mat x, four rows at a time (rows a multiple of 4, `_padded`): each load of x serves
-    four rows, and the compiler vectorises the inner loop (fastmath: the sums may be reassociated)."""
+    four rows, and the compiler vectorises the inner loop (FASTMATH: the sums may be reassociated)."""
     for i in range(0, mat.shape[0], 4):
         s0 = 0.0
         s1 = 0.0
@@ -370,41 +230,255 @@ def _rows_times(mat, x, out):
         out[i + 3] = s3
 
 
-def _tanh(x):
-    """math.tanh, without the library call where it is exactly +-1 in double precision."""
-    if x > TANH_IS_ONE:
-        return 1.0
-    if x < -TANH_IS_ONE:
-        return -1.0
-    return math.tanh(x)
+def _mirror_product(blocks, work, w, out):
+    """out = C w with C as `reflection_blocks` gives it: w split into its symmetric and antisymmetric
+    parts under the reflection (link 0, and link n/2 for even n, map onto themselves; link p pairs
+    with link n - p), each multiplied by its block; a C without the symmetry (no antisymmetric rows)
+    is multiplied whole. `work`: the padded coordinates and products."""
+    sym, anti = blocks
+    ws, wa, cs, ca = work
+    n = w.shape[0]
+    if anti.shape[0] == 0:
+        for j in range(n):
+            ws[j] = w[j]
+        _rows_times(sym, ws, cs)
+        for j in range(n):
+            out[j] = cs[j]
+        return
+    pairs = (n - 1) // 2
+    nf = n - 2 * pairs
+    r = math.sqrt(0.5)
+    ws[0] = w[0]
+    if nf == 2:
+        ws[1] = w[pairs + 1]
+    for p in range(pairs):
+        ws[nf + p] = r * (w[1 + p] + w[n - 1 - p])
+        wa[p] = r * (w[1 + p] - w[n - 1 - p])
+    _rows_times(sym, ws, cs)
+    _rows_times(anti, wa, ca)
+    out[0] = cs[0]
+    if nf == 2:
+        out[pairs + 1] = cs[1]
+    for p in range(pairs):
+        out[1 + p] = r * (cs[nf + p] + ca[p])
+        out[n - 1 - p] = r * (cs[nf + p] - ca[p])
 
 
-def _record_loops(t_el, contact, phase, free, stats, count_impacts):
-    """Statistics of one step (and the impact bookkeeping: `phase` marks contacts begun by an impact)."""
-    n = t_el.shape[0]
+def _span_law_into(y, u, par, ipar, t_el, contact):
+    """Elastic span forces and contact flags of the positions y (and the carriage's u), without a
+    branch: max(d, 0) + min(d + k g, 0) is d in pulling contact, 0 in free play, d + k g pushing."""
+    k, preload, kg = par[1], par[3], par[4]
+    s, tens = ipar[0], ipar[1]
+    n = y.shape[0]
+    for j in range(n - 1):
+        d = preload + k * (y[j + 1] - y[j])
+        t_el[j] = max(d, 0.0) + min(d + kg, 0.0)
+        contact[j] = (d >= 0.0) | (d <= -kg)
+    d = preload + k * (y[0] - y[n - 1])
+    t_el[n - 1] = max(d, 0.0) + min(d + kg, 0.0)
+    contact[n - 1] = (d >= 0.0) | (d <= -kg)
+    if tens:
+        d = preload + k * (y[s + 1 if s + 1 < n else 0] - y[s] + 2.0 * u)
+        t_el[s] = max(d, 0.0) + min(d + kg, 0.0)
+        contact[s] = (d >= 0.0) | (d <= -kg)
+
+
+def _damping_into(w, ud, par, ipar, blocks, work, contact, cw):
+    """cw = the damping forces on the links (subtracted from the span forces): C w (global law) or
+    the dashpots of the spans in contact and the drive's (Kelvin-Voigt). Returns the idler span's
+    dashpot force (0 for the global law)."""
+    k, kd, beta = par[1], par[2], par[5]
+    s, tens, kv = ipar[0], ipar[1], ipar[2]
+    n = w.shape[0]
+    dash_s = 0.0
+    if not kv:
+        _mirror_product(blocks, work, w, cw)
+        return dash_s
+    for i in range(n):
+        cw[i] = 0.0
+    cw[0] = beta * kd * w[0]
     for j in range(n):
-        impact = contact[j] and free[j]
-        if impact and count_impacts:
-            stats[0] += 1.0
-        phase[j] = (phase[j] or impact) and contact[j]
+        if contact[j]:
+            l = j + 1 if j + 1 < n else 0
+            ed = w[l] - w[j]
+            if tens and j == s:
+                ed += 2.0 * ud
+            dash = beta * k * ed
+            cw[j] -= dash
+            cw[l] += dash
+            if j == s:
+                dash_s = dash
+    return dash_s
+
+
+def _friction_into(zd, w, par, fr):
+    """fr = the friction law at the links' absolute velocities zd + w; returns its power (dissipated
+    when positive). The saturated law first (a vectorised pass), `_tanh` only where it is not."""
+    fc, inv_vs = par[6], par[7]
+    n = w.shape[0]
+    unsaturated = 0
+    for i in range(n):
+        x = (zd + w[i]) * inv_vs
+        fr[i] = -fc if x > 0.0 else fc
+        unsaturated += abs(x) < TANH_IS_ONE
+    if unsaturated:
+        for i in range(n):
+            x = (zd + w[i]) * inv_vs
+            if abs(x) < TANH_IS_ONE:
+                fr[i] = -fc * _tanh(x)
+    p_fric = 0.0
+    for i in range(n):
+        p_fric -= fr[i] * (zd + w[i])
+    return p_fric
+
+
+def _tanh(x):
+    """tanh x = (1 - q) / (1 + q), q = exp(-2|x|), with the sign of x: within 2.3e-16 of the library's
+    tanh (tested), about a third of its cost, and exactly +-1 from |x| = TANH_IS_ONE on."""
+    q = math.exp(-2.0 * abs(x))
+    return math.copysign((1.0 - q) / (1.0 + q), x)
+
+
+def _carriage(u, ud, t_s, par, ipar):
+    """(carriage acceleration, carriage damping power) for the idler span's force t_s; (0, 0) without one."""
+    if not ipar[1]:
+        return 0.0, 0.0
+    mt, kt, ct, f0 = par[8], par[9], par[10], par[11]
+    return (f0 - kt * u - ct * ud - 2.0 * t_s) / mt, ct * ud * ud
+
+
+def _accel_into(y, w, u, ud, zd, zdd, par, ipar, blocks, work, cw, fr, a, t_el, contact):
+    """`_accel` into preallocated arrays (`work` is the damping product's, see `_mirror_product`).
+    Returns (carriage acceleration, cam power, damping power, friction power)."""
+    kd = par[2]
+    n = y.shape[0]
+    _span_law_into(y, u, par, ipar, t_el, contact)
+    dash_s = _damping_into(w, ud, par, ipar, blocks, work, contact, cw)
+    total = 0.0
+    p_damp = 2.0 * ud * dash_s  # the idler dashpot's work on the carriage
+    for i in range(n):
+        total += cw[i]
+        p_damp += w[i] * cw[i]
+    f_cam = -kd * y[0] - total
+    cw[0] += kd * y[0]
+    p_fric = _friction_into(zd, w, par, fr)
+    _net_acceleration(t_el, cw, fr, par[0], zdd, a)
+    au, p_carriage = _carriage(u, ud, t_el[ipar[0]] + dash_s, par, ipar)
+    return au, f_cam * zd, p_damp + p_carriage, p_fric
+
+
+def _net_acceleration(t_el, cw, fr, m, zdd, a):
+    """a = (span forces' net - cw + friction) / m - z'': the spans' net first, as in `_accel`."""
+    n = t_el.shape[0]
+    prev = t_el[n - 1]
+    for i in range(n):
+        t = t_el[i]
+        a[i] = ((t - prev) - cw[i] + fr[i]) / m - zdd
+        prev = t
+
+
+def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, blocks, track_energy,
+               out_y, out_w, out_a, out_u, out_ud, stats, energy):
+    """`_run` as loops over preallocated arrays, compiled with numba; same steps, same outputs. The
+    damping matrix comes as `reflection_blocks`."""
+    n_steps = zd.shape[0] - 1
+    n = y.shape[0]
+    bound, kd = par[12], par[2]
+    y = y.copy()
+    w = w.copy()
+    a = np.empty(n)
+    a_out = np.empty(n)
+    cw = np.empty(n)
+    fr = np.empty(n)
+    wh = np.empty(n)
+    wp = np.empty(n)
+    t_el = np.empty(n)
+    contact = np.empty(n, dtype=np.bool_)
+    free = np.empty(n, dtype=np.bool_)
+    phase = np.zeros(n, dtype=np.bool_)
+    work = (np.zeros(blocks[0].shape[1]), np.zeros(blocks[1].shape[1]), np.zeros(blocks[0].shape[0]),
+            np.zeros(blocks[1].shape[0]))
+    au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, blocks, work, cw, fr, a, t_el, contact)
+    a_prev = a.copy()  # the first step's predictor is w + h a whatever theta
+    au_prev = au
+    powers = np.array([pc, pd, pf])
+    p_new = np.empty(3)
+    for j in range(n):
         free[j] = not contact[j]
-        if free[j]:
-            stats[1] += 1.0
-        stats[3] = max(stats[3], t_el[j])
-        stats[4] = min(stats[4], t_el[j])
-        if phase[j]:
-            stats[5] = max(stats[5], abs(t_el[j]))
-    stats[2] += n
+    _record_step(t_el, contact, phase, free, stats, record_from == 0)
+    row = _keep(-1, h, 0, y, w, a, u, ud, powers, powers, False, True, out_y, out_w, out_a, out_u, out_ud, energy,
+                stats, np.inf)
+    hh = 0.5 * h
+    for i in range(n_steps):
+        for j in range(n):
+            wh[j] = w[j] + hh * a[j]
+            y[j] += h * wh[j]
+            wp[j] = w[j] + h * (a[j] + theta * (a[j] - a_prev[j]))
+            a_prev[j] = a[j]
+        uh = ud + hh * au
+        u += h * uh
+        up = ud + h * (au + theta * (au - au_prev))
+        au_prev = au
+        # `_accel_into` at (y, wp) without its powers, and the velocity update in the same pass
+        _span_law_into(y, u, par, ipar, t_el, contact)
+        dash_s = _damping_into(wp, up, par, ipar, blocks, work, contact, cw)
+        cw[0] += kd * y[0]
+        _friction_into(zd[i + 1], wp, par, fr)
+        _net_acceleration(t_el, cw, fr, par[0], zdd[i + 1], a)
+        for j in range(n):
+            w[j] = wh[j] + hh * a[j]
+        au, _ = _carriage(u, up, t_el[ipar[0]] + dash_s, par, ipar)
+        ud = uh + hh * au
+        _record_step(t_el, contact, phase, free, stats, i + 1 >= record_from)
+        on_output = (i + 1) % out_every == 0
+        if track_energy or on_output:
+            _, pc2, pd2, pf2 = _accel_into(y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar, blocks, work, cw, fr, a_out,
+                                           t_el, contact)
+            p_new[0], p_new[1], p_new[2] = pc2, pd2, pf2
+            row = _keep(i, h, row, y, w, a_out, u, ud, p_new, powers, track_energy, on_output,
+                        out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
+            if row < 0:
+                return
+
+
+def _record_step(t_el, contact, phase, free, stats, recording):
+    """The impact bookkeeping of one step (`free` holds the previous step's free-play flags, `phase`
+    marks contacts begun by an impact) and, when `recording`, its statistics added to stats
+    (`integrate`'s layout). Without branches (bit operations on the flags): the loop vectorises."""
+    impacts = 0
+    n_free = 0
+    t_max = -np.inf
+    t_min = np.inf
+    peak = 0.0
+    for j in range(t_el.shape[0]):
+        c = contact[j]
+        impact = c & free[j]
+        ph = (phase[j] | impact) & c
+        phase[j] = ph
+        free[j] = not c
+        impacts += impact
+        n_free += not c
+        t = t_el[j]
+        t_max = max(t_max, t)
+        t_min = min(t_min, t)
+        peak = max(peak, abs(t) * ph)
+    if not recording:
+        return
+    stats[0] += impacts
+    stats[1] += n_free
+    stats[2] += t_el.shape[0]
+    stats[3] = max(stats[3], t_max)
+    stats[4] = min(stats[4], t_min)
+    stats[5] = max(stats[5], peak)
 
 
 if numba is not None:
+    # helpers inlined into the step loop (numba IR inlining: no call, and the loop fuses their work)
+    for _name in ("_rows_times", "_mirror_product", "_span_law_into", "_damping_into", "_friction_into", "_tanh",
+                  "_carriage", "_accel_into", "_net_acceleration", "_record_step"):
+        globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _keep = numba.njit(cache=True)(_keep)
-    _rows_times = numba.njit(cache=True, fastmath=True)(_rows_times)
-    _blocked_product = numba.njit(cache=True)(_blocked_product)
-    _tanh = numba.njit(cache=True)(_tanh)
-    _accel_into = numba.njit(cache=True)(_accel_into)
-    _record_loops = numba.njit(cache=True)(_record_loops)
-    _run_compiled = numba.njit(cache=True)(_run_loops)
+    _run_compiled = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
 else:  # pragma: no cover
     _run_compiled = None
 
@@ -493,7 +567,7 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
     use_numba = (numba is not None) if compiled is None else compiled
     if use_numba and numba is None:
         raise DynamicsError("integrate: compiled=True but numba is not installed")
-    runner, damping = (_run_compiled, reflection_blocks(cmat)) if use_numba else (_run, cmat)
+    runner, damping = (_run_compiled, _damping_blocks(model, cmat)) if use_numba else (_run, cmat)
     with np.errstate(over="ignore", invalid="ignore"):
         runner(y0, w0, float(u0), float(ud0), zd, zdd, float(step_s), theta, int(out_every), int(record_from), par,
                ipar, damping, bool(track_energy), *out, stats, energy)
@@ -524,15 +598,23 @@ def packed_parameters(model, bound: float = np.inf):
     return par, ipar, cmat
 
 
+def _damping_blocks(model, cmat):
+    """`reflection_blocks(cmat)`, computed once per chain (the solvers' cache); a dummy pair for the
+    Kelvin-Voigt law, which has no C."""
+    if model.span_damping == "kelvin-voigt":
+        return _padded(np.zeros((1, 1))), _padded(np.zeros((0, 0)))
+    return cache.cached(("reflection-blocks", model.chain), lambda: reflection_blocks(cmat))
+
+
 def reflection_blocks(cmat: np.ndarray):
-    """C as the compiled step takes it: (symmetric block, antisymmetric block, fixed links, pair
-    links lo, hi), blocks padded (`_padded`).
+    """C as the compiled step takes it: (symmetric block, antisymmetric block), padded (`_padded`).
 
     The loop's reflection that keeps link 1 (link i <-> link N + 2 - i, 1-based) maps the chain onto
     itself: equal links and spans, the drive on link 1, the idler span onto itself. C commutes with
-    it, so in the coordinates w_fixed and (w_lo +- w_hi) / sqrt 2 of each mirrored pair it is block
-    diagonal: about N^2 / 2 multiply-adds instead of N^2. A C without that symmetry comes back whole
-    (every link fixed, no pairs)."""
+    it, so in the coordinates w_fixed (link 1, and the middle link for even N) and (w_p +- w_N-p) /
+    sqrt 2 of each mirrored pair it is block diagonal (`_mirror_product`): about N^2 / 2
+    multiply-adds instead of N^2. A C without that symmetry comes back whole, with an empty
+    antisymmetric block."""
     n = cmat.shape[0]
     pairs = (n - 1) // 2
     lo = np.arange(1, pairs + 1)
@@ -541,8 +623,7 @@ def reflection_blocks(cmat: np.ndarray):
     mirror = (n - np.arange(n)) % n
     scale = np.max(np.abs(cmat), initial=0.0)
     if n < 3 or np.max(np.abs(cmat[np.ix_(mirror, mirror)] - cmat)) > REFLECTION_TOL * scale:
-        none = np.zeros(0, dtype=np.int64)
-        return _padded(cmat), _padded(np.zeros((0, 0))), np.arange(n), none, none
+        return _padded(cmat), _padded(np.zeros((0, 0)))
     r = math.sqrt(0.5)
     sym, anti = np.zeros((n, fixed.size + pairs)), np.zeros((n, pairs))
     sym[fixed, np.arange(fixed.size)] = 1.0
@@ -550,7 +631,7 @@ def reflection_blocks(cmat: np.ndarray):
     sym[hi, fixed.size + np.arange(pairs)] = r
     anti[lo, np.arange(pairs)] = r
     anti[hi, np.arange(pairs)] = -r
-    return _padded(sym.T @ cmat @ sym), _padded(anti.T @ cmat @ anti), fixed, lo, hi
+    return _padded(sym.T @ cmat @ sym), _padded(anti.T @ cmat @ anti)
 
 
 def _padded(block: np.ndarray) -> np.ndarray:
