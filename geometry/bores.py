@@ -110,7 +110,7 @@ class Holes:
 def find_holes(volumes: list[int]) -> Holes:
     """Every concave cylinder of the solid, grouped by axis and radius (one entry per radius and axis)."""
     groups: list[tuple[Cylinder, list[int], list[np.ndarray]]] = []
-    for face in _boundary_faces(volumes):
+    for face in boundary_faces(volumes):
         if gmsh.model.getType(2, face) in _NOT_CYLINDERS:
             continue
         points, normals = _face_samples(face)
@@ -170,7 +170,7 @@ def faces_on_bore(volumes: list[int], bore: Bore) -> list[int]:
 def faces_on_cylinder(volumes: list[int], cylinder: Cylinder, within: Bore | None = None) -> tuple[list[int], list[np.ndarray]]:
     faces, samples = [], []
     tol = _SAME_BORE_TOL * cylinder.radius_m
-    for face in _boundary_faces(volumes):
+    for face in boundary_faces(volumes):
         points, _ = _face_samples(face)
         if np.max(np.abs(cylinder.distance_to_axis(points) - cylinder.radius_m)) > tol:
             continue
@@ -216,16 +216,22 @@ def _analytic_cylinder(face: int) -> Cylinder | None:
     return Cylinder(np.array(reals[:3]), _canonical(_unit(np.array(reals[3:6]), f"surface {face} axis")), float(reals[6]))
 
 
-def _boundary_faces(volumes: list[int]) -> list[int]:
+def boundary_faces(volumes: list[int]) -> list[int]:
+    """Surface tags of the solid's boundary (faces shared by two of its volumes left out)."""
     faces = gmsh.model.getBoundary([(3, v) for v in volumes], combined=True, oriented=False, recursive=False)
     return sorted({abs(tag) for _, tag in faces})
 
 
+def boundary_edges(volumes: list[int]) -> list[int]:
+    """Curve tags of the edges of the solid's boundary faces."""
+    edges = gmsh.model.getBoundary([(2, f) for f in boundary_faces(volumes)], combined=False, oriented=False)
+    return sorted({abs(tag) for _, tag in edges})
+
+
 def _edge_samples(volumes: list[int]) -> np.ndarray:
     """Points along every edge of the solid: a prismatic part reaches its extremes on its edges."""
-    edges = gmsh.model.getBoundary([(2, f) for f in _boundary_faces(volumes)], combined=False, oriented=False)
     blocks = []
-    for tag in sorted({abs(t) for _, t in edges}):
+    for tag in boundary_edges(volumes):
         lo, hi = gmsh.model.getParametrizationBounds(1, tag)
         blocks.append(np.reshape(gmsh.model.getValue(1, tag, np.linspace(lo[0], hi[0], _SAMPLES_EDGE)), (-1, 3)))
     return np.vstack(blocks)

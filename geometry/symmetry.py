@@ -21,6 +21,7 @@ from __future__ import annotations
 import gmsh
 import numpy as np
 
+from geometry.bores import boundary_edges, boundary_faces
 from geometry.link_mesh import Bore, MirrorPlane
 
 #: Centroids, areas and lengths must match their mirror images to this fraction of the part's size
@@ -68,11 +69,8 @@ def is_mirror_symmetric(volumes: list[int], plane: MirrorPlane) -> bool:
     centroid = sum(np.array(occ.getCenterOfMass(3, v)) * occ.getMass(3, v) for v in volumes) / volume
     if abs(plane.distance_m(centroid)) > tolerance:
         return False
-    faces = gmsh.model.getBoundary([(3, v) for v in volumes], combined=False, oriented=False)
-    face_tags = sorted({abs(tag) for _, tag in faces})
-    edges = gmsh.model.getBoundary([(2, f) for f in face_tags], combined=False, oriented=False)
-    edge_tags = sorted({abs(tag) for _, tag in edges})
-    return _entities_mirrored(2, face_tags, plane, tolerance) and _entities_mirrored(1, edge_tags, plane, tolerance)
+    return (_entities_mirrored(2, boundary_faces(volumes), plane, tolerance)
+            and _entities_mirrored(1, boundary_edges(volumes), plane, tolerance))
 
 
 def _entities_mirrored(dim: int, tags: list[int], plane: MirrorPlane, distance_tol: float) -> bool:
@@ -102,9 +100,8 @@ def faces_on_plane(volumes: list[int], plane: MirrorPlane) -> list[int]:
     """Boundary faces of the solid lying in the plane."""
     # OpenCASCADE pads bounding boxes by its tolerance (1e-7 model units, here metres)
     tolerance = MATCH_TOLERANCE * _model_size_m() + BOX_PADDING_M
-    faces = gmsh.model.getBoundary([(3, v) for v in volumes], combined=False, oriented=False)
     found = []
-    for tag in sorted({abs(t) for _, t in faces}):
+    for tag in boundary_faces(volumes):
         box = np.array(gmsh.model.getBoundingBox(2, tag))
         if abs(box[plane.axis] - plane.offset_m) <= tolerance and abs(box[3 + plane.axis] - plane.offset_m) <= tolerance:
             found.append(tag)
