@@ -266,22 +266,21 @@ def _mirror_product(blocks, work, w, out):
 
 
 def _span_law_into(y, u, par, ipar, t_el, contact):
-    """Elastic span forces and contact flags of the positions y (and the carriage's u), without a
-    branch: max(d, 0) + min(d + k g, 0) is d in pulling contact, 0 in free play, d + k g pushing."""
+    """Elastic span forces and contact flags of the positions y (and the carriage's u)."""
     k, preload, kg = par[1], par[3], par[4]
     s, tens = ipar[0], ipar[1]
     n = y.shape[0]
     for j in range(n - 1):
-        d = preload + k * (y[j + 1] - y[j])
-        t_el[j] = max(d, 0.0) + min(d + kg, 0.0)
-        contact[j] = (d >= 0.0) | (d <= -kg)
-    d = preload + k * (y[0] - y[n - 1])
-    t_el[n - 1] = max(d, 0.0) + min(d + kg, 0.0)
-    contact[n - 1] = (d >= 0.0) | (d <= -kg)
+        t_el[j], contact[j] = _span(preload + k * (y[j + 1] - y[j]), kg)
+    t_el[n - 1], contact[n - 1] = _span(preload + k * (y[0] - y[n - 1]), kg)
     if tens:
-        d = preload + k * (y[s + 1 if s + 1 < n else 0] - y[s] + 2.0 * u)
-        t_el[s] = max(d, 0.0) + min(d + kg, 0.0)
-        contact[s] = (d >= 0.0) | (d <= -kg)
+        t_el[s], contact[s] = _span(preload + k * (y[s + 1 if s + 1 < n else 0] - y[s] + 2.0 * u), kg)
+
+
+def _span(d, kg):
+    """(force, in contact) of a span at d = P + k e, without a branch: max(d, 0) + min(d + k g, 0)
+    is d in pulling contact, 0 in free play, d + k g pushing."""
+    return max(d, 0.0) + min(d + kg, 0.0), (d >= 0.0) | (d <= -kg)
 
 
 def _damping_into(w, ud, par, ipar, blocks, work, contact, cw):
@@ -476,8 +475,8 @@ def _record_step(t_el, contact, phase, free, stats, recording):
 
 if numba is not None:
     # helpers inlined into the step loop (numba IR inlining: no call, and the loop fuses their work)
-    for _name in ("_rows_times", "_mirror_product", "_span_law_into", "_damping_into", "_friction_into", "_tanh",
-                  "_carriage", "_accel_into", "_net_acceleration", "_record_step"):
+    for _name in ("_rows_times", "_mirror_product", "_span_law_into", "_span", "_damping_into", "_friction_into",
+                  "_tanh", "_carriage", "_accel_into", "_net_acceleration", "_record_step"):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _keep = numba.njit(cache=True)(_keep)
     _run_compiled = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
