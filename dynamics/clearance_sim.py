@@ -53,6 +53,43 @@ class SteadyState:
 
 
 @dataclass(frozen=True)
+class ImpactStatistics:
+    """The impacts themselves over the output window (SI), beside the peak span force, which is mostly
+    the chain's inertial load. An impact is a span entering contact from free play; m_eff = m / 2 (two
+    equal links closing on one span), t_c = pi sqrt(m_eff / k) the impact's duration (half a period of
+    their contact oscillation). All zero when there is no impact (and for the linear model).
+
+    - closing speed: |e'| of the span at the instant it enters contact (its two ends' relative speed);
+      max and median / 90th percentile over the window's impacts. An undamped contact's force peaks
+      at sqrt(k m_eff) times it.
+    - force spike: the largest |span force| within t_c of an impact. The span's force just before
+      contact is zero (it was in free play), so this is the force the impact itself builds before the
+      contact's first half-oscillation ends; later in the contact the span carries the chain's load.
+    - impact energy per cycle: sum over the impacts of the approach's kinetic energy 1/2 m_eff v^2
+      (what the contacts must absorb and give back or lose), per cam cycle.
+    - dissipated per cycle: the energy the contacts' own losses take out: the Kelvin-Voigt span
+      dashpots' work over the contacts begun by impacts, per cam cycle (per impact 1/2 m_eff v^2
+      (1 - exp(-2 pi zeta / sqrt(1 - zeta^2))) for the two-mass contact). The global damping law's
+      contact is lossless (its losses are spread over the chain's motion, not in the pin joints):
+      0 there, and the impact energy goes into the chain's vibration, which that law damps."""
+
+    closing_speed_max_m_s: float = 0.0
+    closing_speed_median_m_s: float = 0.0
+    closing_speed_p90_m_s: float = 0.0
+    force_spike_N: float = 0.0
+    energy_per_cycle_J: float = 0.0
+    dissipated_per_cycle_J: float = 0.0
+
+
+def impact_statistics(run, cycles: float) -> ImpactStatistics:
+    """ImpactStatistics of an integrator run (dynamics.solvers.clearance_verlet.Run) over `cycles` cam cycles."""
+    speeds = run.impact_speeds_m_s
+    median, p90 = (np.percentile(speeds, [50.0, 90.0]) if speeds.size else (0.0, 0.0))
+    return ImpactStatistics(run.impact_max_speed_m_s, float(median), float(p90), run.impact_force_spike_N,
+                            float(run.impact_kinetic_energy_J / cycles), float(run.impact_dissipated_J / cycles))
+
+
+@dataclass(frozen=True)
 class ContactSummary:
     """What the designer reads about contact, per scenario (SI)."""
 
@@ -62,7 +99,7 @@ class ContactSummary:
     contact_lost: bool  # some span left pulling contact (in the linear model: its tension went below 0)
     free_play_time_fraction: float  # share of span-time in free play over the output window
     impacts_per_cycle: float  # entries of a span into contact from free play, per cam cycle
-    peak_impact_force_N: float  # largest |span force| in a contact phase begun by an impact
+    impact_force_spike_N: float  # largest |span force| within one impact duration of an impact (ImpactStatistics)
     peak_tension_N: float
     min_tension_N: float
     preload_for_full_contact_N: float  # from the linear model: P - its minimum tension (>= 0)
@@ -70,6 +107,7 @@ class ContactSummary:
     steady_state: SteadyState | None = None
     steps_per_output: int | None = None
     diagnostics: dict = field(default_factory=dict)
+    impacts: ImpactStatistics = ImpactStatistics()
 
 
 def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float) -> tuple[str, str]:
@@ -168,8 +206,8 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
                      "carriage_m": run.u if model.tensioner is not None else None})
     summary = ContactSummary(
         "clearance", reason, model.clearance_m, run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
-        run.free_play_fraction, run.impacts / cycles, run.peak_impact_force_N, run.peak_tension_N,
-        run.min_tension_N, needed, lin.min_tension_N, ss, sub)
+        run.free_play_fraction, run.impacts / cycles, run.impact_force_spike_N, run.peak_tension_N,
+        run.min_tension_N, needed, lin.min_tension_N, ss, sub, impacts=impact_statistics(run, cycles))
     return response, summary
 
 

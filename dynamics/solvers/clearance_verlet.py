@@ -37,7 +37,7 @@ leave out the powers, which only output steps need.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -54,9 +54,15 @@ except ImportError:  # pragma: no cover - exercised where numba is absent
 # per degree and station metrics within 1.2 % of the converged answer in max |a|, 0.4 % in RMS a,
 # 1e-4 in RMS x, v and residual vibration (README, "The clearance chain").
 DEFAULT_SAFETY = 0.25
-# stats: impacts, free-play span-steps, recorded span-steps, peak T, min T, peak impact force, diverged
-# at step; energy: cam work, damping dissipation (tensioner's included), friction dissipation
+# stats: impacts, free-play span-steps, recorded span-steps, peak T, min T, peak |T| in a contact begun by
+# an impact, diverged at step, impact force spike, impact kinetic energy, energy the impact contacts'
+# dashpots dissipated, largest closing speed, closing speeds stored (`_impacts_loop`);
+# energy: cam work, damping dissipation (tensioner's included), friction dissipation
+N_STATS = 12
 N_ENERGY = 3
+# The closing speeds of at most this many impacts are kept for their distribution (the default scene
+# has a few hundred per window); beyond it the count, the largest speed and the sums stay exact.
+SPEED_CAPACITY = 1 << 16
 # Velocity predictors for the velocity-dependent forces, w_pred = w + h (a + theta (a - a_prev)):
 # "euler" (theta 0: w + h a, off by O(h^2)), the default; "ab2" (theta 1/2, Adams-Bashforth 2: off
 # by O(h^3) where a is smooth), which cuts the global damping law's error 2-5x at the same step
@@ -139,10 +145,12 @@ def _tanh_array(x):
 
 
 def _run(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat, track_energy,
-         out_y, out_w, out_a, out_u, out_ud, stats, energy):
+         out_y, out_w, out_a, out_u, out_ud, stats, energy, speeds):
     """Steps over the nodes of zd/zdd (len n_steps + 1); writes outputs every `out_every` steps
-    (out_* have n_steps // out_every + 1 rows), statistics from step `record_from` on."""
+    (out_* have n_steps // out_every + 1 rows), statistics from step `record_from` on, the closing
+    speeds of the recorded impacts into `speeds` (`_impacts_array`)."""
     n_steps = zd.shape[0] - 1
+    clocks = np.zeros((2, y.shape[0]))  # per span: time since its impact, dashpot power at the last step
     bound = par[12]
     a, au, t_el, contact, pc, pd, pf = _accel(y, w, u, ud, zd[0], zdd[0], par, ipar, cmat)
     a_prev, au_prev = a, au  # the first step's predictor is w + h a whatever theta
@@ -172,6 +180,9 @@ def _run(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat
                         out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
             if row < 0:
                 return
+        _impacts_array(h, y, w, a, y - h * wh, wh - 0.5 * h * a_prev, a_prev, u, ud, au, u - h * uh,
+                       uh - 0.5 * h * au_prev, au_prev, par, ipar, t_el, contact, free, phase, clocks, stats, speeds,
+                       i + 1 >= record_from)
         new_impacts = contact & free
         phase = (phase | new_impacts) & contact
         free = ~contact
@@ -378,7 +389,7 @@ def _net_acceleration(t_el, cw, fr, m, zdd, a):
 
 
 def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, blocks, track_energy,
-               out_y, out_w, out_a, out_u, out_ud, stats, energy):
+               out_y, out_w, out_a, out_u, out_ud, stats, energy, speeds):
     """`_run` as loops over preallocated arrays, compiled with numba; same steps, same outputs. The
     damping matrix comes as `reflection_blocks`."""
     n_steps = zd.shape[0] - 1
@@ -396,6 +407,7 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
     contact = np.empty(n, dtype=np.bool_)
     free = np.empty(n, dtype=np.bool_)
     phase = np.zeros(n, dtype=np.bool_)
+    clocks = np.zeros((2, n))
     work = (np.zeros(blocks[0].shape[1]), np.zeros(blocks[1].shape[1]), np.zeros(blocks[0].shape[0]),
             np.zeros(blocks[1].shape[0]))
     au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, blocks, work, cw, fr, a, t_el, contact)
@@ -430,6 +442,8 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
             w[j] = wh[j] + hh * a[j]
         au, _ = _carriage(u, up, t_el[ipar[0]] + dash_s, par, ipar)
         ud = uh + hh * au
+        _impacts_loop(h, y, w, a, wh, a_prev, u, ud, au, uh, au_prev, par, ipar, t_el, contact, free, phase, clocks,
+                      stats, speeds, i + 1 >= record_from)
         _record_step(t_el, contact, phase, free, stats, i + 1 >= record_from)
         on_output = (i + 1) % out_every == 0
         if track_energy or on_output:
@@ -440,6 +454,148 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
                         out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
             if row < 0:
                 return
+
+
+def _impact_duration_s(par) -> float:
+    """One impact's duration: half a period of the two links' contact oscillation, pi sqrt(m_eff / k)
+    with m_eff = m / 2 (two equal links closing on one span)."""
+    return math.pi * math.sqrt(0.5 * par[0] / par[1])
+
+
+def _crossing(d_old, d_new, threshold):
+    """Fraction of the step at which P + k e crossed `threshold` (linear in the step: e is smooth
+    there, the span law's force being continuous through its kinks)."""
+    span = d_old - d_new
+    if span == 0.0:
+        return 1.0
+    return min(max((d_old - threshold) / span, 0.0), 1.0)
+
+
+def _impacts_loop(h, y, w, a, wh, a_prev, u, ud, au, uh, au_prev, par, ipar, t_el, contact, free, phase, clocks,
+                  stats, speeds, recording):
+    """The impacts of one step, before `_record_step` moves the flags on (`free` and `phase` are the
+    previous step's). An impact is a span entering contact from free play; at it the closing speed
+    |e'| and the kinetic energy of the approach 1/2 m_eff e'^2 are taken at the crossing (the crossing
+    interpolated in the step, the speed there extrapolated from the free-play side with its
+    acceleration: second order whether or not a dashpot switches on with the contact); while the contact it began lasts, the largest |T| within one impact duration
+    (`_impact_duration_s`) is its force spike and the Kelvin-Voigt dashpot's work (trapezoidal, from
+    and to the crossings) the energy the contact dissipates. `clocks[0]`: time since each span's
+    impact; `clocks[1]`: its dashpot power at the last step. The previous state is recovered from the
+    step's own quantities: y - h w_half, w_half - h/2 a_prev."""
+    m, k, preload, kg, beta = par[0], par[1], par[3], par[4], par[5]
+    s, tens, kv = ipar[0], ipar[1], ipar[2]
+    n = y.shape[0]
+    hh = 0.5 * h
+    window = _impact_duration_s(par)
+    for j in range(n):
+        c = contact[j]
+        impact = c and free[j]
+        ongoing = phase[j] and c
+        ending = phase[j] and not c
+        if not (impact or ongoing or ending):
+            continue
+        l = j + 1 if j + 1 < n else 0
+        ed_new = w[l] - w[j]
+        if tens and j == s:
+            ed_new += 2.0 * ud
+        if ongoing:
+            clocks[0, j] += h
+            p_new = beta * k * ed_new * ed_new if kv else 0.0
+            if recording:
+                if clocks[0, j] <= window:
+                    stats[7] = max(stats[7], abs(t_el[j]))
+                stats[9] += hh * (clocks[1, j] + p_new)
+            clocks[1, j] = p_new
+            continue
+        e_new = y[l] - y[j]
+        e_old = (y[l] - h * wh[l]) - (y[j] - h * wh[j])
+        ed_old = (wh[l] - hh * a_prev[l]) - (wh[j] - hh * a_prev[j])
+        ea_old = a_prev[l] - a_prev[j]
+        ea_new = a[l] - a[j]
+        if tens and j == s:
+            e_new += 2.0 * u
+            e_old += 2.0 * (u - h * uh)
+            ed_old += 2.0 * (uh - hh * au_prev)
+            ea_old += 2.0 * au_prev
+            ea_new += 2.0 * au
+        d_old = preload + k * e_old
+        d_new = preload + k * e_new
+        if impact:
+            frac = _crossing(d_old, d_new, 0.0 if d_new >= 0.0 else -kg)
+            ed_c = ed_old + frac * h * ea_old
+            p_new = beta * k * ed_new * ed_new if kv else 0.0
+            clocks[0, j] = (1.0 - frac) * h
+            clocks[1, j] = p_new
+            if recording:
+                speed = abs(ed_c)
+                stats[7] = max(stats[7], abs(t_el[j]))
+                stats[8] += 0.25 * m * ed_c * ed_c
+                stats[9] += 0.5 * (1.0 - frac) * h * ((beta * k * ed_c * ed_c if kv else 0.0) + p_new)
+                stats[10] = max(stats[10], speed)
+                stored = int(stats[11])
+                if stored < speeds.shape[0]:
+                    speeds[stored] = speed
+                    stats[11] = stored + 1
+        else:
+            frac = _crossing(d_old, d_new, 0.0 if d_old >= 0.0 else -kg)
+            ed_c = ed_new - (1.0 - frac) * h * ea_new
+            if recording:
+                stats[9] += 0.5 * frac * h * (clocks[1, j] + (beta * k * ed_c * ed_c if kv else 0.0))
+            clocks[1, j] = 0.0
+
+
+def _impacts_array(h, y, w, a, y_old, w_old, a_old, u, ud, au, u_old, ud_old, au_old, par, ipar, t_el, contact, free,
+                   phase, clocks, stats, speeds, recording):
+    """`_impacts_loop` in numpy, for the numpy path (the previous state given whole); same results."""
+    m, k, preload, kg, beta = par[0], par[1], par[3], par[4], par[5]
+    s, tens, kv = ipar[0], ipar[1], ipar[2]
+    impact = contact & free
+    ongoing = phase & contact
+    ending = phase & ~contact
+    if not (impact.any() or ongoing.any() or ending.any()):
+        return
+    window = _impact_duration_s(par)
+    beta_k = beta * k if kv else 0.0
+
+    def stretch(q, v):
+        return np.roll(q, -1) - q + (2.0 * v * (np.arange(q.shape[0]) == s) if tens else 0.0)
+
+    ed_new = stretch(w, ud)
+    p_new = beta_k * ed_new**2
+    clocks[0, ongoing] += h
+    if recording and ongoing.any():
+        early = ongoing & (clocks[0] <= window)
+        if early.any():
+            stats[7] = max(stats[7], float(np.max(np.abs(t_el[early]))))
+        stats[9] += float(np.sum(0.5 * h * (clocks[1, ongoing] + p_new[ongoing])))
+    clocks[1, ongoing] = p_new[ongoing]
+    if not (impact.any() or ending.any()):
+        return
+    d_old = preload + k * stretch(y_old, u_old)
+    d_new = preload + k * stretch(y, u)
+    ed_old = stretch(w_old, ud_old)
+    ea_old, ea_new = stretch(a_old, au_old), stretch(a, au)
+    for j in np.flatnonzero(impact | ending):
+        if impact[j]:
+            frac = _crossing(d_old[j], d_new[j], 0.0 if d_new[j] >= 0.0 else -kg)
+            ed_c = ed_old[j] + frac * h * ea_old[j]
+            clocks[0, j] = (1.0 - frac) * h
+            clocks[1, j] = p_new[j]
+            if recording:
+                stats[7] = max(stats[7], abs(t_el[j]))
+                stats[8] += 0.25 * m * ed_c * ed_c
+                stats[9] += 0.5 * (1.0 - frac) * h * (beta_k * ed_c * ed_c + p_new[j])
+                stats[10] = max(stats[10], abs(ed_c))
+                stored = int(stats[11])
+                if stored < speeds.shape[0]:
+                    speeds[stored] = abs(ed_c)
+                    stats[11] = stored + 1
+        else:
+            frac = _crossing(d_old[j], d_new[j], 0.0 if d_old[j] >= 0.0 else -kg)
+            ed_c = ed_new[j] - (1.0 - frac) * h * ea_new[j]
+            if recording:
+                stats[9] += 0.5 * frac * h * (clocks[1, j] + beta_k * ed_c * ed_c)
+            clocks[1, j] = 0.0
 
 
 def _record_step(t_el, contact, phase, free, stats, recording):
@@ -476,7 +632,8 @@ def _record_step(t_el, contact, phase, free, stats, recording):
 if numba is not None:
     # helpers inlined into the step loop (numba IR inlining: no call, and the loop fuses their work)
     for _name in ("_rows_times", "_mirror_product", "_span_law_into", "_span", "_damping_into", "_friction_into",
-                  "_tanh", "_carriage", "_accel_into", "_net_acceleration", "_record_step"):
+                  "_tanh", "_carriage", "_accel_into", "_net_acceleration", "_record_step", "_impact_duration_s",
+                  "_crossing", "_impacts_loop"):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _keep = numba.njit(cache=True)(_keep)
     _run_compiled = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
@@ -528,12 +685,17 @@ class Run:
     free_play_fraction: float
     peak_tension_N: float
     min_tension_N: float
-    peak_impact_force_N: float
+    peak_force_in_impact_contact_N: float  # largest |T| while a contact begun by an impact lasts (its whole length)
     cam_work_J: float
     dissipated_damping_J: float
     dissipated_friction_J: float
     step_s: float
     n_steps: int
+    impact_force_spike_N: float = 0.0  # largest |T| within one impact duration of an impact (`_impacts_loop`)
+    impact_speeds_m_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  # |e'| of each recorded impact
+    impact_max_speed_m_s: float = 0.0  # (the speeds keep at most SPEED_CAPACITY impacts; the max all of them)
+    impact_kinetic_energy_J: float = 0.0  # sum over the recorded impacts of 1/2 m_eff e'^2, m_eff = m / 2
+    impact_dissipated_J: float = 0.0  # Kelvin-Voigt dashpots' work in contacts begun by impacts (0: global law)
 
 
 def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 0.0, ud0: float = 0.0,
@@ -563,15 +725,17 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
     par, ipar, cmat = packed_parameters(model, 1e6 * scale)
     m_out = n_steps // out_every + 1
     out = [np.zeros((m_out, n)) for _ in range(3)] + [np.zeros(m_out), np.zeros(m_out)]
-    stats = np.array([0.0, 0.0, 0.0, -np.inf, np.inf, 0.0, 0.0])
+    stats = np.zeros(N_STATS)
+    stats[3], stats[4] = -np.inf, np.inf
     energy = np.zeros(N_ENERGY)
+    speeds = np.zeros(SPEED_CAPACITY)
     use_numba = (numba is not None) if compiled is None else compiled
     if use_numba and numba is None:
         raise DynamicsError("integrate: compiled=True but numba is not installed")
     runner, damping = (_run_compiled, _damping_blocks(model, cmat)) if use_numba else (_run, cmat)
     with np.errstate(over="ignore", invalid="ignore"):
         runner(y0, w0, float(u0), float(ud0), zd, zdd, float(step_s), theta, int(out_every), int(record_from), par,
-               ipar, damping, bool(track_energy), *out, stats, energy)
+               ipar, damping, bool(track_energy), *out, stats, energy, speeds)
     if stats[6] or not np.all(np.isfinite(out[0])):
         where = stats[6] if stats[6] else "?"
         raise SolverDivergedError(
@@ -579,7 +743,10 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
             f"below the stability limit of the contact frequency")
     recorded = max(stats[2], 1.0)
     return Run(*out, impacts=int(stats[0]), free_play_fraction=float(stats[1] / recorded),
-               peak_tension_N=float(stats[3]), min_tension_N=float(stats[4]), peak_impact_force_N=float(stats[5]),
+               peak_tension_N=float(stats[3]), min_tension_N=float(stats[4]),
+               peak_force_in_impact_contact_N=float(stats[5]), impact_force_spike_N=float(stats[7]),
+               impact_speeds_m_s=speeds[: int(stats[11])].copy(), impact_max_speed_m_s=float(stats[10]),
+               impact_kinetic_energy_J=float(stats[8]), impact_dissipated_J=float(stats[9]),
                cam_work_J=float(energy[0]), dissipated_damping_J=float(energy[1]),
                dissipated_friction_J=float(energy[2]), step_s=float(step_s), n_steps=int(n_steps))
 
