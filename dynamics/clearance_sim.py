@@ -9,7 +9,9 @@ not depend on the preload, so that preload is P - min T_linear), and it decides 
   sample: free play is never entered). Its response is the exact linear one, returned as is.
 - "clearance": asked for; or, with "auto", the linear solution leaves pulling contact somewhere, or
   an idler tensioner is modelled (only the clearance model carries it). Solved by the explicit
-  integrator dynamics.solvers.clearance_verlet.
+  integrator dynamics.solvers.clearance_verlet, by default with its `default_predictor` at its
+  `default_safety` (the global law: "ab2" at 0.3 of its stability limit, station metrics within 1e-3
+  of converged on the default scene; benchmarks/bench_accuracy.py).
 
 Periodic steady state of the clearance chain: started from the linear chain's periodic state, the
 chain is stepped one cam period at a time until the state at the period's start changes by less
@@ -145,9 +147,12 @@ def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float
 
 
 def simulate_chain(model: ClearanceChain, cam, t_eval_s, *, choice: str = "auto", steady_state: bool = True,
-                   links=None, n_modes: int | None = None, method: str = "exact", safety: float = verlet.DEFAULT_SAFETY,
-                   tol: float = DEFAULT_TOL, max_cycles: int = DEFAULT_MAX_CYCLES) -> tuple[ChainResponse, ContactSummary]:
-    """The response of the scene's model at t_eval_s and what it says about contact."""
+                   links=None, n_modes: int | None = None, method: str = "exact", safety: float | None = None,
+                   tol: float = DEFAULT_TOL, max_cycles: int = DEFAULT_MAX_CYCLES,
+                   predictor: str | None = None) -> tuple[ChainResponse, ContactSummary]:
+    """The response of the scene's model at t_eval_s and what it says about contact. The clearance
+    chain's step: a fraction `safety` (default `verlet.default_safety`) of the stability limit of the
+    velocity `predictor` (default `verlet.default_predictor`)."""
     t = np.asarray(t_eval_s, dtype=float)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SlackChainWarning)  # reported through the summary
@@ -162,8 +167,11 @@ def simulate_chain(model: ClearanceChain, cam, t_eval_s, *, choice: str = "auto"
                                  float(np.mean(lin.tension_N < 0.0)) if model.clearance_m > 0 else 0.0,
                                  0.0, 0.0, float(lin.tension_N.max()), lin.min_tension_N, needed, lin.min_tension_N)
         return out, summary
+    predictor = verlet.default_predictor(model) if predictor is None else predictor
+    safety = verlet.default_safety(model, predictor) if safety is None else safety
     with serial_blas():
-        return _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, reason, needed)
+        return _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, reason, needed,
+                                   predictor)
 
 
 def _select(r: ChainResponse, links) -> ChainResponse:
@@ -177,11 +185,11 @@ def _cam_nodes(cam, t0: float, step: float, n_steps: int):
     return np.asarray(v, dtype=float), np.asarray(a, dtype=float)
 
 
-def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, reason, needed):
+def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, reason, needed, predictor):
     h_out = np.diff(t)
     if np.max(np.abs(h_out - h_out[0])) > 1e-9 * h_out[0]:
         raise DynamicsError("t_eval_s: the clearance model needs equally spaced output times")
-    sub = verlet.substeps_for(model, float(h_out[0]), safety)
+    sub = verlet.substeps_for(model, float(h_out[0]), safety, predictor)
     h = float(h_out[0]) / sub
     n = model.n_links
     y0 = lin.x_m[0] - lin.z_m[0]
@@ -189,9 +197,10 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
     state = (y0, w0, 0.0, 0.0)
     ss = None
     if steady_state:
-        state, ss = _periodic_state(model, cam, t[0], h, state, tol, max_cycles)
+        state, ss = _periodic_state(model, cam, t[0], h, state, tol, max_cycles, predictor)
     zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
-    run = verlet.integrate(model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub)
+    run = verlet.integrate(model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub,
+                           predictor=predictor)
     s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
     cols = list(range(n)) if links is None else [int(i) for i in np.atleast_1d(links)]
     tension = model.tension_N(run.y, run.u)
@@ -211,7 +220,7 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
     return response, summary
 
 
-def _periodic_state(model, cam, t0, h, state, tol, max_cycles):
+def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler"):
     period = getattr(cam, "period_s", None)
     if period is None:
         raise DynamicsError("steady_state: the cam program is not periodic (period_s is None); use steady_state=False")
@@ -225,7 +234,8 @@ def _periodic_state(model, cam, t0, h, state, tol, max_cycles):
     scale = None
     residual = math.inf
     for cycle in range(1, max_cycles + 1):
-        run = verlet.integrate(model, zd, zdd, h_p, state[0], state[1], u0=state[2], ud0=state[3], out_every=every)
+        run = verlet.integrate(model, zd, zdd, h_p, state[0], state[1], u0=state[2], ud0=state[3], out_every=every,
+                               predictor=predictor)
         state = (run.y[-1], run.w[-1], float(run.u[-1]), float(run.ud[-1]))
         ends.append(np.concatenate([state[0], state[1], [state[2], state[3]]]))
         scale = _scale(run, model.n_links)

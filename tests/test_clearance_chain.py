@@ -363,16 +363,31 @@ def test_steady_state_repeats_after_one_period():
     np.testing.assert_allclose(y[half], y[0], rtol=0, atol=1e-5 * np.max(np.abs(y)))
 
 
-def test_stability_map_both_sides_of_the_limit():
-    """Map cases (dynamics.clearance_stability) at 1e8 N/m: without free play the limit is sharp; with
-    it a step just above the limit finishes and is wrong instead of diverging, and far above it diverges."""
+@pytest.mark.parametrize("predictor", ["euler", "ab2"])
+def test_stability_map_both_sides_of_the_limit(predictor):
+    """Map cases (dynamics.clearance_stability) at 1e8 N/m, each predictor at its own limit (ab2: the
+    default run's): without free play the limit is sharp; with it a step just above the limit finishes
+    and is wrong instead of diverging, and far above it diverges."""
     from dynamics.clearance_stability import step_case
 
-    assert step_case(1e8, 0.0, 0.99).outcome == "accurate"
-    assert step_case(1e8, 0.0, 1.01).outcome == "diverged"
-    assert step_case(1e8, 94e-6, 0.99).outcome == "accurate"
-    assert step_case(1e8, 94e-6, 1.1).outcome == "inaccurate"
-    assert step_case(1e8, 94e-6, 2.0).outcome == "diverged"
+    assert step_case(1e8, 0.0, 0.99, predictor=predictor).outcome == "accurate"
+    assert step_case(1e8, 0.0, 1.01, predictor=predictor).outcome == "diverged"
+    assert step_case(1e8, 94e-6, 0.99, predictor=predictor).outcome == "accurate"
+    assert step_case(1e8, 94e-6, 1.1, predictor=predictor).outcome == "inaccurate"
+    assert step_case(1e8, 94e-6, 2.0, predictor=predictor).outcome == "diverged"
+
+
+def test_the_default_run_takes_ab2_for_the_global_law_and_euler_for_kelvin_voigt():
+    chain = _chain(n=30, friction_coefficient=0.35)
+    t = _times(degrees=20.0, per_degree=4)
+    for law, predictor in (("global", "ab2"), ("kelvin-voigt", "euler")):
+        model = ClearanceChain(chain, 94e-6, span_damping=law)
+        assert verlet.default_predictor(model) == predictor
+        _, s = simulate_chain(model, _cam(), t, steady_state=False)
+        h_limit = verlet.stable_step_s(model, 1.0, predictor)
+        assert s.steps_per_output == verlet.substeps_for(model, t[1], verlet.default_safety(model, predictor),
+                                                          predictor)
+        assert (t[1] / s.steps_per_output) <= verlet.default_safety(model, predictor) * h_limit * (1 + 1e-12)
 
 
 def _fake_period_map(flip_every: int):
