@@ -32,7 +32,6 @@ import numpy as np
 
 from dynamics.clearance import DEFAULT_PIN_CLEARANCE_M, ClearanceChain, Tensioner
 from dynamics.errors import DynamicsError
-from dynamics.reduction import DENSE_LINK_LIMIT
 from dynamics.simulate import ChainResponse, SlackChainWarning, simulate
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
@@ -116,19 +115,11 @@ def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float
     """(model, reason) for a scene; see the module docstring."""
     if choice not in MODEL_CHOICES:
         raise DynamicsError(f"model: expected one of {', '.join(MODEL_CHOICES)}, got {choice!r}")
-    too_long = model.span_damping == "global" and model.n_links > DENSE_LINK_LIMIT
     if choice == "linear":
         return "linear", "asked for (--model linear)"
     if choice == "clearance":
-        if too_long:
-            raise DynamicsError(
-                f"model clearance: with the global damping law at most {DENSE_LINK_LIMIT} links (its damping "
-                f"matrix is dense), got {model.n_links}; use span damping kelvin-voigt or the linear model")
         return "clearance", "asked for (--model clearance)"
     if model.tensioner is not None:
-        if too_long:
-            raise DynamicsError(f"tensioner: the clearance model with the global damping law takes at most "
-                                f"{DENSE_LINK_LIMIT} links, got {model.n_links}; use span damping kelvin-voigt")
         return "clearance", "an idler tensioner is modelled, which only the clearance model carries"
     if model.clearance_m == 0.0:
         return "linear", "pin clearance 0: the clearance law is the linear chain exactly"
@@ -137,11 +128,6 @@ def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float
     if linear_min_tension_N >= 0.0:
         return "linear", ("the linear solution never leaves pulling contact (its minimum tension stays >= 0), so "
                           "the free play is never entered")
-    if too_long:
-        return "linear", (f"the linear solution leaves pulling contact (minimum tension < 0) but the clearance "
-                          f"model with the global damping law is limited to {DENSE_LINK_LIMIT} links: the linear "
-                          "results are NOT valid where tension < 0 (use span damping kelvin-voigt for the "
-                          "clearance model of a long chain)")
     return "clearance", ("the linear solution leaves pulling contact (its minimum tension goes below zero against "
                          "the preload): the pin free play is crossed and the load reverses through impacts")
 

@@ -98,11 +98,12 @@ def test_choices_and_their_limits():
     assert choose_model(m, "clearance", 1.0)[0] == "clearance"
     tensioned = ClearanceChain(_chain(), 0.0, tensioner=Tensioner(1e5, 5.0, 100.0))
     assert choose_model(tensioned, "auto", 1.0)[0] == "clearance"
-    long = ClearanceChain(_chain(n=401), 94e-6)
-    with pytest.raises(DynamicsError, match="kelvin-voigt"):
-        choose_model(long, "clearance", -1.0)
-    which, reason = choose_model(long, "auto", -1.0)
-    assert which == "linear" and "NOT valid" in reason
+    for n in (401, 2000):  # the global law's reduced form (dynamics.reduced_damping): no fallback at any length
+        long = ClearanceChain(_chain(n=n), 94e-6)
+        assert long.damping_is_reduced
+        assert choose_model(long, "clearance", -1.0)[0] == "clearance"
+        which, reason = choose_model(long, "auto", -1.0)
+        assert which == "clearance" and "NOT valid" not in reason
     with pytest.raises(DynamicsError, match="model"):
         choose_model(m, "nonlinear", 1.0)
 

@@ -129,7 +129,7 @@ def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
         f_cam = -kd * y[0] - beta * kd * w[0]
     else:
         t_all = t_el
-        cw = np.dot(cmat, w)
+        cw = cmat @ w  # a dense C or a dynamics.reduced_damping.ReducedDamping
         p_damp = np.dot(w, cw)
         f_cam = -kd * y[0] - np.sum(cw)
     cw[0] += kd * y[0]
@@ -254,8 +254,8 @@ def _mirror_product(blocks, work, w, out):
     parts under the reflection (link 0, and link n/2 for even n, map onto themselves; link p pairs
     with link n - p), each multiplied by its block; a C without the symmetry (no antisymmetric rows)
     is multiplied whole. `work`: the padded coordinates and products."""
-    sym, anti = blocks
-    ws, wa, cs, ca = work
+    sym, anti = blocks[0], blocks[1]
+    ws, wa, cs, ca = work[0], work[1], work[2], work[3]
     n = w.shape[0]
     if anti.shape[0] == 0:
         for j in range(n):
@@ -281,6 +281,32 @@ def _mirror_product(blocks, work, w, out):
     for p in range(pairs):
         out[1 + p] = r * (cs[nf + p] + ca[p])
         out[n - 1 - p] = r * (cs[nf + p] - ca[p])
+
+
+def _sqrt_product(coefficients, weights, factors, sm, acc, y, w, out):
+    """out = C w for the reduced global law (dynamics.reduced_damping): a0 m w + a1 K w + 2 zeta K acc,
+    acc = sum_j c_j (K / m + tau_j I)^-1 w by one cyclic tridiagonal solve per node (Thomas, then
+    Sherman-Morrison with the node's z). coefficients = [a0 m, a1 k, a1 k_d, 2 zeta k, 2 zeta k_d, -k / m]."""
+    n = w.shape[0]
+    e = coefficients[5]
+    for i in range(n):
+        acc[i] = 0.0
+    for j in range(weights.shape[0]):
+        y[0] = w[0] * factors[j, 0, 0]
+        for i in range(1, n):
+            y[i] = (w[i] - e * y[i - 1]) * factors[j, 0, i]
+        for i in range(n - 2, -1, -1):
+            y[i] -= factors[j, 1, i] * y[i + 1]
+        f = sm[j, 0] * (y[0] + sm[j, 1] * y[n - 1])
+        c = weights[j]
+        for i in range(n):
+            acc[i] += c * (y[i] - f * factors[j, 2, i])
+    c0, c1, c3 = coefficients[0], coefficients[1], coefficients[3]
+    for i in range(n):
+        ip = i - 1 if i > 0 else n - 1
+        inx = i + 1 if i + 1 < n else 0
+        out[i] = c0 * w[i] + c1 * (2.0 * w[i] - w[ip] - w[inx]) + c3 * (2.0 * acc[i] - acc[ip] - acc[inx])
+    out[0] += coefficients[2] * w[0] + coefficients[4] * acc[0]
 
 
 def _span_law_into(y, u, par, ipar, t_el, contact):
@@ -310,7 +336,10 @@ def _damping_into(w, ud, par, ipar, blocks, work, contact, cw):
     n = w.shape[0]
     dash_s = 0.0
     if not kv:
-        _mirror_product(blocks, work, w, cw)
+        if ipar[3]:
+            _sqrt_product(blocks[2], blocks[3], blocks[4], blocks[5], work[4], work[5], w, cw)
+        else:
+            _mirror_product(blocks, work, w, cw)
         return dash_s
     for i in range(n):
         cw[i] = 0.0
@@ -416,7 +445,7 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
     phase = np.zeros(n, dtype=np.bool_)
     clocks = np.zeros((2, n))
     work = (np.zeros(blocks[0].shape[1]), np.zeros(blocks[1].shape[1]), np.zeros(blocks[0].shape[0]),
-            np.zeros(blocks[1].shape[0]))
+            np.zeros(blocks[1].shape[0]), np.zeros(n), np.zeros(n))
     au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, blocks, work, cw, fr, a, t_el, contact)
     a_prev = a.copy()  # the first step's predictor is w + h a whatever theta
     au_prev = au
@@ -638,7 +667,7 @@ def _record_step(t_el, contact, phase, free, stats, recording):
 
 if numba is not None:
     # helpers inlined into the step loop (numba IR inlining: no call, and the loop fuses their work)
-    for _name in ("_rows_times", "_mirror_product", "_span_law_into", "_span", "_damping_into", "_friction_into",
+    for _name in ("_rows_times", "_mirror_product", "_sqrt_product", "_span_law_into", "_span", "_damping_into", "_friction_into",
                   "_tanh", "_carriage", "_accel_into", "_net_acceleration", "_record_step", "_impact_duration_s",
                   "_crossing", "_impacts_loop"):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
@@ -768,17 +797,25 @@ def packed_parameters(model, bound: float = np.inf):
                     1.0 / c.friction_velocity_scale_m_s,
                     t.mass_kg if t else 1.0, t.rate_N_per_m if t else 0.0, t.damping_N_s_per_m if t else 0.0,
                     2.0 * c.preload_N, bound])
-    ipar = np.array([model.idler_span, int(t is not None), int(kv)], dtype=np.int64)
-    cmat = np.zeros((1, 1)) if kv else np.ascontiguousarray(model.damping_matrix)
+    reduced = not kv and model.damping_is_reduced
+    ipar = np.array([model.idler_span, int(t is not None), int(kv), int(reduced)], dtype=np.int64)
+    cmat = np.zeros((1, 1)) if kv else model.damping_operator
     return par, ipar, cmat
 
 
 def _damping_blocks(model, cmat):
-    """`reflection_blocks(cmat)`, computed once per chain (the solvers' cache); a dummy pair for the
-    Kelvin-Voigt law, which has no C."""
+    """The damping as the compiled step takes it: (symmetric block, antisymmetric block, then the
+    reduced form's coefficients, weights, factors, sm: `ReducedDamping.packed`). A dense C:
+    `reflection_blocks(cmat)`, computed once per chain (the solvers' cache), and an empty reduced part;
+    the reduced form (`cmat` a ReducedDamping): its packed parts and dummy blocks; the Kelvin-Voigt
+    law, which has no C: dummies."""
+    empty = (np.zeros(6), np.zeros(0), np.zeros((0, 3, 1)), np.zeros((0, 2)))
+    dummy = (_padded(np.zeros((1, 1))), _padded(np.zeros((0, 0))))
     if model.span_damping == "kelvin-voigt":
-        return _padded(np.zeros((1, 1))), _padded(np.zeros((0, 0)))
-    return cache.cached(("reflection-blocks", model.chain), lambda: reflection_blocks(cmat))
+        return dummy + empty
+    if model.damping_is_reduced:
+        return dummy + cmat.packed()
+    return cache.cached(("reflection-blocks", model.chain), lambda: reflection_blocks(cmat)) + empty
 
 
 def reflection_blocks(cmat: np.ndarray):
