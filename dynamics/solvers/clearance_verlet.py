@@ -286,21 +286,28 @@ def _mirror_product(blocks, work, w, out):
 def _sqrt_product(coefficients, weights, factors, sm, acc, y, w, out):
     """out = C w for the reduced global law (dynamics.reduced_damping): a0 m w + a1 K w + 2 zeta K acc,
     acc = sum_j c_j (K / m + tau_j I)^-1 w by one cyclic tridiagonal solve per node (Thomas, then
-    Sherman-Morrison with the node's z). coefficients = [a0 m, a1 k, a1 k_d, 2 zeta k, 2 zeta k_d, -k / m]."""
+    Sherman-Morrison with the node's z), all nodes at once: `factors` is (3, N, p), so the recurrences
+    run over the links with the nodes as the (vectorised) inner loop. y: (N, p) scratch.
+    coefficients = [a0 m, a1 k, a1 k_d, 2 zeta k, 2 zeta k_d, -k / m]."""
     n = w.shape[0]
+    p = weights.shape[0]
     e = coefficients[5]
+    for j in range(p):
+        y[0, j] = w[0] * factors[0, 0, j]
+    for i in range(1, n):
+        wi = w[i]
+        for j in range(p):
+            y[i, j] = (wi - e * y[i - 1, j]) * factors[0, i, j]
+    for i in range(n - 2, -1, -1):
+        for j in range(p):
+            y[i, j] -= factors[1, i, j] * y[i + 1, j]
+    for j in range(p):  # Sherman-Morrison's factor per node, weighted: kept in row 0's spare use below
+        sm[j, 2] = weights[j] * sm[j, 0] * (y[0, j] + sm[j, 1] * y[n - 1, j])
     for i in range(n):
-        acc[i] = 0.0
-    for j in range(weights.shape[0]):
-        y[0] = w[0] * factors[j, 0, 0]
-        for i in range(1, n):
-            y[i] = (w[i] - e * y[i - 1]) * factors[j, 0, i]
-        for i in range(n - 2, -1, -1):
-            y[i] -= factors[j, 1, i] * y[i + 1]
-        f = sm[j, 0] * (y[0] + sm[j, 1] * y[n - 1])
-        c = weights[j]
-        for i in range(n):
-            acc[i] += c * (y[i] - f * factors[j, 2, i])
+        s = 0.0
+        for j in range(p):
+            s += weights[j] * y[i, j] - sm[j, 2] * factors[2, i, j]
+        acc[i] = s
     c0, c1, c3 = coefficients[0], coefficients[1], coefficients[3]
     for i in range(n):
         ip = i - 1 if i > 0 else n - 1
@@ -445,7 +452,7 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
     phase = np.zeros(n, dtype=np.bool_)
     clocks = np.zeros((2, n))
     work = (np.zeros(blocks[0].shape[1]), np.zeros(blocks[1].shape[1]), np.zeros(blocks[0].shape[0]),
-            np.zeros(blocks[1].shape[0]), np.zeros(n), np.zeros(n))
+            np.zeros(blocks[1].shape[0]), np.zeros(n), np.zeros((n, blocks[3].shape[0])))
     au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, blocks, work, cw, fr, a, t_el, contact)
     a_prev = a.copy()  # the first step's predictor is w + h a whatever theta
     au_prev = au
@@ -809,12 +816,15 @@ def _damping_blocks(model, cmat):
     `reflection_blocks(cmat)`, computed once per chain (the solvers' cache), and an empty reduced part;
     the reduced form (`cmat` a ReducedDamping): its packed parts and dummy blocks; the Kelvin-Voigt
     law, which has no C: dummies."""
-    empty = (np.zeros(6), np.zeros(0), np.zeros((0, 3, 1)), np.zeros((0, 2)))
+    empty = (np.zeros(6), np.zeros(0), np.zeros((3, 1, 0)), np.zeros((0, 3)))
     dummy = (_padded(np.zeros((1, 1))), _padded(np.zeros((0, 0))))
     if model.span_damping == "kelvin-voigt":
         return dummy + empty
     if model.damping_is_reduced:
-        return dummy + cmat.packed()
+        coefficients, weights, factors, sm = cmat.packed()
+        # the compiled product's layout: factors (3, N, p); sm's third column its scratch
+        return dummy + (coefficients, weights, np.ascontiguousarray(factors.transpose(1, 2, 0)),
+                        np.ascontiguousarray(np.column_stack([sm, np.zeros(sm.shape[0])])))
     return cache.cached(("reflection-blocks", model.chain), lambda: reflection_blocks(cmat)) + empty
 
 
