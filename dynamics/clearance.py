@@ -17,6 +17,8 @@ Damping laws (`span_damping`):
 - "global": the chain model's damping matrix C (modal zeta or Rayleigh) on y', acting always,
   as in the linear model: it stands for losses spread over the chain and its guide (rollers,
   lubricant, nests), which do not stop when a pin joint opens. In full contact this is today's model.
+  Dense up to DENSE_LINK_LIMIT links; above, the same modal ratios (to `damping_tolerance`, 1e-4 by
+  default) in the O(N) form of dynamics.reduced_damping (`damping_operator`).
 - "kelvin-voigt": a dashpot beta k in each span, acting only while that span is in contact (the
   losses are in the loaded pin joints and link bodies); the drive spring gets beta k_d always. In
   full contact it equals Rayleigh (alpha, beta) = (0, beta). beta is `kv_beta_s`; by default it

@@ -31,7 +31,13 @@ padded multiply-adds instead of 7225, four rows per pass over w, the blocks comp
 the helpers are inlined into the loop under FASTMATH; the span law, the friction law's saturated
 branch and the contact statistics are written without branches, so that they vectorise; tanh is
 computed from one exp (`_tanh`) and only where it is not exactly +-1 (`TANH_IS_ONE`); the steps
-leave out the powers, which only output steps need.
+leave out the powers, which only output steps need. Above DENSE_LINK_LIMIT links (or when the model
+asks for it) the global law's product is the O(N) form of dynamics.reduced_damping (`_sqrt_product`:
+one cyclic tridiagonal solve per quadrature node, the nodes as the vectorised inner loop).
+
+Impacts (`_impacts_loop`, `_impacts_array`): the closing speed, force spike, approach energy and
+contact dissipation of each impact, taken at the contact threshold's crossing within the step
+(dynamics.clearance_sim.ImpactStatistics defines them).
 """
 
 from __future__ import annotations
