@@ -10,7 +10,7 @@ not depend on the preload, so that preload is P - min T_linear), and it decides 
 - "clearance": asked for; or, with "auto", the linear solution leaves pulling contact somewhere, or
   an idler tensioner is modelled (only the clearance model carries it). Solved by the explicit
   integrator dynamics.solvers.clearance_verlet, by default with its `default_predictor` at its
-  `default_safety` (the global law: "ab2" at 0.3 of its stability limit, station metrics within 1e-3
+  `default_safety` (the global law: "ab2" at 0.31 of its stability limit, station metrics within 1e-3
   of converged on the default scene; benchmarks/bench_accuracy.py).
 
 Periodic steady state of the clearance chain: started from the linear chain's periodic state, the
