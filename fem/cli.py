@@ -10,7 +10,13 @@ import warnings
 from pathlib import Path
 
 from geometry.assembly import inspect_part
-from geometry.options import add_part_arguments, hardware_densities, hardware_masses_kg, link_source
+from geometry.options import (
+    add_part_arguments,
+    hardware_densities,
+    hardware_masses_kg,
+    link_source,
+    signed_values_attached,
+)
 
 from .errors import FemError
 from .materials import get_material, load_materials
@@ -146,7 +152,7 @@ def _text(r: dict) -> str:
 
 
 def run(argv: list[str] | None = None) -> dict:
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(signed_values_attached(argv))
     materials = load_materials(args.materials_file)
     material = get_material(args.material, materials)
     load_N = _positive(args.load, "--load")

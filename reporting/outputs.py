@@ -23,7 +23,6 @@ from reporting.history import CamHistory
 from reporting.tables import Table, max_acceleration_table, rms_table
 
 RANKING_METRIC = "residual_vibration_m"
-DEFAULT_STATION = "tight-side"  # where tables, rankings and plots look unless --station says otherwise
 SUMMARY_STATION_KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2",
                         "max_abs_acceleration_m_s2", "max_deviation_m", "max_velocity_deviation_m_s",
                         "max_acceleration_deviation_m_s2", "residual_vibration_m")
@@ -95,7 +94,7 @@ def _settling(value: float) -> float | None:
 
 
 def _focus(cfg) -> str:
-    return cfg.station or DEFAULT_STATION
+    return cfg.focus_station
 
 
 def _tension_extremes_N(scenario) -> tuple[float, float]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from stages.config import RunConfig
+from settings import RunConfig
 from stages.fea import MaterialFea
 from stages.progress import Progress
 
@@ -131,7 +131,7 @@ def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progre
     sweeps = {}
     for name, result in fea.items():
         model = replace(chain_model(cfg, result), friction_coefficient=0.0)
-        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.station or "tight-side",
+        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.focus_station,
                                  n_modes=modes_to_keep(cfg.links))
         progress(f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws, "
                  f"{len(sweeps[name].critical_speeds)} critical speeds in range"

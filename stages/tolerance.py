@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from stages.chain import run_dynamics
-from stages.config import RunConfig
+from settings import RunConfig
 from stages.fea import run_fea
 from stages.progress import Progress, timed
 

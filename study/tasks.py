@@ -16,24 +16,23 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from settings import RunConfig
 from study.records import chain_metrics, fea_metrics, record
 from study.spec import Settings
 from study.variables import GEOMETRY_TARGETS, VARIABLES, link_dimensions, run_fields
 from study.worker_malloc import keep_large_arrays_on_heap
 
 
-def base_config(settings: Settings, cache_dir: Path | None = None):
-    """pipeline.py's defaults with the study's settings (quiet, no images)."""
-    from pipeline import parse_cli
-
-    cfg = parse_cli([])
+def base_config(settings: Settings, cache_dir: Path | None = None) -> RunConfig:
+    """The default run (RunConfig()) with the study's settings (quiet, no images)."""
+    cfg = RunConfig()
     return replace(cfg, quiet=True, images=False, mesh_size_m=settings.mesh_size_m, order=settings.order,
                    samples_per_degree=settings.samples_per_degree, solver=settings.solver,
                    settling_band_m=settings.settling_band_m, steady_state=settings.steady_state,
                    cache_dir=cfg.cache_dir if cache_dir is None else cache_dir)
 
 
-def point_config(settings: Settings, inputs: dict, cache_dir: Path | None = None):
+def point_config(settings: Settings, inputs: dict, cache_dir: Path | None = None) -> RunConfig:
     """The RunConfig of one design point."""
     geometry_values = {n: v for n, v in inputs.items() if n in VARIABLES and VARIABLES[n].target in GEOMETRY_TARGETS
                        and n != "rail_width_m"}
