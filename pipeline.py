@@ -190,23 +190,16 @@ def check_writable_out(out: Path) -> None:
 
 def run(cfg: RunConfig, progress: Progress) -> None:
     from reporting.outputs import write_default_outputs, write_replica_outputs
-    from stages.chain import run_dynamics, run_rpm_sweeps
+    from stages.chain import RunResults, run_dynamics, run_rpm_sweeps
     from stages.fea import run_fea
     from stages.geometry import inspect_geometry
     from stages.tolerance import run_to_tolerance
 
     timing: dict[str, float] = {}
     if cfg.preset == "mqp2012":
-        from dynamics.mqp2012 import run_mqp2012
+        from stages.replica import run_replicas
 
-        replicas = {}
-        for material in cfg.materials:
-            progress(f"mqp2012 replica {material}: RK45 restarted every degree, N = {cfg.links}")
-            replicas[material] = run_mqp2012(material, n_links=cfg.links, rpm=cfg.rpm, friction=cfg.friction,
-                                             cams=cfg.cams)
-            if not replicas[material].stable:
-                progress(f"warning: the script's model is unstable for N = {cfg.links} ({material}): its damping "
-                         "matrix feeds energy in below N = 24, so its numbers grow without bound (as the script's did)")
+        replicas = run_replicas(cfg, progress)
         timing["dynamics"] = progress.elapsed()
         write_replica_outputs(cfg, replicas, timing, progress)
         return
@@ -214,11 +207,11 @@ def run(cfg: RunConfig, progress: Progress) -> None:
         cfg = inspect_geometry(cfg, progress)
     if cfg.tolerance is None:
         fea = timed(timing, "fea", progress, run_fea, cfg, progress)
-        models, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
+        chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     else:
-        fea, models, scenarios = run_to_tolerance(cfg, progress, timing)
+        fea, chains, scenarios = run_to_tolerance(cfg, progress, timing)
     sweeps = timed(timing, "rpm_sweep", progress, run_rpm_sweeps, cfg, fea, progress) if cfg.rpm_sweep else {}
-    write_default_outputs(cfg, fea, models, scenarios, timing, progress, sweeps)
+    write_default_outputs(RunResults(cfg, fea, chains, scenarios, sweeps, timing), progress)
 
 
 def main(argv: list[str] | None = None) -> int:

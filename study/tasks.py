@@ -114,7 +114,7 @@ def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings) -> dict
     """pipeline.py's full report of one design (its material, the study's cam laws): the files'
     bytes, so the client writes them and the worker needs no shared disk."""
     from reporting.outputs import write_default_outputs
-    from stages.chain import run_dynamics
+    from stages.chain import RunResults, run_dynamics
     from stages.fea import run_fea
     from stages.progress import Progress
 
@@ -124,8 +124,7 @@ def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings) -> dict
         out.mkdir()
         cfg = replace(point_config(settings, inputs), cams=tuple(cams), out=out, station=None, images=True)
         progress = Progress(True)
-        timing: dict = {}
         fea = run_fea(cfg, progress)
-        models, scenarios = run_dynamics(cfg, fea, progress)
-        write_default_outputs(cfg, fea, models, scenarios, timing, progress)
+        chains, scenarios = run_dynamics(cfg, fea, progress)
+        write_default_outputs(RunResults(cfg, fea, chains, scenarios, {}, {}), progress)
         return {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.is_file()}
