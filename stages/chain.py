@@ -156,8 +156,6 @@ def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea],
                 scenarios[name, cam_id] = sc = scenario_to_tolerance(cfg, result, name, cam_id)
                 progress(f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
                          f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %")
-        # after the scenarios, as before: ARPACK's start vector (long chains) depends on the calls before it,
-        # which moves the last digits of the frequencies
         chains[name] = MaterialChain(models[name], lowest_natural_frequencies_Hz(models[name], REPORTED_MODES))
         progress(f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
                  f"f1 = {chains[name].natural_frequencies_Hz[0]:.1f} Hz"

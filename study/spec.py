@@ -203,9 +203,7 @@ def _list(data: dict, name: str) -> list:
 
 
 def _known_materials() -> tuple[str, ...]:
-    from fem import load_materials
-
-    return tuple(load_materials(None))
+    return registries.material_ids()
 
 
 def _metric_names() -> tuple[str, ...]:
