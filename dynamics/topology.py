@@ -32,10 +32,11 @@ from dynamics.errors import DynamicsError
 
 @dataclass(frozen=True)
 class Span:
-    """One span (a link's body between two pins): stretch y[ahead] - y[behind] + gain * y[carriage]."""
+    """One span (a link's body between two pins): stretch y[ahead] - y[behind] + gain * y[carriage];
+    an end of None is held to the cam (y = 0 there: a link seated on a sprocket that follows the cam)."""
 
-    behind: int
-    ahead: int
+    behind: int | None
+    ahead: int | None
     carriage: int | None = None
     carriage_gain: float = 0.0
 
@@ -50,13 +51,14 @@ class ChainTopology:
     span_stiffness_N_per_m: float
     preload_N: float
     ground: tuple[tuple[int, float], ...] = ()  # (DOF, stiffness N/m): springs to the cam's frame
+    held_links: tuple[int, ...] = ()  # links that move with the cam (seated on a sprocket that follows it)
 
     def __post_init__(self) -> None:
         n = len(self.masses_kg)
         if len(self.links) != n:
             raise DynamicsError(f"links: got {len(self.links)} entries; expected one per DOF ({n})")
         for s in self.spans:
-            ends = (s.behind, s.ahead) + (() if s.carriage is None else (s.carriage,))
+            ends = tuple(d for d in (s.behind, s.ahead, s.carriage) if d is not None)
             if not all(0 <= d < n for d in ends):
                 raise DynamicsError(f"spans: got {s!r}; expected DOF indices in 0..{n - 1}")
         for dof, stiffness in self.ground:
@@ -70,19 +72,17 @@ class ChainTopology:
 
     @property
     def n_links(self) -> int:
-        return sum(len(c) for c in self.links)
+        return sum(len(c) for c in self.links) + len(self.held_links)
 
     def incidence(self) -> sp.csr_matrix:
         """B (n_spans x n_dof): the spans' stretches are B y."""
         rows, cols, vals = [], [], []
         for r, s in enumerate(self.spans):
-            rows += [r, r]
-            cols += [s.ahead, s.behind]
-            vals += [1.0, -1.0]
-            if s.carriage is not None:
-                rows.append(r)
-                cols.append(s.carriage)
-                vals.append(s.carriage_gain)
+            for dof, value in ((s.ahead, 1.0), (s.behind, -1.0), (s.carriage, s.carriage_gain)):
+                if dof is not None:
+                    rows.append(r)
+                    cols.append(dof)
+                    vals.append(value)
         return sp.csr_matrix((vals, (rows, cols)), shape=(len(self.spans), self.n_dof))
 
     def ground_vector(self) -> np.ndarray:
@@ -107,7 +107,7 @@ class ChainTopology:
         return np.asarray(y_m, dtype=float) @ self.incidence().T.toarray()
 
     def link_dof(self) -> np.ndarray:
-        """For every chain link (0-based), the DOF that carries it."""
+        """For every chain link (0-based), the DOF that carries it (-1: held to the cam)."""
         out = np.full(self.n_links, -1, dtype=int)
         for dof, carried in enumerate(self.links):
             out[list(carried)] = dof

@@ -1,0 +1,159 @@
+"""dynamics.machine: the linear chain on its wheels reduces to today's chain in each limit where both
+hold, its reference integrator agrees with the exact solver, and the issue's frequency figure."""
+
+import numpy as np
+import pytest
+
+from dynamics.cams import CamProgram
+from dynamics.chain import ChainModel
+from dynamics.clearance import ClearanceChain, Tensioner
+from dynamics.errors import DynamicsError
+from dynamics.machine import MachineOnWheels
+from dynamics.machine_ivp import integrate_cycle
+from dynamics.solvers import solve
+from dynamics.system import SampledForce
+from dynamics.wheels import Wheel
+
+P = 0.1125
+# the default scene: aluminium link from `python -m fem` (built-in link, al6061-t6), its body mass plus
+# the default hardware (geometry.dimensions.DEFAULT_HARDWARE_MASS_KG) and nest (NEST_MASS_KG)
+K_AL = 93309880.76383373
+M_AL = 0.3729267739202092 + 0.72707182320442 + 0.93
+
+
+def _cam(rpm=180.0):
+    return CamProgram.indexing("modified-sine", pitch_m=P, rpm=rpm)
+
+
+def _exact(system, load, cam, t, q0=None, v0=None):
+    zdd = cam.svaj(t)[2]
+    force = SampledForce(t, -np.outer(zdd, load))
+    n = load.size
+    return solve(system, force, t, method="exact", x0=np.zeros(n) if q0 is None else q0,
+                 v0=np.zeros(n) if v0 is None else v0)
+
+
+def test_drive_link_is_todays_chain():
+    chain = ChainModel(20, 2.03, 9.3e7, damping_ratio=0.13, preload_N=1500.0)
+    machine = MachineOnWheels(chain, drive="link")
+    today = chain.system()
+    ours = machine.system()
+    for a, b in ((ours.mass, today.mass), (ours.damping, today.damping), (ours.stiffness, today.stiffness)):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(machine.inertial_load(), chain.mass_matrix() @ np.ones(20))
+
+
+@pytest.mark.parametrize("n, kd, zeta", [(8, None, 0.13), (20, 3e7, 0.05), (85, None, 0.13)])
+def test_a_one_link_sprocket_with_the_equivalent_drive_is_todays_driven_link(n, kd, zeta):
+    chain = ChainModel(n, 2.03, 9.3e7, drive_stiffness_N_per_m=kd, damping_ratio=zeta)
+    wheel = Wheel(12, P, 1)
+    machine = MachineOnWheels(chain, sprocket=wheel, polygonal=False,
+                              drive_torsional_stiffness_N_m_per_rad=chain.drive_stiffness * wheel.feed_radius_m**2)
+    today, ours = chain.system(), machine.system()
+    scale = chain.stiffness_N_per_m
+    np.testing.assert_allclose(ours.stiffness, today.stiffness, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(ours.mass, today.mass, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(ours.damping, today.damping, rtol=0, atol=1e-9 * np.abs(today.damping).max())
+    cam = _cam()
+    t = np.linspace(0.0, 2 * cam.cycle_s, 721)
+    a = _exact(today, chain.mass_matrix() @ np.ones(n), cam, t)
+    b = _exact(ours, machine.inertial_load(), cam, t)
+    np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-9 * np.abs(a.x).max())
+
+
+@pytest.mark.parametrize("n", [5, 16, 85])
+def test_an_infinitely_stiff_drive_on_one_seated_link_holds_link_1_to_the_cam(n):
+    chain = ChainModel(n, 2.03, 9.3e7)
+    machine = MachineOnWheels(chain, sprocket=Wheel(12, P, 1), drive_torsional_stiffness_N_m_per_rad=np.inf,
+                              polygonal=False)
+    np.testing.assert_array_equal(machine.stiffness_matrix(), chain.stiffness_matrix()[1:, 1:])
+    np.testing.assert_allclose(machine.natural_frequencies_Hz(), chain.natural_frequencies_Hz(driven_link_held=True),
+                               rtol=1e-12)
+    assert machine.topology.link_dof()[0] == -1  # link 1 is nobody's DOF: it moves with the cam
+
+
+def test_an_idler_of_one_seated_link_without_inertia_on_a_fixed_axle_is_a_plain_link():
+    chain = ChainModel(21, 2.03, 9.3e7)
+    sprocket = Wheel(12, P, 3, inertia_kg_m2=0.4)
+    plain = MachineOnWheels(chain, sprocket=sprocket, polygonal=False)
+    with_idler = MachineOnWheels(chain, sprocket=sprocket, idler=Wheel(12, P, 1), polygonal=False)
+    np.testing.assert_array_equal(with_idler.stiffness_matrix(), plain.stiffness_matrix())
+    np.testing.assert_array_equal(with_idler.mass_matrix(), plain.mass_matrix())
+
+
+@pytest.mark.parametrize("tensioner", [Tensioner(2.5e5, 12.0, 300.0), Tensioner(0.0, 3.0)])
+def test_todays_idler_point_with_its_carriage_is_the_clearance_chains(tensioner):
+    chain = ChainModel(17, 2.03, 9.3e7)
+    k_old, m_old = ClearanceChain(chain, 0.0, tensioner=tensioner).full_contact_stiffness()
+    machine = MachineOnWheels(chain, drive="link", tensioner=tensioner)
+    np.testing.assert_allclose(machine.stiffness_matrix(), k_old, rtol=0, atol=1e-12 * 9.3e7)
+    np.testing.assert_array_equal(machine.mass_matrix(), m_old)
+    # the same idler point behind a one-link sprocket with the equivalent drive
+    wheel = Wheel(12, P, 1)
+    wheels = MachineOnWheels(chain, sprocket=wheel, tensioner=tensioner, polygonal=False,
+                             drive_torsional_stiffness_N_m_per_rad=chain.drive_stiffness * wheel.feed_radius_m**2)
+    np.testing.assert_allclose(wheels.stiffness_matrix(), k_old, rtol=0, atol=1e-12 * 9.3e7)
+
+
+def test_the_integrator_agrees_with_the_exact_solver_on_the_linear_model():
+    """Same ODE (the cam's acceleration held linearly between the samples, as the exact solver takes
+    it): the difference is DOP853's global error at rtol 1e-11, about 1e-9 of the peak."""
+    chain = ChainModel(12, 2.03, 2e7)
+    machine = MachineOnWheels(chain, sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3), idler=Wheel(12, P, 2),
+                              tensioner=Tensioner(2e5, 8.0, 200.0), polygonal=False)
+    cam = _cam()
+    t = np.linspace(0.0, cam.cycle_s, 361)
+    zdd = cam.svaj(t)[2]
+    ref = _exact(machine.system(), machine.inertial_load(), cam, t)
+    n = machine.topology.n_dof
+    ivp = integrate_cycle(machine, lambda s: np.interp(s, t, zdd), lambda s: 0.0, t, np.zeros(n), np.zeros(n))
+    np.testing.assert_allclose(ivp.q_m, ref.x, rtol=0, atol=1e-8 * np.abs(ref.x).max())
+
+
+def _polygon_gap(z: int) -> float:
+    chain = ChainModel(8, 2.03, 5e6)
+    cam = _cam()
+    t = np.linspace(0.0, cam.cycle_s, 181)
+    s, _, a, _ = cam.svaj(t)
+    runs = []
+    for polygonal in (False, True):
+        machine = MachineOnWheels(chain, sprocket=Wheel(z, P, 2, inertia_kg_m2=0.05), idler=Wheel(z, P, 2),
+                                  polygonal=polygonal)
+        n = machine.topology.n_dof
+        runs.append(integrate_cycle(machine, lambda x: np.interp(x, t, a), lambda x: np.interp(x, t, s), t,
+                                    np.zeros(n), np.zeros(n), rtol=1e-10).q_m)
+    return float(np.max(np.abs(runs[1] - runs[0])) / np.max(np.abs(runs[0])))
+
+
+def test_many_teeth_remove_the_polygonal_action():
+    """The feed's departure and the seated pins' extra inertia both vanish as z^-2: the polygonal
+    model's response tends to the polygon-free one at that rate."""
+    gaps = [_polygon_gap(z) for z in (40, 80, 160)]
+    assert gaps[0] > 1e-4  # a visible effect at 40 teeth
+    for coarse, fine in zip(gaps, gaps[1:]):
+        assert 3.5 < coarse / fine < 4.5  # second order in 1/z
+    assert gaps[-1] < 1e-3
+
+
+def test_the_issues_frequency_figure_on_the_default_scene():
+    """Issue #22: holding the six links seated on the sprocket to the cam moves the first natural
+    frequency of the default scene (85 aluminium links) from 38.1 Hz to 42.4 Hz."""
+    chain = ChainModel(85, M_AL, K_AL)
+    held = MachineOnWheels(chain, sprocket=Wheel(12, P, 6), drive_torsional_stiffness_N_m_per_rad=np.inf,
+                           polygonal=False)
+    assert MachineOnWheels(chain, drive="link").natural_frequencies_Hz()[0] == pytest.approx(38.1, abs=0.05)
+    assert held.natural_frequencies_Hz()[0] == pytest.approx(42.4, abs=0.05)
+    # closed form: 79 free links between two ends held to the cam, a fixed-fixed string of 80 spans
+    assert held.natural_frequencies_Hz()[0] == pytest.approx(
+        2 * np.sqrt(K_AL / M_AL) * np.sin(np.pi / (2 * 80)) / (2 * np.pi), rel=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(drive="belt"), "drive"),
+    (dict(drive="wheels"), "sprocket"),
+    (dict(drive="wheels", sprocket=Wheel(12, P, 6), drive_torsional_stiffness_N_m_per_rad=-1.0), "drive_torsional"),
+    (dict(drive="wheels", sprocket=Wheel(12, P, 6, tooth_phase=0.5)), "tooth_phase"),
+])
+def test_bad_machines_are_refused(kwargs, match):
+    with pytest.raises(DynamicsError, match=match):
+        MachineOnWheels(ChainModel(20, 2.0, 1e8), **kwargs)
