@@ -157,3 +157,50 @@ def test_the_issues_frequency_figure_on_the_default_scene():
 def test_bad_machines_are_refused(kwargs, match):
     with pytest.raises(DynamicsError, match=match):
         MachineOnWheels(ChainModel(20, 2.0, 1e8), **kwargs)
+
+
+def _steady_machines():
+    chain = ChainModel(16, 2.03, 9.3e7)
+    return [
+        MachineOnWheels(chain, sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3), idler=Wheel(12, P, 2, inertia_kg_m2=0.1),
+                        tensioner=Tensioner(2e5, 8.0, 200.0), polygonal=False),
+        MachineOnWheels(chain, sprocket=Wheel(12, P, 3), drive_torsional_stiffness_N_m_per_rad=np.inf,
+                        polygonal=False),
+    ]
+
+
+@pytest.mark.parametrize("machine", _steady_machines(), ids=["compliant-drive-idler-carriage", "held-sprocket"])
+def test_the_relabelled_steady_state_repeats_after_one_index(machine):
+    """x0 = T(P(x0)): propagated over one index by the exact solver and relabelled by one link, the
+    state comes back to itself (rounding); marching 40 indexes from rest reaches it too (the slowest
+    mode loses a factor of about 200 per index)."""
+    from dynamics.machine_steady import _end_state, cycle_grid, periodic_state
+
+    cam = _cam()
+    steady = periodic_state(machine, cam, 360)
+    x0 = np.concatenate([steady.q_m[0], steady.v_m_s[0]])
+    t, s, a = cycle_grid(cam, 360)
+    assert np.max(np.abs(x0)) > 0
+    np.testing.assert_allclose(_end_state(machine, x0, t, s, a, True), x0, rtol=0, atol=1e-12 * np.abs(x0).max())
+    x = np.zeros_like(x0)
+    for _ in range(40):
+        x = _end_state(machine, x, t, s, a, True)
+    np.testing.assert_allclose(x, x0, rtol=0, atol=1e-12 * np.abs(x0).max())
+
+
+@pytest.mark.slow
+def test_the_polygonal_relabelled_steady_state_repeats_after_one_index():
+    """The same with the polygonal feed (integrator and nonlinear transfer): to the shooting's
+    tolerance, 1e-7 of the state's scale."""
+    from dynamics.machine_steady import _end_state, cycle_grid, periodic_state
+
+    chain = ChainModel(16, 2.03, 2e7)
+    machine = MachineOnWheels(chain, sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3), idler=Wheel(12, P, 2))
+    cam = _cam()
+    steady = periodic_state(machine, cam, 360)
+    x0 = np.concatenate([steady.q_m[0], steady.v_m_s[0]])
+    t, s, a = cycle_grid(cam, 360)
+    x1 = _end_state(machine, x0, t, s, a, True)
+    n = x0.size // 2
+    assert np.max(np.abs(x1[:n] - x0[:n])) <= 1e-7 * np.abs(x0[:n]).max()
+    assert np.max(np.abs(x1[n:] - x0[n:])) <= 1e-7 * np.abs(x0[n:]).max()
