@@ -204,3 +204,27 @@ def test_the_polygonal_relabelled_steady_state_repeats_after_one_index():
     n = x0.size // 2
     assert np.max(np.abs(x1[:n] - x0[:n])) <= 1e-7 * np.abs(x0[:n]).max()
     assert np.max(np.abs(x1[n:] - x0[n:])) <= 1e-7 * np.abs(x0[n:]).max()
+
+
+def test_the_issues_residual_vibration_figure_on_the_default_scene():
+    """Issue #22, from an independent eigen- and time-domain model: on the default scene (modified
+    sine, 180 rpm, zeta 0.13) holding the six seated links to the cam moves the tight-side residual
+    vibration (link 64) from 4.17 mm to 3.42 mm and the peak acceleration by +8 %. Same links seated
+    every cycle (the frame of that model); the issue's 4.17 is this model's 4.164 (its k or sampling
+    differed slightly), hence 0.01 mm."""
+    from dynamics.machine_steady import labelled_periodic_state
+
+    chain = ChainModel(85, M_AL, K_AL)
+    cam = _cam()
+    out = []
+    for machine in (MachineOnWheels(chain, drive="link"),
+                    MachineOnWheels(chain, sprocket=Wheel(12, P, 6), drive_torsional_stiffness_N_m_per_rad=np.inf,
+                                    polygonal=False)):
+        r = labelled_periodic_state(machine, cam, 360)
+        dof = machine.topology.link_dof()[63]
+        dwell = cam.dwell_mask(r.t_s)
+        out.append((np.max(np.abs(r.q_m[dwell, dof])), np.max(np.abs(r.a_m_s2[:, dof] + r.zddot_m_s2))))
+    (today, peak_today), (seated, peak_seated) = out
+    assert today * 1e3 == pytest.approx(4.17, abs=0.01)
+    assert seated * 1e3 == pytest.approx(3.42, abs=0.005)
+    assert peak_seated / peak_today - 1 == pytest.approx(0.08, abs=0.005)
