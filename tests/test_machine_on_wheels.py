@@ -53,12 +53,12 @@ def test_a_one_link_sprocket_with_the_equivalent_drive_is_todays_driven_link(n, 
     scale = chain.stiffness_N_per_m
     np.testing.assert_allclose(ours.stiffness, today.stiffness, rtol=0, atol=1e-12 * scale)
     np.testing.assert_allclose(ours.mass, today.mass, rtol=0, atol=1e-15)
-    np.testing.assert_allclose(ours.damping, today.damping, rtol=0, atol=1e-9 * np.abs(today.damping).max())
+    np.testing.assert_allclose(ours.damping, today.damping, rtol=0, atol=1e-12 * np.abs(today.damping).max())
     cam = _cam()
     t = np.linspace(0.0, 2 * cam.cycle_s, 721)
     a = _exact(today, chain.mass_matrix() @ np.ones(n), cam, t)
     b = _exact(ours, machine.inertial_load(), cam, t)
-    np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-9 * np.abs(a.x).max())
+    np.testing.assert_allclose(b.x, a.x, rtol=0, atol=1e-12 * np.abs(a.x).max())
 
 
 @pytest.mark.parametrize("n", [5, 16, 85])
