@@ -228,3 +228,36 @@ def test_the_issues_residual_vibration_figure_on_the_default_scene():
     assert today * 1e3 == pytest.approx(4.17, abs=0.01)
     assert seated * 1e3 == pytest.approx(3.42, abs=0.005)
     assert peak_seated / peak_today - 1 == pytest.approx(0.08, abs=0.005)
+
+
+@pytest.mark.parametrize("held", [False, True])
+def test_the_polygonal_forces_derive_from_the_span_energy(held):
+    """The machine's elastic force with the polygonal feed is -grad V of the spans' energy
+    V = sum (P e + k e^2 / 2) - 2 P u_carriage + ground springs, the wheel-end stretches carrying the
+    feed's departure d(a): the model is a Lagrangian system (checked by central differences)."""
+    chain = ChainModel(14, 2.03, 9.3e7, preload_N=2224.0)
+    machine = MachineOnWheels(chain, sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3), idler=Wheel(12, P, 2),
+                              tensioner=Tensioner(2e5, 8.0), polygonal=True,
+                              drive_torsional_stiffness_N_m_per_rad=np.inf if held else 3e6)
+    topo = machine.topology
+    b = topo.incidence().toarray()
+    angles = np.array([0.21, 0.37])  # the wheels' nominal angles since the dwell (rad)
+
+    def energy(q):
+        e = b @ q
+        for ends, angle in zip(machine.wheel_ends, angles):
+            u = 0.0 if ends.dof is None else q[ends.dof]
+            d = ends.wheel.feed_departure_m(angle + u / ends.wheel.feed_radius_m)
+            e[ends.behind_span] += d
+            e[ends.ahead_span] -= d
+        ground = sum(0.5 * kg * q[dof] ** 2 for dof, kg in topo.ground)
+        return float(np.sum(chain.preload_N * e + 0.5 * chain.stiffness_N_per_m * e**2)) + ground \
+            - 2 * chain.preload_N * q[-1]
+
+    rng = np.random.default_rng(3)
+    q = 1e-4 * rng.standard_normal(topo.n_dof)
+    h = 1e-7
+    grad = np.array([(energy(q + h * e) - energy(q - h * e)) / (2 * h) for e in np.eye(topo.n_dof)])
+    force = -(machine.stiffness_matrix() @ q) + machine.polygon_force(angles, q)
+    np.testing.assert_allclose(force, -grad, rtol=0, atol=1e-9 * np.abs(grad).max())  # difference rounding
+    assert np.max(np.abs(machine.polygon_force(angles, q))) > 1e-2 * np.abs(grad).max()  # and the feed counts
