@@ -23,7 +23,7 @@ import numpy as np
 from dynamics.cams import CamProgram
 from dynamics.chain import ChainModel
 from dynamics.machine import MachineOnWheels
-from dynamics.machine_steady import periodic_state
+from dynamics.machine_steady import link_residual_and_peak, periodic_state
 from dynamics.wheels import Wheel, pitch_radius_m, steel_disc_inertia_kg_m2
 from geometry.dimensions import DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG
 
@@ -58,14 +58,11 @@ def machines(with_polygon: bool):
     return rows, j
 
 
-def metrics(machine: MachineOnWheels, cam, relabel: bool, link: int):
-    """Residual vibration (max |y| over the dwell samples) and peak |absolute acceleration| at `link`."""
+def metrics(machine: MachineOnWheels, cam, relabel: bool, links: tuple[int, ...]):
+    """Per link: residual vibration (max |x - z| over the dwell samples), peak |absolute acceleration|."""
     r = periodic_state(machine, cam, 360, relabel=relabel)
     dwell = cam.dwell_mask(r.t_s)
-    dof = int(machine.topology.link_dof()[link])
-    y = np.zeros_like(r.t_s) if dof < 0 else r.q_m[:, dof]
-    a = r.zddot_m_s2 + (0.0 if dof < 0 else r.a_m_s2[:, dof])
-    return float(np.max(np.abs(y[dwell]))), float(np.max(np.abs(a))), r
+    return [link_residual_and_peak(machine, r, dwell, link) for link in links], r
 
 
 def main() -> None:
@@ -87,8 +84,7 @@ def main() -> None:
         for relabel in frames:
             start = time.perf_counter()
             station = machine.stations()["tight-side"]
-            res, peak, r = metrics(machine, cam, relabel, station)
-            res64, peak64, _ = metrics(machine, cam, relabel, 63)
+            ((res, peak), (res64, peak64)), r = metrics(machine, cam, relabel, (station, 63))
             seat = max(r.seating_speed_m_s) if r.seating_speed_m_s else float("nan")
             frame = "relabelled" if relabel else "labelled"
             print(f"{name:48s} {f1:7.2f} {frame:>10s} {res * 1e3:9.3f} {peak:8.1f} {res64 * 1e3:9.3f} "

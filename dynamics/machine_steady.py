@@ -218,3 +218,17 @@ def _cycle(machine, x0, t, s, a, relabel) -> CycleResponse:
     if relabel:
         _, _, speeds, losses = transfer(machine, q[-1], v[-1])
     return CycleResponse(t, q, v, acc, a, speeds, losses)
+
+
+def link_residual_and_peak(machine: MachineOnWheels, cycle: CycleResponse, dwell_mask: np.ndarray,
+                           link: int) -> tuple[float, float]:
+    """At 0-based `link` (the link at that place at the start of the index): residual vibration,
+    max |x - z| over the dwell samples, and peak |absolute acceleration| over the cycle. A link held
+    to the cam has neither vibration nor acceleration beyond the cam's."""
+    dof = int(machine.topology.link_dof()[link])
+    y = np.zeros_like(cycle.t_s) if dof < 0 else cycle.q_m[:, dof]
+    a = cycle.zddot_m_s2 + (0.0 if dof < 0 else cycle.a_m_s2[:, dof])
+    mask = np.asarray(dwell_mask, dtype=bool)
+    if not mask.any():
+        raise DynamicsError("dwell_mask: no sample lies in a dwell; expected at least one")
+    return float(np.max(np.abs(y[mask]))), float(np.max(np.abs(a)))
