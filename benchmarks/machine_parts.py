@@ -77,7 +77,7 @@ def main() -> None:
           f"{rows[2][1].drive_stiffness_N_m_per_rad:.4g} N m/rad")
     print("station: the tight strand's middle (machine) / link 64 (today's tight-side station)")
     print(f"{'configuration':48s} {'f1 Hz':>7s} {'frame':>10s} {'resid mm':>9s} {'peak a':>8s} "
-          f"{'resid@64':>9s} {'peak@64':>8s} {'seat m/s':>9s} {'s':>5s}")
+          f"{'resid@64':>9s} {'peak@64':>8s} {'seat m/s':>9s} {'impact J':>9s} {'dE J':>9s} {'s':>5s}")
     for name, machine, relabel_only in rows:
         f1 = machine.natural_frequencies_Hz()[0]  # of the polygon-free linearisation
         frames = [False] if relabel_only is False else ([True] if relabel_only else [False, True])
@@ -86,9 +86,12 @@ def main() -> None:
             station = machine.stations()["tight-side"]
             ((res, peak), (res64, peak64)), r = metrics(machine, cam, relabel, (station, 63))
             seat = max(r.seating_speed_m_s) if r.seating_speed_m_s else float("nan")
+            impact = sum(r.seating_impact_J) if r.seating_impact_J else float("nan")
+            change = r.transfer_energy_change_J if relabel else float("nan")
             frame = "relabelled" if relabel else "labelled"
             print(f"{name:48s} {f1:7.2f} {frame:>10s} {res * 1e3:9.3f} {peak:8.1f} {res64 * 1e3:9.3f} "
-                  f"{peak64:8.1f} {seat:9.2e} {time.perf_counter() - start:5.1f}", flush=True)
+                  f"{peak64:8.1f} {seat:9.2e} {impact:9.2e} {change:9.2e} {time.perf_counter() - start:5.1f}",
+                  flush=True)
 
 
 if __name__ == "__main__":

@@ -293,6 +293,27 @@ class MachineOnWheels:
                 out[..., list(carried)] = q[..., dof:dof + 1]
         return out
 
+    def stored_energy_J(self, q: np.ndarray, v: np.ndarray, zdot_m_s: float, angles_rad) -> float:
+        """Kinetic + elastic energy of one state in the absolute frame: 1/2 sum M (q' + z')^2 (the
+        carriage without z'), the spans' P e + k e^2 / 2 with the wheel-end stretches carrying the
+        feed's departure at the wheels' nominal angles since the dwell (`angles_rad`, as
+        `polygon_force` takes them), the ground springs, and -2 P u of the carriage's preload."""
+        topo = self.topology
+        moves = np.array([1.0 if carried else 0.0 for carried in topo.links])
+        e = self._incidence_dense @ q
+        if self.polygonal:
+            for ends, angle in zip(self.wheel_ends, angles_rad):
+                w = ends.wheel
+                u = 0.0 if ends.dof is None else q[ends.dof]
+                d = float(w.feed_departure_m(angle + u / w.feed_radius_m))
+                e[ends.behind_span] += d
+                e[ends.ahead_span] -= d
+        kinetic = 0.5 * float(np.sum(np.asarray(topo.masses_kg) * (v + moves * zdot_m_s) ** 2))
+        elastic = float(np.sum(topo.preload_N * e + 0.5 * topo.span_stiffness_N_per_m * e**2))
+        ground = sum(0.5 * k * q[dof] ** 2 for dof, k in topo.ground)
+        carriage = -2.0 * topo.preload_N * q[-1] if self.tensioner is not None else 0.0
+        return kinetic + elastic + ground + carriage
+
     # --- the polygonal feed ----------------------------------------------------------------------
 
     def polygon_force(self, t_rel_angle, q: np.ndarray) -> np.ndarray:

@@ -16,8 +16,11 @@ rest at both ends) and T the transfer at the dwell:
 - the link that arrives from the strand behind seats with a plastic impact along the strand
   (the tooth takes it at the wheel's pitch-circle speed): the group's generalised momentum
   M_g u' + m c y'_in is kept, u'+ = (M_g u' + m c y'_in) / (M_g + m c^2), c = dX/du at the seat
-  (1 without the polygonal action); on a sprocket held to the cam u' stays 0. Its span's stretch
-  and that impact are the seating loss, reported per seating;
+  (1 without the polygonal action); on a sprocket held to the cam u' stays 0. Rigid seating also
+  puts it at its seat, moving it by its span's dynamic stretch e2 (tens of micrometres); that
+  changes the elastic energy of the span behind it by k e1 e2 and releases the arriving span's
+  1/2 k e2^2. The impact's kinetic loss is reported per wheel, the transfer's whole change of
+  stored energy (both effects, all wheels) per cycle;
 - the carriage keeps its state.
 
 For the linear (polygon-free) model P(x) = Phi x + r and T(x) = A x are linear, so x0 solves
@@ -56,7 +59,8 @@ class CycleResponse:
     a_m_s2: np.ndarray  # relative acceleration y''
     zddot_m_s2: np.ndarray
     seating_speed_m_s: tuple[float, ...]  # per wheel: |y'_in - c u'| of the link that seats
-    seating_loss_J: tuple[float, ...]  # per wheel: impact + released span energy
+    seating_impact_J: tuple[float, ...]  # per wheel: kinetic energy lost in the plastic seating impact
+    transfer_energy_change_J: float  # stored energy after the transfer minus before (all wheels)
 
 
 @dataclass(frozen=True)
@@ -95,16 +99,16 @@ def _places(machine: MachineOnWheels) -> _Places:
 
 
 def transfer(machine: MachineOnWheels, q: np.ndarray, v: np.ndarray, *, linear: bool = False):
-    """(q, v) after the seat changes at the dwell, and per wheel the seating speed and loss. `linear`:
-    the polygon-free map even when the machine has the polygonal action (the Newton Jacobian)."""
+    """(q, v) after the seat changes at the dwell, and per wheel the seating speed and the kinetic
+    energy the plastic impact takes. `linear`: the polygon-free map even when the machine has the
+    polygonal action (the Newton Jacobian)."""
     places = _places(machine)
     topo = machine.topology
     masses = np.asarray(topo.masses_kg)
     link_mass = machine.chain.link_mass_kg
-    k = topo.span_stiffness_N_per_m
     q_new = np.where(places.source >= 0, q[np.maximum(places.source, 0)], 0.0)
     v_new = np.where(places.source >= 0, v[np.maximum(places.source, 0)], 0.0)
-    speeds, losses = [], []
+    speeds, impacts = [], []
     for ends, (group, arriving, leaving) in zip(machine.wheel_ends, places.wheels):
         wheel = ends.wheel
         polygon = machine.polygonal and not linear
@@ -113,7 +117,6 @@ def transfer(machine: MachineOnWheels, q: np.ndarray, v: np.ndarray, *, linear: 
         a_end = wheel.tooth_angle_rad + u / wheel.feed_radius_m
         d = float(wheel.feed_departure_m(a_end)) if polygon else 0.0
         c = (1.0 + float(wheel.feed_departure_slope(a_end)) / wheel.feed_radius_m) if polygon else 1.0
-        stretch = u + d - q[arriving]
         if group is None:
             ud_new = 0.0
             impact = 0.5 * link_mass * v[arriving] ** 2
@@ -125,8 +128,8 @@ def transfer(machine: MachineOnWheels, q: np.ndarray, v: np.ndarray, *, linear: 
         q_new[leaving] = u + d
         v_new[leaving] = c * ud_new
         speeds.append(float(abs(v[arriving] - c * ud)))
-        losses.append(float(impact + 0.5 * k * stretch**2))
-    return q_new, v_new, tuple(speeds), tuple(losses)
+        impacts.append(float(impact))
+    return q_new, v_new, tuple(speeds), tuple(impacts)
 
 
 def transfer_matrix(machine: MachineOnWheels) -> np.ndarray:
@@ -214,10 +217,13 @@ def _cycle(machine, x0, t, s, a, relabel) -> CycleResponse:
         radii = np.array([e.wheel.feed_radius_m for e in machine.wheel_ends])
         acc = acc + np.array([machine.polygon_force((s_i - s[0]) / radii, q_i) for s_i, q_i in zip(s, q)])
     acc = acc / m
-    speeds, losses = (), ()
+    speeds, impacts, change = (), (), 0.0
     if relabel:
-        _, _, speeds, losses = transfer(machine, q[-1], v[-1])
-    return CycleResponse(t, q, v, acc, a, speeds, losses)
+        q_new, v_new, speeds, impacts = transfer(machine, q[-1], v[-1])
+        end = np.array([w.tooth_angle_rad for w in (e.wheel for e in machine.wheel_ends)])
+        change = (machine.stored_energy_J(q_new, v_new, 0.0, np.zeros(end.size))
+                  - machine.stored_energy_J(q[-1], v[-1], 0.0, end))
+    return CycleResponse(t, q, v, acc, a, speeds, impacts, change)
 
 
 def link_residual_and_peak(machine: MachineOnWheels, cycle: CycleResponse, dwell_mask: np.ndarray,

@@ -259,6 +259,7 @@ def test_the_polygonal_forces_derive_from_the_span_energy(held):
     force = -(machine.stiffness_matrix() @ q) + machine.polygon_force(angles, q)
     np.testing.assert_allclose(force, -grad, rtol=0, atol=1e-9 * np.abs(grad).max())  # difference rounding
     assert np.max(np.abs(machine.polygon_force(angles, q))) > 1e-2 * np.abs(grad).max()  # and the feed counts
+    assert machine.stored_energy_J(q, np.zeros_like(q), 0.0, angles) == pytest.approx(energy(q), rel=1e-12)
 
 
 @pytest.mark.slow
