@@ -4,7 +4,7 @@ Pitch radius. A chain of pitch p seated on z teeth puts its pins on a circle of 
 R = p / (2 sin(pi / z)): each link is a chord subtending one tooth angle 2 pi / z.
 
 Feed radius. One tooth of rotation advances the chain by exactly one pitch, so the mean chain
-advance per radian is R_m = p z / (2 pi) = R (pi / z) / sin(pi / z) (< R; 1.2 % below R at z = 12,
+advance per radian is R_m = p z / (2 pi) = R sin(pi / z) / (pi / z) (< R; 1.2 % below R at z = 12,
 -> R as z -> infinity). The drive's torsional stiffness k_theta (N m/rad) acts on the chain's path
 coordinate as k_theta / R_m^2 (N/m); a wheel of inertia J adds J / R_m^2 (kg) to its seated links.
 
