@@ -312,3 +312,16 @@ def test_energy_balance_of_the_polygonal_machine_over_an_index():
     work, dissipated = simpson(power, x=t), simpson(loss, x=t)
     assert dissipated > 1e-3 * simpson(np.abs(power), x=t)  # the damping takes a real share
     assert total[-1] - total[0] == pytest.approx(work - dissipated, abs=1e-9 * simpson(np.abs(power), x=t))
+
+
+def test_stations_are_places_on_the_machine():
+    """85 links, six on each wheel: sprocket links 0-5, slack strand 6-41 (36), idler 42-47, tight
+    strand 48-84 (37); each station is the middle link of its stretch (0-based)."""
+    chain = ChainModel(85, 2.03, 9.3e7)
+    machine = MachineOnWheels(chain, sprocket=Wheel(12, P, 6), idler=Wheel(12, P, 6))
+    assert machine.stations() == {"drive-end": 2, "tight-side": 66, "idler-end": 44, "slack-side": 23}
+    assert machine.groups[0] == tuple(range(6)) and machine.groups[machine.idler_place] == tuple(range(42, 48))
+    # without an idler wheel the idler end is today's idler span's link (43, 1-based)
+    assert MachineOnWheels(chain, sprocket=Wheel(12, P, 6)).stations()["idler-end"] == 42
+    assert MachineOnWheels(chain, drive="link").stations() == {"drive-end": 0, "tight-side": 63, "idler-end": 42,
+                                                               "slack-side": 20}
