@@ -9,7 +9,7 @@ import pytest
 from dynamics.cams import CamProgram
 from dynamics.chain import ChainModel
 from dynamics.clearance import ClearanceChain, Tensioner, contact_state, span_energy_J, span_force_N
-from dynamics.clearance_sim import choose_model, simulate_chain
+from dynamics.clearance_sim import Validity, choose_model, simulate_chain
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.simulate import simulate
 from dynamics.solvers import clearance_verlet as verlet
@@ -102,8 +102,9 @@ def test_choices_and_their_limits():
         long = ClearanceChain(_chain(n=n), 94e-6)
         assert long.damping_is_reduced
         assert choose_model(long, "clearance", -1.0)[0] == "clearance"
-        which, reason = choose_model(long, "auto", -1.0)
-        assert which == "clearance" and "NOT valid" not in reason
+        which, reason, validity = choose_model(long, "auto", -1.0)
+        assert which == "clearance" and "NOT valid" not in reason and validity == Validity.VALID
+    assert choose_model(m, "auto", -1.0).validity == Validity.VALID
     with pytest.raises(DynamicsError, match="model"):
         choose_model(m, "nonlinear", 1.0)
 
