@@ -42,23 +42,11 @@ MIN_LEVELS = 2  # the error bound needs two levels (see richardson)
 
 
 def bounding_diagonal_m(source) -> float:
-    """Diagonal of the link's CAD bounding box in metres (a STEP path; None or `LinkDimensions`
-    for the parametric link)."""
-    import gmsh
+    """Diagonal of the link's CAD bounding box in metres, hardware solids included (a `geometry.Part`,
+    or a source it resolves: a STEP path, None or `LinkDimensions` for the parametric link)."""
+    from geometry.part import as_part
 
-    from geometry.load import is_parametric, parametric_dimensions
-    from geometry.parametric import add_link
-    from geometry.session import gmsh_model, quiet_stdout
-    from geometry.step_io import import_step
-
-    with gmsh_model("bounding-box"):
-        if is_parametric(source):
-            add_link(parametric_dimensions(source))
-        else:
-            with quiet_stdout():
-                import_step(source)
-        xmin, ymin, zmin, xmax, ymax, zmax = gmsh.model.getBoundingBox(-1, -1)
-    return math.dist((xmin, ymin, zmin), (xmax, ymax, zmax))
+    return as_part(source, symmetry=False).all_solids_diagonal_m
 
 
 def _check(rel_tolerance: float, start_mesh_size_m: float | None, max_dofs: int, ratio: float) -> None:
@@ -87,7 +75,7 @@ def stiffness_to_tolerance(
     max_dofs: int = DEFAULT_MAX_DOFS,
     ratio: float = REFINEMENT_RATIO,
 ) -> StiffnessEstimate:
-    """k of the link (None = built-in default) with estimated relative error <= rel_tolerance.
+    """k of the link (a `geometry.Part`, or a source it resolves; None = built-in default) with estimated relative error <= rel_tolerance.
 
     Levels are solved coarse to fine, mesh size divided by `ratio` each time, starting at
     `start_mesh_size_m` (None: bounding-box diagonal x START_SIZE_FRACTION). `progress`, if given,
@@ -134,10 +122,11 @@ def stiffnesses_to_tolerance(
     element(order)
     resolve(solver)
     mesh_order = 2 if (order == 2 and curved) else 1
-    h = START_SIZE_FRACTION * bounding_diagonal_m(source) if start_mesh_size_m is None else float(start_mesh_size_m)
+    part = geometry.as_part(source, symmetry=False)
+    h = START_SIZE_FRACTION * bounding_diagonal_m(part) if start_mesh_size_m is None else float(start_mesh_size_m)
     mesh_time = 0.0  # of every level the estimates rest on, earlier passes' included
     known = {} if solved is None else solved
-    settings = (str(source), order, solver, curved, load_N, bore_refinement)
+    settings = (part.fingerprint, repr(part.origin), order, solver, curved, load_N, bore_refinement)
     sizes: list[float] = []
     solutions: dict[str, list[LinkSolution]] = {m.name: [] for m in materials}
     first = solutions[materials[0].name]
@@ -151,7 +140,7 @@ def stiffnesses_to_tolerance(
         keys = {m.name: (*level, m) for m in materials}
         if any(key not in known for key in keys.values()):
             try:
-                link = geometry.load_link(source, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
+                link = geometry.mesh_part(part, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
             except geometry.GeometryError as exc:
                 if not sizes:
                     raise

@@ -9,8 +9,8 @@ import sys
 import warnings
 from pathlib import Path
 
-from geometry.assembly import inspect_part
 from geometry.options import add_part_arguments, hardware_densities, hardware_masses_kg, link_source
+from geometry.part import resolve_part
 
 from .errors import FemError
 from .materials import get_material, load_materials
@@ -158,20 +158,20 @@ def run(argv: list[str] | None = None) -> dict:
     if args.vtu is not None and Path(args.vtu).suffix.lower() != ".vtu":
         raise FemError(f"--vtu {args.vtu!r}: expected a .vtu path")
     source = link_source(args.step, args)
-    part = None
-    if source is not None:
-        part = _inspect(source, args, materials)  # refuses a part that cannot be a link before any meshing
-    elif args.hardware_material is not None:
+    if source is None and args.hardware_material is not None:
         raise FemError("--hardware-material: only for a STEP file with hardware solids; expected a STEP path with it")
-    estimate = stiffness_study(source, material, mesh_sizes_m=sizes, order=args.order, load_N=load_N, solver=args.solver,
+    # resolved once (body and pin bores chosen): refuses a part that cannot be a link before any meshing
+    part = resolve_part(source, symmetry=not args.full_model)
+    record = _inspect(part.summary, args, materials) if part.is_step else None
+    estimate = stiffness_study(part, material, mesh_sizes_m=sizes, order=args.order, load_N=load_N, solver=args.solver,
                                mirror_symmetry=not args.full_model)
     result = report(estimate)
-    if part is not None:
-        result["part"] = part
+    if record is not None:
+        result["part"] = record
     if args.converge_stress:
         from .stress import stress_study
 
-        stress = stress_study(args.step, [material], base_mesh_size_m=estimate.finest.mesh_size_m, order=args.order,
+        stress = stress_study(part, [material], base_mesh_size_m=estimate.finest.mesh_size_m, order=args.order,
                               solver=args.solver, base={material.name: estimate.finest})[material.name]
         result |= {"peak_von_mises_converged_Pa_per_N": stress.peak_Pa_per_N,
                    "peak_von_mises_converged_rel_change": stress.rel_change,
@@ -195,9 +195,8 @@ def run(argv: list[str] | None = None) -> dict:
     return result
 
 
-def _inspect(source, args, materials) -> dict:
+def _inspect(summary, args, materials) -> dict:
     """The part's pin bores, ignored holes and hardware (JSON-able); printed at once in text mode."""
-    summary = inspect_part(source)
     part = summary.as_dict()
     lines = summary.lines()
     densities = hardware_densities(args.hardware_material, summary,

@@ -102,7 +102,8 @@ def stress_study(
     base: dict[str, LinkSolution] | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> dict[str, StressEstimate]:
-    """Converge the peak stress of the link (None = built-in) by local refinement, per material.
+    """Converge the peak stress of the link (a `geometry.Part`, or a source it resolves; None =
+    built-in) by local refinement, per material.
 
     `base`, if given, holds the materials' solutions on the base mesh (e.g. the finest level of a
     stiffness study at `base_mesh_size_m`), which are then not solved again. The hot spots are
@@ -117,10 +118,11 @@ def stress_study(
     if not (0 < tolerance < 1):
         raise FemError(f"tolerance={tolerance!r}: expected a relative change in (0, 1), e.g. 0.05")
     start = time.perf_counter()
+    part = geometry.as_part(source, symmetry=False)  # the refined levels mesh the whole link
     mesh_order = 2 if order == 2 else 1
     names = [m.name for m in materials]
     if base is None or any(n not in base for n in names):
-        link = geometry.load_link(source, mesh_size_m=base_mesh_size_m, order=mesh_order, bore_refinement=bore_refinement)
+        link = geometry.mesh_part(part, mesh_size_m=base_mesh_size_m, order=mesh_order, bore_refinement=bore_refinement)
         base = analyse_link_materials(link, materials, order=order, solver=solver)
     levels = {n: [(base_mesh_size_m, base[n].dofs, base[n].peak_von_mises_away_from_clamp_Pa_per_N)] for n in names}
     seconds = [time.perf_counter() - start]
@@ -133,7 +135,7 @@ def stress_study(
         local /= 2
         balls = [Refinement(tuple(float(x) for x in s), radius, local) for s in spots]
         with refined(balls):
-            link = geometry.load_link(source, mesh_size_m=base_mesh_size_m, order=mesh_order, bore_refinement=bore_refinement)
+            link = geometry.mesh_part(part, mesh_size_m=base_mesh_size_m, order=mesh_order, bore_refinement=bore_refinement)
         with warnings.catch_warnings(record=True) as caught:  # re-issued for the finest level only
             warnings.simplefilter("always", FemWarning)
             current = analyse_link_materials(link, materials, order=order, solver=solver)

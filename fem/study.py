@@ -89,26 +89,19 @@ def finest_size_for(pitch_m: float, bore_radius_m: float, smallest_hole_radius_m
 
 
 def default_mesh_sizes(source) -> tuple[float, ...]:
-    """Default levels (coarse to fine) for the link: relative to its pitch, bores and holes."""
+    """Default levels (coarse to fine) for the link (a `geometry.Part`, or a source it resolves):
+    relative to its pitch, bores and holes."""
     return levels_for_finest(finest_size_for(*part_scale(source)))
 
 
 def part_scale(source) -> tuple[float, float, float]:
-    """(pitch, smaller pin-bore radius, smallest other hole radius or inf) in metres of a STEP link
-    (a path or a `geometry.assembly.LinkSource`: the same body and pin bores as `load_link`
-    chooses), or of the built-in link (None) or one of its `LinkDimensions` variants."""
-    from geometry.assembly import inspect_part
-    from geometry.dimensions import DEFAULT_LINK, LinkDimensions
+    """(pitch, smaller pin-bore radius, smallest other hole radius or inf) in metres of the link: a
+    `geometry.Part`, or a source it resolves (a STEP path or `LinkSource`: the body and pin bores
+    the meshes use; None or `LinkDimensions`: the built-in link's nominal pitch and bore)."""
+    from geometry.part import as_part
 
-    if source is None or isinstance(source, LinkDimensions):
-        link = DEFAULT_LINK if source is None else source
-        return link.pitch_m, link.bore_radius_m, np.inf
-    from geometry.session import quiet_stdout
-
-    with quiet_stdout():
-        pins = inspect_part(source).pins
-    holes = [h.hole.bore.radius_m for h in pins.ignored]
-    return pins.pitch_m, float(min(pins.fixed.bore.radius_m, pins.loaded.bore.radius_m)), min(holes, default=np.inf)
+    scale = as_part(source, symmetry=False).scale
+    return scale.pitch_m, scale.bore_radius_m, scale.smallest_hole_radius_m
 
 
 def stiffness_study(
@@ -124,8 +117,8 @@ def stiffness_study(
     progress: Callable[[str], None] | None = None,
     mirror_symmetry: bool = True,
 ) -> StiffnessEstimate:
-    """Mesh the link (None = built-in default) at 2-3 sizes (None: `default_mesh_sizes`), solve
-    each, extrapolate k.
+    """Mesh the link (a `geometry.Part`, or a source it resolves; None = built-in default) at 2-3
+    sizes (None: `default_mesh_sizes`), solve each, extrapolate k.
 
     `curved` asks geometry for isoparametric quadratic cells when order == 2; `mirror_symmetry` as
     in `stiffness_studies`.
@@ -174,7 +167,8 @@ def stiffness_studies(
     element(order)  # validate before meshing
     resolve(solver)
     start = study_start = time.perf_counter()
-    sizes = _check_sizes(default_mesh_sizes(source) if mesh_sizes_m is None else mesh_sizes_m)
+    part = geometry.as_part(source, symmetry=mirror_symmetry)
+    sizes = _check_sizes(default_mesh_sizes(part) if mesh_sizes_m is None else mesh_sizes_m)
     mesh_order = 2 if (order == 2 and curved) else 1
     mesh_time = time.perf_counter() - start
     # finest first: it is the longest solve, so the coarser levels are meshed and solved beside it
@@ -184,7 +178,7 @@ def stiffness_studies(
         for level in reversed(range(len(sizes))):
             start = time.perf_counter()
             finest = level == len(sizes) - 1
-            link = geometry.load_link(source, mesh_size_m=sizes[level], order=mesh_order,
+            link = geometry.mesh_part(part, mesh_size_m=sizes[level], order=mesh_order,
                                       bore_refinement=bore_refinement, mirror=mirror_symmetry and finest)
             if finest:
                 wall = quality.thin_wall_warning(link)

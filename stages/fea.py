@@ -6,9 +6,15 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 from fem.errors import FemError
 from stages.config import RunConfig
+from stages.geometry import resolve_run_part
 from stages.progress import Progress
+
+if TYPE_CHECKING:  # importing geometry pulls in gmsh
+    from geometry.part import Part
 
 
 @dataclass(frozen=True)
@@ -71,15 +77,7 @@ def _fea_record(name: str, material, study, stress) -> dict:
     }
 
 
-def _part(cfg: RunConfig):
-    """What the FEA meshes: the STEP file with its part options, the STEP file, or else the built-in
-    parametric link's dimensions (None: the default link; a study varies them)."""
-    if cfg.link_source is not None:
-        return cfg.link_source
-    return cfg.geometry if cfg.geometry is not None else cfg.link
-
-
-def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress,
+def _solve_fea(cfg: RunConfig, part: Part, materials: list, stiffness_tolerance: float | None, progress: Progress,
                solved_levels: dict | None, concurrent_levels: bool) -> tuple[dict, dict]:
     """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
     (reusing the levels in `solved_levels`, see fem.adaptive); then the peak stress converged by
@@ -93,38 +91,40 @@ def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | Non
     if stiffness_tolerance is None:
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 2 mesh levels")
         sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
-        studies = stiffness_studies(_part(cfg), materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress,
+        studies = stiffness_studies(part, materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress,
                                     concurrent_levels=concurrent_levels)
     else:
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
                  f"{100 * stiffness_tolerance:.2g} %")
-        studies = stiffnesses_to_tolerance(_part(cfg), materials, stiffness_tolerance, order=cfg.order,
+        studies = stiffnesses_to_tolerance(part, materials, stiffness_tolerance, order=cfg.order,
                                            progress=progress, solved=solved_levels)
     finest = {name: study.finest for name, study in studies.items()}
-    stresses = stress_study(_part(cfg), materials, base_mesh_size_m=next(iter(finest.values())).mesh_size_m,
+    stresses = stress_study(part, materials, base_mesh_size_m=next(iter(finest.values())).mesh_size_m,
                             order=cfg.order, base=finest, progress=progress)
     return studies, stresses
 
 
 def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None,
-            solved_levels: dict | None = None, concurrent_levels: bool = True) -> dict[str, MaterialFea]:
+            solved_levels: dict | None = None, concurrent_levels: bool = True,
+            part: Part | None = None) -> dict[str, MaterialFea]:
     """Stiffness, mass and stress per material, from the cache when nothing they depend on changed.
-    `concurrent_levels`: see fem.stiffness_studies (False where every core already runs a task)."""
+    `concurrent_levels`: see fem.stiffness_studies (False where every core already runs a task).
+    `part`: the run's part (stages.geometry.inspect_geometry); None resolves it here."""
     import warnings
 
     from fem import load_materials, render_deformed
-    from fem.cache import FeaCache, cache_key, geometry_fingerprint
+    from fem.cache import FeaCache, cache_key
     from fem.errors import FemWarning
-    from geometry import DEFAULT_LINK
 
     library = load_materials(cfg.materials_file)
     unknown = [m for m in cfg.materials if m not in library]
     if unknown:
         raise FemError(f"--materials: unknown material {unknown[0]!r}; expected one of {', '.join(library)}")
     cache = FeaCache(cfg.cache_dir)
+    if part is None:
+        part = resolve_run_part(cfg)
     # the parametric link is keyed by its dimensions (the default link's key is unchanged)
-    fingerprint = geometry_fingerprint(cfg.geometry, repr(cfg.link or DEFAULT_LINK))
-    keys = {name: cache_key(fingerprint, fea_cache_settings(cfg, library[name], stiffness_tolerance))
+    keys = {name: cache_key(part.fingerprint, fea_cache_settings(cfg, library[name], stiffness_tolerance))
             for name in cfg.materials}
     images = {name: cache.image_path(key) if cfg.images else None for name, key in keys.items()}
     out: dict[str, MaterialFea] = {}
@@ -136,7 +136,7 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
     missing = [library[name] for name in cfg.materials if name not in out]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
-        studies, stresses = (_solve_fea(cfg, missing, stiffness_tolerance, progress, solved_levels, concurrent_levels)
+        studies, stresses = (_solve_fea(cfg, part, missing, stiffness_tolerance, progress, solved_levels, concurrent_levels)
                              if missing else ({}, {}))
     cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
     for message in cautions:
