@@ -14,7 +14,8 @@ from geometry.part import resolve_part
 
 from .errors import FemError
 from .materials import get_material, load_materials
-from .study import LEVEL_RATIO, StiffnessEstimate, levels_for_finest, stiffness_study
+from .settings import LEVEL_RATIO, FeaSettings
+from .study import StiffnessEstimate, stiffness_study
 
 DESCRIPTION = """\
 Axial stiffness k (N/m), mass (kg) and peak von Mises stress per newton (Pa/N) of one chain link.
@@ -150,9 +151,7 @@ def run(argv: list[str] | None = None) -> dict:
     materials = load_materials(args.materials_file)
     material = get_material(args.material, materials)
     load_N = _positive(args.load, "--load")
-    sizes = None
-    if args.mesh_size is not None:
-        sizes = levels_for_finest(_positive(args.mesh_size, "--mesh-size") * 1e-3)
+    finest_m = None if args.mesh_size is None else _positive(args.mesh_size, "--mesh-size") * 1e-3
     if args.image is not None and Path(args.image).suffix.lower() != ".png":
         raise FemError(f"--image {args.image!r}: expected a .png path")
     if args.vtu is not None and Path(args.vtu).suffix.lower() != ".vtu":
@@ -161,18 +160,19 @@ def run(argv: list[str] | None = None) -> dict:
     if source is None and args.hardware_material is not None:
         raise FemError("--hardware-material: only for a STEP file with hardware solids; expected a STEP path with it")
     # resolved once (body and pin bores chosen): refuses a part that cannot be a link before any meshing
-    part = resolve_part(source, symmetry=not args.full_model)
+    settings = FeaSettings.with_finest(finest_m, order=args.order, load_N=load_N, solver=args.solver,
+                                       mirror_symmetry=not args.full_model)
+    part = resolve_part(source, symmetry=settings.mirror_symmetry)
     record = _inspect(part.summary, args, materials) if part.is_step else None
-    estimate = stiffness_study(part, material, mesh_sizes_m=sizes, order=args.order, load_N=load_N, solver=args.solver,
-                               mirror_symmetry=not args.full_model)
+    estimate = stiffness_study(part, material, settings)
     result = report(estimate)
     if record is not None:
         result["part"] = record
     if args.converge_stress:
         from .stress import stress_study
 
-        stress = stress_study(part, [material], base_mesh_size_m=estimate.finest.mesh_size_m, order=args.order,
-                              solver=args.solver, base={material.name: estimate.finest})[material.name]
+        stress = stress_study(part, [material], settings, base_mesh_size_m=estimate.finest.mesh_size_m,
+                              base={material.name: estimate.finest})[material.name]
         result |= {"peak_von_mises_converged_Pa_per_N": stress.peak_Pa_per_N,
                    "peak_von_mises_converged_rel_change": stress.rel_change,
                    "peak_von_mises_converged_location_m": list(stress.location_m),
