@@ -44,7 +44,7 @@ def bounding_diagonal_m(source) -> float:
     or a source it resolves: a STEP path, None or `LinkDimensions` for the parametric link)."""
     from geometry.part import as_part
 
-    return as_part(source, symmetry=False).all_solids_diagonal_m
+    return as_part(source, symmetry=False).geometry.all_solids_diagonal_m
 
 
 def _check(rel_tolerance: float, start_mesh_size_m: float | None, max_dofs: int, ratio: float) -> None:

@@ -1,10 +1,12 @@
 """The part, resolved once per run: `resolve_part` turns what the user named (a STEP file with its part
 options, or the built-in parametric link) into a `Part` that everything downstream takes.
 
-Resolving reads the STEP file from disk (once: the bytes are kept, and the content fingerprint is
-theirs), chooses the link body and its pin bores (fixed bore first), measures the hardware solids,
-the body's volume and size, and checks the mirror symmetry about the plane through the bore axes.
-No meshing: a part that cannot be a link is refused in about the import's time.
+"Resolved once" means: per run, the STEP file is read from disk once (`resolve_part`; the bytes are
+kept and the content fingerprint, the FEA cache's key, is theirs), and the link body and its pin
+bores are chosen once (fixed bore first), the hardware solids, the body's volume and size measured
+and its mirror symmetry about the plane through the bore axes checked once (`Part.geometry`, on
+first use: a run whose FEA is all in the cache never needs it for the parametric link). No meshing:
+a STEP part that cannot be a link is refused in about the import's time.
 
 Each mesh level still loads the body into a fresh gmsh model (`Part.load_body`): gmsh keeps one
 global model and meshing consumes it (the solid is cut at the loaded bore and, for a mirror half,
@@ -21,6 +23,7 @@ import hashlib
 import math
 import os
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import gmsh
@@ -45,37 +48,63 @@ class PartScale:
     smallest_hole_radius_m: float  # of the other holes (screw, grease holes); inf if none
 
 
-@dataclass(frozen=True, eq=False)
-class Part:
-    """One link, resolved: what every mesh level, the FEA cache and the reports need of it.
+@dataclass(frozen=True)
+class PartGeometry:
+    """What resolution measures in gmsh: the body and its pin bores, its sizes, its symmetry.
 
     The bores' gmsh face tags in `summary.pins` belong to the resolution's model, which is gone;
     meshing finds the bore faces again from the `Bore` geometry.
     """
 
-    name: str  # the STEP path, "default", or "parametric LinkDimensions(...)": messages and LinkMesh.source
-    origin: LinkSource | LinkDimensions  # what it was resolved from, with the user's part options
-    fingerprint: str  # sha256 of the STEP bytes, or of the parametric link's dimensions (repr)
-    step_bytes: bytes | None  # the STEP file as read at resolution; None for the parametric link
     summary: PartSummary  # the body's number, its pin bores (fixed first), ignored holes, hardware solids
     scale: PartScale
     volume_m3: float  # the body's CAD volume
     diagonal_m: float  # the body's bounding-box diagonal: the part's length scale
     all_solids_diagonal_m: float  # the file's, hardware included (fem.adaptive's start size, as before)
     mirror_plane: MirrorPlane | None  # the plane through both bore axes if the body is symmetric about it
-    symmetry_checked: bool  # False: resolved with symmetry=False, mirror_plane None without a check
+
+
+@dataclass(frozen=True, eq=False)
+class Part:
+    """One link: what every mesh level, the FEA cache and the reports need of it.
+
+    `resolve_part` reads the STEP file (the bytes and their fingerprint); the body, its bores and
+    sizes (`geometry`) are chosen and measured on first use, once, and kept: a run whose FEA is
+    all in the cache then builds nothing in gmsh (the parametric link costs 0.5 s to build and
+    inspect), and a STEP run uses them at once to print the choice before any FEA.
+    """
+
+    name: str  # the STEP path, "default", or "parametric LinkDimensions(...)": messages and LinkMesh.source
+    origin: LinkSource | LinkDimensions  # what it was resolved from, with the user's part options
+    fingerprint: str  # sha256 of the STEP bytes, or of the parametric link's dimensions (repr)
+    step_bytes: bytes | None  # the STEP file as read at resolution; None for the parametric link
+    bores: BoreOverride | None = None  # manual bores instead of detection (a single solid)
+    symmetry_checked: bool = True  # False: mirror_plane is None without a check (resolve_part(symmetry=False))
+
+    @cached_property
+    def geometry(self) -> PartGeometry:
+        """The body, its pin bores, sizes and symmetry: chosen and measured on first use, then kept."""
+        return _measure(self)
 
     @property
-    def fixed_bore(self) -> Bore:
-        return self.summary.pins.fixed.bore
-
-    @property
-    def loaded_bore(self) -> Bore:
-        return self.summary.pins.loaded.bore
+    def summary(self) -> PartSummary:
+        return self.geometry.summary
 
     @property
     def pins(self) -> PinBores:
-        return self.summary.pins
+        return self.geometry.summary.pins
+
+    @property
+    def scale(self) -> PartScale:
+        return self.geometry.scale
+
+    @property
+    def volume_m3(self) -> float:
+        return self.geometry.volume_m3
+
+    @property
+    def mirror_plane(self) -> MirrorPlane | None:
+        return self.geometry.mirror_plane
 
     @property
     def is_step(self) -> bool:
@@ -94,24 +123,28 @@ class Part:
 def resolve_part(source=None, *, bores: BoreOverride | None = None, symmetry: bool = True) -> Part:
     """The `Part` of a source: None (the built-in link), a STEP path, a `LinkSource` (a STEP path with
     the user's part options) or `LinkDimensions` (the parametric link resized, a study's variant).
-    This is the only place that tells these kinds apart.
+    This is the only place that tells these kinds apart. A STEP file is read here, and only here.
 
     bores: manual bores instead of detection (a single solid only). symmetry: check the mirror
     symmetry (False leaves `mirror_plane` None and `symmetry_checked` False: --full-model skips the
     check, whose cost grows with the square of the number of faces).
     """
-    dims = data = None
     if source is None or isinstance(source, LinkDimensions):
         dims = DEFAULT_LINK if source is None else source
         name = "default" if source is None else f"parametric {source}"
-        origin, fingerprint = dims, _sha256(repr(dims).encode())
-    else:
-        origin = as_link_source(source)
-        name = os.fspath(source)
-        data = read_step(origin.path)
-        fingerprint = _sha256(data)
+        return Part(name, dims, _sha256(repr(dims).encode()), None, bores, symmetry)
+    origin = as_link_source(source)
+    data = read_step(origin.path)
+    return Part(os.fspath(source), origin, _sha256(data), data, bores, symmetry)
+
+
+def _measure(part: Part) -> PartGeometry:
+    """Load the part into a gmsh model of its own, choose the body and its pin bores (or take the
+    manual ones), measure the hardware, then, as each mesh level sees the model (the body alone),
+    the body's volume and size and its symmetry."""
+    name, data, bores = part.name, part.step_bytes, part.bores
     with gmsh_model("part"):
-        volumes = [add_link(dims)] if data is None else import_step_bytes(data, name)
+        volumes = [add_link(part.origin)] if data is None else import_step_bytes(data, name)
         all_solids_diagonal_m = _model_diagonal_m()
         if bores is not None:
             if len(volumes) != 1:
@@ -119,19 +152,18 @@ def resolve_part(source=None, *, bores: BoreOverride | None = None, symmetry: bo
             fixed, loaded = bores_from_override(volumes, bores, name)
             body, pins = volumes[0], PinBores(fixed, loaded, f"given by {bores}", ())
         else:
-            body, pins = pick_body(volumes, LinkSource(Path(name)) if data is None else origin, name)
-        summary = PartSummary(source=str(origin) if data is not None else name, n_solids=len(volumes),
+            body, pins = pick_body(volumes, part.origin if data is not None else LinkSource(Path(name)), name)
+        summary = PartSummary(source=str(part.origin) if data is not None else name, n_solids=len(volumes),
                               body_index=volumes.index(body) + 1,
                               body_volume_m3=float(gmsh.model.occ.getMass(3, body)), pins=pins,
                               hardware=hardware_solids(volumes, body))
         keep_only(volumes, body)
-        # measured as each mesh level sees the model: the body alone
         volume_m3 = float(gmsh.model.occ.getMass(3, body))
         diagonal_m = _model_diagonal_m()
-        plane = symmetry_plane([body], pins.fixed.bore, pins.loaded.bore) if symmetry else None
-    return Part(name=name, origin=origin, fingerprint=fingerprint, step_bytes=data, summary=summary,
-                scale=_scale(pins, dims), volume_m3=volume_m3, diagonal_m=diagonal_m,
-                all_solids_diagonal_m=all_solids_diagonal_m, mirror_plane=plane, symmetry_checked=symmetry)
+        plane = symmetry_plane([body], pins.fixed.bore, pins.loaded.bore) if part.symmetry_checked else None
+    return PartGeometry(summary=summary, scale=_scale(pins, None if data is not None else part.origin),
+                        volume_m3=volume_m3, diagonal_m=diagonal_m, all_solids_diagonal_m=all_solids_diagonal_m,
+                        mirror_plane=plane)
 
 
 def as_part(source=None, *, bores: BoreOverride | None = None, symmetry: bool = True) -> Part:

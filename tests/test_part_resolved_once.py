@@ -83,6 +83,13 @@ def test_a_parametric_run_builds_the_link_and_chooses_the_bores_once(tmp_path, c
     assert calls["load_body"] >= 3
     # resolution builds the link once; each mesh level builds its own copy from the dimensions
     assert calls["add_link"] == 1 + calls["load_body"]
+    # the same run again: all of its FEA is in the cache, so the part is never built in gmsh
+    calls.clear()
+    assert pipeline.main([*FAST, "--out", str(tmp_path / "again"), "--cache-dir", str(cache)]) == 0
+    assert calls["add_link"] == 0 and calls["find_holes"] == 0 and calls["load_body"] == 0
+    cached, solved = _summary(tmp_path / "again")["materials"]["al6061-t6"], _summary(out)["materials"]["al6061-t6"]
+    for key in ("stiffness_N_per_m", "body_mass_kg", "peak_von_mises_converged_Pa_per_N"):
+        assert cached[key] == solved[key]
 
 
 def test_python_m_fem_resolves_the_part_once(tmp_path, calls, capsys):
