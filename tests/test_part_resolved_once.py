@@ -117,3 +117,17 @@ def test_a_part_meshes_as_its_source_did():
     assert a.points_m.shape == b.points_m.shape and (a.points_m == b.points_m).all()
     assert a.mirror_plane == b.mirror_plane == part.mirror_plane
     assert a.cad_volume_m3 == part.volume_m3 == part.summary.body_volume_m3
+
+
+def test_the_stress_study_refines_the_bores_the_user_named(tmp_path, capsys):
+    """python -m fem --converge-stress on a part whose pin bores only --bores can name: the stress
+    study takes the resolved part (before, it resolved the bare path again and refused it as ambiguous)."""
+    from geometry.sample_parts import write_part
+
+    path = tmp_path / "ambiguous.step"
+    write_part("ambiguous", path)
+    argv = [str(path), "--json", "--mesh-size", "8", "--order", "1", "--bores", "0,-10,6:70,10,6", "--converge-stress"]
+    assert fem_cli.main(argv) == 0, capsys.readouterr().err
+    result = json.loads(capsys.readouterr().out)
+    assert result["part"]["pin_bores"]["rule"] == "given by --bores 0,-10,6:70,10,6"
+    assert result["peak_von_mises_converged_Pa_per_N"] > 0
