@@ -32,7 +32,7 @@ from geometry.assembly import LinkSource, PartSummary, as_link_source, hardware_
 from geometry.bores import BoreOverride, bores_from_override
 from geometry.dimensions import DEFAULT_LINK, LinkDimensions
 from geometry.errors import GeometryError
-from geometry.link_mesh import Bore, MirrorPlane
+from geometry.link_mesh import MirrorPlane
 from geometry.parametric import add_link
 from geometry.pin_pair import PinBores
 from geometry.session import gmsh_model
