@@ -39,6 +39,7 @@ from geometry.session import gmsh_model
 from geometry.step_io import import_step_bytes, read_step
 from geometry.symmetry import symmetry_plane
 
+
 @dataclass(frozen=True)
 class PartScale:
     """The lengths the default mesh sizes are relative to (metres)."""
