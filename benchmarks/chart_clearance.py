@@ -48,8 +48,8 @@ def make(out_dir: Path, quick: bool) -> list[str]:
     for outcome, color in COLORS.items():
         axes[-1].scatter([], [], color=color, edgecolors="k", label=outcome)
     axes[-1].legend(fontsize=8, loc="lower left")
-    fig.suptitle("Clearance chain, explicit velocity Verlet: outcome per step and stiffness (10 links, one index, "
-                 "friction 0.35; accurate = within 1 % of h_max/64)", fontsize=10)
+    fig.suptitle("Clearance chain, explicit velocity Verlet with the default run's ab2 predictor: outcome per step "
+                 "and stiffness (10 links, one index, friction 0.35; accurate = within 1 % of h_max/64)", fontsize=10)
     map_path = _save(fig, out_dir / "clearance_stability_map.png")
     lines = [f"k {c.stiffness_N_per_m:.0e}, g {c.clearance_m * 1e3:g} mm, h/h_max {c.step_factor:g}: {c.outcome}"
              + ("" if c.outcome == "diverged" else f" ({c.relative_error:.1e})") for c in cases]

@@ -17,6 +17,8 @@ Damping laws (`span_damping`):
 - "global": the chain model's damping matrix C (modal zeta or Rayleigh) on y', acting always,
   as in the linear model: it stands for losses spread over the chain and its guide (rollers,
   lubricant, nests), which do not stop when a pin joint opens. In full contact this is today's model.
+  Dense up to DENSE_LINK_LIMIT links; above, the same modal ratios (to `damping_tolerance`, 1e-4 by
+  default) in the O(N) form of dynamics.reduced_damping (`damping_operator`).
 - "kelvin-voigt": a dashpot beta k in each span, acting only while that span is in contact (the
   losses are in the loaded pin joints and link bodies); the drive spring gets beta k_d always. In
   full contact it equals Rayleigh (alpha, beta) = (0, beta). beta is `kv_beta_s`; by default it
@@ -43,6 +45,7 @@ import numpy as np
 from dynamics.chain import ChainModel
 from dynamics.errors import DynamicsError
 from dynamics.metrics import matlab_round
+from dynamics.reduction import DENSE_LINK_LIMIT
 from dynamics.solvers._common import serial_blas
 from dynamics.system import SecondOrderSystem
 
@@ -81,6 +84,10 @@ class ClearanceChain:
     span_damping: str = "global"
     kv_beta_s: float | None = None  # Kelvin-Voigt beta (s); None: 2 zeta / omega_c
     tensioner: Tensioner | None = None
+    # the global law's O(N) form (dynamics.reduced_damping) with each mode's damping ratio to this
+    # relative tolerance; None: the dense C up to DENSE_LINK_LIMIT links, the O(N) form at
+    # DEFAULT_DAMPING_TOLERANCE above
+    damping_tolerance: float | None = None
 
     def __post_init__(self) -> None:
         if not (self.clearance_m >= 0 and not np.isnan(self.clearance_m)):
@@ -90,6 +97,8 @@ class ClearanceChain:
                                 f"got {self.span_damping!r}")
         if self.kv_beta_s is not None and not (np.isfinite(self.kv_beta_s) and self.kv_beta_s >= 0):
             raise DynamicsError(f"kv_beta_s: expected a finite value >= 0, got {self.kv_beta_s!r}")
+        if self.damping_tolerance is not None and not (0 < self.damping_tolerance < 1):
+            raise DynamicsError(f"damping_tolerance: expected a fraction in (0, 1), got {self.damping_tolerance!r}")
 
     @property
     def n_links(self) -> int:
@@ -119,6 +128,20 @@ class ClearanceChain:
         """The global law's C (N x N; cached per chain, read-only); unused by the Kelvin-Voigt law."""
         return _damping_matrix(self.chain)
 
+    @property
+    def damping_is_reduced(self) -> bool:
+        """Whether the global law is applied in the reduced form (dynamics.reduced_damping)."""
+        return self.damping_tolerance is not None or self.n_links > DENSE_LINK_LIMIT
+
+    @property
+    def damping_operator(self):
+        """What the integrator multiplies w by: the dense C, or the ReducedDamping (`damping_is_reduced`)."""
+        if not self.damping_is_reduced:
+            return self.damping_matrix
+        from dynamics.reduced_damping import DEFAULT_DAMPING_TOLERANCE, reduced_damping
+
+        return reduced_damping(self.chain, self.damping_tolerance or DEFAULT_DAMPING_TOLERANCE)
+
     def full_contact_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
         """(K, M) of the linearised chain with every span in contact, carriage included when present."""
         k_chain = self.chain.stiffness_matrix()
@@ -143,6 +166,8 @@ class ClearanceChain:
         return _max_frequency_rad_s(self.chain, self.tensioner)
 
     def _max_frequency_uncached(self) -> float:
+        if self.n_links > DENSE_LINK_LIMIT:
+            return _sparse_top_frequency(self)
         kk, mm = self.full_contact_stiffness()
         lam = np.linalg.eigvalsh(kk / np.sqrt(np.outer(np.diag(mm), np.diag(mm))))
         return float(np.sqrt(max(lam[-1], 0.0)))
@@ -202,6 +227,29 @@ class ClearanceChain:
         t = self.tensioner
         carriage = 0.5 * t.mass_kg * ud**2 + 0.5 * t.rate_N_per_m * u**2 - 2.0 * c.preload_N * u
         return kinetic + elastic + drive + carriage
+
+
+def _sparse_top_frequency(model: ClearanceChain) -> float:
+    """`max_frequency_rad_s` from sparse matrices (long chains: no N x N array), carriage included."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import eigsh
+
+    from dynamics.sweep import stiffness_matrix_sparse
+
+    c, t = model.chain, model.tensioner
+    k_chain = stiffness_matrix_sparse(c)
+    if t is None:
+        kk, masses = k_chain, np.full(c.n_links, c.link_mass_kg)
+    else:
+        n, k, s = model.n_links, c.stiffness_N_per_m, model.idler_span
+        b = sp.csr_matrix(([-1.0, 1.0, 2.0], ([0, 0, 0], [s, (s + 1) % n, n])), shape=(1, n + 1))
+        b_chain = sp.csr_matrix(([-1.0, 1.0], ([0, 0], [s, (s + 1) % n])), shape=(1, n + 1))
+        kk = sp.block_diag([k_chain, sp.csr_matrix(([t.rate_N_per_m], ([0], [0])), shape=(1, 1))])
+        kk = kk + k * (b.T @ b) - k * (b_chain.T @ b_chain)
+        masses = np.concatenate([np.full(n, c.link_mass_kg), [t.mass_kg]])
+    scale = sp.diags(1.0 / np.sqrt(masses))
+    lam = eigsh((scale @ kk @ scale).tocsc(), k=1, which="LA", return_eigenvectors=False, tol=1e-12)
+    return float(np.sqrt(max(lam[0], 0.0)))
 
 
 @lru_cache(maxsize=16)

@@ -9,7 +9,9 @@ not depend on the preload, so that preload is P - min T_linear), and it decides 
   sample: free play is never entered). Its response is the exact linear one, returned as is.
 - "clearance": asked for; or, with "auto", the linear solution leaves pulling contact somewhere, or
   an idler tensioner is modelled (only the clearance model carries it). Solved by the explicit
-  integrator dynamics.solvers.clearance_verlet.
+  integrator dynamics.solvers.clearance_verlet, by default with its `default_predictor` at its
+  `default_safety` (the global law: "ab2" at 0.31 of its stability limit, station metrics within 1e-3
+  of converged on the default scene; benchmarks/bench_accuracy.py).
 
 Periodic steady state of the clearance chain: started from the linear chain's periodic state, the
 chain is stepped one cam period at a time until the state at the period's start changes by less
@@ -32,7 +34,6 @@ import numpy as np
 
 from dynamics.clearance import ClearanceChain, Tensioner
 from dynamics.errors import DynamicsError
-from dynamics.reduction import DENSE_LINK_LIMIT
 from dynamics.simulate import ChainResponse, SlackChainWarning, simulate
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
@@ -54,8 +55,9 @@ class Validity(StrEnum):
     """Whether a response holds for its scene, as data for whoever reports it."""
 
     VALID = "valid"
-    # "auto" needed the clearance model but could not run it (too long a chain for its damping law):
-    # the linear response stands in and does not hold where a span's tension goes below 0
+    # the linear response standing in where the clearance model was needed: it does not hold where a
+    # span's tension goes below 0. No model choice gives it since the clearance chain runs at any
+    # length (issue 24); kept as the reports' vocabulary (reporting.sections)
     NOT_VALID_WHERE_TENSION_NEGATIVE = "not valid where tension < 0"
 
 
@@ -90,6 +92,43 @@ class SteadyState:
 
 
 @dataclass(frozen=True)
+class ImpactStatistics:
+    """The impacts themselves over the output window (SI), beside the peak span force, which is mostly
+    the chain's inertial load. An impact is a span entering contact from free play; m_eff = m / 2 (two
+    equal links closing on one span), t_c = pi sqrt(m_eff / k) the impact's duration (half a period of
+    their contact oscillation). All zero when there is no impact (and for the linear model).
+
+    - closing speed: |e'| of the span at the instant it enters contact (its two ends' relative speed);
+      max and median / 90th percentile over the window's impacts. An undamped contact's force peaks
+      at sqrt(k m_eff) times it.
+    - force spike: the largest |span force| within t_c of an impact. The span's force just before
+      contact is zero (it was in free play), so this is the force the impact itself builds before the
+      contact's first half-oscillation ends; later in the contact the span carries the chain's load.
+    - impact energy per cycle: sum over the impacts of the approach's kinetic energy 1/2 m_eff v^2
+      (what the contacts must absorb and give back or lose), per cam cycle.
+    - dissipated per cycle: the energy the contacts' own losses take out: the Kelvin-Voigt span
+      dashpots' work over the contacts begun by impacts, per cam cycle (per impact 1/2 m_eff v^2
+      (1 - exp(-2 pi zeta / sqrt(1 - zeta^2))) for the two-mass contact). The global damping law's
+      contact is lossless (its losses are spread over the chain's motion, not in the pin joints):
+      0 there, and the impact energy goes into the chain's vibration, which that law damps."""
+
+    closing_speed_max_m_s: float = 0.0
+    closing_speed_median_m_s: float = 0.0
+    closing_speed_p90_m_s: float = 0.0
+    force_spike_N: float = 0.0
+    energy_per_cycle_J: float = 0.0
+    dissipated_per_cycle_J: float = 0.0
+
+
+def impact_statistics(run, cycles: float) -> ImpactStatistics:
+    """ImpactStatistics of an integrator run (dynamics.solvers.clearance_verlet.Run) over `cycles` cam cycles."""
+    speeds = run.impact_speeds_m_s
+    median, p90 = (np.percentile(speeds, [50.0, 90.0]) if speeds.size else (0.0, 0.0))
+    return ImpactStatistics(run.impact_max_speed_m_s, float(median), float(p90), run.impact_force_spike_N,
+                            float(run.impact_kinetic_energy_J / cycles), float(run.impact_dissipated_J / cycles))
+
+
+@dataclass(frozen=True)
 class ContactSummary:
     """What the designer reads about contact, per scenario (SI)."""
 
@@ -100,7 +139,7 @@ class ContactSummary:
     contact_lost: bool  # some span left pulling contact (in the linear model: its tension went below 0)
     free_play_time_fraction: float  # share of span-time in free play over the output window
     impacts_per_cycle: float  # entries of a span into contact from free play, per cam cycle
-    peak_impact_force_N: float  # largest |span force| in a contact phase begun by an impact
+    impact_force_spike_N: float  # largest |span force| within one impact duration of an impact (ImpactStatistics)
     peak_tension_N: float
     min_tension_N: float
     preload_for_full_contact_N: float  # from the linear model: P - its minimum tension (>= 0)
@@ -108,6 +147,7 @@ class ContactSummary:
     steady_state: SteadyState | None = None
     steps_per_output: int | None = None
     diagnostics: dict = field(default_factory=dict)
+    impacts: ImpactStatistics = ImpactStatistics()
 
 
 def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float) -> ModelChoice:
@@ -115,19 +155,11 @@ def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float
     linear, clearance, valid = ChainModelKind.LINEAR, ChainModelKind.CLEARANCE, Validity.VALID
     if choice not in MODEL_CHOICES:
         raise DynamicsError(f"model: expected one of {', '.join(MODEL_CHOICES)}, got {choice!r}")
-    too_long = model.span_damping == "global" and model.n_links > DENSE_LINK_LIMIT
     if choice == "linear":
         return ModelChoice(linear, "asked for (--model linear)", valid)
     if choice == "clearance":
-        if too_long:
-            raise DynamicsError(
-                f"model clearance: with the global damping law at most {DENSE_LINK_LIMIT} links (its damping "
-                f"matrix is dense), got {model.n_links}; use span damping kelvin-voigt or the linear model")
         return ModelChoice(clearance, "asked for (--model clearance)", valid)
     if model.tensioner is not None:
-        if too_long:
-            raise DynamicsError(f"tensioner: the clearance model with the global damping law takes at most "
-                                f"{DENSE_LINK_LIMIT} links, got {model.n_links}; use span damping kelvin-voigt")
         return ModelChoice(clearance, "an idler tensioner is modelled, which only the clearance model carries", valid)
     if model.clearance_m == 0.0:
         return ModelChoice(linear, "pin clearance 0: the clearance law is the linear chain exactly", valid)
@@ -136,20 +168,18 @@ def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float
     if linear_min_tension_N >= 0.0:
         return ModelChoice(linear, "the linear solution never leaves pulling contact (its minimum tension stays >= 0), "
                                    "so the free play is never entered", valid)
-    if too_long:
-        return ModelChoice(linear, f"the linear solution leaves pulling contact (minimum tension < 0) but the clearance "
-                                   f"model with the global damping law is limited to {DENSE_LINK_LIMIT} links: the "
-                                   "linear results are NOT valid where tension < 0 (use span damping kelvin-voigt for "
-                                   "the clearance model of a long chain)", Validity.NOT_VALID_WHERE_TENSION_NEGATIVE)
     return ModelChoice(clearance, "the linear solution leaves pulling contact (its minimum tension goes below zero "
                                   "against the preload): the pin free play is crossed and the load reverses through "
                                   "impacts", valid)
 
 
 def simulate_chain(model: ClearanceChain, cam, t_eval_s, *, choice: str = "auto", steady_state: bool = True,
-                   links=None, n_modes: int | None = None, method: str = "exact", safety: float = verlet.DEFAULT_SAFETY,
-                   tol: float = DEFAULT_TOL, max_cycles: int = DEFAULT_MAX_CYCLES) -> tuple[ChainResponse, ContactSummary]:
-    """The response of the scene's model at t_eval_s and what it says about contact."""
+                   links=None, n_modes: int | None = None, method: str = "exact", safety: float | None = None,
+                   tol: float = DEFAULT_TOL, max_cycles: int = DEFAULT_MAX_CYCLES,
+                   predictor: str | None = None) -> tuple[ChainResponse, ContactSummary]:
+    """The response of the scene's model at t_eval_s and what it says about contact. The clearance
+    chain's step: a fraction `safety` (default `verlet.default_safety`) of the stability limit of the
+    velocity `predictor` (default `verlet.default_predictor`)."""
     t = np.asarray(t_eval_s, dtype=float)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SlackChainWarning)  # reported through the summary
@@ -164,8 +194,11 @@ def simulate_chain(model: ClearanceChain, cam, t_eval_s, *, choice: str = "auto"
                                  float(np.mean(lin.tension_N < 0.0)) if model.clearance_m > 0 else 0.0,
                                  0.0, 0.0, float(lin.tension_N.max()), lin.min_tension_N, needed, lin.min_tension_N)
         return out, summary
+    predictor = verlet.default_predictor(model) if predictor is None else predictor
+    safety = verlet.default_safety(model, predictor) if safety is None else safety
     with serial_blas():
-        return _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed)
+        return _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed,
+                                   predictor)
 
 
 def _select(r: ChainResponse, links) -> ChainResponse:
@@ -179,11 +212,11 @@ def _cam_nodes(cam, t0: float, step: float, n_steps: int):
     return np.asarray(v, dtype=float), np.asarray(a, dtype=float)
 
 
-def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed):
+def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor):
     h_out = np.diff(t)
     if np.max(np.abs(h_out - h_out[0])) > 1e-9 * h_out[0]:
         raise DynamicsError("t_eval_s: the clearance model needs equally spaced output times")
-    sub = verlet.substeps_for(model, float(h_out[0]), safety)
+    sub = verlet.substeps_for(model, float(h_out[0]), safety, predictor)
     h = float(h_out[0]) / sub
     n = model.n_links
     y0 = lin.x_m[0] - lin.z_m[0]
@@ -191,9 +224,10 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
     state = (y0, w0, 0.0, 0.0)
     ss = None
     if steady_state:
-        state, ss = _periodic_state(model, cam, t[0], h, state, tol, max_cycles)
+        state, ss = _periodic_state(model, cam, t[0], h, state, tol, max_cycles, predictor)
     zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
-    run = verlet.integrate(model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub)
+    run = verlet.integrate(model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub,
+                           predictor=predictor)
     s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
     cols = list(range(n)) if links is None else [int(i) for i in np.atleast_1d(links)]
     tension = model.tension_N(run.y, run.u)
@@ -208,12 +242,12 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
                      "carriage_m": run.u if model.tensioner is not None else None})
     summary = ContactSummary(
         *chosen, model.clearance_m, run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
-        run.free_play_fraction, run.impacts / cycles, run.peak_impact_force_N, run.peak_tension_N,
-        run.min_tension_N, needed, lin.min_tension_N, ss, sub)
+        run.free_play_fraction, run.impacts / cycles, run.impact_force_spike_N, run.peak_tension_N,
+        run.min_tension_N, needed, lin.min_tension_N, ss, sub, impacts=impact_statistics(run, cycles))
     return response, summary
 
 
-def _periodic_state(model, cam, t0, h, state, tol, max_cycles):
+def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler"):
     period = getattr(cam, "period_s", None)
     if period is None:
         raise DynamicsError("steady_state: the cam program is not periodic (period_s is None); use steady_state=False")
@@ -227,7 +261,8 @@ def _periodic_state(model, cam, t0, h, state, tol, max_cycles):
     scale = None
     residual = math.inf
     for cycle in range(1, max_cycles + 1):
-        run = verlet.integrate(model, zd, zdd, h_p, state[0], state[1], u0=state[2], ud0=state[3], out_every=every)
+        run = verlet.integrate(model, zd, zdd, h_p, state[0], state[1], u0=state[2], ud0=state[3], out_every=every,
+                               predictor=predictor)
         state = (run.y[-1], run.w[-1], float(run.u[-1]), float(run.ud[-1]))
         ends.append(np.concatenate([state[0], state[1], [state[2], state[3]]]))
         scale = _scale(run, model.n_links)

@@ -118,7 +118,9 @@ def _contact_summary(contact) -> dict:
         "contact_lost": bool(contact.contact_lost),
         "free_play_time_fraction": float(contact.free_play_time_fraction),
         "impacts_per_cycle": float(contact.impacts_per_cycle),
-        "peak_impact_force_N": float(contact.peak_impact_force_N),
+        "impact_force_spike_N": float(contact.impact_force_spike_N),
+        **{f"impact_{name}": float(value) for name, value in vars(contact.impacts).items()
+           if name != "force_spike_N"},
         "preload_for_full_contact_N": float(contact.preload_for_full_contact_N),
         "linear_min_tension_N": float(contact.linear_min_tension_N),
         "clearance_steady_state": None if ss is None else {
@@ -327,14 +329,14 @@ def _tension_table(summary_materials: dict) -> Table:
         for cam, c in data["cams"].items():
             rows.append((material, cam, c.get("model", "linear"), c["peak_tension_N"] / 1e3, c["min_tension_N"] / 1e3,
                          "yes" if c.get("contact_lost") else "no", 100.0 * c.get("free_play_time_fraction", 0.0),
-                         c.get("impacts_per_cycle", 0.0), c.get("peak_impact_force_N", 0.0) / 1e3,
+                         c.get("impacts_per_cycle", 0.0), c.get("impact_force_spike_N", 0.0) / 1e3,
                          c.get("preload_for_full_contact_N", float("nan")) / 1e3, c["peak_link_stress_Pa"] / 1e6,
                          c["yield_safety_factor"]))
     used = "; ".join(f"{m}: {data['safety_factor_stress']}" for m, data in summary_materials.items())
     return Table("Link tension, contact and stress (min tension < 0: a span pushing after its free play closed; "
                  f"stress = peak tension x the FEA's {used})",
                  ("material", "cam law", "model", "peak tension (kN)", "min tension (kN)", "contact lost",
-                  "free play (% span-time)", "impacts per cycle", "peak impact force (kN)",
+                  "free play (% span-time)", "impacts per cycle", "impact force spike (kN)",
                   "preload for full contact (kN)", "peak stress (MPa)", "safety factor on yield"), tuple(rows))
 
 

@@ -98,11 +98,12 @@ def test_choices_and_their_limits():
     assert choose_model(m, "clearance", 1.0)[0] == "clearance"
     tensioned = ClearanceChain(_chain(), 0.0, tensioner=Tensioner(1e5, 5.0, 100.0))
     assert choose_model(tensioned, "auto", 1.0)[0] == "clearance"
-    long = ClearanceChain(_chain(n=401), 94e-6)
-    with pytest.raises(DynamicsError, match="kelvin-voigt"):
-        choose_model(long, "clearance", -1.0)
-    which, reason, validity = choose_model(long, "auto", -1.0)
-    assert which == "linear" and "NOT valid" in reason and validity == Validity.NOT_VALID_WHERE_TENSION_NEGATIVE
+    for n in (401, 2000):  # the global law's reduced form (dynamics.reduced_damping): no fallback at any length
+        long = ClearanceChain(_chain(n=n), 94e-6)
+        assert long.damping_is_reduced
+        assert choose_model(long, "clearance", -1.0)[0] == "clearance"
+        which, reason, validity = choose_model(long, "auto", -1.0)
+        assert which == "clearance" and "NOT valid" not in reason and validity == Validity.VALID
     assert choose_model(m, "auto", -1.0).validity == Validity.VALID
     with pytest.raises(DynamicsError, match="model"):
         choose_model(m, "nonlinear", 1.0)
@@ -190,6 +191,23 @@ def test_numpy_path_equals_the_compiled_path(predictor, n_links):
     runs = [_short_run(model, predictor, c) for c in (True, False)]
     np.testing.assert_allclose(runs[0].y, runs[1].y, rtol=0, atol=1e-12 * np.max(np.abs(runs[1].y)))
     assert runs[0].impacts == runs[1].impacts
+    assert n_links == 6 or runs[0].impacts > 0  # the odd chain's window has impacts: their metrics compared
+    _assert_same_impact_metrics(*runs)
+
+
+def _assert_same_impact_metrics(compiled, numpy_path):
+    np.testing.assert_allclose(compiled.impact_speeds_m_s, numpy_path.impact_speeds_m_s, rtol=1e-9)
+    for name in ("impact_force_spike_N", "impact_kinetic_energy_J", "impact_max_speed_m_s", "impact_dissipated_J"):
+        assert getattr(compiled, name) == pytest.approx(getattr(numpy_path, name), rel=1e-9)
+
+
+def test_numpy_path_equals_the_compiled_path_in_the_kelvin_voigt_impact_metrics():
+    if verlet.numba is None:
+        pytest.skip("numba not installed: only the numpy path exists")
+    model = ClearanceChain(_chain(n=7, friction_coefficient=0.35), 94e-6, span_damping="kelvin-voigt")
+    runs = [_short_run(model, "euler", c) for c in (True, False)]
+    assert runs[0].impacts == runs[1].impacts > 0 and runs[1].impact_dissipated_J > 0
+    _assert_same_impact_metrics(*runs)
 
 
 def _blocked(cmat: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -347,16 +365,31 @@ def test_steady_state_repeats_after_one_period():
     np.testing.assert_allclose(y[half], y[0], rtol=0, atol=1e-5 * np.max(np.abs(y)))
 
 
-def test_stability_map_both_sides_of_the_limit():
-    """Map cases (dynamics.clearance_stability) at 1e8 N/m: without free play the limit is sharp; with
-    it a step just above the limit finishes and is wrong instead of diverging, and far above it diverges."""
+@pytest.mark.parametrize("predictor", ["euler", "ab2"])
+def test_stability_map_both_sides_of_the_limit(predictor):
+    """Map cases (dynamics.clearance_stability) at 1e8 N/m, each predictor at its own limit (ab2: the
+    default run's): without free play the limit is sharp; with it a step just above the limit finishes
+    and is wrong instead of diverging, and far above it diverges."""
     from dynamics.clearance_stability import step_case
 
-    assert step_case(1e8, 0.0, 0.99).outcome == "accurate"
-    assert step_case(1e8, 0.0, 1.01).outcome == "diverged"
-    assert step_case(1e8, 94e-6, 0.99).outcome == "accurate"
-    assert step_case(1e8, 94e-6, 1.1).outcome == "inaccurate"
-    assert step_case(1e8, 94e-6, 2.0).outcome == "diverged"
+    assert step_case(1e8, 0.0, 0.99, predictor=predictor).outcome == "accurate"
+    assert step_case(1e8, 0.0, 1.01, predictor=predictor).outcome == "diverged"
+    assert step_case(1e8, 94e-6, 0.99, predictor=predictor).outcome == "accurate"
+    assert step_case(1e8, 94e-6, 1.1, predictor=predictor).outcome == "inaccurate"
+    assert step_case(1e8, 94e-6, 2.0, predictor=predictor).outcome == "diverged"
+
+
+def test_the_default_run_takes_ab2_for_the_global_law_and_euler_for_kelvin_voigt():
+    chain = _chain(n=30, friction_coefficient=0.35)
+    t = _times(degrees=20.0, per_degree=4)
+    for law, predictor in (("global", "ab2"), ("kelvin-voigt", "euler")):
+        model = ClearanceChain(chain, 94e-6, span_damping=law)
+        assert verlet.default_predictor(model) == predictor
+        _, s = simulate_chain(model, _cam(), t, steady_state=False)
+        h_limit = verlet.stable_step_s(model, 1.0, predictor)
+        assert s.steps_per_output == verlet.substeps_for(model, t[1], verlet.default_safety(model, predictor),
+                                                          predictor)
+        assert (t[1] / s.steps_per_output) <= verlet.default_safety(model, predictor) * h_limit * (1 + 1e-12)
 
 
 def _fake_period_map(flip_every: int):

@@ -13,7 +13,8 @@ import pipeline
 FAST = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "-q", "--no-images",
         "--materials", "al6061-t6", "--cams", "poly-4567"]
 CONTACT_KEYS = ("model", "model_reason", "contact_lost", "free_play_time_fraction", "impacts_per_cycle",
-                "peak_impact_force_N", "preload_for_full_contact_N", "peak_tension_N", "min_tension_N")
+                "impact_force_spike_N", "impact_closing_speed_max_m_s", "impact_energy_per_cycle_J",
+                "impact_dissipated_per_cycle_J", "preload_for_full_contact_N", "peak_tension_N", "min_tension_N")
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +59,7 @@ def test_zero_clearance_reproduces_the_linear_chain(tmp_path, cache_dir):
 def test_a_chain_that_can_only_pull_and_a_tensioner(tmp_path, cache_dir):
     pull_only = _scenario(_run(tmp_path, cache_dir, "--pin-clearance", "inf"))
     assert pull_only["model"] == "clearance" and pull_only["min_tension_N"] >= 0.0
-    assert pull_only["peak_impact_force_N"] > 0
+    assert pull_only["impact_force_spike_N"] > 0 and pull_only["impact_closing_speed_max_m_s"] > 0
     tensioned = _scenario(_run(tmp_path, cache_dir, "--tensioner-rate", "2e5", "--tensioner-mass", "5",
                                "--tensioner-damping", "200"))
     assert tensioned["model"] == "clearance" and "tensioner" in tensioned["model_reason"]

@@ -31,13 +31,19 @@ padded multiply-adds instead of 7225, four rows per pass over w, the blocks comp
 the helpers are inlined into the loop under FASTMATH; the span law, the friction law's saturated
 branch and the contact statistics are written without branches, so that they vectorise; tanh is
 computed from one exp (`_tanh`) and only where it is not exactly +-1 (`TANH_IS_ONE`); the steps
-leave out the powers, which only output steps need.
+leave out the powers, which only output steps need. Above DENSE_LINK_LIMIT links (or when the model
+asks for it) the global law's product is the O(N) form of dynamics.reduced_damping (`_sqrt_product`:
+one cyclic tridiagonal solve per quadrature node, the nodes as the vectorised inner loop).
+
+Impacts (`_impacts_loop`, `_impacts_array`): the closing speed, force spike, approach energy and
+contact dissipation of each impact, taken at the contact threshold's crossing within the step
+(dynamics.clearance_sim.ImpactStatistics defines them).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -49,14 +55,20 @@ try:  # optional: the compiled loop (README, "Dependencies and why")
 except ImportError:  # pragma: no cover - exercised where numba is absent
     numba = None
 
-# The step is this fraction of the stability limit: chosen for accuracy, not stability. On the default
-# scene (85 links, 180 rpm, one 180-degree window) it gives 8 steps per output sample at 4 samples
-# per degree and station metrics within 1.2 % of the converged answer in max |a|, 0.4 % in RMS a,
-# 1e-4 in RMS x, v and residual vibration (README, "The clearance chain").
+# The euler predictor's step is this fraction of its stability limit: chosen for accuracy, not
+# stability. On the default scene (85 links, 180 rpm, periodic steady state) it gives 9 steps per
+# output sample at 4 samples per degree and station metrics within 2.7e-2 of the converged answer
+# (worst of the 20; benchmarks/bench_accuracy.py). The Kelvin-Voigt law's default.
 DEFAULT_SAFETY = 0.25
-# stats: impacts, free-play span-steps, recorded span-steps, peak T, min T, peak impact force, diverged
-# at step; energy: cam work, damping dissipation (tensioner's included), friction dissipation
+# stats: impacts, free-play span-steps, recorded span-steps, peak T, min T, peak |T| in a contact begun by
+# an impact, diverged at step, impact force spike, impact kinetic energy, energy the impact contacts'
+# dashpots dissipated, largest closing speed, closing speeds stored (`_impacts_loop`);
+# energy: cam work, damping dissipation (tensioner's included), friction dissipation
+N_STATS = 12
 N_ENERGY = 3
+# The closing speeds of at most this many impacts are kept for their distribution (the default scene
+# has a few hundred per window); beyond it the count, the largest speed and the sums stay exact.
+SPEED_CAPACITY = 1 << 16
 # Velocity predictors for the velocity-dependent forces, w_pred = w + h (a + theta (a - a_prev)):
 # "euler" (theta 0: w + h a, off by O(h^2)), the default; "ab2" (theta 1/2, Adams-Bashforth 2: off
 # by O(h^3) where a is smooth), which cuts the global damping law's error 2-5x at the same step
@@ -64,6 +76,14 @@ N_ENERGY = 3
 # Kelvin-Voigt law: its dashpot force jumps at each impact, and there "ab2" loses the clean second
 # order (measured on the case of tests/test_clearance_fast_vs_reference.py: orders 1.2 and 1.5).
 PREDICTORS = {"euler": 0.0, "ab2": 0.5}
+# The default run of the global law (issue 24): "ab2" at 0.31 of its own (lower) stability limit: the
+# same steps per output sample as euler at 0.25 on the default scene's two materials (9 aluminium, 10
+# titanium; 0.30 gives titanium 11), so the same cost, and the station metrics within 6e-4 of the
+# converged answer on the default scene instead of 2.7e-2 (the scenes and figures:
+# benchmarks/bench_accuracy.py; at 0.33, 8 steps, 2.2e-3). The Kelvin-Voigt law keeps euler.
+DEFAULT_PREDICTOR = "ab2"
+DEFAULT_SAFETIES = {("global", "euler"): DEFAULT_SAFETY, ("global", "ab2"): 0.31,
+                    ("kelvin-voigt", "euler"): DEFAULT_SAFETY}
 # Above this argument tanh rounds to 1 in double precision (1 - tanh x ~ 2 exp(-2x) falls below half an
 # ulp of 1, 2^-54, from x = 55 ln 2 / 2 = 19.06), so the friction law takes +-F_c there without computing
 # it: the links sliding faster than 19 velocity scales (95 mm/s by default) through the indexing motion.
@@ -116,7 +136,7 @@ def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
         f_cam = -kd * y[0] - beta * kd * w[0]
     else:
         t_all = t_el
-        cw = np.dot(cmat, w)
+        cw = cmat @ w  # a dense C or a dynamics.reduced_damping.ReducedDamping
         p_damp = np.dot(w, cw)
         f_cam = -kd * y[0] - np.sum(cw)
     cw[0] += kd * y[0]
@@ -139,10 +159,12 @@ def _tanh_array(x):
 
 
 def _run(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat, track_energy,
-         out_y, out_w, out_a, out_u, out_ud, stats, energy):
+         out_y, out_w, out_a, out_u, out_ud, stats, energy, speeds):
     """Steps over the nodes of zd/zdd (len n_steps + 1); writes outputs every `out_every` steps
-    (out_* have n_steps // out_every + 1 rows), statistics from step `record_from` on."""
+    (out_* have n_steps // out_every + 1 rows), statistics from step `record_from` on, the closing
+    speeds of the recorded impacts into `speeds` (`_impacts_array`)."""
     n_steps = zd.shape[0] - 1
+    clocks = np.zeros((2, y.shape[0]))  # per span: time since its impact, dashpot power at the last step
     bound = par[12]
     a, au, t_el, contact, pc, pd, pf = _accel(y, w, u, ud, zd[0], zdd[0], par, ipar, cmat)
     a_prev, au_prev = a, au  # the first step's predictor is w + h a whatever theta
@@ -172,6 +194,9 @@ def _run(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat
                         out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
             if row < 0:
                 return
+        _impacts_array(h, y, w, a, y - h * wh, wh - 0.5 * h * a_prev, a_prev, u, ud, au, u - h * uh,
+                       uh - 0.5 * h * au_prev, au_prev, par, ipar, t_el, contact, free, phase, clocks, stats, speeds,
+                       i + 1 >= record_from)
         new_impacts = contact & free
         phase = (phase | new_impacts) & contact
         free = ~contact
@@ -236,8 +261,8 @@ def _mirror_product(blocks, work, w, out):
     parts under the reflection (link 0, and link n/2 for even n, map onto themselves; link p pairs
     with link n - p), each multiplied by its block; a C without the symmetry (no antisymmetric rows)
     is multiplied whole. `work`: the padded coordinates and products."""
-    sym, anti = blocks
-    ws, wa, cs, ca = work
+    sym, anti = blocks[0], blocks[1]
+    ws, wa, cs, ca = work[0], work[1], work[2], work[3]
     n = w.shape[0]
     if anti.shape[0] == 0:
         for j in range(n):
@@ -263,6 +288,39 @@ def _mirror_product(blocks, work, w, out):
     for p in range(pairs):
         out[1 + p] = r * (cs[nf + p] + ca[p])
         out[n - 1 - p] = r * (cs[nf + p] - ca[p])
+
+
+def _sqrt_product(coefficients, weights, factors, sm, acc, y, w, out):
+    """out = C w for the reduced global law (dynamics.reduced_damping): a0 m w + a1 K w + 2 zeta K acc,
+    acc = sum_j c_j (K / m + tau_j I)^-1 w by one cyclic tridiagonal solve per node (Thomas, then
+    Sherman-Morrison with the node's z), all nodes at once: `factors` is (3, N, p), so the recurrences
+    run over the links with the nodes as the (vectorised) inner loop. y: (N, p) scratch.
+    coefficients = [a0 m, a1 k, a1 k_d, 2 zeta k, 2 zeta k_d, -k / m]."""
+    n = w.shape[0]
+    p = weights.shape[0]
+    e = coefficients[5]
+    for j in range(p):
+        y[0, j] = w[0] * factors[0, 0, j]
+    for i in range(1, n):
+        wi = w[i]
+        for j in range(p):
+            y[i, j] = (wi - e * y[i - 1, j]) * factors[0, i, j]
+    for i in range(n - 2, -1, -1):
+        for j in range(p):
+            y[i, j] -= factors[1, i, j] * y[i + 1, j]
+    for j in range(p):  # Sherman-Morrison's factor per node, weighted: kept in row 0's spare use below
+        sm[j, 2] = weights[j] * sm[j, 0] * (y[0, j] + sm[j, 1] * y[n - 1, j])
+    for i in range(n):
+        s = 0.0
+        for j in range(p):
+            s += weights[j] * y[i, j] - sm[j, 2] * factors[2, i, j]
+        acc[i] = s
+    c0, c1, c3 = coefficients[0], coefficients[1], coefficients[3]
+    for i in range(n):
+        ip = i - 1 if i > 0 else n - 1
+        inx = i + 1 if i + 1 < n else 0
+        out[i] = c0 * w[i] + c1 * (2.0 * w[i] - w[ip] - w[inx]) + c3 * (2.0 * acc[i] - acc[ip] - acc[inx])
+    out[0] += coefficients[2] * w[0] + coefficients[4] * acc[0]
 
 
 def _span_law_into(y, u, par, ipar, t_el, contact):
@@ -292,7 +350,10 @@ def _damping_into(w, ud, par, ipar, blocks, work, contact, cw):
     n = w.shape[0]
     dash_s = 0.0
     if not kv:
-        _mirror_product(blocks, work, w, cw)
+        if ipar[3]:
+            _sqrt_product(blocks[2], blocks[3], blocks[4], blocks[5], work[4], work[5], w, cw)
+        else:
+            _mirror_product(blocks, work, w, cw)
         return dash_s
     for i in range(n):
         cw[i] = 0.0
@@ -378,7 +439,7 @@ def _net_acceleration(t_el, cw, fr, m, zdd, a):
 
 
 def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, blocks, track_energy,
-               out_y, out_w, out_a, out_u, out_ud, stats, energy):
+               out_y, out_w, out_a, out_u, out_ud, stats, energy, speeds):
     """`_run` as loops over preallocated arrays, compiled with numba; same steps, same outputs. The
     damping matrix comes as `reflection_blocks`."""
     n_steps = zd.shape[0] - 1
@@ -396,8 +457,9 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
     contact = np.empty(n, dtype=np.bool_)
     free = np.empty(n, dtype=np.bool_)
     phase = np.zeros(n, dtype=np.bool_)
+    clocks = np.zeros((2, n))
     work = (np.zeros(blocks[0].shape[1]), np.zeros(blocks[1].shape[1]), np.zeros(blocks[0].shape[0]),
-            np.zeros(blocks[1].shape[0]))
+            np.zeros(blocks[1].shape[0]), np.zeros(n), np.zeros((n, blocks[3].shape[0])))
     au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, blocks, work, cw, fr, a, t_el, contact)
     a_prev = a.copy()  # the first step's predictor is w + h a whatever theta
     au_prev = au
@@ -430,6 +492,8 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
             w[j] = wh[j] + hh * a[j]
         au, _ = _carriage(u, up, t_el[ipar[0]] + dash_s, par, ipar)
         ud = uh + hh * au
+        _impacts_loop(h, y, w, a, wh, a_prev, u, ud, au, uh, au_prev, par, ipar, t_el, contact, free, phase, clocks,
+                      stats, speeds, i + 1 >= record_from)
         _record_step(t_el, contact, phase, free, stats, i + 1 >= record_from)
         on_output = (i + 1) % out_every == 0
         if track_energy or on_output:
@@ -440,6 +504,148 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
                         out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
             if row < 0:
                 return
+
+
+def _impact_duration_s(par) -> float:
+    """One impact's duration: half a period of the two links' contact oscillation, pi sqrt(m_eff / k)
+    with m_eff = m / 2 (two equal links closing on one span)."""
+    return math.pi * math.sqrt(0.5 * par[0] / par[1])
+
+
+def _crossing(d_old, d_new, threshold):
+    """Fraction of the step at which P + k e crossed `threshold` (linear in the step: e is smooth
+    there, the span law's force being continuous through its kinks)."""
+    span = d_old - d_new
+    if span == 0.0:
+        return 1.0
+    return min(max((d_old - threshold) / span, 0.0), 1.0)
+
+
+def _impacts_loop(h, y, w, a, wh, a_prev, u, ud, au, uh, au_prev, par, ipar, t_el, contact, free, phase, clocks,
+                  stats, speeds, recording):
+    """The impacts of one step, before `_record_step` moves the flags on (`free` and `phase` are the
+    previous step's). An impact is a span entering contact from free play; at it the closing speed
+    |e'| and the kinetic energy of the approach 1/2 m_eff e'^2 are taken at the crossing (the crossing
+    interpolated in the step, the speed there extrapolated from the free-play side with its
+    acceleration: second order whether or not a dashpot switches on with the contact); while the contact it began lasts, the largest |T| within one impact duration
+    (`_impact_duration_s`) is its force spike and the Kelvin-Voigt dashpot's work (trapezoidal, from
+    and to the crossings) the energy the contact dissipates. `clocks[0]`: time since each span's
+    impact; `clocks[1]`: its dashpot power at the last step. The previous state is recovered from the
+    step's own quantities: y - h w_half, w_half - h/2 a_prev."""
+    m, k, preload, kg, beta = par[0], par[1], par[3], par[4], par[5]
+    s, tens, kv = ipar[0], ipar[1], ipar[2]
+    n = y.shape[0]
+    hh = 0.5 * h
+    window = _impact_duration_s(par)
+    for j in range(n):
+        c = contact[j]
+        impact = c and free[j]
+        ongoing = phase[j] and c
+        ending = phase[j] and not c
+        if not (impact or ongoing or ending):
+            continue
+        l = j + 1 if j + 1 < n else 0
+        ed_new = w[l] - w[j]
+        if tens and j == s:
+            ed_new += 2.0 * ud
+        if ongoing:
+            clocks[0, j] += h
+            p_new = beta * k * ed_new * ed_new if kv else 0.0
+            if recording:
+                if clocks[0, j] <= window:
+                    stats[7] = max(stats[7], abs(t_el[j]))
+                stats[9] += hh * (clocks[1, j] + p_new)
+            clocks[1, j] = p_new
+            continue
+        e_new = y[l] - y[j]
+        e_old = (y[l] - h * wh[l]) - (y[j] - h * wh[j])
+        ed_old = (wh[l] - hh * a_prev[l]) - (wh[j] - hh * a_prev[j])
+        ea_old = a_prev[l] - a_prev[j]
+        ea_new = a[l] - a[j]
+        if tens and j == s:
+            e_new += 2.0 * u
+            e_old += 2.0 * (u - h * uh)
+            ed_old += 2.0 * (uh - hh * au_prev)
+            ea_old += 2.0 * au_prev
+            ea_new += 2.0 * au
+        d_old = preload + k * e_old
+        d_new = preload + k * e_new
+        if impact:
+            frac = _crossing(d_old, d_new, 0.0 if d_new >= 0.0 else -kg)
+            ed_c = ed_old + frac * h * ea_old
+            p_new = beta * k * ed_new * ed_new if kv else 0.0
+            clocks[0, j] = (1.0 - frac) * h
+            clocks[1, j] = p_new
+            if recording:
+                speed = abs(ed_c)
+                stats[7] = max(stats[7], abs(t_el[j]))
+                stats[8] += 0.25 * m * ed_c * ed_c
+                stats[9] += 0.5 * (1.0 - frac) * h * ((beta * k * ed_c * ed_c if kv else 0.0) + p_new)
+                stats[10] = max(stats[10], speed)
+                stored = int(stats[11])
+                if stored < speeds.shape[0]:
+                    speeds[stored] = speed
+                    stats[11] = stored + 1
+        else:
+            frac = _crossing(d_old, d_new, 0.0 if d_old >= 0.0 else -kg)
+            ed_c = ed_new - (1.0 - frac) * h * ea_new
+            if recording:
+                stats[9] += 0.5 * frac * h * (clocks[1, j] + (beta * k * ed_c * ed_c if kv else 0.0))
+            clocks[1, j] = 0.0
+
+
+def _impacts_array(h, y, w, a, y_old, w_old, a_old, u, ud, au, u_old, ud_old, au_old, par, ipar, t_el, contact, free,
+                   phase, clocks, stats, speeds, recording):
+    """`_impacts_loop` in numpy, for the numpy path (the previous state given whole); same results."""
+    m, k, preload, kg, beta = par[0], par[1], par[3], par[4], par[5]
+    s, tens, kv = ipar[0], ipar[1], ipar[2]
+    impact = contact & free
+    ongoing = phase & contact
+    ending = phase & ~contact
+    if not (impact.any() or ongoing.any() or ending.any()):
+        return
+    window = _impact_duration_s(par)
+    beta_k = beta * k if kv else 0.0
+
+    def stretch(q, v):
+        return np.roll(q, -1) - q + (2.0 * v * (np.arange(q.shape[0]) == s) if tens else 0.0)
+
+    ed_new = stretch(w, ud)
+    p_new = beta_k * ed_new**2
+    clocks[0, ongoing] += h
+    if recording and ongoing.any():
+        early = ongoing & (clocks[0] <= window)
+        if early.any():
+            stats[7] = max(stats[7], float(np.max(np.abs(t_el[early]))))
+        stats[9] += float(np.sum(0.5 * h * (clocks[1, ongoing] + p_new[ongoing])))
+    clocks[1, ongoing] = p_new[ongoing]
+    if not (impact.any() or ending.any()):
+        return
+    d_old = preload + k * stretch(y_old, u_old)
+    d_new = preload + k * stretch(y, u)
+    ed_old = stretch(w_old, ud_old)
+    ea_old, ea_new = stretch(a_old, au_old), stretch(a, au)
+    for j in np.flatnonzero(impact | ending):
+        if impact[j]:
+            frac = _crossing(d_old[j], d_new[j], 0.0 if d_new[j] >= 0.0 else -kg)
+            ed_c = ed_old[j] + frac * h * ea_old[j]
+            clocks[0, j] = (1.0 - frac) * h
+            clocks[1, j] = p_new[j]
+            if recording:
+                stats[7] = max(stats[7], abs(t_el[j]))
+                stats[8] += 0.25 * m * ed_c * ed_c
+                stats[9] += 0.5 * (1.0 - frac) * h * (beta_k * ed_c * ed_c + p_new[j])
+                stats[10] = max(stats[10], abs(ed_c))
+                stored = int(stats[11])
+                if stored < speeds.shape[0]:
+                    speeds[stored] = abs(ed_c)
+                    stats[11] = stored + 1
+        else:
+            frac = _crossing(d_old[j], d_new[j], 0.0 if d_old[j] >= 0.0 else -kg)
+            ed_c = ed_new[j] - (1.0 - frac) * h * ea_new[j]
+            if recording:
+                stats[9] += 0.5 * frac * h * (clocks[1, j] + beta_k * ed_c * ed_c)
+            clocks[1, j] = 0.0
 
 
 def _record_step(t_el, contact, phase, free, stats, recording):
@@ -475,8 +681,9 @@ def _record_step(t_el, contact, phase, free, stats, recording):
 
 if numba is not None:
     # helpers inlined into the step loop (numba IR inlining: no call, and the loop fuses their work)
-    for _name in ("_rows_times", "_mirror_product", "_span_law_into", "_span", "_damping_into", "_friction_into",
-                  "_tanh", "_carriage", "_accel_into", "_net_acceleration", "_record_step"):
+    for _name in ("_rows_times", "_mirror_product", "_sqrt_product", "_span_law_into", "_span", "_damping_into", "_friction_into",
+                  "_tanh", "_carriage", "_accel_into", "_net_acceleration", "_record_step", "_impact_duration_s",
+                  "_crossing", "_impacts_loop"):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _keep = numba.njit(cache=True)(_keep)
     _run_compiled = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
@@ -528,12 +735,17 @@ class Run:
     free_play_fraction: float
     peak_tension_N: float
     min_tension_N: float
-    peak_impact_force_N: float
+    peak_force_in_impact_contact_N: float  # largest |T| while a contact begun by an impact lasts (its whole length)
     cam_work_J: float
     dissipated_damping_J: float
     dissipated_friction_J: float
     step_s: float
     n_steps: int
+    impact_force_spike_N: float = 0.0  # largest |T| within one impact duration of an impact (`_impacts_loop`)
+    impact_speeds_m_s: np.ndarray = field(default_factory=lambda: np.zeros(0))  # |e'| of each recorded impact
+    impact_max_speed_m_s: float = 0.0  # (the speeds keep at most SPEED_CAPACITY impacts; the max all of them)
+    impact_kinetic_energy_J: float = 0.0  # sum over the recorded impacts of 1/2 m_eff e'^2, m_eff = m / 2
+    impact_dissipated_J: float = 0.0  # Kelvin-Voigt dashpots' work in contacts begun by impacts (0: global law)
 
 
 def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 0.0, ud0: float = 0.0,
@@ -563,15 +775,17 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
     par, ipar, cmat = packed_parameters(model, 1e6 * scale)
     m_out = n_steps // out_every + 1
     out = [np.zeros((m_out, n)) for _ in range(3)] + [np.zeros(m_out), np.zeros(m_out)]
-    stats = np.array([0.0, 0.0, 0.0, -np.inf, np.inf, 0.0, 0.0])
+    stats = np.zeros(N_STATS)
+    stats[3], stats[4] = -np.inf, np.inf
     energy = np.zeros(N_ENERGY)
+    speeds = np.zeros(SPEED_CAPACITY)
     use_numba = (numba is not None) if compiled is None else compiled
     if use_numba and numba is None:
         raise DynamicsError("integrate: compiled=True but numba is not installed")
     runner, damping = (_run_compiled, _damping_blocks(model, cmat)) if use_numba else (_run, cmat)
     with np.errstate(over="ignore", invalid="ignore"):
         runner(y0, w0, float(u0), float(ud0), zd, zdd, float(step_s), theta, int(out_every), int(record_from), par,
-               ipar, damping, bool(track_energy), *out, stats, energy)
+               ipar, damping, bool(track_energy), *out, stats, energy, speeds)
     if stats[6] or not np.all(np.isfinite(out[0])):
         where = stats[6] if stats[6] else "?"
         raise SolverDivergedError(
@@ -579,7 +793,10 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
             f"below the stability limit of the contact frequency")
     recorded = max(stats[2], 1.0)
     return Run(*out, impacts=int(stats[0]), free_play_fraction=float(stats[1] / recorded),
-               peak_tension_N=float(stats[3]), min_tension_N=float(stats[4]), peak_impact_force_N=float(stats[5]),
+               peak_tension_N=float(stats[3]), min_tension_N=float(stats[4]),
+               peak_force_in_impact_contact_N=float(stats[5]), impact_force_spike_N=float(stats[7]),
+               impact_speeds_m_s=speeds[: int(stats[11])].copy(), impact_max_speed_m_s=float(stats[10]),
+               impact_kinetic_energy_J=float(stats[8]), impact_dissipated_J=float(stats[9]),
                cam_work_J=float(energy[0]), dissipated_damping_J=float(energy[1]),
                dissipated_friction_J=float(energy[2]), step_s=float(step_s), n_steps=int(n_steps))
 
@@ -594,17 +811,28 @@ def packed_parameters(model, bound: float = np.inf):
                     1.0 / c.friction_velocity_scale_m_s,
                     t.mass_kg if t else 1.0, t.rate_N_per_m if t else 0.0, t.damping_N_s_per_m if t else 0.0,
                     2.0 * c.preload_N, bound])
-    ipar = np.array([model.idler_span, int(t is not None), int(kv)], dtype=np.int64)
-    cmat = np.zeros((1, 1)) if kv else np.ascontiguousarray(model.damping_matrix)
+    reduced = not kv and model.damping_is_reduced
+    ipar = np.array([model.idler_span, int(t is not None), int(kv), int(reduced)], dtype=np.int64)
+    cmat = np.zeros((1, 1)) if kv else model.damping_operator
     return par, ipar, cmat
 
 
 def _damping_blocks(model, cmat):
-    """`reflection_blocks(cmat)`, computed once per chain (the solvers' cache); a dummy pair for the
-    Kelvin-Voigt law, which has no C."""
+    """The damping as the compiled step takes it: (symmetric block, antisymmetric block, then the
+    reduced form's coefficients, weights, factors, sm: `ReducedDamping.packed`). A dense C:
+    `reflection_blocks(cmat)`, computed once per chain (the solvers' cache), and an empty reduced part;
+    the reduced form (`cmat` a ReducedDamping): its packed parts and dummy blocks; the Kelvin-Voigt
+    law, which has no C: dummies."""
+    empty = (np.zeros(6), np.zeros(0), np.zeros((3, 1, 0)), np.zeros((0, 3)))
+    dummy = (_padded(np.zeros((1, 1))), _padded(np.zeros((0, 0))))
     if model.span_damping == "kelvin-voigt":
-        return _padded(np.zeros((1, 1))), _padded(np.zeros((0, 0)))
-    return cache.cached(("reflection-blocks", model.chain), lambda: reflection_blocks(cmat))
+        return dummy + empty
+    if model.damping_is_reduced:
+        coefficients, weights, factors, sm = cmat.packed()
+        # the compiled product's layout: factors (3, N, p); sm's third column its scratch
+        return dummy + (coefficients, weights, np.ascontiguousarray(factors.transpose(1, 2, 0)),
+                        np.ascontiguousarray(np.column_stack([sm, np.zeros(sm.shape[0])])))
+    return cache.cached(("reflection-blocks", model.chain), lambda: reflection_blocks(cmat)) + empty
 
 
 def reflection_blocks(cmat: np.ndarray):
@@ -654,6 +882,17 @@ def stable_step_s(model, safety: float = DEFAULT_SAFETY, predictor: str = "euler
 def substeps_for(model, output_step_s: float, safety: float = DEFAULT_SAFETY, predictor: str = "euler") -> int:
     """Steps per output interval so that the step is at most `safety` of the stability limit."""
     return max(1, int(math.ceil(output_step_s / stable_step_s(model, safety, predictor) - 1e-9)))
+
+
+def default_predictor(model) -> str:
+    """The velocity predictor a run takes unless told: DEFAULT_PREDICTOR where it applies (the global
+    law), "euler" for the Kelvin-Voigt law (see PREDICTORS)."""
+    return DEFAULT_PREDICTOR if model.span_damping == "global" else "euler"
+
+
+def default_safety(model, predictor: str) -> float:
+    """The step's fraction of the stability limit a run takes unless told (DEFAULT_SAFETIES)."""
+    return DEFAULT_SAFETIES.get((model.span_damping, _predictor(predictor)), DEFAULT_SAFETY)
 
 
 def _predictor(name: str) -> str:

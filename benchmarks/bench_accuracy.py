@@ -1,0 +1,114 @@
+"""Default accuracy of the clearance chain (issue 24): the default run's station metrics against a
+converged run, on the default scene and two others of different speed and clearance.
+
+    python benchmarks/run.py --only accuracy
+
+Each scene: the pipeline's output grid (180 degrees at 4 samples per degree), the clearance model,
+periodic steady state where one exists. The Kelvin-Voigt scene at 240 rpm has none (the state still
+changes by 2 % per cycle after 60 cycles, at every step: a chaotic response, whose state after 60
+cycles no step reproduces): there the window is compared, started from the linear chain's periodic
+state (steady_state=False). The default run is `simulate_chain` with nothing but the scene given; the
+converged run is the same model with the euler predictor at 1/16 of today's step (safety
+0.25 / 16: the integrator is second order, so its own error is about 1/256 of today's 1 %, 4e-5).
+Error = the largest relative difference over the four stations' RMS x, v, a, max |a| and residual
+vibration (20 numbers). Time: the median of interleaved runs of the default and of today's setting
+(euler, safety 0.25) on the same machine.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from dynamics.cams import CamProgram
+from dynamics.chain import ChainModel
+from dynamics.clearance import ClearanceChain
+from dynamics.clearance_sim import simulate_chain
+from dynamics.metrics import link_metrics, station_metrics
+
+KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2",
+        "residual_vibration_m")
+PITCH_M = 0.1125
+TARGET = 1e-3
+TODAY = ("euler", 0.25)  # the default before issue 24: (predictor, safety)
+CONVERGED = ("euler", 0.25 / 16)
+
+
+@dataclass(frozen=True)
+class Scene:
+    label: str
+    n_links: int
+    rpm: float
+    clearance_m: float
+    span_damping: str
+    steady_state: bool = True
+    cam: str = "modified-sine"
+    stiffness_N_per_m: float = 9.0092e7  # the default link's FEA k (aluminium) and lumped mass
+    link_mass_kg: float = 2.03
+
+    def model(self) -> ClearanceChain:
+        chain = ChainModel(n_links=self.n_links, link_mass_kg=self.link_mass_kg,
+                           stiffness_N_per_m=self.stiffness_N_per_m, friction_coefficient=0.35)
+        return ClearanceChain(chain, self.clearance_m, span_damping=self.span_damping)
+
+    def window(self):
+        t = np.arange(721) / 4 / (6 * self.rpm)
+        return CamProgram.indexing(self.cam, pitch_m=PITCH_M, rpm=self.rpm), t
+
+
+SCENES = (Scene("default: 85 links, 180 rpm, 0.094 mm, global damping", 85, 180.0, 94e-6, "global"),
+          Scene("41 links, 240 rpm, 0.094 mm, Kelvin-Voigt (window: no steady state)", 41, 240.0, 94e-6,
+                "kelvin-voigt", steady_state=False),
+          Scene("85 links, 300 rpm, 1 mm free play, global damping", 85, 300.0, 1e-3, "global"))
+
+
+def station_values(scene: Scene, predictor=None, safety=None) -> tuple[np.ndarray, float, int]:
+    """(station metrics (4 x 5), wall seconds, steps per output sample) of one run of the scene."""
+    model = scene.model()
+    cam, t = scene.window()
+    start = time.perf_counter()
+    r, contact = simulate_chain(model, cam, t, predictor=predictor, safety=safety, steady_state=scene.steady_state)
+    wall = time.perf_counter() - start
+    assert contact.model == "clearance", contact.reason
+    lm = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, cam.dwell_mask(t))
+    values = np.array([[getattr(s, k) for k in KEYS] for s in station_metrics(lm).values()])
+    return values, wall, contact.steps_per_output
+
+
+def worst_error(x: np.ndarray, ref: np.ndarray) -> float:
+    return float(np.max(np.abs(x - ref) / np.abs(ref)))
+
+
+def scene_rows(scene: Scene, repeats: int) -> tuple[str, float]:
+    ref = station_values(scene, *CONVERGED)[0]
+    default, _, sub = station_values(scene)
+    today, _, today_sub = station_values(scene, *TODAY)
+    walls = [(station_values(scene)[1], station_values(scene, *TODAY)[1]) for _ in range(repeats)]
+    new_s, old_s = (float(np.median([w[i] for w in walls])) for i in (0, 1))
+    err = worst_error(default, ref)
+    return (f"| {scene.label} | {sub} | {err:.1e} | {1e3 * new_s:.0f} ms | {today_sub} | "
+            f"{worst_error(today, ref):.1e} | {1e3 * old_s:.0f} ms |"), err
+
+
+def run(quick: bool) -> list[str]:
+    repeats = 3 if quick else 7
+    lines = ["Default accuracy of the clearance chain: the default run's 20 station metrics against a converged "
+             "run (euler at 1/16 of the old step), worst relative error; time = median of interleaved runs "
+             "(steady state + window, one scenario)", "",
+             "| scene | steps/sample (default) | worst error | time | steps/sample (before: euler, 0.25) | "
+             "worst error | time |", "|---|---|---|---|---|---|---|"]
+    station_values(SCENES[0])  # compile / load the numba cache
+    worst = 0.0
+    for scene in SCENES:
+        row, err = scene_rows(scene, repeats)
+        lines.append(row)
+        worst = max(worst, err)
+    lines += ["", f"worst error of the default over the scenes: {worst:.2e} (target {TARGET:g}: "
+              f"{'met' if worst <= TARGET else 'NOT met'})"]
+    return lines
+
+
+if __name__ == "__main__":
+    print("\n".join(run(quick=False)))

@@ -1,0 +1,181 @@
+"""The global damping law at O(N) cost per product, every mode's damping ratio kept (issue 24).
+
+The chain's modal damping C = M Phi diag(2 zeta omega_j) Phi^T M is, with M = m I, the matrix function
+C = 2 zeta m sqrt(X), X = K / m: dense (N^2 multiply-adds per product, N^2 storage, a dense eigensolve
+to build it). Here sqrt(X) is applied without forming it, from
+
+    sqrt(x) = (2 / pi) integral over s of x e^s / (x + e^(2 s)) ds = X (2 / pi) sum_j h t_j (X + t_j^2)^-1,
+
+the trapezoidal rule in s = ln t (nodes t_j = e^(s_j), spacing h). The integrand is
+sqrt(x) / (2 cosh(s - ln sqrt x)), the same bump shifted for every eigenvalue x, so the rule's relative
+error is the same for every mode: about 2 exp(-pi^2 / h) from the spacing (the bump's poles lie pi/2
+off the real axis) plus exp(-L) from stopping L past ln sqrt of the smallest and largest eigenvalue.
+`nodes_for(tolerance)` takes h = pi^2 / ln(8 / tolerance) and L = ln(4 / tolerance): each mode's
+damping ratio is zeta (1 +- tolerance) (measured: 0.6 tolerance at N = 85 and 400). Each node is one solve with X + t_j^2 I, the chain's ring of
+springs plus the drive spring: cyclic tridiagonal, solved in O(N) (Thomas on the tridiagonal part,
+Sherman-Morrison for the ring's corner), factors precomputed. So a product costs about 10 N per node
+(25-30 nodes for 1e-4 at N = 10,000) and storage is 3 N per node: linear in N. Every term is a
+positive function of X, so C stays symmetric positive semi-definite; the top mode's ratio, which sets
+the explicit step's limit, is zeta (1 +- tolerance). Rayleigh damping needs no nodes: a0 M + a1 K.
+With a tight tolerance (1e-13) the form equals the dense C to round-off (tests/test_reduced_damping.py).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from dynamics.chain import ChainModel
+
+# Relative error of every mode's damping ratio in the default reduced form (the dense form's own
+# eigensolve is exact to ~1e-13; 1e-4 is far below what the 1e-3 station metrics can see).
+DEFAULT_DAMPING_TOLERANCE = 1e-4
+
+
+def nodes_for(tolerance: float, x_min: float, x_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """(tau_j = t_j^2, c_j = (2 / pi) h t_j) of the trapezoidal rule for sqrt(x) on [x_min, x_max]."""
+    h = math.pi**2 / math.log(8.0 / tolerance)
+    tail = math.log(4.0 / tolerance)
+    lo, hi = 0.5 * math.log(x_min) - tail, 0.5 * math.log(x_max) + tail
+    s = lo + h * np.arange(int(math.ceil((hi - lo) / h)) + 1)
+    t = np.exp(s)
+    return t * t, (2.0 / math.pi) * h * t
+
+
+@dataclass(frozen=True, eq=False)
+class ReducedDamping:
+    """C w = a0 m w + a1 K w + 2 zeta K sum_j c_j (K / m + tau_j I)^-1 w, K the ring of N springs k plus
+    the drive spring k_d on link 0 ((a0, a1) Rayleigh coefficients, 0 for modal damping)."""
+
+    n_links: int
+    mass_kg: float
+    stiffness_N_per_m: float
+    drive_stiffness_N_per_m: float
+    rayleigh: tuple[float, float]  # (a0 1/s, a1 s)
+    zeta: float
+    taus: np.ndarray  # (p,)
+    weights: np.ndarray  # (p,)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.n_links, self.n_links
+
+    def stiffness_times(self, w: np.ndarray) -> np.ndarray:
+        kw = self.stiffness_N_per_m * (2.0 * w - np.roll(w, 1) - np.roll(w, -1))
+        kw[0] += self.drive_stiffness_N_per_m * w[0]
+        return kw
+
+    def __matmul__(self, w: np.ndarray) -> np.ndarray:
+        w = np.asarray(w, dtype=float)
+        a0, a1 = self.rayleigh
+        out = a0 * self.mass_kg * w + a1 * self.stiffness_times(w)
+        if self.taus.size:
+            _, weights, factors, sm = self.packed()
+            acc = weights @ cyclic_solves(factors, sm, -self.stiffness_N_per_m / self.mass_kg, w)
+            out = out + 2.0 * self.zeta * self.stiffness_times(acc)
+        return out
+
+    def dense(self) -> np.ndarray:
+        """The N x N matrix (for checks on short chains)."""
+        return np.column_stack([self @ e for e in np.eye(self.n_links)])
+
+    def packed(self):
+        """(coefficients [a0 m, a1 k, a1 k_d, 2 zeta k, 2 zeta k_d, -k / m], weights (p,), factors (p, 3, N):
+        per node the Thomas pivots' inverses, forward coefficients and Sherman-Morrison vector z, and
+        sm (p, 2): per node 1 / (1 + v.z) and v's last entry) as the compiled step takes them; cached."""
+        cached = self.__dict__.get("_packed")
+        if cached is None:
+            cached = self._pack()
+            object.__setattr__(self, "_packed", cached)
+        return cached
+
+    def _pack(self):
+        a0, a1 = self.rayleigh
+        n, m, k, kd = self.n_links, self.mass_kg, self.stiffness_N_per_m, self.drive_stiffness_N_per_m
+        coefficients = np.array([a0 * m, a1 * k, a1 * kd, 2.0 * self.zeta * k, 2.0 * self.zeta * kd, -k / m])
+        factors = np.zeros((self.taus.size, 3, n))
+        sm = np.zeros((self.taus.size, 2))
+        for j, tau in enumerate(self.taus):
+            factors[j], sm[j] = _factor(m, k, kd, float(tau), n)
+        return coefficients, np.ascontiguousarray(self.weights, dtype=float), factors, sm
+
+
+def _factor(m, k, kd, tau, n):
+    """Factors of A = K / m + tau I = T + u v^T (Numerical Recipes' cyclic form, gamma = -A_00):
+    u = (gamma, 0.., e), v = (1, 0.., e / gamma), e = -k / m the off-diagonal and corner entries; T
+    tridiagonal, factored by Thomas. Returns ((inverse pivots, forward coefficients, z = T^-1 u),
+    (1 / (1 + v.z), e / gamma))."""
+    e = -k / m
+    diag = np.full(n, 2.0 * k / m + tau)
+    diag[0] += kd / m
+    gamma = -diag[0]
+    t = diag.copy()
+    t[0] -= gamma
+    t[-1] -= e * e / gamma
+    inv, cp = np.empty(n), np.empty(n)
+    inv[0] = 1.0 / t[0]
+    cp[0] = e * inv[0]
+    for i in range(1, n):
+        inv[i] = 1.0 / (t[i] - e * cp[i - 1])
+        cp[i] = e * inv[i]
+    u = np.zeros(n)
+    u[0], u[-1] = gamma, e
+    z = thomas(inv, cp, e, u)
+    ratio = e / gamma
+    return np.array([inv, cp, z]), np.array([1.0 / (1.0 + z[0] + ratio * z[-1]), ratio])
+
+
+def thomas(inv, cp, e, b):
+    """T^-1 b from the Thomas factors (T symmetric tridiagonal, off-diagonal e)."""
+    n = b.shape[0]
+    y = np.empty(n)
+    y[0] = b[0] * inv[0]
+    for i in range(1, n):
+        y[i] = (b[i] - e * y[i - 1]) * inv[i]
+    for i in range(n - 2, -1, -1):
+        y[i] -= cp[i] * y[i + 1]
+    return y
+
+
+def cyclic_solves(factors, sm, e, b):
+    """(p, N): A_j^-1 b for every node (`_factor`'s parts stacked), the recurrences run over the links
+    with the nodes as the vector: Thomas, then Sherman-Morrison."""
+    inv, cp, z = factors[:, 0], factors[:, 1], factors[:, 2]
+    n = b.shape[0]
+    y = np.empty(inv.shape)
+    y[:, 0] = b[0] * inv[:, 0]
+    for i in range(1, n):
+        y[:, i] = (b[i] - e * y[:, i - 1]) * inv[:, i]
+    for i in range(n - 2, -1, -1):
+        y[:, i] -= cp[:, i] * y[:, i + 1]
+    return y - (sm[:, 0] * (y[:, 0] + sm[:, 1] * y[:, -1]))[:, None] * z
+
+
+def eigenvalue_bounds(chain: ChainModel) -> tuple[float, float]:
+    """(smallest, largest) eigenvalue of K / m from the sparse K (no N x N array)."""
+    from scipy.sparse.linalg import eigsh
+
+    from dynamics.sweep import stiffness_matrix_sparse
+
+    x = (stiffness_matrix_sparse(chain) / chain.link_mass_kg).tocsc()
+    if chain.n_links <= 64:
+        lam = np.linalg.eigvalsh(x.toarray())
+        return float(lam[0]), float(lam[-1])
+    top = eigsh(x, k=1, which="LA", return_eigenvectors=False, tol=1e-10)[0]
+    bottom = eigsh(x, k=1, sigma=0.0, which="LM", return_eigenvectors=False, tol=1e-10)[0]
+    return float(bottom), float(top)
+
+
+@lru_cache(maxsize=16)
+def reduced_damping(chain: ChainModel, tolerance: float = DEFAULT_DAMPING_TOLERANCE) -> ReducedDamping:
+    """The chain's global damping law in the O(N) form, each mode's ratio within `tolerance`; Rayleigh
+    damping exactly, without nodes."""
+    n, m, k, kd = chain.n_links, chain.link_mass_kg, chain.stiffness_N_per_m, chain.drive_stiffness
+    if chain.rayleigh_coefficients is not None:
+        return ReducedDamping(n, m, k, kd, tuple(chain.rayleigh_coefficients), 0.0, np.zeros(0), np.zeros(0))
+    x_min, x_max = eigenvalue_bounds(chain)
+    taus, weights = nodes_for(tolerance, x_min, x_max)
+    return ReducedDamping(n, m, k, kd, (0.0, 0.0), chain.damping_ratio, taus, weights)
