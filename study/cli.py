@@ -94,7 +94,7 @@ def run_study(args, spec, out: Path, client) -> int:
     from study.progress import ProgressBar
     from study.sampling import design_points
     from study.store import ResultStore
-    from study.tasks import base_config
+    from study.tasks import base_config, part_payloads
 
     store = ResultStore(out)
     store.open()
@@ -108,7 +108,7 @@ def run_study(args, spec, out: Path, client) -> int:
     bar.message(f"study {spec.name!r}: {len(points)} points ({len(points) - len(todo)} already in {out}), "
                 f"{worker_threads(client)} workers" + (f" at {args.scheduler}" if args.scheduler else " (local)"))
     bar.points_done = len(points) - len(todo)
-    outcome = run_points(client, todo, spec.settings, store, run, bar)
+    outcome = run_points(client, todo, spec.settings, store, run, bar, part_payloads(spec))
     history = None
     if args.optimise:
         from study.optimise import optimise

@@ -63,12 +63,13 @@ def _write_sensitivity(spec: StudySpec, results: StudyResults, out: Path):
 
 
 def _best_reports(spec: StudySpec, results: StudyResults, out: Path, client, bar) -> list[tuple[str, str]]:
-    from study.tasks import report_task
+    from study.tasks import part_payloads, report_task
 
     best = best_designs(spec, results)
     cams = tuple(spec.choices["cam"].values) if "cam" in spec.choices else (spec.fixed["cam"],)
+    parts = part_payloads(spec)
     futures = [client.submit(report_task, {k: r[k] for k in _inputs_of(results)}, cams, spec.settings,
-                             pure=False) for r in best]
+                             parts.get(r.get("geometry_file")), pure=False) for r in best]
     links = []
     for row, future in zip(best, futures):
         folder = out / "best" / f"point-{row['point']:05d}"
@@ -103,7 +104,8 @@ def _write_page(spec: StudySpec, results: StudyResults, out: Path, reports, hist
              "Constraints: " + ("; ".join(_constraint_text(c) for c in spec.constraints) or "none") + ". Objectives: "
              + (", ".join(f"{o.sense}imise {o.metric}" for o in spec.objectives) or "none") + "."]
     tables = [reason_table(counts["not_computed"])] if counts["not_computed"] else []
-    shown = ["point", "material", "cam", *variables, *dict.fromkeys(objectives + metrics)]
+    shown = ["point", *(["geometry_file"] if spec.parts else []), "material", "cam", *variables,
+             *dict.fromkeys(objectives + metrics)]
     tables.append(design_table("Pareto front", results.front, shown))
     figures = []
     if len(objectives) >= 2 and results.feasible:

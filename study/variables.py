@@ -17,12 +17,13 @@ RAIL = "rail"  # the side rail width: sets recess_width_m = body_width_m - 2 * v
 MATERIAL = "material"
 CAM = "cam"
 RUN = "run"  # a RunConfig field
+STEP = "step"  # the link's STEP file (a path in the study file; its bytes travel with the FEA task)
 
 
 @dataclass(frozen=True)
 class Variable:
     name: str  # the key in the study file and the column in the table (SI, unit suffix)
-    target: str  # LINK, RAIL, MATERIAL, CAM or RUN
+    target: str  # LINK, RAIL, MATERIAL, CAM, RUN or STEP
     field: str  # the LinkDimensions or RunConfig field it sets
     kind: type  # float, int or str (str: a choice from a list)
     lower: float = 0.0  # numbers only: values above lower (or equal to it when lower_included)
@@ -50,7 +51,17 @@ VARIABLES: dict[str, Variable] = {v.name: v for v in [
     Variable("friction", RUN, "friction", float, lower_included=True, upper=1.0),
     Variable("damping", RUN, "damping", float, lower_included=True, upper=0.999),
     Variable("pin_clearance_m", RUN, "pin_clearance_m", float, lower_included=True),
+    # the idler tensioner, as pipeline.py's --tensioner-rate/-mass/-damping (the mass is needed with
+    # either of the others: dynamics.clearance_sim.tensioner_from)
+    Variable("tensioner_rate_N_per_m", RUN, "tensioner_rate_N_per_m", float, lower_included=True),
+    Variable("tensioner_mass_kg", RUN, "tensioner_mass_kg", float),
+    Variable("tensioner_damping_N_s_per_m", RUN, "tensioner_damping_N_s_per_m", float, lower_included=True),
+    # `geometry` in the study file: its column is geometry_file (the table's `geometry` is the FEA group's id)
+    Variable("geometry_file", STEP, "geometry", str),
 ]}
+
+#: The study file's key for the STEP file(s) of the link, and the variable it sets.
+GEOMETRY_KEY = "geometry"
 
 #: Variables that change the geometry (one mesh each) and so the FEA.
 GEOMETRY_TARGETS = (LINK, RAIL)
@@ -76,7 +87,7 @@ def run_fields(values: dict) -> dict:
     out = {}
     for name, value in values.items():
         variable = VARIABLES.get(name)
-        if variable is None:
+        if variable is None or value is None:  # None: a RunConfig default that is "not given" (no tensioner)
             continue
         if variable.target == RUN:
             out[variable.field] = variable.kind(value)
