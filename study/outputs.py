@@ -104,6 +104,11 @@ def _write_page(spec: StudySpec, results: StudyResults, out: Path, reports, hist
              "Constraints: " + ("; ".join(_constraint_text(c) for c in spec.constraints) or "none") + ". Objectives: "
              + (", ".join(f"{o.sense}imise {o.metric}" for o in spec.objectives) or "none") + "."]
     tables = [reason_table(counts["not_computed"])] if counts["not_computed"] else []
+    refused = {r["geometry_file"]: r["reason"] for r in results.rows
+               if spec.parts and r["status"] != "ok" and r["reason"].startswith("geometry:")}
+    if refused:
+        tables.append(Table("STEP files refused (their points are infeasible)", ("geometry", "reason"),
+                            tuple(sorted(refused.items()))))
     shown = ["point", *(["geometry_file"] if spec.parts else []), "material", "cam", *variables,
              *dict.fromkeys(objectives + metrics)]
     tables.append(design_table("Pareto front", results.front, shown))
