@@ -144,7 +144,7 @@ def _sensitivity_text(spec: StudySpec, sensitivity) -> str:
         return (f"Sensitivity: not estimated ({spec.sampling.method} sampling"
                 f"{'' if spec.ranges else ', no range variable'}; it needs {' or '.join(METHODS)} sampling of ranges).")
     def one(s) -> str:
-        shown = ", ".join(f"{i.input} {i.first_order:.2f} +- {i.half_width:.2f}" for i in s.standing_out())
+        shown = ", ".join(f"{i.input} {i.first_order:.2g} +- {i.half_width:.2g}" for i in s.standing_out())
         return f"{s.metric}: {shown or 'no input stands out from zero'} ({s.adequacy})"
 
     return f"Sensitivity ({ESTIMATOR}): " + "; ".join(one(s) for s in sensitivity) + "."

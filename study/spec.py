@@ -191,6 +191,9 @@ def parse_study(data: dict, base_dir: Path | None = None) -> StudySpec:
             Choices(tuple(parts)) if table == "variables" else next(iter(parts)))
         _no_builtin_dimensions(variables, fixed)
     _check_part_options(options, bool(parts), materials)
+    if options.get("hardware_from_step") and "hardware_mass_kg" in {*variables, *fixed}:
+        raise StudyError("fixed.hardware_from_step: the hardware mass comes from the STEP file's solids; expected "
+                         "no hardware_mass_kg in [variables] or [fixed] with it")
     _check_tensioner(variables, fixed)
     _default_choices(variables, fixed)
     sampling = _sampling(_table(data, "sampling"), variables)

@@ -203,6 +203,8 @@ def test_paths_are_relative_to_the_study_file(step_folder, monkeypatch):
     ('pitch = "-3"', "--pitch '-3': expected a positive length in mm"),
     ('hardware_material = "unobtainium"', "fixed.hardware_material: unknown material 'unobtainium'"),
     ("hardware_from_step = true", "fixed.hardware_from_step: the hardware solids need a material"),
+    ('hardware_material = "al6061-t6"\nhardware_from_step = true\nhardware_mass_kg = 0.5',
+     "fixed.hardware_from_step: the hardware mass comes from the STEP file's solids"),
 ])
 def test_part_options_are_checked_as_on_the_command_line(step_folder, extra, message):
     data = tomllib.loads(FIXED.format(geometry='"link.step"', extra=extra))
@@ -268,3 +270,17 @@ def test_builtin_study_without_a_tensioner_has_no_tensioner_columns():
 def test_tensioner_checks(text, message):
     with pytest.raises(StudyError, match=message):
         parse_study(tomllib.loads(text))
+
+
+@pytest.mark.parametrize("example", sorted((ROOT / "examples").glob("*.toml")), ids=lambda p: p.name)
+def test_example_studies_load(example):
+    """Every example study is valid, its STEP paths resolved against the examples folder."""
+    from study.sampling import design_points
+    from study.spec import load_study
+    from study.tasks import base_config
+
+    spec = load_study(example)
+    points = design_points(spec, base_config(spec.settings))
+    assert points and all(p.point_id for p in points)
+    if "geometry_file" in spec.fixed:
+        assert spec.parts[spec.fixed["geometry_file"]].path == (ROOT / "geometry" / "data" / "example_link.step")
