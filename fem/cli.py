@@ -10,7 +10,10 @@ import warnings
 from pathlib import Path
 
 from geometry.assembly import inspect_part
-from geometry.options import add_part_arguments, hardware_densities, hardware_masses_kg, link_source
+from geometry.options import (add_part_arguments, hardware_densities, hardware_masses_kg, link_source,
+                              signed_values_attached)
+from settings import DEFAULT_MATERIALS, RunConfig
+from settings.registries import ELEMENT_ORDERS
 
 from .errors import FemError
 from .materials import get_material, load_materials
@@ -32,7 +35,7 @@ class _OneLineParser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     parser = _OneLineParser(prog="python -m fem", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("step", nargs="?", help="STEP file of one link (any unit the file declares); default: the built-in link")
-    parser.add_argument("--material", default="al6061-t6", help="material id from the materials table (default: %(default)s)")
+    parser.add_argument("--material", default=DEFAULT_MATERIALS[0], help="material id from the materials table (default: %(default)s)")
     parser.add_argument("--materials-file", help="TOML file of extra materials (SI units: youngs_modulus_Pa, poisson_ratio, density_kg_per_m3)")
     parser.add_argument(
         "--mesh-size",
@@ -41,7 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"finest element size in millimetres; one coarser level (x{LEVEL_RATIO:.4g}) is added (default: relative "
         "to the part, the smaller of pitch/25 and 0.52 x bore radius: 4.5 and 6 mm on the built-in link)",
     )
-    parser.add_argument("--order", type=int, choices=(1, 2), default=2, help="element order: 1 = linear, 2 = quadratic (default)")
+    parser.add_argument("--order", type=int, choices=ELEMENT_ORDERS, default=RunConfig.order, help="element order: 1 = linear, 2 = quadratic (default)")
     parser.add_argument("--load", type=str, default="1000", metavar="N", help="pin load in newtons for the image and fields (default: %(default)s); k is linear")
     parser.add_argument("--solver", default="auto", help="linear solver: auto, pardiso, amg or spsolve (default: %(default)s)")
     parser.add_argument("--json", action="store_true", help="print one JSON object (SI units) instead of text")
@@ -146,7 +149,7 @@ def _text(r: dict) -> str:
 
 
 def run(argv: list[str] | None = None) -> dict:
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(signed_values_attached(argv))
     materials = load_materials(args.materials_file)
     material = get_material(args.material, materials)
     load_N = _positive(args.load, "--load")

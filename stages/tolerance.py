@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from stages.chain import run_dynamics
-from stages.config import RunConfig
+from settings import RunConfig
 from stages.fea import run_fea
 from stages.progress import Progress, timed
 
@@ -16,7 +16,7 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict):
     stiffness_tolerance = budget
     levels: dict = {}  # the refinement pass extends the first pass's levels instead of re-solving them
     fea = timed(timing, "fea", progress, run_fea, cfg, progress, stiffness_tolerance, levels)
-    models, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
+    chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     from_k = max(sc.rel_error_estimate["stiffness"] for sc in scenarios.values())
     if from_k > budget:
         worst_k_error = max(r.stiffness_rel_error_estimate for r in fea.values())
@@ -24,5 +24,5 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict):
         progress(f"a {100 * worst_k_error:.2g} % error in k moves the metrics by {100 * from_k:.2g} %: "
                  f"refining the FEA to {100 * stiffness_tolerance:.2g} %")
         fea = timed(timing, "fea", progress, run_fea, cfg, progress, stiffness_tolerance, levels)
-        models, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
-    return fea, models, scenarios
+        chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
+    return fea, chains, scenarios
