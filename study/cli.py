@@ -21,9 +21,10 @@ PROG = "python -m study"
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=PROG, description=(
-        "Sweep or optimise the built-in link and the drive: every design point meshed, solved (FEA) and "
-        "run through the chain model on a Dask cluster; writes a tidy table (Parquet, CSV), the feasible "
-        "set, the Pareto front, plots and an HTML page. SI units throughout."))
+        "Sweep or optimise the built-in link or your own (STEP files: geometry = ... in the study file) and "
+        "the drive: every design point meshed, solved (FEA) and run through the chain model on a Dask cluster; "
+        "writes a tidy table (Parquet, CSV), the feasible set, the Pareto front, which inputs matter "
+        "(sensitivity), plots and an HTML page. SI units throughout."))
     p.add_argument("study", type=Path, help="study file (TOML; see README, Design studies)")
     p.add_argument("--out", type=Path, default=None, help="output folder (default: results-<study file name>)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
