@@ -189,6 +189,8 @@ def check_writable_out(out: Path) -> None:
 
 
 def run(cfg: RunConfig, progress: Progress) -> None:
+    from functools import partial
+
     from reporting.outputs import write_default_outputs, write_replica_outputs
     from stages.chain import RunResults, run_dynamics, run_rpm_sweeps
     from stages.fea import run_fea
@@ -203,13 +205,12 @@ def run(cfg: RunConfig, progress: Progress) -> None:
         timing["dynamics"] = progress.elapsed()
         write_replica_outputs(cfg, replicas, timing, progress)
         return
-    if cfg.link_source is not None:
-        cfg = inspect_geometry(cfg, progress)
+    cfg, part = inspect_geometry(cfg, progress)  # the part resolved once for the whole run
     if cfg.tolerance is None:
-        fea = timed(timing, "fea", progress, run_fea, cfg, progress)
+        fea = timed(timing, "fea", progress, partial(run_fea, part=part), cfg, progress)
         chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     else:
-        fea, chains, scenarios = run_to_tolerance(cfg, progress, timing)
+        fea, chains, scenarios = run_to_tolerance(cfg, progress, timing, part)
     sweeps = timed(timing, "rpm_sweep", progress, run_rpm_sweeps, cfg, fea, progress) if cfg.rpm_sweep else {}
     write_default_outputs(RunResults(cfg, fea, chains, scenarios, sweeps, timing), progress)
 

@@ -88,13 +88,7 @@ class ChainModes:
 def stiffness_matrix_sparse(model: ChainModel) -> sp.csr_matrix:
     """The chain's K (ring of springs plus the drive spring on link 1) as a sparse matrix; equal to
     ChainModel.stiffness_matrix() without forming N x N dense storage."""
-    n, k = model.n_links, model.stiffness_N_per_m
-    i = np.arange(n)
-    j = (i + 1) % n
-    rows = np.concatenate([i, j, i, j, [0]])
-    cols = np.concatenate([i, j, j, i, [0]])
-    vals = np.concatenate([np.full(n, k), np.full(n, k), np.full(n, -k), np.full(n, -k), [model.drive_stiffness]])
-    return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+    return model.topology().stiffness_matrix_sparse()
 
 
 def chain_modes(model: ChainModel, n_modes: int | None = None) -> ChainModes:
