@@ -69,11 +69,12 @@ def part_payloads(spec) -> dict:
 
 
 def _on_part(cfg, part: dict | None, scratch: Path):
-    """cfg on the STEP file that came with the task (written into the task's scratch folder under its
-    own file name), with the part options, its body and bores chosen: pipeline.py's geometry stage.
-    The FEA cache is keyed by the file's contents, so the scratch path does not matter."""
+    """(cfg, geometry.part.Part) on the STEP file that came with the task (written into the task's
+    scratch folder under its own file name), with the part options, its body and bores chosen:
+    pipeline.py's geometry stage. The FEA cache is keyed by the file's contents, so the scratch path
+    does not matter. (cfg, None) for the built-in link: run_fea resolves it."""
     if part is None:
-        return cfg
+        return cfg, None
     from stages.geometry import inspect_geometry
     from stages.progress import Progress
     from study.spec import part_source
@@ -106,8 +107,8 @@ def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings, part:
             cfg = replace(point_config(settings, inputs, None if settings.fea_cache else Path(scratch)),
                           materials=tuple(materials))
             with contextlib.redirect_stderr(io.StringIO()):  # the cautions travel in the records instead
-                cfg = _on_part(cfg, part, Path(scratch))
-                fea = run_fea(cfg, Progress(True), concurrent_levels=False)  # one task per core already
+                cfg, resolved = _on_part(cfg, part, Path(scratch))
+                fea = run_fea(cfg, Progress(True), concurrent_levels=False, part=resolved)  # one task per core already
             hardware_mass_kg = cfg.hardware_mass_kg if cfg.hardware_from_step else None
         except (GeometryError, FemError, DynamicsError) as e:
             reason = f"geometry: {e}" if isinstance(e, GeometryError) else f"FEA: {e}"
@@ -164,9 +165,9 @@ def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings, part: d
         out = Path(scratch) / "report"
         out.mkdir()
         cfg = replace(point_config(settings, inputs), cams=tuple(cams), out=out, station=None, images=True)
-        cfg = _on_part(cfg, part, Path(scratch))
+        cfg, resolved = _on_part(cfg, part, Path(scratch))
         progress = Progress(True)
-        fea = run_fea(cfg, progress)
+        fea = run_fea(cfg, progress, part=resolved)
         chains, scenarios = run_dynamics(cfg, fea, progress)
         write_default_outputs(RunResults(cfg, fea, chains, scenarios, {}, {}), progress)
         return {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.is_file()}
