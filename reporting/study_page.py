@@ -15,7 +15,7 @@ from reporting.tables import Table
 
 def design_table(title: str, rows: list[dict], columns: list[str], limit: int = 50) -> Table:
     """Rows of the study table in display units (mm, MPa, kN), at most `limit` of them."""
-    header, factors = zip(*(display_unit(c) if c not in ("point", "material", "cam") else (c, None)
+    header, factors = zip(*(display_unit(c) if c not in ("point", "geometry_file", "material", "cam") else (c, None)
                             for c in columns))
     body = tuple(tuple(r.get(c) if f is None or r.get(c) is None or isinstance(r.get(c), bool)
                        else float(r[c]) * f for c, f in zip(columns, factors)) for r in rows[:limit])

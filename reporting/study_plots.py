@@ -132,3 +132,29 @@ def plot_convergence(history: list[dict], objective: str, path: Path) -> Path:
     ax.grid(alpha=0.3)
     ax.set_title("optimiser convergence")
     return _save(fig, path)
+
+
+def plot_sensitivity(found, path: Path) -> Path:
+    """One metric's first-order indices (study.sensitivity.MetricSensitivity), largest on top, with
+    their intervals; range variables blue, list variables orange; the adequacy verdict in the title
+    (red when the points are too few to rank the inputs)."""
+    indices = list(reversed(found.indices))
+    fig, ax = plt.subplots(figsize=(7, 0.45 * max(len(indices), 2) + 1.6))
+    y = np.arange(len(indices))
+    colours = ["tab:blue" if i.kind == "range" else "tab:orange" for i in indices]
+    ax.barh(y, [i.first_order for i in indices], xerr=[i.half_width for i in indices], color=colours,
+            error_kw={"ecolor": "k", "capsize": 3, "lw": 1})
+    ax.set_yticks(y, [i.input for i in indices], fontsize=8)  # the study file's names
+    ax.axvline(0, color="k", lw=0.6)
+    ax.set_xlim(min([-0.05, *(i.first_order - i.half_width for i in indices)]),
+                max([1.0, *(i.first_order + i.half_width for i in indices)]))
+    ax.set_xlabel("first-order index S1 (share of the variance explained alone), 95 % interval")
+    ax.grid(axis="x", alpha=0.3)
+    kinds = [k for k in ("range", "list") if any(i.kind == k for i in indices)]
+    ax.legend([plt.Rectangle((0, 0), 1, 1, color="tab:blue" if k == "range" else "tab:orange") for k in kinds],
+              [f"{k} variable" for k in kinds], fontsize=8, loc="lower right")
+    ax.set_title(f"{found.metric}\n{found.adequacy}", fontsize=9,
+                 color="k" if found.adequate else "tab:red")
+    if not indices:
+        ax.text(0.5, 0.5, found.adequacy, ha="center", va="center", transform=ax.transAxes, fontsize=8, wrap=True)
+    return _save(fig, path)

@@ -21,9 +21,10 @@ PROG = "python -m study"
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=PROG, description=(
-        "Sweep or optimise the built-in link and the drive: every design point meshed, solved (FEA) and "
-        "run through the chain model on a Dask cluster; writes a tidy table (Parquet, CSV), the feasible "
-        "set, the Pareto front, plots and an HTML page. SI units throughout."))
+        "Sweep or optimise the built-in link or your own (STEP files: geometry = ... in the study file) and "
+        "the drive: every design point meshed, solved (FEA) and run through the chain model on a Dask cluster; "
+        "writes a tidy table (Parquet, CSV), the feasible set, the Pareto front, which inputs matter "
+        "(sensitivity), plots and an HTML page. SI units throughout."))
     p.add_argument("study", type=Path, help="study file (TOML; see README, Design studies)")
     p.add_argument("--out", type=Path, default=None, help="output folder (default: results-<study file name>)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -94,7 +95,7 @@ def run_study(args, spec, out: Path, client) -> int:
     from study.progress import ProgressBar
     from study.sampling import design_points
     from study.store import ResultStore
-    from study.tasks import base_config
+    from study.tasks import base_config, part_payloads
 
     store = ResultStore(out)
     store.open()
@@ -108,7 +109,7 @@ def run_study(args, spec, out: Path, client) -> int:
     bar.message(f"study {spec.name!r}: {len(points)} points ({len(points) - len(todo)} already in {out}), "
                 f"{worker_threads(client)} workers" + (f" at {args.scheduler}" if args.scheduler else " (local)"))
     bar.points_done = len(points) - len(todo)
-    outcome = run_points(client, todo, spec.settings, store, run, bar)
+    outcome = run_points(client, todo, spec.settings, store, run, bar, part_payloads(spec))
     history = None
     if args.optimise:
         from study.optimise import optimise

@@ -58,7 +58,9 @@ def plan(points: list[DesignPoint]) -> tuple[list[DesignPoint], dict]:
 
 
 def run_points(client, points: list[DesignPoint], settings: Settings, store: ResultStore, run: int,
-               bar: ProgressBar) -> RunOutcome:
+               bar: ProgressBar, parts: dict | None = None) -> RunOutcome:
+    """`parts`: geometry_file name -> tasks.part_payload, for a study of STEP links (the bytes go
+    with the FEA task of their geometry)."""
     from distributed import as_completed
 
     outcome = RunOutcome()
@@ -72,7 +74,8 @@ def run_points(client, points: list[DesignPoint], settings: Settings, store: Res
     futures = {}
     for g, by_material in groups.items():
         first = next(iter(by_material.values()))[0]
-        fea = client.submit(fea_task, first.inputs, tuple(by_material), settings, key=f"fea-{g}-{token}")
+        part = None if first.inputs.get("geometry_file") is None else parts[first.inputs["geometry_file"]]
+        fea = client.submit(fea_task, first.inputs, tuple(by_material), settings, part, key=f"fea-{g}-{token}")
         futures[fea] = ("fea", g, [])
         for material, members in by_material.items():
             for b in range(0, len(members), CHAIN_BATCH):

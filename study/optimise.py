@@ -19,10 +19,10 @@ import numpy as np
 from study.execution import run_points
 from study.pareto import feasibility
 from study.progress import ProgressBar
-from study.sampling import held_values, make_point
+from study.sampling import held_values, make_point, part_identities
 from study.spec import StudySpec
 from study.store import ResultStore, write_csv
-from study.tasks import base_config
+from study.tasks import base_config, part_payloads
 from study.variables import VARIABLES
 
 #: Added to the objective of a design that breaks a constraint (or could not be computed): larger
@@ -59,11 +59,11 @@ def optimise(client, spec: StudySpec, store: ResultStore, run: int, bar: Progres
     history: list[dict] = []
 
     def evaluate_population(_func, population) -> list[float]:
-        points = [make_point(len(evaluated) + i, {**held, **_values(names, x)}, settings)
+        points = [make_point(len(evaluated) + i, {**held, **_values(names, x)}, settings, part_identities(spec))
                   for i, x in enumerate(population)]
         done = opt_store.done_ids()
         todo = list({p.point_id: p for p in points if p.point_id not in done}.values())
-        run_points(client, todo, spec.settings, opt_store, run, quiet)
+        run_points(client, todo, spec.settings, opt_store, run, quiet, part_payloads(spec))
         rows = [{**opt_store.read_point(p.point_id), "point": p.index} for p in points]
         values = [penalised(r, spec) for r in rows]
         for r, v in zip(rows, values):

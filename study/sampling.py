@@ -17,15 +17,16 @@ import numpy as np
 from geometry.dimensions import LinkDimensions
 from geometry.errors import GeometryError
 from study.spec import StudySpec
-from study.variables import GEOMETRY_TARGETS, LINK, VARIABLES, link_dimensions
+from study.variables import GEOMETRY_TARGETS, LINK, STEP, VARIABLES, link_dimensions
 
 
 @dataclass(frozen=True)
 class DesignPoint:
     index: int
     point_id: str  # hash of every input and setting
-    geometry: str  # hash of the link's dimensions and the FEA settings: one mesh and FEA per value
-    inputs: dict  # every variable (varied and held) and every LinkDimensions field, SI
+    geometry: str  # hash of the link (dimensions, or STEP contents and part options) and the FEA settings:
+    #                one mesh and FEA per value
+    inputs: dict  # every variable (varied and held) and every LinkDimensions field (built-in link), SI
     infeasible: str | None  # why the link cannot be built, known before any work
 
     def task_view(self) -> dict:
@@ -69,8 +70,13 @@ def design_points(spec: StudySpec, base_config) -> list[DesignPoint]:
     for sample in range_samples(spec):
         for combo in combos:
             values = {**held_values(spec, base_config), **sample, **dict(zip(choice_names, combo))}
-            points.append(make_point(len(points), values, settings))
+            points.append(make_point(len(points), values, settings, part_identities(spec)))
     return points
+
+
+def part_identities(spec: StudySpec) -> dict:
+    """What identifies each STEP file's link: its contents and the part options (not its path)."""
+    return {name: {"sha256": part.sha256, "options": spec.part_options} for name, part in spec.parts.items()}
 
 
 def held_values(spec: StudySpec, base_config) -> dict:
@@ -79,8 +85,10 @@ def held_values(spec: StudySpec, base_config) -> dict:
     for name, variable in VARIABLES.items():
         if variable.target in GEOMETRY_TARGETS or variable.kind is str:
             continue
-        out[name] = spec.fixed.get(name, getattr(base_config, variable.field))
-    for name in ("material", "cam"):
+        value = spec.fixed.get(name, getattr(base_config, variable.field))
+        if value is not None:  # None: pipeline.py's "not given" (no tensioner), not a column
+            out[name] = value
+    for name in ("material", "cam", "geometry_file"):
         if name in spec.fixed:
             out[name] = spec.fixed[name]
     for name, value in spec.fixed.items():
@@ -89,8 +97,15 @@ def held_values(spec: StudySpec, base_config) -> dict:
     return out
 
 
-def make_point(index: int, values: dict, settings: dict) -> DesignPoint:
-    """The point of the given variable values (every variable set), with its ids."""
+def make_point(index: int, values: dict, settings: dict, parts: dict | None = None) -> DesignPoint:
+    """The point of the given variable values (every variable set), with its ids; `parts`: the
+    identity of each STEP file (part_identities) when the link comes from one."""
+    fea_settings = {k: settings[k] for k in ("mesh_size_m", "order")}
+    if values.get("geometry_file") is not None:
+        inputs = {n: v for n, v in values.items() if VARIABLES[n].target not in GEOMETRY_TARGETS}
+        geometry = _digest({"part": parts[values["geometry_file"]], "fea": fea_settings})
+        point_id = _digest({"inputs": inputs, "part": parts[values["geometry_file"]], "settings": settings})
+        return DesignPoint(index, point_id, geometry, inputs, None)
     link_fields = {f.name: getattr(LinkDimensions(), f.name) for f in fields(LinkDimensions)}
     geometry_values = {n: v for n, v in values.items() if VARIABLES[n].target in GEOMETRY_TARGETS}
     try:
@@ -101,10 +116,9 @@ def make_point(index: int, values: dict, settings: dict) -> DesignPoint:
         link_fields.update({VARIABLES[n].field: v for n, v in geometry_values.items() if VARIABLES[n].target == LINK})
         infeasible = f"geometry: {e}"
     inputs = {**link_fields, "rail_width_m": (link_fields["body_width_m"] - link_fields["recess_width_m"]) / 2,
-              **{n: v for n, v in values.items() if VARIABLES[n].target not in GEOMETRY_TARGETS}}
+              **{n: v for n, v in values.items() if VARIABLES[n].target not in (*GEOMETRY_TARGETS, STEP)}}
     if "rail_width_m" in geometry_values and infeasible is not None:
         inputs["rail_width_m"] = geometry_values["rail_width_m"]
-    fea_settings = {k: settings[k] for k in ("mesh_size_m", "order")}
     geometry = _digest({"link": geometry_values, "fea": fea_settings})
     point_id = _digest({"inputs": inputs, "settings": settings})
     return DesignPoint(index, point_id, geometry, inputs, infeasible)

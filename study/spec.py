@@ -6,6 +6,10 @@ nothing is written before the whole file is valid. The schema, by table:
     [study]        name, report_best (full pipeline reports for that many best designs)
     [variables]    NAME = {min = A, max = B} (a range) | [v1, v2, ...] (a list) | "all" (cam only)
     [fixed]        NAME = value (a variable held at one value)
+                   geometry = "link.step" (the link's STEP file, relative to the study file; or in
+                   [variables] a list of them: CAD variants), with the part options of pipeline.py
+                   bores, pitch, bore_radius, body, hardware_material, hardware_from_step (same
+                   values and units as on its command line: mm in the CAD file's frame)
     [settings]     mesh_size_m, order, samples_per_degree, solver, station, settling_band_m,
                    steady_state, fea_cache
     [sampling]     method = "grid" | "lhs" | "sobol", levels (grid), points (lhs, sobol), seed
@@ -20,6 +24,7 @@ Variable names are those of `study.variables.VARIABLES`; metric names those of
 
 from __future__ import annotations
 
+import hashlib
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -27,9 +32,13 @@ from pathlib import Path
 
 from settings import DEFAULT_MATERIALS, DEFAULT_STATION, LIMITS, RunConfig, cam_ids, known_cam_ids
 from settings import registries
-from study.variables import CAM, MATERIAL, VARIABLES
+from study.variables import CAM, GEOMETRY_KEY, GEOMETRY_TARGETS, MATERIAL, STEP, VARIABLES
 
 SAMPLING_METHODS = ("grid", "lhs", "sobol")
+#: pipeline.py's part options, as keys of [fixed] (with a STEP geometry only)
+PART_OPTIONS = ("bores", "pitch", "bore_radius", "body", "hardware_material", "hardware_from_step")
+#: The first bytes of every STEP (ISO 10303-21) file.
+STEP_HEADER = b"ISO-10303-21;"
 TABLES = ("study", "variables", "fixed", "settings", "sampling", "constraints", "objectives", "optimise")
 
 
@@ -46,6 +55,16 @@ class Range:
 @dataclass(frozen=True)
 class Choices:
     values: tuple
+
+
+@dataclass(frozen=True)
+class PartFile:
+    """A STEP file of the study, read and checked on the client: its bytes go with its FEA task."""
+
+    name: str  # as written in the study file (the table's geometry_file)
+    path: Path  # resolved against the study file's folder
+    sha256: str
+    data: bytes = field(repr=False)
 
 
 @dataclass(frozen=True)
@@ -128,6 +147,8 @@ class StudySpec:
     objectives: tuple[Objective, ...]
     optimise: OptimiseSpec | None
     report_best: int = 1
+    parts: dict = field(default_factory=dict)  # geometry_file name -> PartFile
+    part_options: dict = field(default_factory=dict)  # PART_OPTIONS given in [fixed]
 
     @property
     def ranges(self) -> dict[str, Range]:
@@ -147,22 +168,37 @@ def load_study(path: Path) -> StudySpec:
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
         raise StudyError(f"{path}: not a valid TOML file ({e})") from None
     try:
-        return parse_study(data)
+        return parse_study(data, Path(path).resolve().parent)
     except StudyError as e:
         raise StudyError(f"{path}: {e}") from None
 
 
-def parse_study(data: dict) -> StudySpec:
+def parse_study(data: dict, base_dir: Path | None = None) -> StudySpec:
+    """The spec of a parsed study file; STEP paths are read relative to `base_dir` (default: here)."""
     _only(data, TABLES, "")
     head = _table(data, "study")
     _only(head, ("name", "report_best"), "study.")
     settings = _settings(_table(data, "settings"))
     materials = _known_materials()
-    variables = {name: _variable(name, value, materials) for name, value in _table(data, "variables").items()}
-    fixed = {name: _fixed(name, value, materials) for name, value in _table(data, "fixed").items()}
+    variable_table, fixed_table = dict(_table(data, "variables")), dict(_table(data, "fixed"))
+    options = {k: fixed_table.pop(k) for k in PART_OPTIONS if k in fixed_table}
+    geometry = _geometry(variable_table, fixed_table, Path.cwd() if base_dir is None else base_dir)
+    variables = {name: _variable(name, value, materials) for name, value in variable_table.items()}
+    fixed = {name: _fixed(name, value, materials) for name, value in fixed_table.items()}
     both = [n for n in variables if n in fixed]
     if both:
         raise StudyError(f"fixed.{both[0]}: also in [variables]; expected a name in one table only")
+    parts = {}
+    if geometry is not None:
+        table, parts = geometry
+        (variables if table == "variables" else fixed)["geometry_file"] = (
+            Choices(tuple(parts)) if table == "variables" else next(iter(parts)))
+        _no_builtin_dimensions(variables, fixed)
+    _check_part_options(options, bool(parts), materials)
+    if options.get("hardware_from_step") and "hardware_mass_kg" in {*variables, *fixed}:
+        raise StudyError("fixed.hardware_from_step: the hardware mass comes from the STEP file's solids; expected "
+                         "no hardware_mass_kg in [variables] or [fixed] with it")
+    _check_tensioner(variables, fixed)
     _default_choices(variables, fixed)
     sampling = _sampling(_table(data, "sampling"), variables)
     metrics = _metric_names()
@@ -179,7 +215,116 @@ def parse_study(data: dict) -> StudySpec:
         objectives=objectives,
         optimise=optimise,
         report_best=_int(head.get("report_best", 1), "study.report_best", 0),
+        parts=parts,
+        part_options=options,
     )
+
+
+def _geometry(variables: dict, fixed: dict, base_dir: Path) -> tuple[str, dict] | None:
+    """("variables" or "fixed", {name: PartFile}) of the `geometry` key, every file checked here on
+    the client (before any task is sent); None for the built-in link."""
+    for table, where in ((variables, "variables"), (fixed, "fixed")):
+        if "geometry_file" in table:  # the column's name; the file names the STEP file(s) `geometry`
+            raise StudyError(f"{where}.geometry_file: the study file's key is {GEOMETRY_KEY!r}; expected "
+                             f"{GEOMETRY_KEY} = \"link.step\"")
+    if GEOMETRY_KEY in variables and GEOMETRY_KEY in fixed:
+        raise StudyError(f"fixed.{GEOMETRY_KEY}: also in [variables]; expected a name in one table only")
+    if GEOMETRY_KEY in fixed:
+        value, where = fixed.pop(GEOMETRY_KEY), f"fixed.{GEOMETRY_KEY}"
+        if not isinstance(value, str) or not value:
+            raise StudyError(f"{where}: expected the path of a STEP file (relative to the study file), got {value!r}")
+        return "fixed", {value: read_step_file(value, base_dir, where)}
+    if GEOMETRY_KEY not in variables:
+        return None
+    value, where = variables.pop(GEOMETRY_KEY), f"variables.{GEOMETRY_KEY}"
+    if not isinstance(value, list) or not value or not all(isinstance(v, str) and v for v in value):
+        raise StudyError(f"{where}: expected a list of STEP file paths (CAD variants, relative to the study file), "
+                         f"got {value!r}")
+    parts: dict[str, PartFile] = {}
+    for i, name in enumerate(value):
+        part = read_step_file(name, base_dir, f"{where}[{i}]")
+        for other in parts.values():
+            if other.path == part.path or other.sha256 == part.sha256:
+                same = "the same file" if other.path == part.path else "files with the same contents"
+                raise StudyError(f"{where}: {other.name!r} and {name!r} are {same}; expected each CAD variant once")
+        parts[name] = part
+    return "variables", parts
+
+
+def read_step_file(name: str, base_dir: Path, key: str) -> PartFile:
+    """The STEP file `name` (relative to the study file's folder), or a one-line StudyError."""
+    path = (base_dir / name).resolve()
+    if not path.exists():
+        raise StudyError(f"{key}: no such file {name!r} (looked in {base_dir}); expected a STEP file of one link, "
+                         "its path relative to the study file")
+    if path.is_dir():
+        raise StudyError(f"{key}: {name!r} is a folder; expected a STEP file of one link")
+    try:
+        data = path.read_bytes()
+    except OSError as e:
+        raise StudyError(f"{key}: cannot read {name!r} ({e.strerror or e}); expected a readable STEP file") from None
+    if not data.lstrip().startswith(STEP_HEADER):
+        raise StudyError(f"{key}: {name!r} is not a STEP file (it does not begin with "
+                         f"{STEP_HEADER.decode()}); expected a STEP file of one link (.step, .stp)")
+    return PartFile(name, path, hashlib.sha256(data).hexdigest(), data)
+
+
+def _no_builtin_dimensions(variables: dict, fixed: dict) -> None:
+    for table, where in ((variables, "variables"), (fixed, "fixed")):
+        for name in table:
+            if name in VARIABLES and VARIABLES[name].target in GEOMETRY_TARGETS:
+                raise StudyError(f"{where}.{name}: a dimension of the built-in link, and the study has a STEP "
+                                 f"{GEOMETRY_KEY}; expected one or the other (the file gives the link's shape)")
+
+
+def _check_part_options(options: dict, has_step: bool, materials: tuple[str, ...]) -> None:
+    """pipeline.py's part options, checked by the same code as its command line."""
+    if not options:
+        return
+    key = f"fixed.{next(iter(options))}"
+    if not has_step:
+        raise StudyError(f"{key}: a part option, only for a STEP {GEOMETRY_KEY}; expected {GEOMETRY_KEY} = "
+                         "\"link.step\" with it")
+    from geometry.errors import GeometryError
+
+    for name in ("bores", "pitch", "bore_radius", "body"):
+        if name in options and (isinstance(options[name], bool) or not isinstance(options[name], (str, int, float))):
+            raise StudyError(f"fixed.{name}: expected a value as on pipeline.py's command line, got {options[name]!r}")
+    try:
+        part_source(Path("part.step"), options)
+    except GeometryError as e:
+        raise StudyError(f"fixed: {e}") from None
+    if "hardware_from_step" in options and not isinstance(options["hardware_from_step"], bool):
+        raise StudyError(f"fixed.hardware_from_step: expected true or false, got {options['hardware_from_step']!r}")
+    if "hardware_material" in options:
+        ids = options["hardware_material"]
+        names = [s.strip() for s in ids.split(",")] if isinstance(ids, str) else []
+        unknown = [n for n in names if n not in materials]
+        if not names or unknown:
+            raise StudyError(f"fixed.hardware_material: unknown material {(unknown or [ids])[0]!r}; expected one of "
+                             f"{', '.join(materials)} (or several, comma-separated, one per hardware solid)")
+    elif options.get("hardware_from_step"):
+        raise StudyError("fixed.hardware_from_step: the hardware solids need a material; expected hardware_material")
+
+
+def part_source(path: Path, options: dict):
+    """geometry.assembly.LinkSource of a STEP path with the study's part options (pipeline.py's code)."""
+    from argparse import Namespace
+
+    from geometry.options import link_source
+
+    given = {name: (None if name not in options else str(options[name])) for name in ("bores", "pitch", "bore_radius", "body")}
+    return link_source(path, Namespace(**given))
+
+
+def _check_tensioner(variables: dict, fixed: dict) -> None:
+    """The idler tensioner's rate or damping needs its carriage mass (as on pipeline.py's command line)."""
+    given = {n for n in (*variables, *fixed) if n.startswith("tensioner_")}
+    if given and "tensioner_mass_kg" not in given:
+        name = sorted(given)[0]
+        where = "variables" if name in variables else "fixed"
+        raise StudyError(f"{where}.{name}: the tensioner needs its carriage mass; expected tensioner_mass_kg in "
+                         "[fixed] or [variables]")
 
 
 def _only(table: dict, allowed: tuple, prefix: str) -> None:
@@ -226,6 +371,8 @@ def _int(value, key: str, minimum: int) -> int:
 
 def _check_value(name: str, value, key: str, materials: tuple[str, ...]):
     variable = VARIABLES[name]
+    if variable.target == STEP:
+        return value
     if variable.target == MATERIAL:
         if value not in materials:
             raise StudyError(f"{key}: unknown material {value!r}; expected one of {', '.join(materials)}")
@@ -389,6 +536,7 @@ def _optimise(table, objectives, metrics, variables: dict) -> OptimiseSpec | Non
     held = table.get("held", {})
     if not isinstance(held, dict):
         raise StudyError(f"optimise.held: expected a table of list variables and one value each, got {held!r}")
+    held = {("geometry_file" if k == GEOMETRY_KEY else k): v for k, v in held.items()}
     for name, value in held.items():
         if not isinstance(variables.get(name), Choices) or value not in variables[name].values:
             raise StudyError(f"optimise.held.{name}: expected a variable listed in [variables] and one of its "

@@ -57,8 +57,42 @@ def _one_thread():
     return threadpool_limits(1)
 
 
-def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings) -> dict:
-    """k, mass and stress of one geometry for each material, or why the link cannot be built."""
+def part_payload(part, options: dict) -> dict:
+    """What an FEA task of a STEP link takes along (study.spec.PartFile and the part options): the
+    file's bytes, so the worker needs no shared disk."""
+    return {"name": part.name, "data": part.data, "options": dict(options)}
+
+
+def part_payloads(spec) -> dict:
+    """part_payload of every STEP file of a study (study.spec.StudySpec), by geometry_file name."""
+    return {name: part_payload(part, spec.part_options) for name, part in spec.parts.items()}
+
+
+def _on_part(cfg, part: dict | None, scratch: Path):
+    """(cfg, geometry.part.Part) on the STEP file that came with the task (written into the task's
+    scratch folder under its own file name), with the part options, its body and bores chosen:
+    pipeline.py's geometry stage. The FEA cache is keyed by the file's contents, so the scratch path
+    does not matter. (cfg, None) for the built-in link: run_fea resolves it."""
+    if part is None:
+        return cfg, None
+    from stages.geometry import inspect_geometry
+    from stages.progress import Progress
+    from study.spec import part_source
+
+    folder = scratch / "part"
+    folder.mkdir()
+    path = folder / Path(part["name"]).name
+    path.write_bytes(part["data"])
+    options = part["options"]
+    cfg = replace(cfg, geometry=path, link_source=part_source(path, options),
+                  hardware_material=options.get("hardware_material"),
+                  hardware_from_step=bool(options.get("hardware_from_step", False)))
+    return inspect_geometry(cfg, Progress(True))
+
+
+def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings, part: dict | None = None) -> dict:
+    """k, mass and stress of one geometry for each material, or why the link cannot be built (a STEP
+    part refused: no bore pair, an ambiguous choice...); `part`: part_payload of a STEP link."""
     from dynamics.errors import DynamicsError
     from fem.errors import FemError
     from geometry.errors import GeometryError
@@ -67,16 +101,21 @@ def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings) -> di
 
     keep_large_arrays_on_heap()
     start, cpu_start = time.perf_counter(), time.process_time()
-    reason, fea = None, None
+    reason, fea, hardware_mass_kg = None, None, None
     with tempfile.TemporaryDirectory(prefix="study-fea-") as scratch, _one_thread():
         try:
             cfg = replace(point_config(settings, inputs, None if settings.fea_cache else Path(scratch)),
                           materials=tuple(materials))
             with contextlib.redirect_stderr(io.StringIO()):  # the cautions travel in the records instead
-                fea = run_fea(cfg, Progress(True), concurrent_levels=False)  # one task per core already
+                cfg, resolved = _on_part(cfg, part, Path(scratch))
+                fea = run_fea(cfg, Progress(True), concurrent_levels=False, part=resolved)  # one task per core already
+            hardware_mass_kg = cfg.hardware_mass_kg if cfg.hardware_from_step else None
         except (GeometryError, FemError, DynamicsError) as e:
             reason = f"geometry: {e}" if isinstance(e, GeometryError) else f"FEA: {e}"
-    return {"fea": fea, "reason": reason, **_timing(start, cpu_start)}
+            if part is not None:  # name the study's file, not the worker's scratch copy
+                reason = reason.replace(str(Path(scratch) / "part" / Path(part["name"]).name), part["name"])
+            reason = " ".join(reason.split())
+    return {"fea": fea, "reason": reason, "hardware_mass_kg": hardware_mass_kg, **_timing(start, cpu_start)}
 
 
 def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: Settings) -> dict:
@@ -92,8 +131,11 @@ def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: S
         return {"rows": rows, **_timing(start, cpu_start)}
     fea = fea_outcome["fea"][material]
     frequencies: dict = {}
+    measured_hardware_kg = fea_outcome.get("hardware_mass_kg")  # hardware_from_step: the STEP file's solids
     with _one_thread():
         for p in points:
+            if measured_hardware_kg is not None:
+                p = {**p, "inputs": {**p["inputs"], "hardware_mass_kg": measured_hardware_kg}}
             cfg = point_config(settings, p["inputs"])
             model = chain_model(cfg, fea)
             try:
@@ -110,9 +152,9 @@ def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: S
     return {"rows": rows, **_timing(start, cpu_start)}
 
 
-def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings) -> dict[str, bytes]:
+def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings, part: dict | None = None) -> dict[str, bytes]:
     """pipeline.py's full report of one design (its material, the study's cam laws): the files'
-    bytes, so the client writes them and the worker needs no shared disk."""
+    bytes, so the client writes them and the worker needs no shared disk (nor for the STEP `part`)."""
     from reporting.outputs import write_default_outputs
     from stages.chain import RunResults, run_dynamics
     from stages.fea import run_fea
@@ -123,8 +165,9 @@ def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings) -> dict
         out = Path(scratch) / "report"
         out.mkdir()
         cfg = replace(point_config(settings, inputs), cams=tuple(cams), out=out, station=None, images=True)
+        cfg, resolved = _on_part(cfg, part, Path(scratch))
         progress = Progress(True)
-        fea = run_fea(cfg, progress)
+        fea = run_fea(cfg, progress, part=resolved)
         chains, scenarios = run_dynamics(cfg, fea, progress)
         write_default_outputs(RunResults(cfg, fea, chains, scenarios, {}, {}), progress)
         return {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.is_file()}

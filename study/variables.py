@@ -18,12 +18,13 @@ RAIL = "rail"  # the side rail width: sets recess_width_m = body_width_m - 2 * v
 MATERIAL = "material"
 CAM = "cam"
 RUN = "run"  # a RunConfig field
+STEP = "step"  # the link's STEP file (a path in the study file; its bytes travel with the FEA task)
 
 
 @dataclass(frozen=True)
 class Variable:
     name: str  # the key in the study file and the column in the table (SI, unit suffix)
-    target: str  # LINK, RAIL, MATERIAL, CAM or RUN
+    target: str  # LINK, RAIL, MATERIAL, CAM, RUN or STEP
     field: str  # the LinkDimensions or RunConfig field it sets
     kind: type  # float, int or str (str: a choice from a list)
     bounds: Bounds = Bounds()  # numbers only: the allowed values (a length: > 0)
@@ -53,7 +54,17 @@ VARIABLES: dict[str, Variable] = {v.name: v for v in [
     _run("friction", float),
     _run("damping", float),
     _run("pin_clearance_m", float),
+    # the idler tensioner, as pipeline.py's --tensioner-rate/-mass/-damping (the mass is needed with
+    # either of the others: dynamics.clearance_sim.tensioner_from)
+    _run("tensioner_rate_N_per_m", float),
+    _run("tensioner_mass_kg", float),
+    _run("tensioner_damping_N_s_per_m", float),
+    # `geometry` in the study file: its column is geometry_file (the table's `geometry` is the FEA group's id)
+    Variable("geometry_file", STEP, "geometry", str),
 ]}
+
+#: The study file's key for the STEP file(s) of the link, and the variable it sets.
+GEOMETRY_KEY = "geometry"
 
 #: Variables that change the geometry (one mesh each) and so the FEA.
 GEOMETRY_TARGETS = (LINK, RAIL)
@@ -79,7 +90,7 @@ def run_fields(values: dict) -> dict:
     out = {}
     for name, value in values.items():
         variable = VARIABLES.get(name)
-        if variable is None:
+        if variable is None or value is None:  # None: a RunConfig default that is "not given" (no tensioner)
             continue
         if variable.target == RUN:
             out[variable.field] = variable.kind(value)

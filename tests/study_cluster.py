@@ -84,21 +84,23 @@ def study_command(study: Path, out: Path, *options: str) -> list[str]:
 class ExternalCluster:
     """`dask scheduler` + `dask worker` processes (no nanny: killing one kills that worker)."""
 
-    def __init__(self, workers: int, cache: Path):
+    def __init__(self, workers: int, cache: Path, worker_cwd: Path = ROOT):
+        """worker_cwd: the workers' working directory (elsewhere than the client's: no shared paths)."""
         self.env = env(cache)
+        self.worker_cwd = worker_cwd
         self.address = f"tcp://127.0.0.1:{free_port()}"
         self.scheduler = self._start([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
                                       "--port", self.address.rsplit(":", 1)[1], "--no-dashboard"])
         self.workers = [self.start_worker() for _ in range(workers)]
         self.wait_for_workers(workers)
 
-    def _start(self, command: list[str]) -> subprocess.Popen:
-        return subprocess.Popen(command, cwd=ROOT, env=self.env, stdout=subprocess.DEVNULL,
+    def _start(self, command: list[str], cwd: Path = ROOT) -> subprocess.Popen:
+        return subprocess.Popen(command, cwd=cwd, env=self.env, stdout=subprocess.DEVNULL,
                                 stderr=subprocess.DEVNULL, start_new_session=True)
 
     def start_worker(self) -> subprocess.Popen:
         return self._start([sys.executable, "-m", "dask", "worker", self.address, "--nthreads", "1",
-                            "--no-nanny", "--no-dashboard", "--host", "127.0.0.1"])
+                            "--no-nanny", "--no-dashboard", "--host", "127.0.0.1"], cwd=self.worker_cwd)
 
     def client(self):
         from distributed import Client
