@@ -121,7 +121,7 @@ def _pin_clearance_m(text: str | None, default_m: float) -> float:
 
 
 def _rayleigh(text: str | None) -> tuple[float, float] | None:
-    from dynamics.clearance_sim import parse_rayleigh
+    from dynamics.scene import parse_rayleigh
 
     if text is None:
         return None

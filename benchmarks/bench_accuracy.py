@@ -23,10 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.clearance import ClearanceChain
-from dynamics.clearance_sim import simulate_chain
-from dynamics.metrics import link_metrics, station_metrics
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import ClearanceChain
+from dynamics.scene import simulate_chain
+from dynamics.response.metrics import link_metrics, station_metrics
 
 KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2",
         "residual_vibration_m")

@@ -25,10 +25,10 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.clearance import DEFAULT_PIN_CLEARANCE_M, ClearanceChain
-from dynamics.clearance_sim import Scene, simulate_scene
-from dynamics.metrics import link_metrics, station_metrics
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M, ClearanceChain
+from dynamics.scene import Scene, simulate_scene
+from dynamics.response.metrics import link_metrics, station_metrics
 from dynamics.solvers import clearance_verlet as verlet
 
 MATERIALS = {"al6061-t6": (9.0092e7, 2.03), "ti-grade2": (1.3696e8, 2.28)}  # FEA k (N/m), lumped mass (kg)
@@ -183,7 +183,7 @@ def _stage_table(quick: bool) -> list[str]:
 def _linear_stage_s(cams, t) -> float:
     import warnings
 
-    from dynamics.simulate import SlackChainWarning, simulate
+    from dynamics.solvers.simulate import SlackChainWarning, simulate
 
     start = time.perf_counter()
     with warnings.catch_warnings():
@@ -204,7 +204,7 @@ class _FastResponse:
 def _side_by_side(quick: bool) -> list[str]:
     """The fast integrator beside bench_clearance_reference's methods (imported, not copied)."""
     from benchmarks import bench_clearance_reference as ref_bench
-    from dynamics.clearance_reference import HeldCam
+    from verification.clearance_reference import HeldCam
 
     held = HeldCam(ref_bench.CAM, ref_bench.T_WINDOW)
     t = ref_bench.T_WINDOW

@@ -10,7 +10,7 @@ input, the cam's acceleration held linearly between the output samples and its e
 both codes build: (a) C = beta K on y' always, and (b) Kelvin-Voigt beta k in contact only.
 
 Methods (one line each in METHODS, so the fast solver can be added beside them):
-- reference: dynamics.clearance_reference, DOP853 at rtol 1e-10 with contact events; and at rtol
+- reference: verification.clearance_reference, DOP853 at rtol 1e-10 with contact events; and at rtol
   1e-8, whose difference from 1e-10 shows the reference's own error;
 - exudyn: generalized-alpha (spectral radius 1) at 40 and 160 steps per output step, limit stops.
 
@@ -28,9 +28,9 @@ from typing import Callable
 import numpy as np
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.clearance_reference import HeldCam, reference_response
-from dynamics.metrics import rms, station_links
+from dynamics.models.chain import ChainModel
+from verification.clearance_reference import HeldCam, reference_response
+from dynamics.response.metrics import rms, station_links
 
 K = 9.27e7
 MASS = 2.03

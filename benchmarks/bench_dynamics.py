@@ -1,6 +1,6 @@
 """Dynamics benchmark: the default solver against the report's scheme and against scipy solve_ivp.
 
-The report's 85-link case: the 2012 script's model (dynamics.mqp2012: its units, damping, preload and
+The report's 85-link case: the 2012 script's model (dynamics.models.mqp2012: its units, damping, preload and
 Dynacam cam table), 0..180 cam degrees at 180 rpm from rest, 181 one-degree outputs, for each of the 5
 cams x 2 materials the pipeline runs (10 scenarios). Solved by
 - report-rk45: the report's scheme, MATLAB ode45 (RelTol 1e-3, AbsTol 1e-6) restarted every degree;
@@ -19,7 +19,7 @@ and exact; its reference is exact with 16 sub-steps (an estimate: the sign law i
 A third table asks the pipeline's question, the periodic steady state of continuous indexing, on the
 default SI chain (85 links, each material's k and m, modal damping 0.13, 5 cams, one-degree samples of
 one index cycle, every link): simulate() with the default solver; the modal sweep engine
-(dynamics.sweep, one eigensolve per material, the 5 cams in one batch); and the report's scheme, which
+(dynamics.response.sweep, one eigensolve per material, the 5 cams in one batch); and the report's scheme, which
 has no periodic solver, integrating from rest until the transient has died (its last cycle is compared).
 Peak memory: tracemalloc peak of one scenario's solve (numpy/scipy arrays; LAPACK's internal
 workspace is not counted), in a separate run from the timings.
@@ -33,16 +33,16 @@ import warnings
 
 import numpy as np
 
-from dynamics import simulate as simulate_module
+from dynamics.solvers import simulate as simulate_module
 from dynamics.cams.program import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.mqp2012 import CAMS, MATERIALS, dynacam_table, preload_vector, replica_system
+from dynamics.models.chain import ChainModel
+from dynamics.models.mqp2012 import CAMS, MATERIALS, dynacam_table, preload_vector, replica_system
 from dynamics.solvers import cache as solver_cache
 from dynamics.solvers import exact as exact_solver
 from dynamics.solvers import solve
-from dynamics.simulate import SlackChainWarning, simulate
-from dynamics.sweep import cam_cycle_samples, chain_modes, modal_periodic_response
-from dynamics.system import SampledForce
+from dynamics.solvers.simulate import SlackChainWarning, simulate
+from dynamics.response.sweep import cam_cycle_samples, chain_modes, modal_periodic_response
+from dynamics.models.system import SampledForce
 
 N_LINKS = 85
 RPM = 180.0
@@ -126,7 +126,7 @@ def _blas_threads_table() -> list[str]:
 
     serial = min(pass_s() for _ in range(REPEATS))
     # the runner pins BLAS to one thread for every measurement; lift that here and the solvers' own pin
-    with threadpool_limits(limits=os.cpu_count()), mock.patch("dynamics.simulate.serial_blas", nullcontext), \
+    with threadpool_limits(limits=os.cpu_count()), mock.patch("dynamics.solvers.simulate.serial_blas", nullcontext), \
             mock.patch("dynamics.solvers.serial_blas", nullcontext):
         threaded = min(pass_s() for _ in range(REPEATS))
     return [f"\nBLAS threads, pipeline's 10 scenarios (N = {N_LINKS}, friction 0.35): one thread {serial:.3f} s, "
@@ -138,9 +138,9 @@ def _long_chain_table(quick: bool) -> list[str]:
     import warnings
 
     from dynamics.cams import CamProgram
-    from dynamics.chain import ChainModel
-    from dynamics.reduction import MODES_FOR_LONG_CHAINS
-    from dynamics.simulate import SlackChainWarning, simulate
+    from dynamics.models.chain import ChainModel
+    from dynamics.models.reduction import MODES_FOR_LONG_CHAINS
+    from dynamics.solvers.simulate import SlackChainWarning, simulate
 
     cam = CamProgram.indexing("modified-sine", rpm=RPM)
     t = np.arange(721) / (4 * 6.0 * RPM)  # 180 deg at 4 samples per degree, as the pipeline
@@ -267,7 +267,7 @@ def _default_model_table(scenarios, n_slow: int) -> list[str]:
     """The same question (the report's k, lumped mass, program and 181 one-degree outputs, from rest)
     on the default chain model: SI, symmetric ring with the drive spring, modal damping 0.13."""
     from dynamics.cams import mqp2012_program
-    from dynamics.chain import ChainModel
+    from dynamics.models.chain import ChainModel
 
     t = np.arange(181) * ((60.0 / RPM) / 360.0)
     cases = {}

@@ -19,11 +19,11 @@ import tracemalloc
 import numpy as np
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.clearance import ClearanceChain
-from dynamics.clearance_sim import simulate_chain
-from dynamics.metrics import link_metrics, station_links, station_metrics
-from dynamics.reduction import DENSE_LINK_LIMIT, modes_to_keep
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import ClearanceChain
+from dynamics.scene import simulate_chain
+from dynamics.response.metrics import link_metrics, station_links, station_metrics
+from dynamics.models.reduction import DENSE_LINK_LIMIT, modes_to_keep
 
 KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2",
         "residual_vibration_m")
@@ -57,7 +57,7 @@ def run(quick: bool) -> list[str]:
     _run(40)  # compile / load the numba cache
     _run(40, 1e-4)
     lines = ["Long clearance chains, one scenario each (default link, 0.094 mm, 180 rpm, steady state); the "
-             "global damping law in its O(N) form above 400 links (dynamics/reduced_damping.py)", "",
+             "global damping law in its O(N) form above 400 links (dynamics/models/reduced_damping.py)", "",
              "| N | model | damping form | time (whole scenario) | peak memory | steady state | steps/sample | "
              "check vs dense C |",
              "|---|---|---|---|---|---|---|---|"]

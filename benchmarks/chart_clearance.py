@@ -1,7 +1,7 @@
 """Clearance chain charts (issue #11): the explicit integrator's stability map (step / limit x link
 stiffness x pin clearance), where the event-located reference fails (clearance x stiffness x rtol),
 where the common-interface methods blow up or lose accuracy (step or rtol x stiffness), and the
-work-precision of every method against the reference. Cases: dynamics.clearance_stability."""
+work-precision of every method against the reference. Cases: verification.clearance_stability."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
-from dynamics.clearance_stability import (
+from verification.clearance_stability import (
     CLEARANCES_M,
     EVENT_BUDGET,
     EVENT_DEGREES,

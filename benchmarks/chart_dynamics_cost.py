@@ -3,7 +3,7 @@
 - default solver: simulate(method="exact", periodic steady state), one index cycle of the modified
   sine at 180 rpm, one-degree outputs, every link; dense 2N-state matrix exponential, O(N^3) time and
   O(N^2) memory, so it stops where a run takes about a minute (N = 1000);
-- modal sweep engine (dynamics.sweep) at one speed and cam, all N modes (dense eigensolve, O(N^3));
+- modal sweep engine (dynamics.response.sweep) at one speed and cam, all N modes (dense eigensolve, O(N^3));
 - the same engine with the 400 lowest modes from sparse shift-invert Lanczos (about linear in N): the
   path that reaches N = 10,000, from N = 5000 (r <= N/10 for the sparse solver; nearer r = N/10, e.g.
   N = 4000, ARPACK converges slowly: 9.5 s measured). Its truncation error is checked against 800
@@ -23,13 +23,13 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from dynamics.cams.program import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.reduction import DENSE_LINK_LIMIT, MODES_FOR_LONG_CHAINS, modes_to_keep
-from dynamics import simulate as simulate_module
-from dynamics.simulate import SlackChainWarning, simulate
+from dynamics.models.chain import ChainModel
+from dynamics.models.reduction import DENSE_LINK_LIMIT, MODES_FOR_LONG_CHAINS, modes_to_keep
+from dynamics.solvers import simulate as simulate_module
+from dynamics.solvers.simulate import SlackChainWarning, simulate
 from dynamics.solvers import cache as solver_cache
-from dynamics.sweep import chain_modes, rpm_sweep
-from dynamics.workprecision import observed_order
+from dynamics.response.sweep import chain_modes, rpm_sweep
+from verification.workprecision import observed_order
 
 K_N_PER_M, M_KG = 9e7, 2.0
 TRUNCATED_MODES = 400  # at N = 10,000: residual vibration and peak acceleration within 1e-4 of 800 modes
@@ -62,7 +62,7 @@ def time_default(n: int) -> float:
 
 def time_pipeline_path(n: int) -> float:
     """What the pipeline runs for a chain of n links: all link coordinates up to
-    dynamics.reduction.DENSE_LINK_LIMIT, the lowest modes above it."""
+    dynamics.models.reduction.DENSE_LINK_LIMIT, the lowest modes above it."""
     cam = CamProgram.indexing("modified-sine")
     t = cam.cycle_s * np.arange(91) / 90
 

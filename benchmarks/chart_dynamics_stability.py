@@ -1,6 +1,6 @@
 """Stability map chart: per method, which (step or tolerance) x stiffness x N cases give a bounded,
 accurate answer, which are bounded but inaccurate, and which diverge or fail; the central-difference
-limit dt = 2 / omega_max(k) drawn on the fixed-step panels. Cases: dynamics.stability."""
+limit dt = 2 / omega_max(k) drawn on the fixed-step panels. Cases: verification.stability."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from dynamics.chain import ChainModel
-from dynamics.stability import MAP_METHODS, STIFFNESSES_N_PER_M, central_difference_limit_s, stability_map
+from dynamics.models.chain import ChainModel
+from verification.stability import MAP_METHODS, STIFFNESSES_N_PER_M, central_difference_limit_s, stability_map
 
 COLORS = {"accurate": "tab:green", "inaccurate": "tab:orange", "diverged": "tab:red", "failed": "tab:purple"}
 N_LINKS = (10, 85)

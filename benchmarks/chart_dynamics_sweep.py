@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from dynamics.chain import ChainModel
-from dynamics.mqp2012 import CAMS
-from dynamics.sweep import rpm_sweep
+from dynamics.models.chain import ChainModel
+from dynamics.models.mqp2012 import CAMS
+from dynamics.response.sweep import rpm_sweep
 from reporting.plots import plot_rpm_sweep
 
 

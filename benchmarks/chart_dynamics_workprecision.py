@@ -1,7 +1,7 @@
 """Dynamics work-precision chart: error against wall time for every solver, N = 85 and N = 400.
 
 Wall time: best of 2 cold runs at N = 85 (the machine is shared), one run at N = 400.
-Problem, reference and error: dynamics.workprecision (linear default chain, friction 0, k 9e7 N/m,
+Problem, reference and error: verification.workprecision (linear default chain, friction 0, k 9e7 N/m,
 m 2 kg, modified sine at 180 rpm, two index cycles from rest, one-degree outputs).
 """
 
@@ -12,7 +12,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from dynamics.workprecision import (
+from verification.workprecision import (
     ALL_METHODS,
     chain_problem,
     force_sampling_error,

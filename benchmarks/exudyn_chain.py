@@ -1,5 +1,5 @@
 """The clearance chain built in Exudyn, an independent multibody code: the cross-check of
-dynamics.clearance_reference (tests/test_clearance_exudyn.py, benchmarks/bench_clearance_reference.py).
+verification.clearance_reference (tests/test_clearance_exudyn.py, benchmarks/bench_clearance_reference.py).
 
 Exudyn (PyPI `exudyn`, the `bench` extra) is optional: `exudyn_chain_response` raises ImportError
 without it, and the tests that use it are skipped with that reason.
@@ -72,7 +72,7 @@ def exudyn_chain_response(
 ) -> ExudynChainResponse:
     """The chain from rest at t_eval_s[0] (every link at the cam's position, motionless), solved by
     Exudyn; t_eval_s uniform. `cam`: any cam duck type (`svaj`); pass the HeldCam of
-    dynamics.clearance_reference to drive it with the same input as the reference's default."""
+    verification.clearance_reference to drive it with the same input as the reference's default."""
     import exudyn as exu
     from exudyn import itemInterface as ii
 

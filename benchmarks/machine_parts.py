@@ -21,10 +21,10 @@ import time
 import numpy as np
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.machine import MachineOnWheels
-from dynamics.machine_steady import link_residual_and_peak, periodic_state
-from dynamics.wheels import Wheel, pitch_radius_m, steel_disc_inertia_kg_m2
+from dynamics.models.chain import ChainModel
+from dynamics.models.machine import MachineOnWheels
+from dynamics.solvers.machine_steady import link_residual_and_peak, periodic_state
+from dynamics.models.wheels import Wheel, pitch_radius_m, steel_disc_inertia_kg_m2
 from geometry.dimensions import DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG
 
 PITCH_M = 0.1125

@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from dynamics.clearance_sim import ChainModelKind
-from dynamics.metrics import rank_cams, rms, station_links
+from dynamics.scene import ChainModelKind
+from dynamics.response.metrics import rank_cams, rms, station_links
 from reporting import html, plots
 from reporting.history import CamHistory
 from reporting.sections import Report, build_sections
@@ -416,8 +416,8 @@ def _tension_maps(staged: StagedOutput, scenarios: dict, materials, cams) -> dic
 
 
 def replica_summary(cfg, runs: dict[str, ReplicaRun], timing: dict) -> dict:
-    from dynamics.metrics import station_metrics
-    from dynamics.mqp2012 import REPORT_TABLE1, REPORT_TABLE2
+    from dynamics.response.metrics import station_metrics
+    from dynamics.models.mqp2012 import REPORT_TABLE1, REPORT_TABLE2
 
     materials = {}
     for name, run in runs.items():
@@ -451,7 +451,7 @@ def replica_summary(cfg, runs: dict[str, ReplicaRun], timing: dict) -> dict:
 
 
 def _replica_comparison_table(replicas: dict) -> Table:
-    from dynamics.mqp2012 import REPORT_TABLE1, REPORT_TABLE2
+    from dynamics.models.mqp2012 import REPORT_TABLE1, REPORT_TABLE2
 
     rows = []
     quantities = (("RMS displacement (mm)", 0), ("RMS velocity (mm/s)", 1), ("RMS acceleration (mm/s²)", 2))

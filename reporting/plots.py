@@ -18,7 +18,7 @@ import numpy as np  # noqa: E402
 from reporting.history import CamHistory  # noqa: E402
 
 if TYPE_CHECKING:
-    from dynamics.sweep import SweepResult
+    from dynamics.response.sweep import SweepResult
 
 CAM_COLOURS = {
     "modified-sine": "tab:red",

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable
 
-from dynamics.clearance_sim import ChainModelKind, Validity
+from dynamics.scene import ChainModelKind, Validity
 from reporting import html
 from reporting.tables import Table
 

@@ -27,7 +27,7 @@ def check_run_config(cfg: RunConfig) -> None:
     _check_solver(cfg.solver, cfg.friction)
     _check_chain_model(cfg)
     if cfg.rpm_sweep is not None:
-        from dynamics.sweep import parse_rpm_range
+        from dynamics.response.sweep import parse_rpm_range
 
         try:
             parse_rpm_range(cfg.rpm_sweep)
@@ -68,8 +68,8 @@ def _check_solver(method: str, friction: float) -> None:
 
 
 def _check_chain_model(cfg: RunConfig) -> None:
-    """The chain-model options (issue #11); the rules live in dynamics.clearance_sim."""
-    from dynamics.clearance_sim import tensioner_from
+    """The chain-model options (issue #11); the rules live in dynamics.scene."""
+    from dynamics.scene import tensioner_from
 
     if cfg.rayleigh is not None:
         alpha, beta = cfg.rayleigh

@@ -3,8 +3,8 @@
 A new cam law is one `dynamics.cams.register_law` call: `cam_ids()` (what 'all' means) and
 `extra_cam_ids()` (accepted by name only) are derived from the law registry. Materials come from
 fem/data/materials.toml (plus a user's --materials-file), solver methods from
-`dynamics.solvers.METHODS`, chain models and span damping laws from dynamics.clearance(_sim),
-accelerometer stations from `dynamics.metrics.station_links`. The imports are deferred so that
+`dynamics.solvers.METHODS`, chain models and span damping laws from dynamics.models.clearance(_sim),
+accelerometer stations from `dynamics.response.metrics.station_links`. The imports are deferred so that
 reading the settings does not load numpy, scipy or gmsh.
 """
 
@@ -38,13 +38,13 @@ def known_cam_ids() -> tuple[str, ...]:
 
 def preset_cam_ids(preset: str) -> tuple[str, ...]:
     """The cam laws a preset replicates (the 2012 report's five for mqp2012)."""
-    from dynamics.mqp2012 import CAMS
+    from dynamics.models.mqp2012 import CAMS
 
     return {"mqp2012": CAMS}[preset]
 
 
 def preset_material_ids(preset: str) -> tuple[str, ...]:
-    from dynamics.mqp2012 import MATERIALS
+    from dynamics.models.mqp2012 import MATERIALS
 
     return {"mqp2012": tuple(MATERIALS)}[preset]
 
@@ -58,19 +58,19 @@ def material_ids(materials_file=None) -> tuple[str, ...]:
 
 def station_names() -> tuple[str, ...]:
     """The four accelerometer stations, drive end first."""
-    from dynamics.metrics import station_links
+    from dynamics.response.metrics import station_links
 
     return tuple(station_links(1))
 
 
 def chain_models() -> tuple[str, ...]:
-    from dynamics.clearance_sim import MODEL_CHOICES
+    from dynamics.scene import MODEL_CHOICES
 
     return MODEL_CHOICES
 
 
 def span_damping_laws() -> tuple[str, ...]:
-    from dynamics.clearance import SPAN_DAMPING_LAWS
+    from dynamics.models.clearance import SPAN_DAMPING_LAWS
 
     return SPAN_DAMPING_LAWS
 

@@ -4,7 +4,7 @@
 starts each design point from `RunConfig()`, and both check values against `LIMITS` (one table of
 allowed ranges, SI). Fields are SI; the command line takes some lengths in mm (`mm_to_m`).
 Defaults that belong to a physical model stay with it and are read from there (the pin clearance
-from dynamics.clearance, the hardware and nest masses from geometry.dimensions), through
+from dynamics.models.clearance, the hardware and nest masses from geometry.dimensions), through
 `default_factory`, so that reading the settings does not import numpy or gmsh.
 """
 
@@ -38,7 +38,7 @@ def m_to_mm(value_m: float) -> float:
 
 
 def _default_pin_clearance_m() -> float:
-    from dynamics.clearance import DEFAULT_PIN_CLEARANCE_M
+    from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M
 
     return DEFAULT_PIN_CLEARANCE_M
 
@@ -93,7 +93,7 @@ class RunConfig:
     link_source: LinkSource | None = None  # --geometry with --bores/--pitch/--bore-radius/--body
     hardware_material: str | None = None  # --hardware-material: ids for the STEP file's hardware solids
     hardware_from_step: bool = False  # --hardware-from-step: hardware mass from those solids
-    # the chain model (issue #11): see dynamics.clearance_sim
+    # the chain model (issue #11): see dynamics.scene
     model: str = "auto"
     pin_clearance_m: float = field(default_factory=_default_pin_clearance_m)  # inf: a chain that only pulls
     span_damping: str = "global"
@@ -131,7 +131,7 @@ class Bounds:
         return f"{low} and {'<=' if self.upper_included else '<'} {self.upper * per_si:g}"
 
 
-MAX_LINKS = 10_000  # chains above dynamics.reduction.DENSE_LINK_LIMIT links are solved in their lowest modes
+MAX_LINKS = 10_000  # chains above dynamics.models.reduction.DENSE_LINK_LIMIT links are solved in their lowest modes
 
 
 @dataclass(frozen=True)

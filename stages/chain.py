@@ -12,10 +12,10 @@ from stages.progress import Progress
 if TYPE_CHECKING:  # numpy, scipy and the dynamics load when a stage runs, not when it is imported
     import numpy as np
 
-    from dynamics.chain import ChainModel
-    from dynamics.clearance_sim import ContactSummary, Scene
-    from dynamics.metrics import LinkMetrics, StationMetrics, TensionExtremes
-    from dynamics.sweep import SweepResult
+    from dynamics.models.chain import ChainModel
+    from dynamics.scene import ContactSummary, Scene
+    from dynamics.response.metrics import LinkMetrics, StationMetrics, TensionExtremes
+    from dynamics.response.sweep import SweepResult
     from reporting.history import CamHistory
 
 REPORTED_MODES = 10  # natural frequencies kept per chain for the report
@@ -65,7 +65,7 @@ def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.
 
 def chain_scene(cfg: RunConfig) -> Scene:
     """The chain beyond its linear model, as the dynamics take it (the settings are checked already)."""
-    from dynamics.clearance_sim import Scene, tensioner_from
+    from dynamics.scene import Scene, tensioner_from
 
     return Scene(cfg.pin_clearance_m, cfg.span_damping,
                  tensioner_from(cfg.tensioner_rate_N_per_m, cfg.tensioner_mass_kg, cfg.tensioner_damping_N_s_per_m),
@@ -73,7 +73,7 @@ def chain_scene(cfg: RunConfig) -> Scene:
 
 
 def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None) -> ChainModel:
-    from dynamics.chain import ChainModel
+    from dynamics.models.chain import ChainModel
 
     return ChainModel(
         n_links=cfg.links,
@@ -93,10 +93,10 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
 
     import numpy as np
 
-    from dynamics.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
-    from dynamics.reduction import modes_to_keep
+    from dynamics.response.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
+    from dynamics.models.reduction import modes_to_keep
     from reporting.history import CamHistory
-    from dynamics.clearance_sim import simulate_scene
+    from dynamics.scene import simulate_scene
 
     t = output_times_s(cfg.rpm, samples_per_degree)
     cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
@@ -120,7 +120,7 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
     """Finest sampling the tolerance needs, with the error estimate from the step and from k."""
     from dataclasses import replace
 
-    from dynamics.fidelity import choose_samples_per_degree, stiffness_sensitivity
+    from dynamics.response.fidelity import choose_samples_per_degree, stiffness_sensitivity
 
     model = chain_model(cfg, result)
     runs: dict[int, Scenario] = {}
@@ -143,7 +143,7 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
 def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea],
                  progress: Progress) -> tuple[dict[str, MaterialChain], dict[tuple[str, str], Scenario]]:
     """Simulate every material x cam law; returns each material's chain and the scenarios."""
-    from dynamics.reduction import lowest_natural_frequencies_Hz, modes_to_keep
+    from dynamics.models.reduction import lowest_natural_frequencies_Hz, modes_to_keep
 
     chains, models, scenarios = {}, {}, {}
     for name, result in fea.items():
@@ -167,8 +167,8 @@ def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progre
     """Speed sweep per material on the linear chain (the fast modal path cannot carry friction)."""
     from dataclasses import replace
 
-    from dynamics.reduction import modes_to_keep
-    from dynamics.sweep import parse_rpm_range, rpm_sweep
+    from dynamics.models.reduction import modes_to_keep
+    from dynamics.response.sweep import parse_rpm_range, rpm_sweep
 
     rpms = parse_rpm_range(cfg.rpm_sweep)
     sweeps = {}

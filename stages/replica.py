@@ -9,8 +9,8 @@ from settings import RunConfig
 from stages.progress import Progress
 
 if TYPE_CHECKING:
-    from dynamics.metrics import LinkMetrics
-    from dynamics.mqp2012 import ReplicaResult
+    from dynamics.response.metrics import LinkMetrics
+    from dynamics.models.mqp2012 import ReplicaResult
 
 
 @dataclass(frozen=True)
@@ -22,8 +22,8 @@ class ReplicaRun:
 
 
 def run_replicas(cfg: RunConfig, progress: Progress) -> dict[str, ReplicaRun]:
-    from dynamics.metrics import link_metrics
-    from dynamics.mqp2012 import run_mqp2012
+    from dynamics.response.metrics import link_metrics
+    from dynamics.models.mqp2012 import run_mqp2012
 
     runs = {}
     for material in cfg.materials:

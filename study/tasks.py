@@ -121,7 +121,7 @@ def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings, part:
 def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: Settings) -> dict:
     """The chain of every point in the batch, on one FEA result; one record per point."""
     from dynamics.errors import DynamicsError
-    from dynamics.reduction import lowest_natural_frequencies_Hz
+    from dynamics.models.reduction import lowest_natural_frequencies_Hz
     from stages.chain import chain_model, simulate_scenario
 
     start, cpu_start = time.perf_counter(), time.process_time()

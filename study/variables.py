@@ -55,7 +55,7 @@ VARIABLES: dict[str, Variable] = {v.name: v for v in [
     _run("damping", float),
     _run("pin_clearance_m", float),
     # the idler tensioner, as pipeline.py's --tensioner-rate/-mass/-damping (the mass is needed with
-    # either of the others: dynamics.clearance_sim.tensioner_from)
+    # either of the others: dynamics.scene.tensioner_from)
     _run("tensioner_rate_N_per_m", float),
     _run("tensioner_mass_kg", float),
     _run("tensioner_damping_N_s_per_m", float),

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
 
 

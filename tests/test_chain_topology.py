@@ -1,14 +1,14 @@
-"""dynamics.topology: the chain's matrices derived from one topology equal the ones each module built
+"""dynamics.models.topology: the chain's matrices derived from one topology equal the ones each module built
 on its own before (the oracles below are those builders, kept verbatim)."""
 
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from dynamics.chain import ChainModel
-from dynamics.clearance import ClearanceChain, Tensioner
-from dynamics.sweep import stiffness_matrix_sparse
-from dynamics.topology import ChainTopology, Span, ring_topology
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import ClearanceChain, Tensioner
+from dynamics.response.sweep import stiffness_matrix_sparse
+from dynamics.models.topology import ChainTopology, Span, ring_topology
 
 
 def _old_dense_stiffness(model: ChainModel) -> np.ndarray:
@@ -26,7 +26,7 @@ def _old_dense_stiffness(model: ChainModel) -> np.ndarray:
 
 
 def _old_sparse_stiffness(model: ChainModel) -> sp.csr_matrix:
-    """dynamics.sweep.stiffness_matrix_sparse before the topology (commit cab7c6f)."""
+    """dynamics.response.sweep.stiffness_matrix_sparse before the topology (commit cab7c6f)."""
     n, k = model.n_links, model.stiffness_N_per_m
     i = np.arange(n)
     j = (i + 1) % n

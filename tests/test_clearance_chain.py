@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.clearance import ClearanceChain, Tensioner, contact_state, span_energy_J, span_force_N
-from dynamics.clearance_sim import Validity, choose_model, simulate_chain
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import ClearanceChain, Tensioner, contact_state, span_energy_J, span_force_N
+from dynamics.scene import Validity, choose_model, simulate_chain
 from dynamics.errors import DynamicsError, SolverDivergedError
-from dynamics.simulate import simulate
+from dynamics.solvers.simulate import simulate
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import solve
-from dynamics.system import SampledForce
+from dynamics.models.system import SampledForce
 
 K, MASS, P = 9e7, 2.2, 2224.0
 
@@ -98,7 +98,7 @@ def test_choices_and_their_limits():
     assert choose_model(m, "clearance", 1.0)[0] == "clearance"
     tensioned = ClearanceChain(_chain(), 0.0, tensioner=Tensioner(1e5, 5.0, 100.0))
     assert choose_model(tensioned, "auto", 1.0)[0] == "clearance"
-    for n in (401, 2000):  # the global law's reduced form (dynamics.reduced_damping): no fallback at any length
+    for n in (401, 2000):  # the global law's reduced form (dynamics.models.reduced_damping): no fallback at any length
         long = ClearanceChain(_chain(n=n), 94e-6)
         assert long.damping_is_reduced
         assert choose_model(long, "clearance", -1.0)[0] == "clearance"
@@ -367,10 +367,10 @@ def test_steady_state_repeats_after_one_period():
 
 @pytest.mark.parametrize("predictor", ["euler", "ab2"])
 def test_stability_map_both_sides_of_the_limit(predictor):
-    """Map cases (dynamics.clearance_stability) at 1e8 N/m, each predictor at its own limit (ab2: the
+    """Map cases (verification.clearance_stability) at 1e8 N/m, each predictor at its own limit (ab2: the
     default run's): without free play the limit is sharp; with it a step just above the limit finishes
     and is wrong instead of diverging, and far above it diverges."""
-    from dynamics.clearance_stability import step_case
+    from verification.clearance_stability import step_case
 
     assert step_case(1e8, 0.0, 0.99, predictor=predictor).outcome == "accurate"
     assert step_case(1e8, 0.0, 1.01, predictor=predictor).outcome == "diverged"

@@ -1,4 +1,4 @@
-"""Cross-check of the clearance chain's reference (dynamics.clearance_reference) against Exudyn, an
+"""Cross-check of the clearance chain's reference (verification.clearance_reference) against Exudyn, an
 independent multibody code (benchmarks/exudyn_chain.py builds the chain there with limit stops).
 
 Exudyn integrates with generalized-alpha (spectral radius 1, the trapezoidal rule) at a fixed step,
@@ -25,10 +25,10 @@ import pytest
 
 from benchmarks.exudyn_chain import exudyn_chain_response
 from dynamics.cams import CamProgram, Segment
-from dynamics.chain import ChainModel
-from dynamics.clearance_reference import HeldCam, reference_response
-from dynamics.metrics import rms, station_links
-from dynamics.simulate import SlackChainWarning, simulate
+from dynamics.models.chain import ChainModel
+from verification.clearance_reference import HeldCam, reference_response
+from dynamics.response.metrics import rms, station_links
+from dynamics.solvers.simulate import SlackChainWarning, simulate
 
 N = 20
 K = 9.27e7

@@ -1,4 +1,4 @@
-"""The fast clearance integrator against the slow event-located reference (dynamics.clearance_reference,
+"""The fast clearance integrator against the slow event-located reference (verification.clearance_reference,
 written separately from the model's equations): second-order convergence to it, and agreement of the
 station metrics on the 85-link default case (slow)."""
 
@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.clearance import ClearanceChain
-from dynamics.clearance_reference import reference_response
-from dynamics.metrics import link_metrics, station_metrics
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import ClearanceChain
+from verification.clearance_reference import reference_response
+from dynamics.response.metrics import link_metrics, station_metrics
 from dynamics.solvers import clearance_verlet as verlet
 
 KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2",

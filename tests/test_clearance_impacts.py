@@ -21,8 +21,8 @@ import math
 import numpy as np
 import pytest
 
-from dynamics.chain import ChainModel
-from dynamics.clearance import ClearanceChain, Tensioner, contact_state
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import ClearanceChain, Tensioner, contact_state
 from dynamics.solvers import clearance_verlet as verlet
 
 N, M, K, GAP, V = 8, 2.0, 9.0e7, 4e-3, 0.6

@@ -3,12 +3,12 @@ event-located reference's contact-change budget (max_events), central difference
 the common interface, and the accuracy limit of the exact solver's Heun splitting of the span law.
 The reference's absolute tolerance against the contact stiffness, too. The fast integrator's own step
 limit is in tests/test_clearance_chain.py. Cases: 10 links, the first
-30 degrees of an index from rest (dynamics.clearance_stability.small_case)."""
+30 degrees of an index from rest (verification.clearance_stability.small_case)."""
 
 import numpy as np
 import pytest
 
-from dynamics.clearance_stability import event_case, method_case, small_case
+from verification.clearance_stability import event_case, method_case, small_case
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.solvers import clearance_verlet as verlet
 

@@ -1,4 +1,4 @@
-"""The clearance chain's slow reference (dynamics.clearance_reference) against exact answers.
+"""The clearance chain's slow reference (verification.clearance_reference) against exact answers.
 
 Tolerances: the reference runs DOP853 at rtol 1e-10 with every contact change located; measured on
 the 20-link chain below against the exact linear solver its global error is about 1 rtol in y,
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram, Segment
-from dynamics.chain import ChainModel
-from dynamics.clearance_reference import HeldCam, idler_span_index, reference_response
+from dynamics.models.chain import ChainModel
+from verification.clearance_reference import HeldCam, idler_span_index, reference_response
 from dynamics.errors import DynamicsError, SolverFailedError
-from dynamics.simulate import SlackChainWarning, simulate
+from dynamics.solvers.simulate import SlackChainWarning, simulate
 
 K = 9.27e7  # N/m, the default link's axial stiffness (order of)
 MASS = 2.03  # kg per link
@@ -37,7 +37,7 @@ def chain(n=20, **overrides):
 
 
 def relative(lin):
-    """Motion of a dynamics.simulate response relative to the cam."""
+    """Motion of a dynamics.solvers.simulate response relative to the cam."""
     return (lin.x_m - lin.z_m[:, None], lin.v_m_s - lin.zdot_m_s[:, None], lin.a_m_s2 - lin.zddot_m_s2[:, None])
 
 

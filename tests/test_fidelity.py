@@ -1,12 +1,12 @@
-"""Choosing the time step for a tolerance on the metrics (dynamics/fidelity.py)."""
+"""Choosing the time step for a tolerance on the metrics (dynamics/response/fidelity.py)."""
 
 import numpy as np
 import pytest
 
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
-from dynamics.fidelity import choose_samples_per_degree, metric_values, relative_change, stiffness_sensitivity
-from dynamics.metrics import StationMetrics
+from dynamics.response.fidelity import choose_samples_per_degree, metric_values, relative_change, stiffness_sensitivity
+from dynamics.response.metrics import StationMetrics
 
 import pipeline
 from stages.chain import chain_model, simulate_scenario

@@ -1,18 +1,18 @@
-"""dynamics.machine: the linear chain on its wheels reduces to today's chain in each limit where both
+"""dynamics.models.machine: the linear chain on its wheels reduces to today's chain in each limit where both
 hold, its reference integrator agrees with the exact solver, and the issue's frequency figure."""
 
 import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.clearance import ClearanceChain, Tensioner
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.errors import DynamicsError
-from dynamics.machine import MachineOnWheels
-from dynamics.machine_ivp import integrate_cycle
+from dynamics.models.machine import MachineOnWheels
+from dynamics.solvers.machine_ivp import integrate_cycle
 from dynamics.solvers import solve
-from dynamics.system import SampledForce
-from dynamics.wheels import Wheel
+from dynamics.models.system import SampledForce
+from dynamics.models.wheels import Wheel
 
 P = 0.1125
 # the default scene: aluminium link from `python -m fem` (built-in link, al6061-t6), its body mass plus
@@ -174,7 +174,7 @@ def test_the_relabelled_steady_state_repeats_after_one_index(machine):
     """x0 = T(P(x0)): propagated over one index by the exact solver and relabelled by one link, the
     state comes back to itself (rounding); marching 40 indexes from rest reaches it too (the slowest
     mode loses a factor of about 200 per index)."""
-    from dynamics.machine_steady import _end_state, cycle_grid, periodic_state
+    from dynamics.solvers.machine_steady import _end_state, cycle_grid, periodic_state
 
     cam = _cam()
     steady = periodic_state(machine, cam, 360)
@@ -192,7 +192,7 @@ def test_the_relabelled_steady_state_repeats_after_one_index(machine):
 def test_the_polygonal_relabelled_steady_state_repeats_after_one_index():
     """The same with the polygonal feed (integrator and nonlinear transfer): to the shooting's
     tolerance, 1e-7 of the state's scale."""
-    from dynamics.machine_steady import _end_state, cycle_grid, periodic_state
+    from dynamics.solvers.machine_steady import _end_state, cycle_grid, periodic_state
 
     chain = ChainModel(16, 2.03, 2e7)
     machine = MachineOnWheels(chain, sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3), idler=Wheel(12, P, 2))
@@ -212,7 +212,7 @@ def test_the_issues_residual_vibration_figure_on_the_default_scene():
     vibration (link 64) from 4.17 mm to 3.42 mm and the peak acceleration by +8 %. Same links seated
     every cycle (the frame of that model); the issue's 4.17 is this model's 4.164 (its k or sampling
     differed slightly), hence 0.01 mm."""
-    from dynamics.machine_steady import labelled_periodic_state, link_residual_and_peak
+    from dynamics.solvers.machine_steady import labelled_periodic_state, link_residual_and_peak
 
     chain = ChainModel(85, M_AL, K_AL)
     cam = _cam()

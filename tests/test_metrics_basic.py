@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from dynamics.errors import DynamicsError
-from dynamics.metrics import (
+from dynamics.response.metrics import (
     RANKABLE,
     link_metrics,
     matlab_round,

@@ -9,7 +9,7 @@ and nothing more.
 import numpy as np
 import pytest
 
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 from dynamics.solvers import solve
 from dynamics.solvers.exact import _van_loan
 from dynamics.solvers.expm_stack import expm_stack
@@ -21,7 +21,7 @@ from dynamics.solvers.mode_scan import (
     propagate_modes,
     propagate_modes_stepwise,
 )
-from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.models.system import SampledForce, SecondOrderSystem
 
 from test_solvers_exact import sdof_foh_closed_form
 

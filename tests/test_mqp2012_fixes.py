@@ -6,7 +6,7 @@ import scipy.linalg
 
 from dynamics.cams import mqp2012_program
 from dynamics.errors import DynamicsError
-from dynamics.mqp2012 import (
+from dynamics.models.mqp2012 import (
     MATERIALS,
     dynacam_omega_rad_s,
     modal_damping_matrix,
@@ -16,7 +16,7 @@ from dynamics.mqp2012 import (
     script_matrices,
 )
 from dynamics.solvers import solve
-from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.models.system import SampledForce, SecondOrderSystem
 
 
 def test_modal_damping_matrix_is_symmetric_with_zeta_on_every_mode():
@@ -85,15 +85,15 @@ def test_unknown_fix():
 
 def test_quirks_fixed_replica_agrees_with_the_default_chain_model():
     # Two independent builds of the corrected model: this module's (preload as the script's two
-    # +-2224 N link forces, starting from the preloaded equilibrium K^-1 p) and dynamics.chain +
-    # dynamics.simulate (preload as a static tension, outside the linear dynamics). Without
+    # +-2224 N link forces, starting from the preloaded equilibrium K^-1 p) and dynamics.models.chain +
+    # dynamics.solvers.simulate (preload as a static tension, outside the linear dynamics). Without
     # friction they differ by the constant K^-1 p in x, by the cam speed (the replica keeps
     # Dynacam's 18.85 rad/s: v scaled by 1 + 2.4e-5, a by 1 + 4.7e-5) and by the force hold on
     # 0.1-deg grids (both exact first-order-hold solutions, ~1e-7 m apart).
     import warnings
 
-    from dynamics.chain import ChainModel
-    from dynamics.simulate import SlackChainWarning, simulate
+    from dynamics.models.chain import ChainModel
+    from dynamics.solvers.simulate import SlackChainWarning, simulate
 
     n, cam = 30, "modified-sine"
     k, m = MATERIALS["al6061-t6"]

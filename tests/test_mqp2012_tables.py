@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dynamics.mqp2012 import CAMS, MATERIALS, REPORT_TABLE1, REPORT_TABLE2, run_mqp2012
+from dynamics.models.mqp2012 import CAMS, MATERIALS, REPORT_TABLE1, REPORT_TABLE2, run_mqp2012
 
 
 @pytest.fixture(scope="module", params=sorted(MATERIALS))

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from dynamics.mqp2012 import growth_rate_1_s, run_mqp2012
+from dynamics.models.mqp2012 import growth_rate_1_s, run_mqp2012
 
 
 @pytest.mark.parametrize("n_links", [8, 9])

@@ -1,4 +1,4 @@
-"""The global damping law's O(N) form (dynamics.reduced_damping) against the dense modal C.
+"""The global damping law's O(N) form (dynamics.models.reduced_damping) against the dense modal C.
 
 - Tight quadrature (tolerance 1e-13): the form is the dense C to round-off, and the integrator with it
   equals the dense run to round-off (both paths): the new form reduces to the old one.
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.clearance import ClearanceChain
-from dynamics.metrics import station_links
-from dynamics.reduced_damping import DEFAULT_DAMPING_TOLERANCE, reduced_damping
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import ClearanceChain
+from dynamics.response.metrics import station_links
+from dynamics.models.reduced_damping import DEFAULT_DAMPING_TOLERANCE, reduced_damping
 from dynamics.solvers import clearance_verlet as verlet
 
 

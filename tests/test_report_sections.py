@@ -8,7 +8,7 @@ from types import SimpleNamespace
 import pytest
 
 import pipeline
-from dynamics.clearance_sim import ChainModelKind, Validity
+from dynamics.scene import ChainModelKind, Validity
 from reporting import html, sections
 
 COARSE = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "--no-images", "-q",

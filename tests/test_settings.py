@@ -27,7 +27,7 @@ def test_the_command_line_defaults_are_run_config_defaults():
 
 
 def test_the_defaults_are_read_from_the_models_that_own_them():
-    from dynamics.clearance import DEFAULT_PIN_CLEARANCE_M
+    from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M
     from geometry.dimensions import DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG
 
     d = RunConfig()
@@ -113,7 +113,7 @@ def test_a_registered_cam_law_runs_through_the_command_line(test_law, tmp_path):
 
 
 def test_the_registries_name_what_the_stages_accept():
-    from dynamics.metrics import station_links
+    from dynamics.response.metrics import station_links
     from dynamics.solvers import METHODS
 
     assert registries.station_names() == tuple(station_links(12))

@@ -5,9 +5,9 @@ import warnings
 import numpy as np
 import pytest
 
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
-from dynamics.simulate import SlackChainWarning, simulate
+from dynamics.solvers.simulate import SlackChainWarning, simulate
 
 DEG_180RPM_S = (1 / 3) / 360  # one cam degree at 180 rpm
 

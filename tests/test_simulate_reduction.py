@@ -1,11 +1,11 @@
-"""simulate(..., n_modes=r): the chain in its r lowest modes (dynamics/reduction.py)."""
+"""simulate(..., n_modes=r): the chain in its r lowest modes (dynamics/models/reduction.py)."""
 
 import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.simulate import SlackChainWarning, simulate
+from dynamics.models.chain import ChainModel
+from dynamics.solvers.simulate import SlackChainWarning, simulate
 
 pytestmark = pytest.mark.filterwarnings("ignore", category=SlackChainWarning)
 

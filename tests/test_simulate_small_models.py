@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from dynamics.errors import DynamicsError
-from dynamics.small_models import one_dof_follower, two_dof_follower
+from verification.small_models import one_dof_follower, two_dof_follower
 
 
 class RampCam:

@@ -5,8 +5,8 @@ import pytest
 
 from dynamics.errors import DynamicsError, SolverFailedError
 from dynamics.solvers import solve
-from dynamics.steady_state import periodic_initial_state
-from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.solvers.steady_state import periodic_initial_state
+from dynamics.models.system import SampledForce, SecondOrderSystem
 
 
 def sdof(nonlinear=None):

@@ -6,7 +6,7 @@ import pytest
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.solvers import METHODS, cache, solve, solve_with_diagnostics
 from dynamics.solvers.exact import foh_matrices
-from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.models.system import SampledForce, SecondOrderSystem
 
 
 def sdof_foh_closed_form(m, c, k, t, f, x0=0.0, v0=0.0):
@@ -223,7 +223,7 @@ def test_modal_construction_of_the_foh_matrices_equals_van_loan():
     # Classical (modal) damping takes the per-mode route; both are exact discretisations of the same
     # system, so they agree to rounding (the per-mode exponentials are of 4x4 matrices, the augmented
     # one of 3N x 3N: a few ulps times N).
-    from dynamics.chain import ChainModel
+    from dynamics.models.chain import ChainModel
     from dynamics.solvers.exact import _modal_foh, _van_loan, classical_modes
     from dynamics.solvers.mode_scan import mode_steps
 
@@ -237,7 +237,7 @@ def test_modal_construction_of_the_foh_matrices_equals_van_loan():
 
 
 def test_non_classical_damping_is_not_taken_for_classical():
-    from dynamics.mqp2012 import replica_system
+    from dynamics.models.mqp2012 import replica_system
 
     system, _ = replica_system("al6061-t6", 30, 0.0)  # the script's asymmetric damping
     from dynamics.solvers.exact import classical_modes
@@ -250,7 +250,7 @@ def test_the_report_models_complex_modes_are_too_ill_conditioned_to_step_in():
     matrix's eigenvectors at 85 links have a condition number near 1e13 (bench_dynamics prints it),
     so modal coordinates would lose about 13 of 16 digits. 1e10 leaves three decades of margin for
     the LAPACK build's own rounding in a near-defective eigenproblem."""
-    from dynamics.mqp2012 import replica_system
+    from dynamics.models.mqp2012 import replica_system
     from dynamics.solvers._common import state_matrices
 
     system, _ = replica_system("al6061-t6", 85, 0.0)
@@ -282,7 +282,7 @@ def test_van_loan_over_the_force_dofs_equals_the_textbook_one():
     Both are exact; they differ by rounding of the unscaled textbook exponential (||A h|| up to 1e5,
     about 15 squarings, each adding a few ulps): measured 5e-15 of each block's largest entry, so
     1e-13 leaves room for another BLAS's rounding and would still catch a mis-scaled block."""
-    from dynamics.mqp2012 import replica_system
+    from dynamics.models.mqp2012 import replica_system
     from dynamics.solvers.exact import _van_loan
 
     system, _ = replica_system("ti-grade2", 30, 0.0)
@@ -301,7 +301,7 @@ def test_van_loan_over_the_force_dofs_equals_the_textbook_one():
 def test_a_force_on_few_dofs_gives_the_same_response_as_on_all():
     """The solver builds its exponential over the loaded DOFs only; a force with a negligible
     (1e-300 N) entry on every other DOF takes the all-DOF path and must give the same response."""
-    from dynamics.mqp2012 import replica_system
+    from dynamics.models.mqp2012 import replica_system
 
     system, _ = replica_system("al6061-t6", 30, 0.0)
     t = np.linspace(0.0, 0.05, 101)
@@ -319,7 +319,7 @@ def test_accelerations_from_the_modes_equal_the_equation_of_motion():
     """On the modal route the solver returns q'' = p - c q' - w^2 q mapped back, which is
     M^-1 (f - C v - K x) written in the modes: the same numbers to rounding (measured 1e-15 of the
     largest acceleration; 1e-12 leaves room for the 1e-10 tolerance on classical damping)."""
-    from dynamics.chain import ChainModel
+    from dynamics.models.chain import ChainModel
     from dynamics.solvers._common import accelerations, make_problem
 
     system = ChainModel(40, 2.03, 9.27e7, damping_ratio=0.13, preload_N=0.0).system()

@@ -8,7 +8,7 @@ from scipy.linalg import eigh
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.solvers import solve, solve_with_diagnostics
 from dynamics.solvers.central_difference import stability_limit
-from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.models.system import SampledForce, SecondOrderSystem
 
 from test_solvers_exact import ring
 

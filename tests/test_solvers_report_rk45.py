@@ -7,7 +7,7 @@ from scipy.linalg import eigh
 from dynamics.errors import DynamicsError
 from dynamics.solvers import solve, solve_with_diagnostics
 from dynamics.solvers.report_rk45 import _ode45
-from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.models.system import SampledForce, SecondOrderSystem
 
 
 def driven_ring(n, k, m, zeta):

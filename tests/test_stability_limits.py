@@ -7,18 +7,18 @@ import numpy as np
 import pytest
 
 from dynamics.cams.program import CamProgram
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError, SolverDivergedError
-from dynamics.simulate import SlackChainWarning, simulate
+from dynamics.solvers.simulate import SlackChainWarning, simulate
 from dynamics.solvers import solve
-from dynamics.stability import (
+from verification.stability import (
     central_difference_limit_s,
     central_difference_spectral_radius,
     classify,
     stability_map,
 )
-from dynamics.sweep import cam_cycle_samples, chain_modes, modal_periodic_response
-from dynamics.workprecision import chain_problem, reference_response
+from dynamics.response.sweep import cam_cycle_samples, chain_modes, modal_periodic_response
+from verification.workprecision import chain_problem, reference_response
 
 
 def run(problem, method, **opts):
@@ -123,7 +123,7 @@ def test_stability_map_coarse():
 @pytest.mark.parametrize("stiffness", [1e5, 1e6, 1e7, 1e8, 1e9, 1e10])
 def test_default_solver_right_at_every_stiffness(stiffness):
     # The default path (simulate, exact, periodic steady state) against closed-form modal
-    # superposition solved by DFT (dynamics.sweep): independent algebra, same discretisation, so
+    # superposition solved by DFT (dynamics.response.sweep): independent algebra, same discretisation, so
     # they agree to rounding (measured <= 2e-11 relative) at every stiffness.
     model = ChainModel(85, 2.0, stiffness)
     program = CamProgram.indexing("modified-sine")

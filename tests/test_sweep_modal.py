@@ -1,4 +1,4 @@
-"""dynamics.sweep: the modal periodic solution against simulate(), the sweep, critical speeds, input checks."""
+"""dynamics.response.sweep: the modal periodic solution against simulate(), the sweep, critical speeds, input checks."""
 
 import warnings
 
@@ -7,11 +7,11 @@ import pytest
 from scipy.linalg import eigh
 
 from dynamics.cams.program import CamProgram
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
-from dynamics.metrics import station_links
-from dynamics.simulate import SlackChainWarning, simulate
-from dynamics.sweep import (
+from dynamics.response.metrics import station_links
+from dynamics.solvers.simulate import SlackChainWarning, simulate
+from dynamics.response.sweep import (
     cam_cycle_samples,
     chain_modes,
     critical_speeds_rpm,

@@ -1,6 +1,6 @@
 import numpy as np
 
-from dynamics.system import SampledForce
+from dynamics.models.system import SampledForce
 
 
 def test_sampled_force_is_linear_between_samples():

@@ -1,11 +1,11 @@
-"""dynamics.wheels: pitch radius and the chordal action against an independent planar construction
+"""dynamics.models.wheels: pitch radius and the chordal action against an independent planar construction
 and the closed form for a steadily turning wheel."""
 
 import numpy as np
 import pytest
 
 from dynamics.errors import DynamicsError
-from dynamics.wheels import Wheel, pitch_radius_m, steel_disc_inertia_kg_m2
+from dynamics.models.wheels import Wheel, pitch_radius_m, steel_disc_inertia_kg_m2
 
 P = 0.1125
 

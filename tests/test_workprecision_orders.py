@@ -6,8 +6,8 @@ import pytest
 
 from dynamics.errors import DynamicsError
 from dynamics.solvers import solve
-from dynamics.stability import central_difference_limit_s
-from dynamics.workprecision import (
+from verification.stability import central_difference_limit_s
+from verification.workprecision import (
     chain_problem,
     force_sampling_error,
     measure,

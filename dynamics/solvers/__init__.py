@@ -15,7 +15,7 @@ from a failed run.
 
 Beyond `system.nonlinear_force` g(x, v), the methods that accept a nonlinear force also take the
 option `time_dependent_force=g(t, x, v)`, added to it: friction written in coordinates that move
-with the cam needs the cam's velocity at time t (see dynamics.simulate).
+with the cam needs the cam's velocity at time t (see dynamics.solvers.simulate).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ import numpy as np
 from dynamics.errors import DynamicsError
 from dynamics.solvers import central_difference, exact, ivp, modal, newmark, report_rk45
 from dynamics.solvers._common import accelerations, make_problem, serial_blas
-from dynamics.system import Response, SampledForce, SecondOrderSystem
+from dynamics.models.system import Response, SampledForce, SecondOrderSystem
 
 
 @dataclass(frozen=True)

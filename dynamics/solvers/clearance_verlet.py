@@ -32,12 +32,12 @@ the helpers are inlined into the loop under FASTMATH; the span law, the friction
 branch and the contact statistics are written without branches, so that they vectorise; tanh is
 computed from one exp (`_tanh`) and only where it is not exactly +-1 (`TANH_IS_ONE`); the steps
 leave out the powers, which only output steps need. Above DENSE_LINK_LIMIT links (or when the model
-asks for it) the global law's product is the O(N) form of dynamics.reduced_damping (`_sqrt_product`:
+asks for it) the global law's product is the O(N) form of dynamics.models.reduced_damping (`_sqrt_product`:
 one cyclic tridiagonal solve per quadrature node, the nodes as the vectorised inner loop).
 
 Impacts (`_impacts_loop`, `_impacts_array`): the closing speed, force spike, approach energy and
 contact dissipation of each impact, taken at the contact threshold's crossing within the step
-(dynamics.clearance_sim.ImpactStatistics defines them).
+(dynamics.scene.ImpactStatistics defines them).
 """
 
 from __future__ import annotations
@@ -136,7 +136,7 @@ def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
         f_cam = -kd * y[0] - beta * kd * w[0]
     else:
         t_all = t_el
-        cw = cmat @ w  # a dense C or a dynamics.reduced_damping.ReducedDamping
+        cw = cmat @ w  # a dense C or a dynamics.models.reduced_damping.ReducedDamping
         p_damp = np.dot(w, cw)
         f_cam = -kd * y[0] - np.sum(cw)
     cw[0] += kd * y[0]
@@ -291,7 +291,7 @@ def _mirror_product(blocks, work, w, out):
 
 
 def _sqrt_product(coefficients, weights, factors, sm, acc, y, w, out):
-    """out = C w for the reduced global law (dynamics.reduced_damping): a0 m w + a1 K w + 2 zeta K acc,
+    """out = C w for the reduced global law (dynamics.models.reduced_damping): a0 m w + a1 K w + 2 zeta K acc,
     acc = sum_j c_j (K / m + tau_j I)^-1 w by one cyclic tridiagonal solve per node (Thomas, then
     Sherman-Morrison with the node's z), all nodes at once: `factors` is (3, N, p), so the recurrences
     run over the links with the nodes as the (vectorised) inner loop. y: (N, p) scratch.
@@ -751,7 +751,7 @@ class Run:
 def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 0.0, ud0: float = 0.0,
               out_every: int = 1, record_from: int = 0, track_energy: bool = False,
               compiled: bool | None = None, predictor: str = "euler") -> Run:
-    """Step the clearance chain `model` (dynamics.clearance.ClearanceChain) over the nodes at which
+    """Step the clearance chain `model` (dynamics.models.clearance.ClearanceChain) over the nodes at which
     the cam's velocity and acceleration are given (uniform step `step_s`, len n_steps + 1), from
     (y0, w0, u0, ud0). `compiled`: None = numba when installed, False = the numpy path. `predictor`:
     the velocity at which the damping and friction forces are taken (PREDICTORS)."""

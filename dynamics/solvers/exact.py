@@ -40,7 +40,7 @@ from dynamics.solvers import mode_scan
 from dynamics.solvers._common import (Problem, check_finite, divergence_bounds, force_at, frequency_bound,
                                       is_diagonal, state_matrices)
 from dynamics.solvers.cache import cached
-from dynamics.system import SecondOrderSystem
+from dynamics.models.system import SecondOrderSystem
 
 OPTIONS = {
     "substeps": "int >= 1 (default 1): equal sub-intervals per output interval (nonlinear force)",

@@ -8,7 +8,7 @@ Rayleigh damping are; anything else is refused rather than silently decoupled.
 Truncation converges only if the force excites mostly low modes. A base-excited chain written in
 absolute coordinates (force k_d z on the driven link) does not: the static response of the cut modes
 is lost. Written relative to the cam (x = z 1 + y, force -M 1 z''), it does: that is how
-dynamics.simulate calls this method.
+dynamics.solvers.simulate calls this method.
 """
 
 from __future__ import annotations

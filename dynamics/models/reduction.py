@@ -3,11 +3,11 @@
 The chain's dense matrices grow as N^2 (N = 10,000 links: 800 MB each, and a dense eigensolve of
 minutes), so for long chains `simulate(..., n_modes=r)` solves the same model in its r lowest
 mass-normalised modes: M_r = I, C_r = diag(c_j), K_r = diag(w_j^2), modal forces shapes^T f. The
-modes come from a sparse eigensolve (`dynamics.sweep.chain_modes`), the damping is the model's
+modes come from a sparse eigensolve (`dynamics.response.sweep.chain_modes`), the damping is the model's
 modal damping, and friction is projected (shapes^T g(shapes q, shapes q')), so the same solvers and
 the same steady-state iteration run on an r-DOF system. Truncation converges in these relative
 coordinates (the cam's rigid motion is exact; on the default 85-link chain the first mode carries
-84 % of the effective mass, see dynamics.sweep).
+84 % of the effective mass, see dynamics.response.sweep).
 """
 
 from __future__ import annotations
@@ -17,8 +17,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from dynamics.chain import ChainModel
-from dynamics.system import SecondOrderSystem
+from dynamics.models.chain import ChainModel
+from dynamics.models.system import SecondOrderSystem
 
 
 @dataclass(frozen=True, eq=False)
@@ -29,7 +29,7 @@ class ModalBasis:
 
 
 def modal_basis(model: ChainModel, n_modes: int) -> ModalBasis:
-    from dynamics.sweep import chain_modes
+    from dynamics.response.sweep import chain_modes
 
     # the modes of the linear chain; friction enters later as a projected force
     modes = chain_modes(replace(model, friction_coefficient=0.0), n_modes)
@@ -71,7 +71,7 @@ def lowest_natural_frequencies_Hz(model: ChainModel, count: int) -> np.ndarray:
     if model.n_links <= DENSE_LINK_LIMIT:
         frequencies = model.natural_frequencies_Hz()[:count]
     else:
-        from dynamics.sweep import chain_modes
+        from dynamics.response.sweep import chain_modes
 
         modes = chain_modes(replace(model, friction_coefficient=0.0), min(count, model.n_links))
         frequencies = modes.natural_frequencies_Hz

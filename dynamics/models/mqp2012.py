@@ -1,7 +1,7 @@
 """Preset `mqp2012`: a faithful replica of the 2012 report's n-DOF MATLAB script (Appendix C).
 
 It reproduces the report's Tables 1 and 2, so it keeps the script's quirks. Each is listed here;
-none of them belongs in the default model (dynamics.chain), which is SI throughout.
+none of them belongs in the default model (dynamics.models.chain), which is SI throughout.
 
 Inputs
 - Link stiffness and lumped mass per material from the report's script: al6061-t6 k = 92696969.7
@@ -69,8 +69,8 @@ import scipy.linalg
 from dynamics.cams.laws import get_law
 from dynamics.cams.program import mqp2012_program
 from dynamics.errors import DynamicsError
-from dynamics.metrics import matlab_round, residual_vibration, rms
-from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.response.metrics import matlab_round, residual_vibration, rms
+from dynamics.models.system import SampledForce, SecondOrderSystem
 
 MATERIALS = {  # stiffness N/m, lumped mass kg (as in the script's comments)
     "al6061-t6": (92696969.7, 2.03),

@@ -15,7 +15,7 @@ does not diverge: the growing top mode opens spans into free play, which bounds 
 not from watching for divergence.
 
 Work-precision (`work_precision`): the fast integrator at several steps per output sample against
-the event-located reference (dynamics.clearance_reference, rtol 1e-10, the same sampled cam input),
+the event-located reference (verification.clearance_reference, rtol 1e-10, the same sampled cam input),
 error in the station links' displacement and acceleration versus wall time; the reference's own
 cost at looser tolerances for comparison.
 
@@ -43,12 +43,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from dynamics.cams import CamProgram
-from dynamics.chain import ChainModel
-from dynamics.clearance import ClearanceChain
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import ClearanceChain
 from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedError
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import solve
-from dynamics.system import SampledForce
+from dynamics.models.system import SampledForce
 
 OUTCOMES = ("accurate", "inaccurate", "diverged", "failed")
 STEP_FACTORS = (0.5, 0.9, 0.99, 1.01, 1.1, 1.5, 2.0)
@@ -119,7 +119,7 @@ class WorkPoint:
 def work_precision(n_links: int = 20, substeps=(4, 8, 16, 32, 64), rtols=(1e-6, 1e-8)) -> list[WorkPoint]:
     """Fast integrator and looser references against the reference at rtol 1e-10 (default link's k
     and mass, 0.094 mm, friction 0.35, modal zeta 0.13, 180 degrees from rest, 4 samples/degree)."""
-    from dynamics.clearance_reference import reference_response
+    from verification.clearance_reference import reference_response
 
     chain = ChainModel(n_links=n_links, link_mass_kg=2.03, stiffness_N_per_m=9.0092e7, friction_coefficient=0.35)
     model = ClearanceChain(chain, 94e-6)
@@ -185,7 +185,7 @@ class SmallCase:
                                 tf[1] - tf[0], np.zeros(n), -self.v[0] * np.ones(n), out_every=sub)
 
     def reference(self, rtol: float, max_events: int | None = None, atol: float | None = None):
-        from dynamics.clearance_reference import MAX_EVENTS, reference_response
+        from verification.clearance_reference import MAX_EVENTS, reference_response
 
         c = self.model.chain
         kelvin_voigt = self.model.span_damping == "kelvin-voigt"

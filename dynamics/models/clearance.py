@@ -1,6 +1,6 @@
 """The chain as it really is: pin joints with free play, loss of contact and impacts (issue #11).
 
-Coordinates and topology are dynamics.chain's: links 0..N-1, y = x - z(t) 1 relative to the cam,
+Coordinates and topology are dynamics.models.chain's: links 0..N-1, y = x - z(t) 1 relative to the cam,
 span j joins link j to link j+1 (span N-1 closes the loop to link 0), stretch e_j = y_j+1 - y_j.
 Each span has an axial free play g >= 0 (metres, the total of its two pin joints). In the static
 state every span rests on the tension side of its play and carries the preload P. Span force
@@ -18,7 +18,7 @@ Damping laws (`span_damping`):
   as in the linear model: it stands for losses spread over the chain and its guide (rollers,
   lubricant, nests), which do not stop when a pin joint opens. In full contact this is today's model.
   Dense up to DENSE_LINK_LIMIT links; above, the same modal ratios (to `damping_tolerance`, 1e-4 by
-  default) in the O(N) form of dynamics.reduced_damping (`damping_operator`).
+  default) in the O(N) form of dynamics.models.reduced_damping (`damping_operator`).
 - "kelvin-voigt": a dashpot beta k in each span, acting only while that span is in contact (the
   losses are in the loaded pin joints and link bodies); the drive spring gets beta k_d always. In
   full contact it equals Rayleigh (alpha, beta) = (0, beta). beta is `kv_beta_s`; by default it
@@ -42,12 +42,12 @@ from functools import lru_cache
 
 import numpy as np
 
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
-from dynamics.metrics import matlab_round
-from dynamics.reduction import DENSE_LINK_LIMIT
+from dynamics.response.metrics import matlab_round
+from dynamics.models.reduction import DENSE_LINK_LIMIT
 from dynamics.solvers._common import serial_blas
-from dynamics.system import SecondOrderSystem
+from dynamics.models.system import SecondOrderSystem
 
 SPAN_DAMPING_LAWS = ("global", "kelvin-voigt")
 
@@ -84,7 +84,7 @@ class ClearanceChain:
     span_damping: str = "global"
     kv_beta_s: float | None = None  # Kelvin-Voigt beta (s); None: 2 zeta / omega_c
     tensioner: Tensioner | None = None
-    # the global law's O(N) form (dynamics.reduced_damping) with each mode's damping ratio to this
+    # the global law's O(N) form (dynamics.models.reduced_damping) with each mode's damping ratio to this
     # relative tolerance; None: the dense C up to DENSE_LINK_LIMIT links, the O(N) form at
     # DEFAULT_DAMPING_TOLERANCE above
     damping_tolerance: float | None = None
@@ -130,7 +130,7 @@ class ClearanceChain:
 
     @property
     def damping_is_reduced(self) -> bool:
-        """Whether the global law is applied in the reduced form (dynamics.reduced_damping)."""
+        """Whether the global law is applied in the reduced form (dynamics.models.reduced_damping)."""
         return self.damping_tolerance is not None or self.n_links > DENSE_LINK_LIMIT
 
     @property
@@ -138,7 +138,7 @@ class ClearanceChain:
         """What the integrator multiplies w by: the dense C, or the ReducedDamping (`damping_is_reduced`)."""
         if not self.damping_is_reduced:
             return self.damping_matrix
-        from dynamics.reduced_damping import DEFAULT_DAMPING_TOLERANCE, reduced_damping
+        from dynamics.models.reduced_damping import DEFAULT_DAMPING_TOLERANCE, reduced_damping
 
         return reduced_damping(self.chain, self.damping_tolerance or DEFAULT_DAMPING_TOLERANCE)
 
@@ -234,7 +234,7 @@ def _sparse_top_frequency(model: ClearanceChain) -> float:
     import scipy.sparse as sp
     from scipy.sparse.linalg import eigsh
 
-    from dynamics.sweep import stiffness_matrix_sparse
+    from dynamics.response.sweep import stiffness_matrix_sparse
 
     c, t = model.chain, model.tensioner
     k_chain = stiffness_matrix_sparse(c)

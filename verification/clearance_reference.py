@@ -25,7 +25,7 @@ from the located state. Segments also end at every output time, where the held c
 acceleration has its kinks. No step straddles a kink of the force law or of the input.
 
 Cam input (`cam_input`). The relative motion y is forced by -m z''(t):
-- "sampled" (default): as dynamics.simulate does it, so that it and any solver built the same way
+- "sampled" (default): as dynamics.solvers.simulate does it, so that it and any solver built the same way
   can be compared with this reference to its tolerance: z'' is the cam's acceleration sampled at
   t_eval_s and linear in between (first-order hold), the friction sees z' linear between the cam's
   velocity samples, and the absolute motion reported is the cam's own s, v, a plus y. Those two
@@ -62,7 +62,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from dynamics.errors import DynamicsError, SolverFailedError
-from dynamics.metrics import matlab_round
+from dynamics.response.metrics import matlab_round
 
 PULLING, FREE, PUSHING = 1, 0, -1
 CAM_INPUTS = ("sampled", "held", "exact")
@@ -160,7 +160,7 @@ class ReferenceResponse:
 
 def idler_span_index(n_links: int) -> int:
     """0-based index of the span at the idler end: joins 1-based links round(N/2) and round(N/2) + 1
-    (MATLAB rounding, as the idler-end station of dynamics.metrics)."""
+    (MATLAB rounding, as the idler-end station of dynamics.response.metrics)."""
     return int(matlab_round(n_links / 2)) - 1
 
 

@@ -1,7 +1,7 @@
 """Periodic steady state of the machine on its wheels, with relabelling (issue #22).
 
 Each index moves the chain one pitch: one link seats on each wheel from the strand behind it and one
-leaves onto the strand ahead. The DOFs of dynamics.machine are places on the machine (a wheel's
+leaves onto the strand ahead. The DOFs of dynamics.models.machine are places on the machine (a wheel's
 seated group, the k-th free link of a strand, the carriage), so with identical links the machine
 after an index is the machine before it with every link moved one place ahead. The steady state of
 continuous indexing is therefore the state x0 at the start of an index with
@@ -12,7 +12,7 @@ P the motion over one index cycle (from the start of one index to the start of t
 rest at both ends) and T the transfer at the dwell:
 - a free link takes the state of the link one place behind it;
 - the link that leaves a wheel onto the strand ahead starts at its seat: y = u + d(a_end) (d the
-  feed's departure, dynamics.wheels; 0 without the polygonal action), y' = u' dX/du;
+  feed's departure, dynamics.models.wheels; 0 without the polygonal action), y' = u' dX/du;
 - the link that arrives from the strand behind seats with a plastic impact along the strand
   (the tooth takes it at the wheel's pitch-circle speed): the group's generalised momentum
   M_g u' + m c y'_in is kept, u'+ = (M_g u' + m c y'_in) / (M_g + m c^2), c = dX/du at the seat
@@ -25,7 +25,7 @@ rest at both ends) and T the transfer at the dwell:
 
 For the linear (polygon-free) model P(x) = Phi x + r and T(x) = A x are linear, so x0 solves
 (I - A Phi) x0 = A r exactly (Phi the exact first-order-hold one-cycle propagator). With the
-polygonal feed P is dynamics.machine_ivp's integrator and the transfer is nonlinear only through
+polygonal feed P is dynamics.solvers.machine_ivp's integrator and the transfer is nonlinear only through
 d(a_end); x0 comes from Newton shooting with the linear model's A Phi as the Jacobian.
 
 `labelled_periodic_state` is the other steady state: the same links stay seated every cycle
@@ -40,12 +40,12 @@ import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
 from dynamics.errors import DynamicsError, SolverFailedError
-from dynamics.machine import MachineOnWheels
-from dynamics.machine_ivp import integrate_cycle
+from dynamics.models.machine import MachineOnWheels
+from dynamics.solvers.machine_ivp import integrate_cycle
 from dynamics.solvers import solve
 from dynamics.solvers.exact import propagate
-from dynamics.steady_state import monodromy
-from dynamics.system import SampledForce
+from dynamics.solvers.steady_state import monodromy
+from dynamics.models.system import SampledForce
 
 
 @dataclass(frozen=True)

@@ -8,9 +8,9 @@ strand follows (links w_d ..), then the idler wheel's w_i seated links, then the
 to link N - 1. The slack strand gets (N - w_d - w_i) // 2 links, the tight strand the rest. Without
 an idler wheel the idler is today's: a point inside span round(N/2) - 1, where the carriage sits.
 
-Coordinates (dynamics.topology), relative to the cam: a free link's y = x - z; a wheel's seated
+Coordinates (dynamics.models.topology), relative to the cam: a free link's y = x - z; a wheel's seated
 links move with its pitch circle as one DOF u, the path displacement R_m (theta - theta_cam) of the
-wheel beyond the cam's nominal angle theta_cam = z / R_m (R_m = p z / 2 pi, dynamics.wheels: the
+wheel beyond the cam's nominal angle theta_cam = z / R_m (R_m = p z / 2 pi, dynamics.models.wheels: the
 indexer turns the sprocket one tooth per pitch of cam lift); the carriage's u lengthens the loop by
 2u (1u on each side of an idler wheel's seated group).
 
@@ -23,7 +23,7 @@ Parts:
 - Idler wheel: free to turn (no ground spring on its DOF), on the carriage when a tensioner is given,
   else on a fixed axle.
 - Polygonal feed: the last seated pin at each end of a wheel's wrap pulls its strand at
-  R sin(gamma) along the strand (dynamics.wheels): the span from the wheel to its first free link has
+  R sin(gamma) along the strand (dynamics.models.wheels): the span from the wheel to its first free link has
   stretch u + d(a) - y (tight end) or y - u - d(a) (slack end), with d(a) the feed's departure from
   the mean R_m a at the wheel's angle a since the dwell; the wheel feels the span tension through
   dX/dtheta = R cos(gamma). This makes the model nonlinear in u and time-varying; it is integrated by
@@ -50,13 +50,13 @@ from functools import cached_property
 import numpy as np
 from scipy.linalg import eigh
 
-from dynamics.chain import ChainModel
-from dynamics.clearance import Tensioner
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import Tensioner
 from dynamics.errors import DynamicsError
-from dynamics.metrics import matlab_round
-from dynamics.system import SecondOrderSystem
-from dynamics.topology import ChainTopology, Span
-from dynamics.wheels import Wheel
+from dynamics.response.metrics import matlab_round
+from dynamics.models.system import SecondOrderSystem
+from dynamics.models.topology import ChainTopology, Span
+from dynamics.models.wheels import Wheel
 
 DRIVES = ("link", "wheels")
 
@@ -149,8 +149,8 @@ class MachineOnWheels:
     def stations(self) -> dict[str, int]:
         """0-based link at each station at the start of an index: the middle of the sprocket's wrap,
         of the tight strand, of the idler's wrap (the idler span's link without a wheel) and of the
-        slack strand. drive='link': today's stations (dynamics.metrics.station_links)."""
-        from dynamics.metrics import station_links
+        slack strand. drive='link': today's stations (dynamics.response.metrics.station_links)."""
+        from dynamics.response.metrics import station_links
 
         if self.drive == "link":
             return {name: link - 1 for name, link in station_links(self.n_links).items()}
@@ -219,7 +219,7 @@ class MachineOnWheels:
         return int(matlab_round(self.n_links / 2)) - 1
 
     def _ring_with_carriage(self) -> ChainTopology:
-        from dynamics.topology import ring_topology
+        from dynamics.models.topology import ring_topology
 
         c, t = self.chain, self.tensioner
         return ring_topology(c.n_links, c.link_mass_kg, c.stiffness_N_per_m, c.preload_N, c.drive_stiffness,
@@ -346,7 +346,7 @@ class MachineOnWheels:
 
 
 def modal_damping_matrix(k: np.ndarray, m: np.ndarray, zeta: float) -> np.ndarray:
-    """C = M Phi diag(2 zeta omega) Phi^T M on the modes of (K, M), as dynamics.chain builds it."""
+    """C = M Phi diag(2 zeta omega) Phi^T M on the modes of (K, M), as dynamics.models.chain builds it."""
     lam, phi = eigh(k, m)
     omega = np.sqrt(np.clip(lam, 0.0, None))
     c = m @ phi @ np.diag(2.0 * zeta * omega) @ phi.T @ m

@@ -27,7 +27,7 @@ tens of times the preload, so the linear model puts parts of the chain into comp
 chain would go slack there. The response flags it; nothing is clipped.
 
 Friction. Coulomb friction mu m g per link against the guide, opposing the link's absolute
-velocity, regularised (dynamics.friction): F = -mu m g tanh(v / v_s) with
+velocity, regularised (dynamics.models.friction): F = -mu m g tanh(v / v_s) with
 v_s = `friction_velocity_scale_m_s` (default 5 mm/s, about 0.1 % of the report cam's 5.4 m/s peak
 indexing velocity). Below v_s the force ramps linearly; above ~2 v_s it is the full Coulomb force.
 Sticking is represented by this steep viscous branch rather than by an event-driven switch.
@@ -41,9 +41,9 @@ import numpy as np
 from scipy.linalg import eigh
 
 from dynamics.errors import DynamicsError
-from dynamics.friction import regularised_coulomb_N
-from dynamics.system import SampledForce, SecondOrderSystem
-from dynamics.topology import ChainTopology, ring_topology
+from dynamics.models.friction import regularised_coulomb_N
+from dynamics.models.system import SampledForce, SecondOrderSystem
+from dynamics.models.topology import ChainTopology, ring_topology
 
 
 @dataclass(frozen=True)
@@ -86,7 +86,7 @@ class ChainModel:
         return float(self.stiffness_N_per_m if self.drive_stiffness_N_per_m is None else self.drive_stiffness_N_per_m)
 
     def topology(self) -> ChainTopology:
-        """The ring (dynamics.topology): N links, N spans, the drive spring on link 1."""
+        """The ring (dynamics.models.topology): N links, N spans, the drive spring on link 1."""
         return ring_topology(self.n_links, self.link_mass_kg, self.stiffness_N_per_m, self.preload_N,
                              self.drive_stiffness)
 

@@ -28,7 +28,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 
 # Relative error of every mode's damping ratio in the default reduced form (the dense form's own
 # eigensolve is exact to ~1e-13; 1e-4 is far below what the 1e-3 station metrics can see).
@@ -158,7 +158,7 @@ def eigenvalue_bounds(chain: ChainModel) -> tuple[float, float]:
     """(smallest, largest) eigenvalue of K / m from the sparse K (no N x N array)."""
     from scipy.sparse.linalg import eigsh
 
-    from dynamics.sweep import stiffness_matrix_sparse
+    from dynamics.response.sweep import stiffness_matrix_sparse
 
     x = (stiffness_matrix_sparse(chain) / chain.link_mass_kg).tocsc()
     if chain.n_links <= 64:

@@ -30,7 +30,7 @@ from dynamics.solvers import solve_with_diagnostics
 from dynamics.solvers._common import _combined_force, serial_blas
 from dynamics.solvers.cache import cached
 from dynamics.solvers.exact import _steps, foh_matrices, propagate
-from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.models.system import SampledForce, SecondOrderSystem
 
 
 

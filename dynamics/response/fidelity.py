@@ -16,7 +16,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from dynamics.errors import DynamicsError
-from dynamics.metrics import StationMetrics
+from dynamics.response.metrics import StationMetrics
 
 MAX_SAMPLES_PER_DEGREE = 64
 

@@ -1,7 +1,7 @@
 """Speed sweep: residual vibration and peak acceleration at one station versus cam speed, per cam law.
 
 Why it is fast. The chain is linear (friction 0) and written relative to the cam, y = x - z 1, under
-the force -M 1 z''(t) (dynamics.chain). In the modes of (K, M) every mode j is a damped oscillator
+the force -M 1 z''(t) (dynamics.models.chain). In the modes of (K, M) every mode j is a damped oscillator
 
     q_j'' + c_j q_j' + w_j^2 q_j = -G_j z''(t),   G_j = phi_j^T M 1 (participation),
 
@@ -41,9 +41,9 @@ from scipy.sparse.linalg import eigsh
 
 from dynamics.cams.laws import get_law
 from dynamics.cams.program import CamProgram
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
-from dynamics.metrics import STATIONS, station_links
+from dynamics.response.metrics import STATIONS, station_links
 
 # Above this many links, a truncated mode set of at most N/10 modes comes from sparse shift-invert
 # Lanczos (cost ~ N r^2, ARPACK keeps ~2r vectors) rather than a dense eigensolve (~ N^3); below

@@ -1,4 +1,4 @@
-"""The reference integrator for the machine on its wheels (dynamics.machine): scipy's solve_ivp with
+"""The reference integrator for the machine on its wheels (dynamics.models.machine): scipy's solve_ivp with
 error control over one index cycle, where the polygonal feed makes the model nonlinear and
 time-varying. Speed is not its purpose: it is the yardstick a faster method will be checked against.
 
@@ -6,7 +6,7 @@ Equations (relative to the cam, M diagonal):
 
     M q'' = -C q' - K q - r z''(t) + g(t, q),
 
-r the inertial load (dynamics.machine.MachineOnWheels.inertial_load) and g the polygonal feed's
+r the inertial load (dynamics.models.machine.MachineOnWheels.inertial_load) and g the polygonal feed's
 departure from the linear model, evaluated at the wheels' angles since the dwell at `t_dwell_s`
 (the cycle's start, where the pin that pulls each strand during the index seated).
 
@@ -24,7 +24,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from dynamics.errors import SolverFailedError
-from dynamics.machine import MachineOnWheels
+from dynamics.models.machine import MachineOnWheels
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,7 @@
 """The chain's topology: one description from which its linear matrices derive (issue #22).
 
 A chain is a set of degrees of freedom (DOFs), each a path displacement in metres relative to the
-cam (y = x - z 1, dynamics.chain): a free link, a wheel's group of seated links (they move together
+cam (y = x - z 1, dynamics.models.chain): a free link, a wheel's group of seated links (they move together
 with the wheel's pitch circle), or the idler carriage. Spans join the DOFs:
 
     stretch e = y[ahead] - y[behind] + carriage_gain * y[carriage]
@@ -15,8 +15,8 @@ DOF) and the tensioner's spring (k_t on the carriage). So
 
 with B the spans' incidence matrix (n_spans x n_dof). `links` says which chain links each DOF
 carries, so stations and relabelling know where every link is. Every linear matrix of the chain
-(the dense K and M of dynamics.chain.ChainModel, the sparse K of dynamics.sweep, the tensioner's
-full-contact K of dynamics.clearance, the machine on its wheels of dynamics.machine) is built from
+(the dense K and M of dynamics.models.chain.ChainModel, the sparse K of dynamics.response.sweep, the tensioner's
+full-contact K of dynamics.models.clearance, the machine on its wheels of dynamics.models.machine) is built from
 this one object instead of each rebuilding the ring.
 """
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from dynamics.errors import DynamicsError
 from dynamics.solvers import solve
-from dynamics.system import Response, SampledForce, SecondOrderSystem
+from dynamics.models.system import Response, SampledForce, SecondOrderSystem
 
 
 @dataclass(frozen=True)

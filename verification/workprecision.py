@@ -2,7 +2,7 @@
 
 The test problem is the default chain, linear (friction 0) so that the reference is exact: N links of
 mass m joined by springs k (plus the drive spring), modal damping 0.13, written relative to the cam
-(dynamics.chain), driven from rest by a continuous-indexing cam (default modified sine, 180 rpm,
+(dynamics.models.chain), driven from rest by a continuous-indexing cam (default modified sine, 180 rpm,
 45 deg index + 45 deg dwell, pitch 112.5 mm) over `cycles` index cycles, force and outputs sampled
 every cam degree (first-order hold in between, as every solver sees it).
 
@@ -26,12 +26,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from dynamics.cams.program import CamProgram
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedError
 from dynamics.solvers import METHODS, solve
 from dynamics.solvers import cache as solver_cache
 from dynamics.solvers._common import max_frequency
-from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.models.system import SampledForce, SecondOrderSystem
 
 IVP_METHODS = ("rk45", "dop853", "radau", "bdf", "lsoda")
 FIXED_STEP_METHODS = ("newmark", "hht", "central-difference")

@@ -1,7 +1,7 @@
 """Stability map: where each method gives a bounded, accurate answer, and where it blows up or fails.
 
 Each case is one method at one setting (time step dt for the fixed-step methods, rtol for the adaptive
-ones, none for exact and modal) on the default linear chain (dynamics.workprecision.chain_problem)
+ones, none for exact and modal) on the default linear chain (verification.workprecision.chain_problem)
 with a given link stiffness and number of links, started from rest for one index cycle at 180 rpm
 with one-degree outputs. Outcomes:
 - "accurate": finished, max |y - y_ref| <= `accuracy` * max |y_ref| (y relative to the cam);
@@ -9,7 +9,7 @@ with one-degree outputs. Outcomes:
 - "diverged": SolverDivergedError (the central-difference refusal above 2 / omega_max, or the
   divergence check on a run that grew without bound);
 - "failed": SolverFailedError (an adaptive integrator that could not finish).
-The reference is the exact first-order-hold solution (dynamics.workprecision.reference_response).
+The reference is the exact first-order-hold solution (verification.workprecision.reference_response).
 
 Theory drawn on the map: central difference is stable for dt <= 2 / omega_max (omega_max the largest
 undamped natural frequency of (K, M), proportional to sqrt(k)); `central_difference_spectral_radius`
@@ -30,7 +30,7 @@ from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedErro
 from dynamics.solvers import solve
 from dynamics.solvers import cache as solver_cache
 from dynamics.solvers._common import max_frequency
-from dynamics.workprecision import IVP_METHODS, LinearChainProblem, chain_problem, options_for, reference_response
+from verification.workprecision import IVP_METHODS, LinearChainProblem, chain_problem, options_for, reference_response
 
 OUTCOMES = ("accurate", "inaccurate", "diverged", "failed")
 MAP_METHODS = ("central-difference", "newmark", "hht", "rk45", "dop853", "radau", "bdf", "lsoda", "report-rk45",

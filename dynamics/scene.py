@@ -32,9 +32,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from dynamics.clearance import ClearanceChain, Tensioner
+from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.errors import DynamicsError
-from dynamics.simulate import ChainResponse, SlackChainWarning, simulate
+from dynamics.solvers.simulate import ChainResponse, SlackChainWarning, simulate
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
 
@@ -69,11 +69,11 @@ class ModelChoice(NamedTuple):
 
 @dataclass(frozen=True)
 class Scene:
-    """The explicit description of one run's chain beyond its linear model (dynamics.chain.ChainModel):
+    """The explicit description of one run's chain beyond its linear model (dynamics.models.chain.ChainModel):
     the pin free play, the span damping law and the tensioner, which model to run and how."""
 
     pin_clearance_m: float  # axial free play per span; inf: a chain that can only pull
-    span_damping: str  # one of dynamics.clearance.SPAN_DAMPING_LAWS
+    span_damping: str  # one of dynamics.models.clearance.SPAN_DAMPING_LAWS
     tensioner: Tensioner | None  # None: a rigid idler
     model: str  # one of MODEL_CHOICES
     steady_state: bool  # periodic steady state (False: from rest)
@@ -318,7 +318,7 @@ def tensioner_from(rate_N_per_m, mass_kg, damping_N_s_per_m) -> Tensioner | None
 
 
 def scene_model(scene: Scene, chain) -> ClearanceChain:
-    """The clearance chain of a scene on its linear chain (a dynamics.chain.ChainModel)."""
+    """The clearance chain of a scene on its linear chain (a dynamics.models.chain.ChainModel)."""
     return ClearanceChain(chain, scene.pin_clearance_m, span_damping=scene.span_damping, tensioner=scene.tensioner)
 
 

@@ -1,13 +1,13 @@
 """The call the pipeline makes: a chain model, a cam, output times -> the chain's motion and tension.
 
-The chain is solved relative to the cam (see dynamics.chain): y = x - z 1 under the force -M 1 z'',
+The chain is solved relative to the cam (see dynamics.models.chain): y = x - z 1 under the force -M 1 z'',
 friction (mu > 0) entering as a time-dependent force because it opposes the absolute velocity
 z'(t) + y'. Absolute motion is rebuilt at the output times from the cam's exact s, v, a.
 
 The cam is a duck type: `cam.svaj(t_s) -> (s_m, v_m_s, a_m_s2, j_m_s3)`, `cam.period_s` and
 `cam.advance_m` (z(t + period) = z(t) + advance; period None for a one-shot program).
 
-steady_state=True returns the periodic steady state of continuous indexing (dynamics.steady_state):
+steady_state=True returns the periodic steady state of continuous indexing (dynamics.solvers.steady_state):
 the state at t_eval_s[0] is the one that repeats after one cam period, over a period grid with the
 output step (so the two coincide when the period is a whole number of output steps).
 steady_state=False starts from rest at t_eval_s[0]: every link at the cam's position, motionless.
@@ -28,14 +28,14 @@ from functools import lru_cache
 
 import numpy as np
 
-from dynamics.chain import ChainModel
+from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
-from dynamics.friction import CamFrameFriction
-from dynamics.reduction import ProjectedForce, modal_basis
+from dynamics.models.friction import CamFrameFriction
+from dynamics.models.reduction import ProjectedForce, modal_basis
 from dynamics.solvers import METHODS, solve_with_diagnostics
 from dynamics.solvers._common import serial_blas
-from dynamics.steady_state import periodic_initial_state
-from dynamics.system import Response, SampledForce, SecondOrderSystem
+from dynamics.solvers.steady_state import periodic_initial_state
+from dynamics.models.system import Response, SampledForce, SecondOrderSystem
 
 DEFAULT_METHOD = "exact"
 
@@ -82,7 +82,7 @@ def simulate(
 ) -> ChainResponse:
     """Motion of every link (or of `links`) and every spring tension at t_eval_s (s).
 
-    `n_modes` solves in the chain's lowest n_modes modes (dynamics.reduction) instead of all N
+    `n_modes` solves in the chain's lowest n_modes modes (dynamics.models.reduction) instead of all N
     link coordinates: for long chains, whose dense matrices would not fit."""
     with serial_blas():  # small dense matrices: a threaded BLAS only adds hand-off cost (see _common)
         return _simulate(model, cam, t_eval_s, method, steady_state, links, n_modes, options)
