@@ -411,12 +411,12 @@ def _fake_period_map(flip_every: int):
 
 @pytest.mark.parametrize("k, found", [(2, True), (3, True), (7, False)])
 def test_subharmonic_is_detected_and_named_and_chaos_is_not_called_a_steady_state(monkeypatch, k, found):
-    from dynamics import clearance_sim
+    from dynamics import scene
 
-    monkeypatch.setattr(clearance_sim.verlet, "integrate", _fake_period_map(k))
+    monkeypatch.setattr(scene.verlet, "integrate", _fake_period_map(k))
     model = ClearanceChain(_chain(n=4), 94e-6)
     state = (np.zeros(4), np.zeros(4), 0.0, 0.0)
-    _, ss = clearance_sim._periodic_state(model, _cam(), 0.0, 1e-4, state, 1e-6, 20)
+    _, ss = scene._periodic_state(model, _cam(), 0.0, 1e-4, state, 1e-6, 20)
     assert ss.found is found
     if found:
         assert ss.period_cycles == k and f"every {k} cam cycles" in ss.statement
