@@ -12,6 +12,7 @@ from pathlib import Path
 from geometry.assembly import inspect_part
 from geometry.options import add_part_arguments, hardware_densities, hardware_masses_kg, link_source
 
+from .budget import DEFAULT_MAX_MEMORY_GB
 from .errors import FemError
 from .materials import get_material, load_materials
 from .study import LEVEL_RATIO, StiffnessEstimate, levels_for_finest, stiffness_study
@@ -53,6 +54,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--full-model", action="store_true",
                         help="solve the whole link even where it is mirror symmetric about the plane through its bore "
                              "axes (default: solve that half, the same k and stresses at about half the unknowns)")
+    parser.add_argument("--max-memory", type=str, default=str(DEFAULT_MAX_MEMORY_GB), metavar="GB",
+                        help="memory budget of the solves in GB, checked before solving: default sizes are coarsened to "
+                             "fit it, a --mesh-size that does not fit is refused (default: %(default)s, for a 2-core 24 GB "
+                             "machine shared with other work)")
     parser.add_argument("--scalar", choices=("von_mises", "displacement"), default="von_mises", help="colouring of --image (default: %(default)s)")
     add_part_arguments(parser)
     return parser
@@ -164,7 +169,8 @@ def run(argv: list[str] | None = None) -> dict:
     elif args.hardware_material is not None:
         raise FemError("--hardware-material: only for a STEP file with hardware solids; expected a STEP path with it")
     estimate = stiffness_study(source, material, mesh_sizes_m=sizes, order=args.order, load_N=load_N, solver=args.solver,
-                               mirror_symmetry=not args.full_model)
+                               mirror_symmetry=not args.full_model,
+                               max_memory_gb=_positive(args.max_memory, "--max-memory"))
     result = report(estimate)
     if part is not None:
         result["part"] = part
