@@ -198,9 +198,8 @@ def ends_used(pair: tuple[DetectedBore, DetectedBore], holes: Holes) -> str:
     """Which ends of the part the pins were taken at, in words (mm)."""
     length_axis = principal_axis(holes, pair[0].bore.axis)
     lo, hi = holes.reach_m(length_axis)
-    direction = ",".join(f"{x:.3g}" for x in length_axis + 0.0)
-    return (f"the part's length runs along ({direction}) over {(hi - lo) * 1e3:.1f} mm; pins at its ends, "
-            f"{_mm(pair[0].bore.center_m)} and {_mm(pair[1].bore.center_m)} mm")
+    direction = ",".join(f"{round(x, 3) + 0.0:g}" for x in length_axis)
+    return f"the ends of its length: along ({direction}), {(hi - lo) * 1e3:.1f} mm"
 
 
 def _best_pair(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, source: str):
@@ -214,7 +213,7 @@ def _best_pair(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, sour
     ties = [p for p in pairs if _at_the_ends(p, holes) == _at_the_ends(best, holes)
             and _radius(p) >= (1 - EQUAL_RADIUS_TOL) * _radius(best)
             and _axis_distance(*p) >= (1 - EQUAL_PITCH_TOL) * _axis_distance(*best)]
-    rule = f"{rule} ({ends_used(best, holes)})"
+    rule = f"{rule}; {ends_used(best, holes)}"
     if len(ties) > 1:
         listed = " or ".join(f"{_mm(a.bore.center_m)}:{_mm(b.bore.center_m)}" for a, b in ties)
         raise GeometryError(
@@ -231,7 +230,7 @@ def _no_pair_message(bores: list[DetectedBore], holes: Holes, choice: BoreChoice
     if open_bore is not None:
         hole, angle = open_bore
         return (f"{message}; the r {hole.bore.radius_m * 1e3:.4g} mm bore at {_mm(hole.bore.center_m)} mm is open (about "
-                f"{angle:.0f} deg, not a full round) and the pull load case needs a full bore: draw its cap as part of "
+                f"{angle:.0f} deg, {'a half bore' if angle < 200 else 'not a full round'}) and the pull load case needs a full bore: draw its cap as part of "
                 "the solid (or pass --bores to name two full bores)")
     return f"{message}; expected two pin bores ({CHOOSE_HINT})"
 
