@@ -80,7 +80,7 @@ def levels_for_finest(finest_m: float, n_levels: int = DEFAULT_LEVELS, ratio: fl
 
 
 def finest_size_for(pitch_m: float, bore_radius_m: float) -> float:
-    """The default finest element size of a link with this pitch and (smaller) pin-bore radius.
+    """The default finest element size of a link with this pitch and (larger) pin-bore radius.
     Smaller holes (screw, grease holes) are refined locally (geometry.meshing's small-hole fields),
     not by a smaller size everywhere."""
     return min(PITCH_FRACTION * pitch_m, BORE_FRACTION * bore_radius_m)
@@ -93,7 +93,7 @@ def default_mesh_sizes(source) -> tuple[float, ...]:
 
 
 def part_scale(source) -> tuple[float, float, float]:
-    """(pitch, smaller pin-bore radius, smallest other hole radius or inf) in metres of a STEP link
+    """(pitch, larger pin-bore radius, smallest other hole radius or inf) in metres of a STEP link
     (a path or a `geometry.assembly.LinkSource`: the same body and pin bores as `load_link`
     chooses), or of the built-in link (None) or one of its `LinkDimensions` variants."""
     from geometry.assembly import inspect_part
@@ -107,7 +107,9 @@ def part_scale(source) -> tuple[float, float, float]:
     with quiet_stdout():
         pins = inspect_part(source).pins
     holes = [h.hole.bore.radius_m for h in pins.ignored]
-    return pins.pitch_m, float(min(pins.fixed.bore.radius_m, pins.loaded.bore.radius_m)), min(holes, default=np.inf)
+    # the larger bore sets the size: a smaller one (two unequal bores given by --bores) gets finer
+    # elements of its own (geometry.meshing)
+    return pins.pitch_m, float(max(pins.fixed.bore.radius_m, pins.loaded.bore.radius_m)), min(holes, default=np.inf)
 
 
 def stiffness_study(

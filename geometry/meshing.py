@@ -35,6 +35,8 @@ DISTANCE_SAMPLING = 20
 # the hole. Only there: one global size from the smallest hole gave the 400 mm arm bar (r 1.05 mm
 # screw holes) 305,012 tets and no answer within 300 s.
 SMALL_HOLE_SIZE_FRACTION = 1.0
+# Two pin bores whose radii differ by more than this fraction are sized each for itself.
+UNEQUAL_BORES_TOL = 0.01
 # Elements on a small round under folded curved cells, as a fraction of its radius: a quarter
 # round is then cut into ~3 edges, each a sagitta of ~3 % of its length off its chord.
 CURVED_FACE_SIZE_FRACTION = 0.5
@@ -124,8 +126,9 @@ def mesh_volumes(
     if mirror_plane is not None and not mirror_faces:
         raise GeometryError(f"the half link has no face on its mirror plane {mirror_plane.name}; expected the cut face")
     small_holes = small_hole_fields(volumes, (fixed, loaded), mesh_size_m)
-    pin_radius = min(fixed.bore.radius_m, loaded.bore.radius_m)
-    _refine_near(fixed_faces + loaded_faces, mesh_size_m, bore_size_m, pin_radius, small_holes)
+    pin_faces, pin_radius, smaller_pin = _pin_bore_fields(fixed, fixed_faces, loaded, loaded_faces, bore_size_m)
+    small_holes += smaller_pin
+    _refine_near(pin_faces, mesh_size_m, bore_size_m, pin_radius, small_holes)
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT: 4-6x faster than Delaunay here
     # One thread: HXT then gives the same mesh on every run (with two it did not, and it was no
     # faster on these ~40k-tet meshes).
@@ -144,10 +147,23 @@ def mesh_volumes(
             gmsh.model.mesh.clear()
             for tag in gmsh.model.mesh.field.list():
                 gmsh.model.mesh.field.remove(tag)
-            _refine_near(fixed_faces + loaded_faces, mesh_size_m, bore_size_m, pin_radius, [*small_holes, *rounds])
+            _refine_near(pin_faces, mesh_size_m, bore_size_m, pin_radius, [*small_holes, *rounds])
             gmsh.model.mesh.generate(3)
             gmsh.model.mesh.setOrder(2)
     return _mesh_arrays(fixed_faces, loaded_faces, order, mirror_faces)
+
+
+def _pin_bore_fields(fixed: DetectedBore, fixed_faces: list[int], loaded: DetectedBore, loaded_faces: list[int],
+                     bore_size_m: float) -> tuple[list[int], float, list[FaceRefinement]]:
+    """(faces, radius) of the pin-bore refinement at `bore_size_m`, and for two unequal bores (given
+    by --bores) the smaller one's own refinement, its size scaled by its radius: each bore is
+    sized for itself, the larger one does not set the size at the smaller."""
+    r_fixed, r_loaded = fixed.bore.radius_m, loaded.bore.radius_m
+    if abs(r_fixed - r_loaded) <= UNEQUAL_BORES_TOL * max(r_fixed, r_loaded):
+        return fixed_faces + loaded_faces, min(r_fixed, r_loaded), []
+    (large_faces, r_large), (small_faces, r_small) = sorted(
+        [(fixed_faces, r_fixed), (loaded_faces, r_loaded)], key=lambda fr: -fr[1])
+    return large_faces, r_large, [FaceRefinement(tuple(small_faces), r_small, bore_size_m * r_small / r_large)]
 
 
 def _rounds_under_folded_cells(volumes: list[int], size_far: float) -> list[FaceRefinement]:

@@ -113,7 +113,7 @@ def select_pin_bores(holes: Holes, choice: BoreChoice, source: str) -> PinBores:
             raise GeometryError(f"{source}: both --bores points lie on the bore at {_mm(fixed.bore.center_m)} mm; "
                                 "expected one point on each pin axis")
         _check_pair(fixed, loaded, source)
-        pair, rule = (fixed, loaded), f"given by {choice.describe()}"
+        pair, rule = (fixed, loaded), f"given by {choice.describe()}{_unequal_note(fixed, loaded)}"
     else:
         pair, rule = _best_pair(bores, holes, choice, source)
         pair = order_pair(*pair, source)
@@ -264,6 +264,16 @@ def _listed(bores: list[DetectedBore], most: int = 6) -> str:
     largest = sorted(bores, key=lambda h: -h.bore.radius_m)
     text = ", ".join(f"r {h.bore.radius_m * 1e3:.3f} at {_mm(h.bore.center_m)}" for h in largest[:most]) or "none"
     return text + (f" and {len(bores) - most} smaller" if len(bores) > most else "")
+
+
+def _unequal_note(fixed: DetectedBore, loaded: DetectedBore) -> str:
+    """How the pull load case treats two bores of different radii (empty for equal ones)."""
+    r_fixed, r_loaded = fixed.bore.radius_m, loaded.bore.radius_m
+    if abs(r_fixed - r_loaded) <= EQUAL_RADIUS_TOL * max(r_fixed, r_loaded):
+        return ""
+    return (f"; unequal bores: the fixed one (r {r_fixed * 1e3:.4g} mm) is clamped all round, the loaded one (r "
+            f"{r_loaded * 1e3:.4g} mm) carries the cosine bearing pressure of a pin of its own radius, pulling along the "
+            "line between the axes; each bore is meshed for its own radius")
 
 
 def _check_pair(a: DetectedBore, b: DetectedBore, source: str) -> None:
