@@ -17,8 +17,7 @@ from dataclasses import dataclass
 import gmsh
 import numpy as np
 
-from geometry import curving
-from geometry.bores import DetectedBore, boundary_faces, faces_on_bore, find_holes
+from geometry.bores import DetectedBore, faces_on_bore, find_holes
 from geometry.errors import GeometryError
 from geometry.link_mesh import Bore, MirrorPlane
 from geometry.symmetry import faces_on_plane
@@ -37,14 +36,6 @@ DISTANCE_SAMPLING = 20
 SMALL_HOLE_SIZE_FRACTION = 1.0
 # Two pin bores whose radii differ by more than this fraction are sized each for itself.
 UNEQUAL_BORES_TOL = 0.01
-# Elements on a small round under folded curved cells, as a fraction of its radius: a quarter
-# round is then cut into ~3 edges, each a sagitta of ~3 % of its length off its chord.
-CURVED_FACE_SIZE_FRACTION = 0.5
-# Mesh the rounds finer only where straightening the folded cells (fem.link) would change the
-# part's volume by more than this fraction (half the 0.1 % the curved mesh must keep): the built-in
-# link's 1 mm edge breaks cost 0.017 % at its default size (measured), the robot-arm link's 2 mm
-# rounds under 3 mm elements 0.29 %.
-STRAIGHTENING_VOLUME_TOL = 5e-4
 # Grading from a small hole's size to the far size: the size grows by at most this much per unit
 # distance (a gentle gradient keeps the tets' shape).
 SIZE_GRADIENT = 0.5
@@ -142,14 +133,6 @@ def mesh_volumes(
     gmsh.model.mesh.generate(3)
     if order == 2:
         gmsh.model.mesh.setOrder(2)  # mid-edge nodes placed on the CAD surfaces
-        rounds = _rounds_under_folded_cells(volumes, mesh_size_m)
-        if rounds:  # mesh the small rounds finer instead of straightening their cells (geometry.curving)
-            gmsh.model.mesh.clear()
-            for tag in gmsh.model.mesh.field.list():
-                gmsh.model.mesh.field.remove(tag)
-            _refine_near(pin_faces, mesh_size_m, bore_size_m, pin_radius, [*small_holes, *rounds])
-            gmsh.model.mesh.generate(3)
-            gmsh.model.mesh.setOrder(2)
     return _mesh_arrays(fixed_faces, loaded_faces, order, mirror_faces)
 
 
@@ -166,31 +149,9 @@ def _pin_bore_fields(fixed: DetectedBore, fixed_faces: list[int], loaded: Detect
     return large_faces, r_large, [FaceRefinement(tuple(small_faces), r_small, bore_size_m * r_small / r_large)]
 
 
-def _rounds_under_folded_cells(volumes: list[int], size_far: float) -> list[FaceRefinement]:
-    """The curved CAD faces (radius known) under the current order-2 mesh's distorted cells, each
-    with a size of CURVED_FACE_SIZE_FRACTION of its radius (where that is finer than `size_far`)."""
-    node_tags, coords, _ = gmsh.model.mesh.getNodes()
-    _, tet_nodes = gmsh.model.mesh.getElementsByType(_TET[2])
-    tets_by_tag = np.asarray(tet_nodes, dtype=np.int64).reshape(-1, 10)[:, _GMSH_TO_MESHIO_TET10]
-    position = np.full(int(node_tags.max()) + 1, -1, dtype=np.int64)
-    position[node_tags.astype(np.int64)] = np.arange(len(node_tags))
-    points = np.asarray(coords).reshape(-1, 3).T
-    tets10 = position[tets_by_tag].T
-    bad = curving.distorted_cells(points, tets10)
-    cad_volume = sum(gmsh.model.occ.getMass(3, v) for v in volumes)
-    if abs(curving.straightening_volume_m3(points, tets10, bad)) <= STRAIGHTENING_VOLUME_TOL * cad_volume:
-        return []
-    by_radius: dict[float, list[int]] = {}  # one field per radius: gmsh evaluates every field at every point
-    for face in curving.faces_of_cells(tets_by_tag[bad].ravel(), boundary_faces(volumes)):
-        radius = curving.face_radius_m(face)
-        if radius is not None and CURVED_FACE_SIZE_FRACTION * radius < size_far:
-            by_radius.setdefault(float(f"{radius:.3g}"), []).append(face)
-    return [FaceRefinement(tuple(faces), radius, CURVED_FACE_SIZE_FRACTION * radius) for radius, faces in by_radius.items()]
-
-
 @dataclass(frozen=True)
 class FaceRefinement:
-    """Element size `size_m` on some faces (a small hole's, a small round's), graded to the far size."""
+    """Element size `size_m` on some faces (a small hole's, a smaller pin bore's), graded to the far size."""
 
     faces: tuple[int, ...]
     radius_m: float
