@@ -3,13 +3,14 @@
 The study's peak memory is set by the sparse direct solve of its levels (solved side by side, see
 fem.study), which grows faster than the unknowns (PARDISO's factor of a 3D mesh fills about as
 n^(4/3)). The model below, peak = BASE + PER_DOF_POWER * n^(4/3) summed over the levels, is fitted
-to peak resident memory measured on corpus parts (docs/incoming-wildcad.md, "Memory budget"):
+to peak resident memory measured on the built-in link and corpus parts (docs/incoming-wildcad.md,
+"the memory model"; `/usr/bin/time -f "%M KB" python -m fem FILE --material al6061-t6 --json`):
 
-    unknowns (both levels)   peak measured    model
-    78k (built-in link)      0.73 GB          0.75 GB
-    150k (robot-arm link)    0.91 GB          0.90 GB
-    196k (400 mm arm bar)    1.45 GB          1.11 GB
-    see CALIBRATION below for the largest point.
+    unknowns (coarse + fine)          peak measured    model
+    39,432 + 39,012 (built-in link)   0.73 GB          0.83 GB
+    55,749 + 93,609 (robot-arm link)  0.91 GB          1.22 GB
+    74,070 + 122,325 (arm bar)        1.45 GB          1.51 GB
+    190,449 + 369,156 (arm bar 3.5)   4.41 GB          4.48 GB
 
 The finest level is meshed first (meshing costs little memory next to the solve); if its solve
 and the coarser level's would exceed the budget, default sizes are coarsened until they fit (the
@@ -27,8 +28,8 @@ import numpy as np
 from .errors import FemError
 
 DEFAULT_MAX_MEMORY_GB = 6.0
-# Fitted to the measured peaks in the module docstring and CALIBRATION (least squares in log space
-# over the largest points, rounded up): bytes.
+# Fitted to the measured peaks in the module docstring, the largest points weighted (they decide
+# whether a run fits), rounded up: bytes.
 BASE_BYTES = 0.55e9
 PER_DOF_POWER_BYTES = 105.0
 DOF_EXPONENT = 4 / 3

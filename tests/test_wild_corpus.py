@@ -118,3 +118,53 @@ def test_quadruped_lower_leg_with_one_bore_is_refused():
 
 def test_quadruped_upper_leg_is_refused_listing_its_holes():
     assert_refused(run_fem("quadruped_upper_leg_onshape.step"), "r 2.900 at 4.95,-15.05,-3.55", "--bores")
+
+
+# --- computed, k within its estimate of a converged reference, within the budget --------------------
+
+# N/m, al6061-t6; how each was obtained: the module docstring.
+REFERENCE_K = {
+    "arm_bar_400mm_inventor.stp": 1.50462e8,
+    "robot_arm_link_pockets_inventor.stp": 1.99184e7,
+    "gripper_connector_2holes_inventor.stp": GRIP2_REFERENCE_K,
+    "gripper_connector_3holes_inventor.stp": GRIP3_REFERENCE_K,
+}
+
+
+def test_gripper_connector_with_two_holes_gives_k_within_its_estimate():
+    r = assert_k_within_estimate(run_fem("gripper_connector_2holes_inventor.stp"), REFERENCE_K["gripper_connector_2holes_inventor.stp"])
+    assert r["pitch_m"] == pytest.approx(0.0125, rel=1e-9)
+
+
+def test_gripper_connector_with_three_holes_takes_the_end_pair_and_gives_k_within_its_estimate():
+    r = assert_k_within_estimate(run_fem("gripper_connector_3holes_inventor.stp"), REFERENCE_K["gripper_connector_3holes_inventor.stp"])
+    assert r["pitch_m"] == pytest.approx(0.020, rel=1e-9)  # the holes at -10 and +10 mm, not the middle one
+
+
+@pytest.mark.slow
+def test_arm_bar_400mm_gives_k_at_the_default_settings_within_the_budget():
+    # Its four r 1.05 mm screw holes used to set a 2.1 mm size everywhere (305k tets, no answer in
+    # 300 s, a PyPardisoError traceback); now they are refined locally.
+    r = assert_k_within_estimate(run_fem("arm_bar_400mm_inventor.stp"), REFERENCE_K["arm_bar_400mm_inventor.stp"])
+    assert r["pitch_m"] == pytest.approx(0.340, rel=1e-9)
+
+
+@pytest.mark.slow
+def test_robot_arm_link_gives_k_at_the_default_settings_within_its_estimate():
+    # It used to stop with "inverted curved cells remain after straightening" at the default size,
+    # and at 3 mm give k 6.4 % low, outside its estimate: straightening had cut its 2 mm rounds off.
+    r = assert_k_within_estimate(run_fem("robot_arm_link_pockets_inventor.stp"), REFERENCE_K["robot_arm_link_pockets_inventor.stp"])
+    assert r["pitch_m"] == pytest.approx(0.200, rel=1e-9)
+
+
+def test_a_mesh_size_over_the_memory_budget_is_refused_before_solving_naming_the_options():
+    run = run_fem("gripper_connector_2holes_inventor.stp", "--mesh-size", "0.3", "--max-memory", "0.6")
+    assert_refused(run, "--mesh-size 0.3", "over the memory budget of 0.6 GB", "--max-memory GB")
+
+
+def test_default_sizes_over_a_small_budget_are_coarsened_with_a_one_line_warning():
+    run = run_fem("gripper_connector_2holes_inventor.stp", "--max-memory", "0.6")
+    assert run.returncode == 0, run.error_lines
+    warning = [line for line in run.error_lines if "memory budget" in line]
+    assert len(warning) == 1 and "--max-memory 0.6 GB; k computed at" in warning[0], run.error_lines
+    assert run.result["mesh_size_m"] > 0.0005  # coarser than the default 0.5 mm
