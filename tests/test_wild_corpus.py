@@ -9,8 +9,10 @@ Reference stiffnesses, and how they were obtained (al6061-t6, E = 68.9 GPa, nu =
   369k unknowns on the finest, estimate +-0.054 %), after the small-hole size fields made it mesh.
 - robot_arm_link_pockets_inventor.stp: 1.99184e7 N/m, the converged reference quoted in issue 23
   (fine meshes, extrapolated).
-- gripper_connector_2holes / _3holes: REFERENCE_K below, this code at a third of the default size
-  (--mesh-size given there), Richardson-extrapolated, its estimate far below the default run's.
+- gripper_connector_2holes_inventor.stp: 3.74275e7 N/m, this code at --mesh-size 0.25 (half the
+  default; levels 0.333 / 0.25 mm, estimate +-0.053 %, the default run's +-0.31 %).
+- gripper_connector_3holes_inventor.stp: 2.32139e7 N/m, this code at --mesh-size 0.325 (half the
+  default; levels 0.433 / 0.325 mm, estimate +-0.19 %, the default run's +-0.81 %).
 """
 
 from __future__ import annotations
@@ -126,8 +128,8 @@ def test_quadruped_upper_leg_is_refused_listing_its_holes():
 REFERENCE_K = {
     "arm_bar_400mm_inventor.stp": 1.50462e8,
     "robot_arm_link_pockets_inventor.stp": 1.99184e7,
-    "gripper_connector_2holes_inventor.stp": GRIP2_REFERENCE_K,
-    "gripper_connector_3holes_inventor.stp": GRIP3_REFERENCE_K,
+    "gripper_connector_2holes_inventor.stp": 3.74275e7,
+    "gripper_connector_3holes_inventor.stp": 2.32139e7,
 }
 
 
