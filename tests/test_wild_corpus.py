@@ -170,3 +170,28 @@ def test_default_sizes_over_a_small_budget_are_coarsened_with_a_one_line_warning
     warning = [line for line in run.error_lines if "memory budget" in line]
     assert len(warning) == 1 and "--max-memory 0.6 GB; k computed at" in warning[0], run.error_lines
     assert run.result["mesh_size_m"] > 0.0005  # coarser than the default 0.5 mm
+
+
+# --- two unequal bores named by --bores: allowed, each meshed for its radius, within the budget --------
+
+def assert_ran_within_budget(run: Run) -> dict:
+    assert run.returncode == 0, run.error_lines
+    assert not any("Traceback" in line for line in run.error_lines)
+    assert run.peak_bytes < BUDGET_BYTES
+    return run.result
+
+
+@pytest.mark.slow
+def test_arm_bar_with_slots_runs_on_its_unequal_bores_named_by_hand():
+    # It was killed by the kernel at 23.2 GiB: the r 2.5 mm bore set the size of the whole 400 mm bar.
+    r = assert_ran_within_budget(run_fem("arm_bar_slots_inventor.stp", "--bores", "30,30,-30:20,370,-30"))
+    assert "unequal bores: the fixed one (r 11 mm) is clamped all round" in r["part"]["pin_bores"]["rule"]
+    assert r["stiffness_rel_error_estimate"] < 0.01
+
+
+@pytest.mark.slow
+def test_quadruped_upper_leg_runs_on_the_bores_named_by_hand_with_negative_coordinates():
+    # It took 13 GiB and 2:52 before failing.
+    r = assert_ran_within_budget(run_fem("quadruped_upper_leg_onshape.step", "--bores=-103.32,2.2,-25:4.95,-15.05,-3.55"))
+    assert r["pitch_m"] == pytest.approx(0.1103, rel=0.01)
+    assert r["stiffness_rel_error_estimate"] < 0.01
