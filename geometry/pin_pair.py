@@ -10,7 +10,7 @@ counterbores and chamfers on the pin bores themselves. The rule, in order:
    sum of their radii apart.
 3. Pins sit at the ends of a link: only pairs at the ends of the part count (it reaches no more
    than one pitch beyond either bore, along the line joining them, and that line runs along the
-   part's length: the pitch spans at least half the part's extent along its principal axis, so two
+   part's length: the pitch spans at least 30 % of the part's extent along its principal axis, so two
    screw holes across one end of a long part are not a pair), so lightening holes and nest
    screw holes between the pins lose even when they are larger, and a plate full of holes is not
    taken for a link. Then the largest radius wins (end-cap screw holes on the lugs are smaller
@@ -42,8 +42,9 @@ EQUAL_PITCH_TOL = 1e-3  # relative: two pairs this close in pitch (and radius) a
 PITCH_MATCH_TOL = 0.01  # relative: how close --pitch must be to a pair's pitch
 # The pins sit at the two ends of the part's length: the pitch, projected on the part's principal
 # axis, spans at least this fraction of the part's extent along it (a link's pitch spans 60-90 %
-# of its length; two holes across one end of a long part span next to nothing of it).
-LENGTH_SPAN_FRACTION = 0.5
+# of its length, a bar reaching one pitch beyond each bore a third; two holes across one end of
+# a long part span next to nothing of it).
+LENGTH_SPAN_FRACTION = 0.3
 # An open hole is named in a refusal only if its faces reach at least this far round (a half bore
 # drawn without its cap spans 180 deg; a pocket's rounded end or a slot end can span less).
 HALF_ROUND_DEG = 175.0
