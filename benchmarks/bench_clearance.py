@@ -20,15 +20,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
-from types import SimpleNamespace
 
 import numpy as np
 from scipy.integrate import solve_ivp
 
 from dynamics.cams import CamProgram
 from dynamics.chain import ChainModel
-from dynamics.clearance import ClearanceChain
-from dynamics.clearance_sim import simulate_scene
+from dynamics.clearance import DEFAULT_PIN_CLEARANCE_M, ClearanceChain
+from dynamics.clearance_sim import Scene, simulate_scene
 from dynamics.metrics import link_metrics, station_metrics
 from dynamics.solvers import clearance_verlet as verlet
 
@@ -160,8 +159,7 @@ def _ab2_rows(model, cam, t, ref, quick, repeats) -> list[str]:
 
 
 def _stage_table(quick: bool) -> list[str]:
-    settings = SimpleNamespace(steady_state=True, model="auto", pin_clearance_m=94e-6, span_damping="global",
-                               solver="exact")
+    scene = Scene(DEFAULT_PIN_CLEARANCE_M, "global", None, "auto", True, "exact")
     t = np.arange(721) / 4 / (6 * RPM)
     cams = CAMS[:2] if quick else CAMS
     start = time.perf_counter()
@@ -170,7 +168,7 @@ def _stage_table(quick: bool) -> list[str]:
         chain = _chain(material)
         for law in cams:
             cam = CamProgram.indexing(law, pitch_m=PITCH_M, rpm=RPM)
-            _, contact = simulate_scene(settings, chain, cam, t)
+            _, contact = simulate_scene(scene, chain, cam, t)
             models.add(contact.model)
             if contact.steady_state is not None:
                 cycles.append(contact.steady_state.cycles)

@@ -15,7 +15,7 @@ from fem import problem, solvers
 from fem.assembly import elasticity_matrix
 from fem.link import _discretise, skfem_mesh
 from fem.materials import get_material
-from fem.study import DEFAULT_BORE_REFINEMENT
+from fem.settings import DEFAULT_BORE_REFINEMENT
 from geometry import load_link
 
 

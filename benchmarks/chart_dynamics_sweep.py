@@ -10,7 +10,8 @@ import numpy as np
 
 from dynamics.chain import ChainModel
 from dynamics.mqp2012 import CAMS
-from dynamics.sweep import plot_rpm_sweep, rpm_sweep
+from dynamics.sweep import rpm_sweep
+from reporting.plots import plot_rpm_sweep
 
 
 def make(out_dir: Path, quick: bool) -> list[str]:

@@ -20,7 +20,7 @@ from chart_fea_workprecision import _finish  # benchmarks/ is on the path (chart
 import fem
 import geometry
 from fem.stress import stress_study
-from fem.study import DEFAULT_BORE_REFINEMENT
+from fem.settings import DEFAULT_BORE_REFINEMENT
 
 MATERIAL = "al6061-t6"
 BASE_M = 0.0045
@@ -36,7 +36,7 @@ def measure(quick: bool):
         s = fem.analyse_link(link, material)
         elapsed += time.perf_counter() - start
         uniform.append((h, s.dofs, s.peak_von_mises_away_from_clamp_Pa_per_N, elapsed))
-    local = stress_study(None, [material], base_mesh_size_m=BASE_M, tolerance=0.05 if quick else 0.02)[MATERIAL]
+    local = stress_study(None, [material], base_mesh_size_m=BASE_M, stress_tolerance=0.05 if quick else 0.02)[MATERIAL]
     return uniform, local
 
 

@@ -33,7 +33,8 @@ import fem
 import geometry
 from fem.adaptive import stiffness_to_tolerance
 from fem.richardson import Extrapolation, extrapolate
-from fem.study import DEFAULT_BORE_REFINEMENT, StiffnessEstimate
+from fem.settings import DEFAULT_BORE_REFINEMENT
+from fem.study import StiffnessEstimate
 
 MATERIAL = "al6061-t6"
 RATIO = 4 / 3

@@ -43,6 +43,7 @@ from scipy.linalg import eigh
 from dynamics.errors import DynamicsError
 from dynamics.friction import regularised_coulomb_N
 from dynamics.system import SampledForce, SecondOrderSystem
+from dynamics.topology import ChainTopology, ring_topology
 
 
 @dataclass(frozen=True)
@@ -84,21 +85,17 @@ class ChainModel:
     def drive_stiffness(self) -> float:
         return float(self.stiffness_N_per_m if self.drive_stiffness_N_per_m is None else self.drive_stiffness_N_per_m)
 
+    def topology(self) -> ChainTopology:
+        """The ring (dynamics.topology): N links, N spans, the drive spring on link 1."""
+        return ring_topology(self.n_links, self.link_mass_kg, self.stiffness_N_per_m, self.preload_N,
+                             self.drive_stiffness)
+
     def mass_matrix(self) -> np.ndarray:
-        return self.link_mass_kg * np.eye(self.n_links)
+        return self.topology().mass_matrix()
 
     def stiffness_matrix(self) -> np.ndarray:
         """Ring of springs k plus the drive spring on link 1."""
-        n, k = self.n_links, self.stiffness_N_per_m
-        kk = np.zeros((n, n))
-        for j in range(n):
-            i, l = j, (j + 1) % n
-            kk[i, i] += k
-            kk[l, l] += k
-            kk[i, l] -= k
-            kk[l, i] -= k
-        kk[0, 0] += self.drive_stiffness
-        return kk
+        return self.topology().stiffness_matrix()
 
     def modes(self) -> tuple[np.ndarray, np.ndarray]:
         """Natural frequencies (rad/s, ascending) and mass-normalised mode shapes of (K, M)."""

@@ -25,10 +25,12 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field, replace
+from enum import StrEnum
+from typing import NamedTuple
 
 import numpy as np
 
-from dynamics.clearance import DEFAULT_PIN_CLEARANCE_M, ClearanceChain, Tensioner
+from dynamics.clearance import ClearanceChain, Tensioner
 from dynamics.errors import DynamicsError
 from dynamics.reduction import DENSE_LINK_LIMIT
 from dynamics.simulate import ChainResponse, SlackChainWarning, simulate
@@ -39,6 +41,41 @@ MODEL_CHOICES = ("auto", "linear", "clearance")
 MAX_SUBHARMONIC = 6
 DEFAULT_TOL = 1e-6
 DEFAULT_MAX_CYCLES = 60
+
+
+class ChainModelKind(StrEnum):
+    """Which chain model produced a response."""
+
+    LINEAR = "linear"
+    CLEARANCE = "clearance"
+
+
+class Validity(StrEnum):
+    """Whether a response holds for its scene, as data for whoever reports it."""
+
+    VALID = "valid"
+    # "auto" needed the clearance model but could not run it (too long a chain for its damping law):
+    # the linear response stands in and does not hold where a span's tension goes below 0
+    NOT_VALID_WHERE_TENSION_NEGATIVE = "not valid where tension < 0"
+
+
+class ModelChoice(NamedTuple):
+    model: ChainModelKind
+    reason: str  # in words, for the report; no numbers, so equal reasons group
+    validity: Validity
+
+
+@dataclass(frozen=True)
+class Scene:
+    """The explicit description of one run's chain beyond its linear model (dynamics.chain.ChainModel):
+    the pin free play, the span damping law and the tensioner, which model to run and how."""
+
+    pin_clearance_m: float  # axial free play per span; inf: a chain that can only pull
+    span_damping: str  # one of dynamics.clearance.SPAN_DAMPING_LAWS
+    tensioner: Tensioner | None  # None: a rigid idler
+    model: str  # one of MODEL_CHOICES
+    steady_state: bool  # periodic steady state (False: from rest)
+    solver: str  # the linear chain's method (dynamics.solvers.METHODS)
 
 
 @dataclass(frozen=True)
@@ -56,8 +93,9 @@ class SteadyState:
 class ContactSummary:
     """What the designer reads about contact, per scenario (SI)."""
 
-    model: str  # "linear" or "clearance"
+    model: ChainModelKind
     reason: str
+    validity: Validity
     clearance_m: float
     contact_lost: bool  # some span left pulling contact (in the linear model: its tension went below 0)
     free_play_time_fraction: float  # share of span-time in free play over the output window
@@ -72,38 +110,40 @@ class ContactSummary:
     diagnostics: dict = field(default_factory=dict)
 
 
-def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float) -> tuple[str, str]:
-    """(model, reason) for a scene; see the module docstring."""
+def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float) -> ModelChoice:
+    """The model for a scene, why, and whether its response holds; see the module docstring."""
+    linear, clearance, valid = ChainModelKind.LINEAR, ChainModelKind.CLEARANCE, Validity.VALID
     if choice not in MODEL_CHOICES:
         raise DynamicsError(f"model: expected one of {', '.join(MODEL_CHOICES)}, got {choice!r}")
     too_long = model.span_damping == "global" and model.n_links > DENSE_LINK_LIMIT
     if choice == "linear":
-        return "linear", "asked for (--model linear)"
+        return ModelChoice(linear, "asked for (--model linear)", valid)
     if choice == "clearance":
         if too_long:
             raise DynamicsError(
                 f"model clearance: with the global damping law at most {DENSE_LINK_LIMIT} links (its damping "
                 f"matrix is dense), got {model.n_links}; use span damping kelvin-voigt or the linear model")
-        return "clearance", "asked for (--model clearance)"
+        return ModelChoice(clearance, "asked for (--model clearance)", valid)
     if model.tensioner is not None:
         if too_long:
             raise DynamicsError(f"tensioner: the clearance model with the global damping law takes at most "
                                 f"{DENSE_LINK_LIMIT} links, got {model.n_links}; use span damping kelvin-voigt")
-        return "clearance", "an idler tensioner is modelled, which only the clearance model carries"
+        return ModelChoice(clearance, "an idler tensioner is modelled, which only the clearance model carries", valid)
     if model.clearance_m == 0.0:
-        return "linear", "pin clearance 0: the clearance law is the linear chain exactly"
+        return ModelChoice(linear, "pin clearance 0: the clearance law is the linear chain exactly", valid)
     # the reasons carry no numbers (linear_min_tension_N is reported beside them), so that scenarios
     # with the same reason read as one group in the report
     if linear_min_tension_N >= 0.0:
-        return "linear", ("the linear solution never leaves pulling contact (its minimum tension stays >= 0), so "
-                          "the free play is never entered")
+        return ModelChoice(linear, "the linear solution never leaves pulling contact (its minimum tension stays >= 0), "
+                                   "so the free play is never entered", valid)
     if too_long:
-        return "linear", (f"the linear solution leaves pulling contact (minimum tension < 0) but the clearance "
-                          f"model with the global damping law is limited to {DENSE_LINK_LIMIT} links: the linear "
-                          "results are NOT valid where tension < 0 (use span damping kelvin-voigt for the "
-                          "clearance model of a long chain)")
-    return "clearance", ("the linear solution leaves pulling contact (its minimum tension goes below zero against "
-                         "the preload): the pin free play is crossed and the load reverses through impacts")
+        return ModelChoice(linear, f"the linear solution leaves pulling contact (minimum tension < 0) but the clearance "
+                                   f"model with the global damping law is limited to {DENSE_LINK_LIMIT} links: the "
+                                   "linear results are NOT valid where tension < 0 (use span damping kelvin-voigt for "
+                                   "the clearance model of a long chain)", Validity.NOT_VALID_WHERE_TENSION_NEGATIVE)
+    return ModelChoice(clearance, "the linear solution leaves pulling contact (its minimum tension goes below zero "
+                                  "against the preload): the pin free play is crossed and the load reverses through "
+                                  "impacts", valid)
 
 
 def simulate_chain(model: ClearanceChain, cam, t_eval_s, *, choice: str = "auto", steady_state: bool = True,
@@ -117,15 +157,15 @@ def simulate_chain(model: ClearanceChain, cam, t_eval_s, *, choice: str = "auto"
                        links=None if choice != "linear" else links)
     preload = model.chain.preload_N
     needed = max(preload - lin.min_tension_N, 0.0)
-    which, reason = choose_model(model, choice, lin.min_tension_N)
-    if which == "linear":
+    chosen = choose_model(model, choice, lin.min_tension_N)
+    if chosen.model == ChainModelKind.LINEAR:
         out = lin if links is None or choice == "linear" else _select(lin, links)
-        summary = ContactSummary("linear", reason, model.clearance_m, lin.min_tension_N < 0.0,
+        summary = ContactSummary(*chosen, model.clearance_m, lin.min_tension_N < 0.0,
                                  float(np.mean(lin.tension_N < 0.0)) if model.clearance_m > 0 else 0.0,
                                  0.0, 0.0, float(lin.tension_N.max()), lin.min_tension_N, needed, lin.min_tension_N)
         return out, summary
     with serial_blas():
-        return _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, reason, needed)
+        return _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed)
 
 
 def _select(r: ChainResponse, links) -> ChainResponse:
@@ -139,7 +179,7 @@ def _cam_nodes(cam, t0: float, step: float, n_steps: int):
     return np.asarray(v, dtype=float), np.asarray(a, dtype=float)
 
 
-def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, reason, needed):
+def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed):
     h_out = np.diff(t)
     if np.max(np.abs(h_out - h_out[0])) > 1e-9 * h_out[0]:
         raise DynamicsError("t_eval_s: the clearance model needs equally spaced output times")
@@ -167,7 +207,7 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
         diagnostics={"steps_per_output": sub, "step_s": h, "steady_state": ss,
                      "carriage_m": run.u if model.tensioner is not None else None})
     summary = ContactSummary(
-        "clearance", reason, model.clearance_m, run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
+        *chosen, model.clearance_m, run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
         run.free_play_fraction, run.impacts / cycles, run.peak_impact_force_N, run.peak_tension_N,
         run.min_tension_N, needed, lin.min_tension_N, ss, sub)
     return response, summary
@@ -242,18 +282,12 @@ def tensioner_from(rate_N_per_m, mass_kg, damping_N_s_per_m) -> Tensioner | None
                      0.0 if damping_N_s_per_m is None else damping_N_s_per_m)
 
 
-def scene_model(settings, chain) -> ClearanceChain:
-    """The clearance chain of a run's settings (stages.config.RunConfig or any object with its fields)."""
-    return ClearanceChain(
-        chain, getattr(settings, "pin_clearance_m", DEFAULT_PIN_CLEARANCE_M),
-        span_damping=getattr(settings, "span_damping", "global"),
-        tensioner=tensioner_from(getattr(settings, "tensioner_rate_N_per_m", None),
-                                 getattr(settings, "tensioner_mass_kg", None),
-                                 getattr(settings, "tensioner_damping_N_s_per_m", None)))
+def scene_model(scene: Scene, chain) -> ClearanceChain:
+    """The clearance chain of a scene on its linear chain (a dynamics.chain.ChainModel)."""
+    return ClearanceChain(chain, scene.pin_clearance_m, span_damping=scene.span_damping, tensioner=scene.tensioner)
 
 
-def simulate_scene(settings, chain, cam, t_eval_s, *, links=None, n_modes=None) -> tuple[ChainResponse, ContactSummary]:
+def simulate_scene(scene: Scene, chain, cam, t_eval_s, *, links=None, n_modes=None) -> tuple[ChainResponse, ContactSummary]:
     """What the orchestrators call: the scene's model (auto, linear or clearance) for one cam."""
-    return simulate_chain(scene_model(settings, chain), cam, t_eval_s, choice=getattr(settings, "model", "auto"),
-                          steady_state=settings.steady_state, links=links, n_modes=n_modes,
-                          method=getattr(settings, "solver", "exact"))
+    return simulate_chain(scene_model(scene, chain), cam, t_eval_s, choice=scene.model, steady_state=scene.steady_state,
+                          links=links, n_modes=n_modes, method=scene.solver)

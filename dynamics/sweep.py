@@ -88,13 +88,7 @@ class ChainModes:
 def stiffness_matrix_sparse(model: ChainModel) -> sp.csr_matrix:
     """The chain's K (ring of springs plus the drive spring on link 1) as a sparse matrix; equal to
     ChainModel.stiffness_matrix() without forming N x N dense storage."""
-    n, k = model.n_links, model.stiffness_N_per_m
-    i = np.arange(n)
-    j = (i + 1) % n
-    rows = np.concatenate([i, j, i, j, [0]])
-    cols = np.concatenate([i, j, j, i, [0]])
-    vals = np.concatenate([np.full(n, k), np.full(n, k), np.full(n, -k), np.full(n, -k), [model.drive_stiffness]])
-    return sp.csr_matrix((vals, (rows, cols)), shape=(n, n))
+    return model.topology().stiffness_matrix_sparse()
 
 
 def chain_modes(model: ChainModel, n_modes: int | None = None) -> ChainModes:
@@ -358,37 +352,3 @@ def rpm_sweep(
         samples_per_cycle=int(samples_per_cycle),
         n_modes=modes.n_modes,
     )
-
-
-def plot_rpm_sweep(result: SweepResult, path) -> None:
-    """Residual vibration (mm) and peak acceleration (m/s^2) versus cam speed, one line per cam,
-    critical speeds as vertical lines (labelled mode/harmonic); written to `path` (PNG)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7.5), sharex=True, dpi=100)
-    for i, cam in enumerate(result.cam_ids):
-        ax1.semilogy(result.rpm, result.residual_vibration_m[i] * 1e3, label=cam, lw=1.2)
-        ax2.semilogy(result.rpm, result.peak_acceleration_m_s2[i], label=cam, lw=1.2)
-    for c in result.critical_speeds:
-        for ax in (ax1, ax2):
-            ax.axvline(c.rpm, color="0.5", lw=0.8, ls="--", alpha=max(0.25, 1.0 / c.harmonic))
-        ax1.annotate(f"m{c.mode}/h{c.harmonic}", (c.rpm, 1.0), xycoords=("data", "axes fraction"), fontsize=7,
-                     rotation=90, va="top", ha="right", color="0.35")
-    ax1.set_ylabel("residual vibration in dwell, max |x - z| (mm)")
-    ax2.set_ylabel("peak |acceleration| (m/s²)")
-    ax2.set_xlabel("cam speed (rev/min)")
-    ax1.set_title(
-        f"Speed sweep at {result.station} (link {result.station_link}), periodic steady state, "
-        f"{result.n_modes} modes, friction 0\n"
-        "dashed: critical speeds, harmonic h of the index frequency = natural frequency of mode m",
-        fontsize=9,
-    )
-    ax1.legend(fontsize=8, ncol=3)
-    for ax in (ax1, ax2):
-        ax.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)

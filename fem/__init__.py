@@ -6,11 +6,13 @@ from .link import LinkSolution, analyse_link, analyse_link_materials
 from .materials import Material, get_material, load_materials
 from .render import render_deformed
 from .richardson import Extrapolation, extrapolate
+from .settings import FeaSettings
 from .stress import StressEstimate, stress_study
 from .study import StiffnessEstimate, stiffness_studies, stiffness_study
 
 __all__ = [
     "Extrapolation",
+    "FeaSettings",
     "FemError",
     "LinkSolution",
     "Material",

@@ -20,16 +20,14 @@ from __future__ import annotations
 
 import math
 import time
-from pathlib import Path
 from typing import Callable, Sequence
 
 from .errors import FemError
 from .link import LinkSolution, analyse_link
 from .materials import Material
-from .problem import element
 from .richardson import extrapolate, rate_bracket
-from .solvers import resolve
-from .study import DEFAULT_BORE_REFINEMENT, StiffnessEstimate, estimate_from_levels
+from .settings import FeaSettings, settings_with
+from .study import StiffnessEstimate, estimate_from_levels
 
 REFINEMENT_RATIO = 4 / 3
 # Start at the part's bounding-box diagonal / 14 (12 mm on the default link: about 11k P2 DOFs,
@@ -42,23 +40,11 @@ MIN_LEVELS = 2  # the error bound needs two levels (see richardson)
 
 
 def bounding_diagonal_m(source) -> float:
-    """Diagonal of the link's CAD bounding box in metres (a STEP path; None or `LinkDimensions`
-    for the parametric link)."""
-    import gmsh
+    """Diagonal of the link's CAD bounding box in metres, hardware solids included (a `geometry.Part`,
+    or a source it resolves: a STEP path, None or `LinkDimensions` for the parametric link)."""
+    from geometry.part import as_part
 
-    from geometry.load import is_parametric, parametric_dimensions
-    from geometry.parametric import add_link
-    from geometry.session import gmsh_model, quiet_stdout
-    from geometry.step_io import import_step
-
-    with gmsh_model("bounding-box"):
-        if is_parametric(source):
-            add_link(parametric_dimensions(source))
-        else:
-            with quiet_stdout():
-                import_step(source)
-        xmin, ymin, zmin, xmax, ymax, zmax = gmsh.model.getBoundingBox(-1, -1)
-    return math.dist((xmin, ymin, zmin), (xmax, ymax, zmax))
+    return as_part(source, symmetry=False).geometry.all_solids_diagonal_m
 
 
 def _check(rel_tolerance: float, start_mesh_size_m: float | None, max_dofs: int, ratio: float) -> None:
@@ -73,51 +59,47 @@ def _check(rel_tolerance: float, start_mesh_size_m: float | None, max_dofs: int,
 
 
 def stiffness_to_tolerance(
-    source: str | Path | None,
+    source,
     material: Material,
     rel_tolerance: float,
+    settings: FeaSettings | None = None,
     *,
-    order: int = 2,
-    solver: str = "auto",
     start_mesh_size_m: float | None = None,
     progress: Callable[[str], None] | None = None,
-    curved: bool = True,
-    load_N: float = 1000.0,
-    bore_refinement: float = DEFAULT_BORE_REFINEMENT,
     max_dofs: int = DEFAULT_MAX_DOFS,
     ratio: float = REFINEMENT_RATIO,
+    **changes,
 ) -> StiffnessEstimate:
-    """k of the link (None = built-in default) with estimated relative error <= rel_tolerance.
+    """k of the link (a `geometry.Part`, or a source it resolves; None = built-in default) with
+    estimated relative error <= rel_tolerance.
 
     Levels are solved coarse to fine, mesh size divided by `ratio` each time, starting at
     `start_mesh_size_m` (None: bounding-box diagonal x START_SIZE_FRACTION). `progress`, if given,
     receives one line per level. Raises FemError when the next level would exceed `max_dofs`
-    DOFs (or geometry refuses its size) before the tolerance is met.
+    DOFs (or geometry refuses its size) before the tolerance is met. settings: `FeaSettings` (None:
+    the defaults; its order, curved, load, solver and bore refinement are used, not its mesh sizes);
+    keyword `changes` replace its fields.
     """
     if not isinstance(material, Material):
         raise FemError(f"material: expected a fem.Material, got {type(material).__name__}")
     return stiffnesses_to_tolerance(
-        source, [material], rel_tolerance, order=order, solver=solver, start_mesh_size_m=start_mesh_size_m,
-        progress=progress, curved=curved, load_N=load_N, bore_refinement=bore_refinement, max_dofs=max_dofs,
-        ratio=ratio,
+        source, [material], rel_tolerance, settings, start_mesh_size_m=start_mesh_size_m, progress=progress,
+        max_dofs=max_dofs, ratio=ratio, **changes,
     )[material.name]
 
 
 def stiffnesses_to_tolerance(
-    source: str | Path | None,
+    source,
     materials: Sequence[Material],
     rel_tolerance: float,
+    settings: FeaSettings | None = None,
     *,
-    order: int = 2,
-    solver: str = "auto",
     start_mesh_size_m: float | None = None,
     progress: Callable[[str], None] | None = None,
-    curved: bool = True,
-    load_N: float = 1000.0,
-    bore_refinement: float = DEFAULT_BORE_REFINEMENT,
     max_dofs: int = DEFAULT_MAX_DOFS,
     ratio: float = REFINEMENT_RATIO,
     solved: dict | None = None,
+    **changes,
 ) -> dict[str, StiffnessEstimate]:
     """`stiffness_to_tolerance` for several materials (keyed by name), meshing each level once.
 
@@ -131,13 +113,13 @@ def stiffnesses_to_tolerance(
     if not materials or not all(isinstance(m, Material) for m in materials):
         raise FemError(f"materials: expected a non-empty sequence of fem.Material, got {materials!r}")
     _check(rel_tolerance, start_mesh_size_m, max_dofs, ratio)
-    element(order)
-    resolve(solver)
-    mesh_order = 2 if (order == 2 and curved) else 1
-    h = START_SIZE_FRACTION * bounding_diagonal_m(source) if start_mesh_size_m is None else float(start_mesh_size_m)
+    fea = settings_with(settings, changes)
+    order, solver, load_N = fea.order, fea.solver, fea.load_N
+    part = geometry.as_part(source, symmetry=False)
+    h = START_SIZE_FRACTION * bounding_diagonal_m(part) if start_mesh_size_m is None else float(start_mesh_size_m)
     mesh_time = 0.0  # of every level the estimates rest on, earlier passes' included
     known = {} if solved is None else solved
-    settings = (str(source), order, solver, curved, load_N, bore_refinement)
+    settings_key = (part.fingerprint, repr(part.origin), order, solver, fea.curved, load_N, fea.bore_refinement)
     sizes: list[float] = []
     solutions: dict[str, list[LinkSolution]] = {m.name: [] for m in materials}
     first = solutions[materials[0].name]
@@ -147,11 +129,11 @@ def stiffnesses_to_tolerance(
             if predicted > max_dofs:
                 raise FemError(_unreached(rel_tolerance, sizes, solutions, f"the next level (h = {h * 1e3:.3g} mm) would have about {predicted:.3g} DOFs, above max_dofs = {max_dofs}"))
         level_start = time.perf_counter()
-        level = (*settings, f"{h:.12e}")
+        level = (*settings_key, f"{h:.12e}")
         keys = {m.name: (*level, m) for m in materials}
         if any(key not in known for key in keys.values()):
             try:
-                link = geometry.load_link(source, mesh_size_m=h, order=mesh_order, bore_refinement=bore_refinement)
+                link = geometry.mesh_part(part, mesh_size_m=h, order=fea.mesh_order, bore_refinement=fea.bore_refinement)
             except geometry.GeometryError as exc:
                 if not sizes:
                     raise

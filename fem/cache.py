@@ -1,7 +1,7 @@
 """On-disk cache of FEA results, so a run that changes only the cam, speed or chain does not re-solve.
 
 An entry is keyed by everything the FEA result depends on: the geometry file's bytes (or the
-default link's dimensions), the material's properties, the mesh and element settings, and the
+default link's dimensions: `geometry.Part.fingerprint`), the material's properties, the mesh and element settings, and the
 cache format version. It holds the result as JSON and, when made, the rendered image.
 """
 
@@ -21,18 +21,6 @@ CACHE_FORMAT = 5  # 2: k is the Richardson-extrapolated value; 3: FEA warnings s
 def default_cache_dir() -> Path:
     root = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
     return Path(root) / "link-conveyor" / "fea"
-
-
-def geometry_fingerprint(geometry_path: Path | None, default_description: str) -> str:
-    """Content hash of the geometry file, or of the default link's description."""
-    h = hashlib.sha256()
-    if geometry_path is None:
-        h.update(default_description.encode())
-    else:
-        with open(geometry_path, "rb") as f:
-            for block in iter(lambda: f.read(1 << 20), b""):
-                h.update(block)
-    return h.hexdigest()
 
 
 def cache_key(geometry_fingerprint: str, settings: dict) -> str:

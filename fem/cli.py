@@ -9,13 +9,17 @@ import sys
 import warnings
 from pathlib import Path
 
-from geometry.assembly import inspect_part
-from geometry.options import add_part_arguments, hardware_densities, hardware_masses_kg, link_source
+from geometry.options import (add_part_arguments, hardware_densities, hardware_masses_kg, link_source,
+                              signed_values_attached)
+from geometry.part import resolve_part
+from settings import DEFAULT_MATERIALS, RunConfig
+from settings.registries import ELEMENT_ORDERS
 
 from .budget import DEFAULT_MAX_MEMORY_GB
 from .errors import FemError
 from .materials import get_material, load_materials
-from .study import LEVEL_RATIO, StiffnessEstimate, levels_for_finest, stiffness_study
+from .settings import LEVEL_RATIO, FeaSettings
+from .study import StiffnessEstimate, stiffness_study
 
 DESCRIPTION = """\
 Axial stiffness k (N/m), mass (kg) and peak von Mises stress per newton (Pa/N) of one chain link.
@@ -33,7 +37,7 @@ class _OneLineParser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     parser = _OneLineParser(prog="python -m fem", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("step", nargs="?", help="STEP file of one link (any unit the file declares); default: the built-in link")
-    parser.add_argument("--material", default="al6061-t6", help="material id from the materials table (default: %(default)s)")
+    parser.add_argument("--material", default=DEFAULT_MATERIALS[0], help="material id from the materials table (default: %(default)s)")
     parser.add_argument("--materials-file", help="TOML file of extra materials (SI units: youngs_modulus_Pa, poisson_ratio, density_kg_per_m3)")
     parser.add_argument(
         "--mesh-size",
@@ -42,7 +46,7 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"finest element size in millimetres; one coarser level (x{LEVEL_RATIO:.4g}) is added (default: relative "
         "to the part, the smaller of pitch/25 and 0.52 x bore radius: 4.5 and 6 mm on the built-in link)",
     )
-    parser.add_argument("--order", type=int, choices=(1, 2), default=2, help="element order: 1 = linear, 2 = quadratic (default)")
+    parser.add_argument("--order", type=int, choices=ELEMENT_ORDERS, default=RunConfig.order, help="element order: 1 = linear, 2 = quadratic (default)")
     parser.add_argument("--load", type=str, default="1000", metavar="N", help="pin load in newtons for the image and fields (default: %(default)s); k is linear")
     parser.add_argument("--solver", default="auto", help="linear solver: auto, pardiso, amg or spsolve (default: %(default)s)")
     parser.add_argument("--json", action="store_true", help="print one JSON object (SI units) instead of text")
@@ -151,34 +155,33 @@ def _text(r: dict) -> str:
 
 
 def run(argv: list[str] | None = None) -> dict:
-    args = build_parser().parse_args(argv)
+    args = build_parser().parse_args(signed_values_attached(argv))
     materials = load_materials(args.materials_file)
     material = get_material(args.material, materials)
     load_N = _positive(args.load, "--load")
-    sizes = None
-    if args.mesh_size is not None:
-        sizes = levels_for_finest(_positive(args.mesh_size, "--mesh-size") * 1e-3)
+    finest_m = None if args.mesh_size is None else _positive(args.mesh_size, "--mesh-size") * 1e-3
     if args.image is not None and Path(args.image).suffix.lower() != ".png":
         raise FemError(f"--image {args.image!r}: expected a .png path")
     if args.vtu is not None and Path(args.vtu).suffix.lower() != ".vtu":
         raise FemError(f"--vtu {args.vtu!r}: expected a .vtu path")
     source = link_source(args.step, args)
-    part = None
-    if source is not None:
-        part = _inspect(source, args, materials)  # refuses a part that cannot be a link before any meshing
-    elif args.hardware_material is not None:
+    if source is None and args.hardware_material is not None:
         raise FemError("--hardware-material: only for a STEP file with hardware solids; expected a STEP path with it")
-    estimate = stiffness_study(source, material, mesh_sizes_m=sizes, order=args.order, load_N=load_N, solver=args.solver,
-                               mirror_symmetry=not args.full_model,
-                               max_memory_gb=_positive(args.max_memory, "--max-memory"))
+    # resolved once (body and pin bores chosen): refuses a part that cannot be a link before any meshing
+    settings = FeaSettings.with_finest(finest_m, order=args.order, load_N=load_N, solver=args.solver,
+                                       mirror_symmetry=not args.full_model,
+                                       max_memory_gb=_positive(args.max_memory, "--max-memory"))
+    part = resolve_part(source, symmetry=settings.mirror_symmetry)
+    record = _inspect(part.summary, args, materials) if part.is_step else None
+    estimate = stiffness_study(part, material, settings)
     result = report(estimate)
-    if part is not None:
-        result["part"] = part
+    if record is not None:
+        result["part"] = record
     if args.converge_stress:
         from .stress import stress_study
 
-        stress = stress_study(args.step, [material], base_mesh_size_m=estimate.finest.mesh_size_m, order=args.order,
-                              solver=args.solver, base={material.name: estimate.finest})[material.name]
+        stress = stress_study(part, [material], settings, base_mesh_size_m=estimate.finest.mesh_size_m,
+                              base={material.name: estimate.finest})[material.name]
         result |= {"peak_von_mises_converged_Pa_per_N": stress.peak_Pa_per_N,
                    "peak_von_mises_converged_rel_change": stress.rel_change,
                    "peak_von_mises_converged_location_m": list(stress.location_m),
@@ -201,9 +204,8 @@ def run(argv: list[str] | None = None) -> dict:
     return result
 
 
-def _inspect(source, args, materials) -> dict:
+def _inspect(summary, args, materials) -> dict:
     """The part's pin bores, ignored holes and hardware (JSON-able); printed at once in text mode."""
-    summary = inspect_part(source)
     part = summary.as_dict()
     lines = summary.lines()
     densities = hardware_densities(args.hardware_material, summary,

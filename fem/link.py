@@ -23,7 +23,7 @@ from scipy.spatial import cKDTree
 from skfem import Basis, MeshTet1, MeshTet2
 from skfem.quadrature import get_quadrature
 
-from geometry.link_mesh import Bore, LinkMesh
+from geometry.link_mesh import Bore, LinkMesh, part_size_m
 
 from . import locking, problem, quality, solvers
 from .assembly import DIM, elasticity_parts, rigid_body_modes
@@ -279,7 +279,7 @@ def _rim_points(mesh, facets: np.ndarray, mirror_plane=None, samples_per_edge: i
     unique, counts = np.unique(edges, axis=1, return_counts=True)
     rim = unique[:, counts == 1]
     if mirror_plane is not None:
-        on_plane = mirror_plane.on_plane(mesh.p[:, rim], float(np.ptp(mesh.p, axis=1).max()))  # (2, n_edges)
+        on_plane = mirror_plane.on_plane(mesh.p[:, rim], part_size_m(mesh.p))  # (2, n_edges)
         rim = rim[:, ~on_plane.all(axis=0)]
     s = np.linspace(0.0, 1.0, samples_per_edge + 1)
     a, b = mesh.p[:, rim[0]], mesh.p[:, rim[1]]
@@ -446,16 +446,6 @@ def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: 
     work = _copies(mesh) * float(f @ u)  # of the whole link
     if not work > 0:
         raise FemError("the link did not deform under the load: check the bore facet sets")
-    lam, mu = material.lame_Pa
-    if points is None:
-        return _solution_without_stress(mesh, sk_mesh, basis, material, order, load_N, work, u, free, K, method, timing,
-                                        whole_dofs)
-    vm = points.von_mises(u, lam, mu)
-    dofs = points.element_dofs
-    at_dofs = np.bincount(dofs.ravel(), vm.ravel(), basis.N) / np.bincount(dofs.ravel(), minlength=basis.N)
-    away = points.away
-    where = points.where.reshape(3, -1)
-    away_peak = int(np.argmax(np.where(away, vm, -np.inf))) if away.any() else int(np.argmax(vm))
     return LinkSolution(
         material=material,
         order=order,
@@ -466,11 +456,7 @@ def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: 
         volume_m3=float(mesh.cad_volume_m3),
         mesh_volume_m3=_copies(mesh) * float(np.sum(basis.dx)),
         mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),
-        peak_von_mises_Pa_per_N=float(vm.max()) / load_N,
-        peak_von_mises_location_m=where[:, int(np.argmax(vm))].tolist(),
-        peak_von_mises_away_from_clamp_Pa_per_N=float(vm[away].max()) / load_N if away.any() else float("nan"),
-        peak_von_mises_away_location_m=where[:, away_peak].tolist(),
-        clamp_exclusion_radius_m=points.exclusion_radius_m,
+        clamp_exclusion_radius_m=CLAMP_EXCLUSION_RADIUS_FRACTION * mesh.fixed_bore.radius_m,
         pitch_m=mesh.pitch_m,
         bore_radius_m=float(mesh.loaded_bore.radius_m),
         mesh_size_m=float(mesh.mesh_size_m),
@@ -482,26 +468,31 @@ def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: 
         link=mesh,
         basis=basis,
         displacement_m=problem.as_components(u).copy(),
-        von_mises_at_dofs_Pa=at_dofs,
-        away_from_clamp_at_dofs=points.away_at_dofs,
+        **_stress_fields(points, basis, material, u, load_N),
     )
 
 
-def _solution_without_stress(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: int, load_N: float,
-                             work: float, u: np.ndarray, free: np.ndarray, K, method: str,
-                             timing: dict, whole_dofs: int) -> LinkSolution:
-    nan = float("nan")
-    return LinkSolution(
-        material=material, order=order, curved=not sk_mesh.affine, load_N=float(load_N),
-        stiffness_N_per_m=load_N**2 / work,
-        stiffness_from_energy_N_per_m=load_N**2 / (_copies(mesh) * float(u[free] @ (K @ u[free]))),
-        volume_m3=float(mesh.cad_volume_m3), mesh_volume_m3=_copies(mesh) * float(np.sum(basis.dx)),
-        mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),
-        peak_von_mises_Pa_per_N=nan, peak_von_mises_location_m=[nan] * 3,
-        peak_von_mises_away_from_clamp_Pa_per_N=nan, peak_von_mises_away_location_m=[nan] * 3,
-        clamp_exclusion_radius_m=CLAMP_EXCLUSION_RADIUS_FRACTION * mesh.fixed_bore.radius_m,
-        pitch_m=mesh.pitch_m, bore_radius_m=float(mesh.loaded_bore.radius_m), mesh_size_m=float(mesh.mesh_size_m),
-        n_tets=int(mesh.tets.shape[1]), dofs=int(3 * basis.N), whole_link_dofs=whole_dofs, solver=method, timing_s=timing, link=mesh,
-        basis=basis, displacement_m=problem.as_components(u).copy(),
-        von_mises_at_dofs_Pa=np.full(basis.N, nan), away_from_clamp_at_dofs=np.zeros(basis.N, dtype=bool),
+def _stress_fields(points: _StressPoints | None, basis: Basis, material: Material, u: np.ndarray,
+                   load_N: float) -> dict:
+    """The LinkSolution's stress fields: evaluated at `points`, or NaN where the stress is skipped
+    (points None: a study's coarser levels)."""
+    if points is None:
+        nan = float("nan")
+        return dict(peak_von_mises_Pa_per_N=nan, peak_von_mises_location_m=[nan] * 3,
+                    peak_von_mises_away_from_clamp_Pa_per_N=nan, peak_von_mises_away_location_m=[nan] * 3,
+                    von_mises_at_dofs_Pa=np.full(basis.N, nan), away_from_clamp_at_dofs=np.zeros(basis.N, dtype=bool))
+    lam, mu = material.lame_Pa
+    vm = points.von_mises(u, lam, mu)
+    dofs = points.element_dofs
+    at_dofs = np.bincount(dofs.ravel(), vm.ravel(), basis.N) / np.bincount(dofs.ravel(), minlength=basis.N)
+    away = points.away
+    where = points.where.reshape(3, -1)
+    away_peak = int(np.argmax(np.where(away, vm, -np.inf))) if away.any() else int(np.argmax(vm))
+    return dict(
+        peak_von_mises_Pa_per_N=float(vm.max()) / load_N,
+        peak_von_mises_location_m=where[:, int(np.argmax(vm))].tolist(),
+        peak_von_mises_away_from_clamp_Pa_per_N=float(vm[away].max()) / load_N if away.any() else float("nan"),
+        peak_von_mises_away_location_m=where[:, away_peak].tolist(),
+        von_mises_at_dofs_Pa=at_dofs,
+        away_from_clamp_at_dofs=points.away_at_dofs,
     )

@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from geometry.link_mesh import part_size_m
+
 from .errors import FemError
 
 # gmsh's optimised HXT meshes of the sharp-cornered default link had min q of 0.21-0.33 (measured
@@ -165,7 +167,7 @@ def thinnest_wall_m(points_m: np.ndarray, tets: np.ndarray, search_radius_m: flo
     offset = centroid[j] - centroid[i]
     depth = -np.einsum("ij,ij->i", offset, normal[i])
     if mirror_plane is not None:
-        on_plane = mirror_plane.on_plane(points_m[:, tri], float(np.ptp(points_m, axis=1).max())).all(axis=0)
+        on_plane = mirror_plane.on_plane(points_m[:, tri], part_size_m(points_m)).all(axis=0)
         depth = np.where(on_plane[i] | on_plane[j], 2 * depth, depth)
     lateral = np.linalg.norm(offset + depth[:, None] * normal[i], axis=1)
     across = (depth > 0) & (lateral < np.maximum(depth, np.sqrt(area[i])))

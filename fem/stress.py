@@ -22,7 +22,6 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
@@ -31,9 +30,8 @@ from .errors import FemError, FemWarning
 from .link import LinkSolution, analyse_link_materials
 from .materials import Material
 from .quality import QUALITY_WARNING_PREFIX
-from .study import DEFAULT_BORE_REFINEMENT
+from .settings import FeaSettings, settings_with
 
-DEFAULT_TOLERANCE = 0.05
 HOT_SPOT_FRACTION = 0.8  # element nodes within 20 % of the peak are refined around
 MAX_HOT_SPOTS = 8
 MAX_LEVELS = 4  # refinement levels after the base mesh (local size base / 2^4 at most)
@@ -91,37 +89,48 @@ def hot_spots(solution: LinkSolution, fraction: float = HOT_SPOT_FRACTION, max_s
 
 
 def stress_study(
-    source: str | Path | None,
+    source,
     materials: Sequence[Material],
+    settings: FeaSettings | None = None,
     *,
     base_mesh_size_m: float,
-    order: int = 2,
-    solver: str = "auto",
-    bore_refinement: float = DEFAULT_BORE_REFINEMENT,
-    tolerance: float = DEFAULT_TOLERANCE,
     base: dict[str, LinkSolution] | None = None,
     progress: Callable[[str], None] | None = None,
+    **changes,
 ) -> dict[str, StressEstimate]:
-    """Converge the peak stress of the link (None = built-in) by local refinement, per material.
+    """Converge the peak stress of the link (a `geometry.Part`, or a source it resolves; None =
+    built-in) by local refinement, per material, until a level changes the peak by at most
+    `settings.stress_tolerance`.
 
-    `base`, if given, holds the materials' solutions on the base mesh (e.g. the finest level of a
-    stiffness study at `base_mesh_size_m`), which are then not solved again. The hot spots are
-    those of the first material (Poisson's ratio barely moves them); every level is solved for all
-    materials on one mesh (`analyse_link_materials`). The refined levels mesh the whole link; a
-    base solved on a mirror half has its hot spots refined on both sides (on the half, local balls
-    left 37 slivers on the default link at 4.5 mm, P1: tests/test_pipeline_cli.py's locking case).
+    settings: `FeaSettings` (None: the defaults; its order, solver, load and bore refinement are
+    used); keyword `changes` replace its fields. `base`, if given, holds the materials' solutions on
+    the base mesh (e.g. the finest level of a stiffness study at `base_mesh_size_m`), which are then
+    not solved again. The hot spots are those of the first material (Poisson's ratio barely moves
+    them); every level is solved for all materials on one mesh (`analyse_link_materials`). The
+    refined levels mesh the whole link; a base solved on a mirror half has its hot spots refined on
+    both sides (on the half, local balls left 37 slivers on the default link at 4.5 mm, P1:
+    tests/test_pipeline_cli.py's locking case).
     """
     import geometry
     from geometry.meshing import Refinement, refined
 
-    if not (0 < tolerance < 1):
-        raise FemError(f"tolerance={tolerance!r}: expected a relative change in (0, 1), e.g. 0.05")
+    settings = settings_with(settings, changes)
+    tolerance, order = settings.stress_tolerance, settings.order
     start = time.perf_counter()
+    part = geometry.as_part(source, symmetry=False)  # the refined levels mesh the whole link
     mesh_order = 2 if order == 2 else 1
+
+    def mesh(balls: Sequence[Refinement]):
+        with refined(balls):
+            return geometry.mesh_part(part, mesh_size_m=base_mesh_size_m, order=mesh_order,
+                                      bore_refinement=settings.bore_refinement)
+
+    def solve(link) -> dict[str, LinkSolution]:
+        return analyse_link_materials(link, materials, order=order, load_N=settings.load_N, solver=settings.solver)
+
     names = [m.name for m in materials]
     if base is None or any(n not in base for n in names):
-        link = geometry.load_link(source, mesh_size_m=base_mesh_size_m, order=mesh_order, bore_refinement=bore_refinement)
-        base = analyse_link_materials(link, materials, order=order, solver=solver)
+        base = solve(mesh(()))
     levels = {n: [(base_mesh_size_m, base[n].dofs, base[n].peak_von_mises_away_from_clamp_Pa_per_N)] for n in names}
     seconds = [time.perf_counter() - start]
     current = {n: base[n] for n in names}
@@ -132,21 +141,20 @@ def stress_study(
         spots = _both_sides(hot_spots(current[names[0]], separation_m=radius), current[names[0]], radius)
         local /= 2
         balls = [Refinement(tuple(float(x) for x in s), radius, local) for s in spots]
-        with refined(balls):
-            link = geometry.load_link(source, mesh_size_m=base_mesh_size_m, order=mesh_order, bore_refinement=bore_refinement)
+        link = mesh(balls)
         with warnings.catch_warnings(record=True) as caught:  # re-issued for the finest level only
             warnings.simplefilter("always", FemWarning)
-            current = analyse_link_materials(link, materials, order=order, solver=solver)
+            current = solve(link)
         for n in names:
             levels[n].append((local, current[n].dofs, current[n].peak_von_mises_away_from_clamp_Pa_per_N))
         seconds.append(time.perf_counter() - start)
-        changes = [_change(levels[n]) for n in names]
+        moved = [_change(levels[n]) for n in names]
         if progress is not None:
             progress(f"stress level {len(levels[names[0]]) - 1}: local element {local * 1e3:.2g} mm at {len(spots)} hot "
                      f"spot(s), {current[names[0]].dofs} DOFs, peak " + ", ".join(
                          f"{n} {levels[n][-1][2] * 1e3 / 1e6:.4g} MPa/kN" for n in names)
-                     + f", change {max(changes) * 100:.2g} %")
-        if max(changes) <= tolerance:
+                     + f", change {max(moved) * 100:.2g} %")
+        if max(moved) <= tolerance:
             break
     for w in caught:
         if str(w.message).startswith(QUALITY_WARNING_PREFIX):

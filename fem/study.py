@@ -20,7 +20,6 @@ import time
 import warnings
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
@@ -29,9 +28,8 @@ from . import budget, quality
 from .errors import FemError, FemWarning
 from .link import LinkSolution, analyse_link_materials, check_mesh_and_materials
 from .materials import Material
-from .problem import element
 from .richardson import Extrapolation, extrapolate, rate_bracket
-from .solvers import resolve
+from .settings import LEVEL_RATIO, FeaSettings, levels_for_finest, settings_with
 
 # Relative sizes, chosen by measurement on the default link (README, FEA work-precision): two
 # curved-P2 levels (6 and 4.5 mm there) put k's guaranteed-under-the-model estimate below 1 %.
@@ -39,12 +37,6 @@ from .solvers import resolve
 # pocket is crossed by flattened elements and k jumps by 1.5 % (measured, 7.5 -> 6 mm).
 PITCH_FRACTION = 1 / 25
 BORE_FRACTION = 0.52
-LEVEL_RATIO = 4 / 3
-DEFAULT_LEVELS = 2
-# Element size at the bores as a fraction of the size elsewhere. On the default link the stiffness
-# error lives mostly away from the bores (thin rails, sharp pocket edges): per DOF, 0.7 was more
-# accurate than 0.4 (geometry's default), 0.25 and 0.15 (measured, see the report).
-DEFAULT_BORE_REFINEMENT = 0.7
 
 
 @dataclass(frozen=True, eq=False)
@@ -63,134 +55,92 @@ class StiffnessEstimate:
     timing_s: dict[str, float]  # summed over levels: mesh, assembly, load, solve, post, total; the study's wall
 
 
-def _check_sizes(sizes: Sequence[float]) -> tuple[float, ...]:
-    sizes = tuple(float(h) for h in sizes)
-    if len(sizes) not in (2, 3):
-        raise FemError(f"mesh_sizes_m: expected 2 or 3 sizes, got {len(sizes)}")
-    if not all(np.isfinite(h) and h > 0 for h in sizes):
-        raise FemError(f"mesh_sizes_m: sizes must be positive numbers in metres, got {list(sizes)}")
-    if any(b >= a for a, b in zip(sizes, sizes[1:])):
-        raise FemError(f"mesh_sizes_m: sizes must decrease (coarse to fine), got {list(sizes)}")
-    return sizes
-
-
-def levels_for_finest(finest_m: float, n_levels: int = DEFAULT_LEVELS, ratio: float = LEVEL_RATIO) -> tuple[float, ...]:
-    """Mesh sizes coarse to fine ending at `finest_m`, successive ratio `ratio`."""
-    return tuple(finest_m * ratio**i for i in reversed(range(n_levels)))
-
-
 def finest_size_for(pitch_m: float, bore_radius_m: float) -> float:
     """The default finest element size of a link with this pitch and (larger) pin-bore radius.
-    Smaller holes (screw, grease holes) are refined locally (geometry.meshing's small-hole fields),
-    not by a smaller size everywhere."""
+    Smaller holes (screw, grease holes) and a smaller pin bore are refined locally
+    (geometry.meshing's size fields), not by a smaller size everywhere."""
     return min(PITCH_FRACTION * pitch_m, BORE_FRACTION * bore_radius_m)
 
 
 def default_mesh_sizes(source) -> tuple[float, ...]:
-    """Default levels (coarse to fine) for the link: relative to its pitch and pin bores."""
+    """Default levels (coarse to fine) for the link (a `geometry.Part`, or a source it resolves):
+    relative to its pitch and pin bores."""
     pitch_m, bore_radius_m, _ = part_scale(source)
     return levels_for_finest(finest_size_for(pitch_m, bore_radius_m))
 
 
 def part_scale(source) -> tuple[float, float, float]:
-    """(pitch, larger pin-bore radius, smallest other hole radius or inf) in metres of a STEP link
-    (a path or a `geometry.assembly.LinkSource`: the same body and pin bores as `load_link`
-    chooses), or of the built-in link (None) or one of its `LinkDimensions` variants."""
-    from geometry.assembly import inspect_part
-    from geometry.dimensions import DEFAULT_LINK, LinkDimensions
+    """(pitch, larger pin-bore radius, smallest other hole radius or inf) in metres of the link: a
+    `geometry.Part`, or a source it resolves (a STEP path or `LinkSource`: the body and pin bores
+    the meshes use; None or `LinkDimensions`: the built-in link's nominal pitch and bore)."""
+    from geometry.part import as_part
 
-    if source is None or isinstance(source, LinkDimensions):
-        link = DEFAULT_LINK if source is None else source
-        return link.pitch_m, link.bore_radius_m, np.inf
-    from geometry.session import quiet_stdout
-
-    with quiet_stdout():
-        pins = inspect_part(source).pins
-    holes = [h.hole.bore.radius_m for h in pins.ignored]
-    # the larger bore sets the size: a smaller one (two unequal bores given by --bores) gets finer
-    # elements of its own (geometry.meshing)
-    return pins.pitch_m, float(max(pins.fixed.bore.radius_m, pins.loaded.bore.radius_m)), min(holes, default=np.inf)
+    scale = as_part(source, symmetry=False).scale
+    return scale.pitch_m, scale.bore_radius_m, scale.smallest_hole_radius_m
 
 
 def stiffness_study(
-    source: str | Path | None = None,
+    source=None,
     material: Material | None = None,
+    settings: FeaSettings | None = None,
     *,
-    mesh_sizes_m: Sequence[float] | None = None,
-    order: int = 2,
-    load_N: float = 1000.0,
-    solver: str = "auto",
-    curved: bool = True,
-    bore_refinement: float = DEFAULT_BORE_REFINEMENT,
     progress: Callable[[str], None] | None = None,
-    mirror_symmetry: bool = True,
-    max_memory_gb: float = budget.DEFAULT_MAX_MEMORY_GB,
+    **changes,
 ) -> StiffnessEstimate:
-    """Mesh the link (None = built-in default) at 2-3 sizes (None: `default_mesh_sizes`), solve
-    each, extrapolate k.
+    """Mesh the link (a `geometry.Part`, or a source it resolves; None = built-in default) at 2-3
+    sizes (`settings.mesh_sizes_m`; None: `default_mesh_sizes`), solve each, extrapolate k.
 
-    `curved` asks geometry for isoparametric quadratic cells when order == 2; `mirror_symmetry` as
-    in `stiffness_studies`.
+    settings: `FeaSettings` (None: the defaults); keyword `changes` replace its fields
+    (`stiffness_study(None, material, order=1)`). See `stiffness_studies`.
     """
     if material is None:
         raise FemError("stiffness_study: a material is required")
-    return stiffness_studies(source, [material], mesh_sizes_m=mesh_sizes_m, order=order, load_N=load_N,
-                             solver=solver, curved=curved, bore_refinement=bore_refinement,
-                             progress=progress, mirror_symmetry=mirror_symmetry,
-                             max_memory_gb=max_memory_gb)[material.name]
+    return stiffness_studies(source, [material], settings, progress=progress, **changes)[material.name]
 
 
 def stiffness_studies(
-    source: str | Path | None,
+    source,
     materials: Sequence[Material],
+    settings: FeaSettings | None = None,
     *,
-    mesh_sizes_m: Sequence[float] | None = None,
-    order: int = 2,
-    load_N: float = 1000.0,
-    solver: str = "auto",
-    curved: bool = True,
-    bore_refinement: float = DEFAULT_BORE_REFINEMENT,
     progress: Callable[[str], None] | None = None,
-    concurrent_levels: bool = True,
-    mirror_symmetry: bool = True,
-    max_memory_gb: float = budget.DEFAULT_MAX_MEMORY_GB,
+    **changes,
 ) -> dict[str, StiffnessEstimate]:
     """`stiffness_study` for several materials, meshing each level once for all of them.
 
     `progress`, if given, gets one line per solve (level, material, DOFs, k, seconds).
-    `concurrent_levels`: solve each level in a thread of its own as soon as it is meshed, so that
-    meshing the next level and the levels' solves overlap on the machine's cores (gmsh, numpy and
-    PARDISO release the GIL; the levels share nothing). Pass False where the caller already keeps
+    `settings.concurrent_levels`: solve each level in a thread of its own as soon as it is meshed, so
+    that meshing the next level and the levels' solves overlap on the machine's cores (gmsh, numpy
+    and PARDISO release the GIL; the levels share nothing). False where the caller already keeps
     every core busy, as the design study's workers do (one task per core).
-    `mirror_symmetry`: where the link is mirror symmetric about the plane through its bore axes
-    (checked, geometry.symmetry), solve the finest level on its half (`LinkSolution.mirrored`), the
-    same discrete problem as the whole link meshed as that half and its mirror image, at about half
-    the unknowns. The coarser levels stay whole: they are cheap, run beside the finest on the second
-    core, and on the default link the half's coarse meshes came out stiffer than the trend of finer
-    ones (the plane cuts the 6.9 mm web under the pocket), which more than doubled the estimate
+    `settings.mirror_symmetry`: where the link is mirror symmetric about the plane through its bore
+    axes (checked, geometry.symmetry), solve the finest level on its half (`LinkSolution.mirrored`),
+    the same discrete problem as the whole link meshed as that half and its mirror image, at about
+    half the unknowns. The coarser levels stay whole: they are cheap, run beside the finest on the
+    second core, and on the default link the half's coarse meshes came out stiffer than the trend of
+    finer ones (the plane cuts the 6.9 mm web under the pocket), which more than doubled the estimate
     (exploratory runs, README). The extrapolation's h is DOFs^(-1/3) of the whole link's mesh
     (`whole_link_dofs`). False: every level on the whole link.
-    `max_memory_gb`: the memory budget (fem.budget), checked on the finest mesh before any solve:
-    default sizes are coarsened to fit (with a warning), given sizes that do not fit are refused.
     """
     import geometry
 
     if not materials:
         raise FemError("stiffness_studies: expected at least one material")
-    element(order)  # validate before meshing
-    resolve(solver)
+    settings = settings_with(settings, changes)  # checked before meshing
+    order, concurrent_levels, mirror_symmetry = settings.order, settings.concurrent_levels, settings.mirror_symmetry
     start = study_start = time.perf_counter()
-    sizes = _check_sizes(default_mesh_sizes(source) if mesh_sizes_m is None else mesh_sizes_m)
-    mesh_order = 2 if (order == 2 and curved) else 1
+    part = geometry.as_part(source, symmetry=mirror_symmetry)
+    sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
     mesh_time = time.perf_counter() - start
 
     def mesh_level(level: int, level_sizes: tuple[float, ...]):
-        return geometry.load_link(source, mesh_size_m=level_sizes[level], order=mesh_order,
-                                  bore_refinement=bore_refinement, mirror=mirror_symmetry and level == len(level_sizes) - 1)
+        return geometry.mesh_part(part, mesh_size_m=level_sizes[level], order=settings.mesh_order,
+                                  bore_refinement=settings.bore_refinement,
+                                  mirror=mirror_symmetry and level == len(level_sizes) - 1)
 
     start = time.perf_counter()
-    sizes, finest_link = _within_budget(sizes, mesh_level, order, budget.MemoryBudget.gigabytes(max_memory_gb),
-                                        given=mesh_sizes_m is not None)
+    sizes, finest_link = _within_budget(sizes, mesh_level, order, budget.MemoryBudget.gigabytes(settings.max_memory_gb),
+                                        given=settings.mesh_sizes_m is not None)
     mesh_time += time.perf_counter() - start
     # finest first: it is the longest solve, so the coarser levels are meshed and solved beside it
     with ThreadPoolExecutor(max_workers=len(sizes) if concurrent_levels else 1,
@@ -207,8 +157,8 @@ def stiffness_studies(
             mesh_time += time.perf_counter() - start
             # shape warnings concern the mesh whose stresses are reported
             check_mesh_and_materials(link, materials, order, warn_quality=finest)
-            pending[level] = pool.submit(analyse_link_materials, link, materials, order=order, load_N=load_N,
-                                         solver=solver, stress=finest, checked=True)
+            pending[level] = pool.submit(analyse_link_materials, link, materials, order=order, load_N=settings.load_N,
+                                         solver=settings.solver, stress=finest, checked=True)
             if not concurrent_levels:
                 pending[level].result()  # an error stops the study before the next level is meshed
         solved = [pending[level].result() for level in range(len(sizes))]

@@ -15,8 +15,9 @@ from geometry.dimensions import (
 from geometry.errors import GeometryError
 from geometry.example import EXAMPLE_STEP
 from geometry.link_mesh import Bore, LinkMesh
-from geometry.load import load_link
+from geometry.load import load_link, mesh_part
 from geometry.parametric import LinkFeatures
+from geometry.part import Part, PartScale, as_part, resolve_part
 from geometry.pin_pair import BoreChoice
 from geometry.step_io import write_step
 from geometry.vtu import write_vtu
@@ -35,10 +36,15 @@ __all__ = [
     "LinkMesh",
     "LinkSource",
     "NEST_MASS_KG",
+    "Part",
+    "PartScale",
     "PartSummary",
+    "as_part",
     "inspect_part",
     "load_link",
+    "mesh_part",
     "nominal_volume_m3",
+    "resolve_part",
     "write_step",
     "write_vtu",
 ]

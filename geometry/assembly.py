@@ -23,8 +23,6 @@ import numpy as np
 from geometry.bores import find_holes
 from geometry.errors import GeometryError
 from geometry.pin_pair import EQUAL_PITCH_TOL, EQUAL_RADIUS_TOL, BoreChoice, PinBores, pair_rank, select_pin_bores
-from geometry.session import gmsh_model
-from geometry.step_io import import_step
 
 TOUCH_DISTANCE_M = 1e-6  # solids closer than this touch the body (a pin in its bore: distance 0)
 
@@ -153,19 +151,11 @@ def hardware_solids(volumes: list[int], body: int) -> tuple[HardwareSolid, ...]:
 
 
 def inspect_part(source: str | os.PathLike) -> PartSummary:
-    """Import the part, pick the link body and its pin bores, measure the hardware; no meshing."""
-    source = as_link_source(source)
-    with gmsh_model("inspect"):
-        volumes = import_step(source.path)
-        body, pins = pick_body(volumes, source, str(source))
-        return PartSummary(
-            source=str(source),
-            n_solids=len(volumes),
-            body_index=volumes.index(body) + 1,
-            body_volume_m3=float(gmsh.model.occ.getMass(3, body)),
-            pins=pins,
-            hardware=hardware_solids(volumes, body),
-        )
+    """Import the part, pick the link body and its pin bores, measure the hardware; no meshing
+    (`geometry.part.resolve_part`'s summary)."""
+    from geometry.part import resolve_part
+
+    return resolve_part(source, symmetry=False).summary
 
 
 def _same_rank(a: tuple[float, float], b: tuple[float, float]) -> bool:

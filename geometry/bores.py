@@ -84,14 +84,6 @@ class DetectedBore:
     faces: tuple[int, ...]  # gmsh surface tags of the bore's cylindrical surface
 
 
-def detect_bores(volumes: list[int], source: str) -> tuple[DetectedBore, DetectedBore]:
-    """The fixed and the loaded bore of the solid, chosen among its holes (see geometry.pin_pair)."""
-    from geometry.pin_pair import BoreChoice, select_pin_bores
-
-    selection = select_pin_bores(find_holes(volumes), BoreChoice(), source)
-    return selection.fixed, selection.loaded
-
-
 @dataclass(frozen=True)
 class Holes:
     """The concave cylinders of a solid: full round holes, and open ones (a half bore, a slot end),

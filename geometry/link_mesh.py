@@ -22,6 +22,12 @@ _ON_PLANE = 1e-9
 _SWAP_1_2 = np.array([0, 2, 1, 3, 6, 5, 4, 7, 9, 8])
 
 
+def part_size_m(points_m: np.ndarray) -> float:
+    """The largest extent of points (3, n) along a coordinate axis: the scale that `MirrorPlane.on_plane`
+    measures its tolerance against."""
+    return float(np.ptp(np.asarray(points_m), axis=1).max())
+
+
 @dataclass(frozen=True)
 class MirrorPlane:
     """A plane of mirror symmetry of the link and its load case, normal to a coordinate axis (so
@@ -58,7 +64,7 @@ class MirrorPlane:
         23); the mirrored cells get vertices 1 and 2 swapped (and their edges) to keep their
         orientation."""
         points_m = np.asarray(points_m, dtype=float)
-        off = ~self.on_plane(points_m, float(np.ptp(points_m, axis=1).max()))
+        off = ~self.on_plane(points_m, part_size_m(points_m))
         n = points_m.shape[1]
         image = np.arange(n)
         image[off] = n + np.arange(np.count_nonzero(off))

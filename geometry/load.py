@@ -1,24 +1,20 @@
-"""`load_link`: a CAD file (or the built-in link) to a `LinkMesh` with its two bores tagged."""
+"""`mesh_part`: a resolved `Part` to a `LinkMesh` with its two bores tagged (`load_link`: from a CAD
+file or the built-in link, resolved on the way)."""
 
 from __future__ import annotations
 
 import math
-import os
-from pathlib import Path
 
 import gmsh
 import numpy as np
 
-from geometry.assembly import LinkSource, as_link_source, pick_body
-from geometry.bores import BoreOverride, bores_from_override
-from geometry.dimensions import DEFAULT_LINK, LinkDimensions
+from geometry.bores import BoreOverride
 from geometry.errors import GeometryError
 from geometry.link_mesh import LinkMesh
 from geometry.meshing import mesh_volumes, split_at_loaded_half
-from geometry.parametric import add_link
+from geometry.part import Part, as_part
 from geometry.session import gmsh_model
-from geometry.step_io import import_step
-from geometry.symmetry import keep_positive_half, symmetry_plane
+from geometry.symmetry import keep_positive_half
 
 #: Default element size as a fraction of the part's bounding-box diagonal (4.2 mm on the default
 #: link: a mesh of a few seconds whose P2 stiffness is within about 1 %).
@@ -28,7 +24,7 @@ MAX_TETS = 3_000_000
 
 
 def load_link(
-    source: str | os.PathLike | LinkSource | LinkDimensions | None = None,
+    source=None,
     *,
     mesh_size_m: float | None = None,
     order: int = 1,
@@ -36,39 +32,46 @@ def load_link(
     bores: BoreOverride | None = None,
     mirror: bool = False,
 ) -> LinkMesh:
-    """Mesh one link: a STEP file (any length unit), the built-in parametric link if None, or the
-    parametric link with other `LinkDimensions` (a design study's geometry variant).
+    """Mesh one link: a `Part` (geometry.part), or what `resolve_part` resolves: a STEP file (any
+    length unit), the built-in parametric link if None, or the parametric link with other
+    `LinkDimensions` (a design study's geometry variant).
 
-    source: a path, or a `LinkSource` (a path with the user's choice of pin bores and link body). In a
-        file of several solids only the link body is meshed (geometry.assembly).
+    source: a `Part`, a path, or a `LinkSource` (a path with the user's choice of pin bores and link
+        body). In a file of several solids only the link body is meshed (geometry.assembly).
     mesh_size_m: element size away from the bores in metres (None: the part's bounding-box
         diagonal / 40). bore_refinement: element size at the bores as a fraction of mesh_size_m.
     order: 1 for linear tetrahedra; 2 also fills `tets10` (curved quadratic tetrahedra whose
-        mid-edge nodes lie on the CAD surfaces). bores: manual bores instead of detection (one solid).
+        mid-edge nodes lie on the CAD surfaces). bores: manual bores instead of detection (one solid;
+        not with a `Part`, whose bores are chosen).
     mirror: if the link is mirror symmetric about the plane through both bore axes (checked, see
         geometry.symmetry), mesh only its half on the positive side of that plane
         (`LinkMesh.mirror_plane` says so); otherwise, or if False, the whole link.
     """
-    if order not in (1, 2):
-        raise GeometryError(f"order={order!r}: expected 1 or 2")
-    if not (isinstance(bore_refinement, (int, float)) and 0 < bore_refinement <= 1):
-        raise GeometryError(f"bore_refinement={bore_refinement!r}: expected a fraction in (0, 1]")
-    name = source_name(source)
+    _check_mesh_options(order, bore_refinement)
+    part = as_part(source, bores=bores, symmetry=mirror)
+    return mesh_part(part, mesh_size_m=mesh_size_m, order=order, bore_refinement=bore_refinement, mirror=mirror)
+
+
+def mesh_part(
+    part: Part,
+    *,
+    mesh_size_m: float | None = None,
+    order: int = 1,
+    bore_refinement: float = 0.4,
+    mirror: bool = False,
+) -> LinkMesh:
+    """Mesh a resolved part (see `load_link` for the options): its body is loaded into a fresh gmsh
+    model from the part's own copy, with the bores chosen at resolution."""
+    _check_mesh_options(order, bore_refinement)
+    if mirror and not part.symmetry_checked:
+        raise GeometryError(f"mirror=True: {part.name} was resolved with symmetry=False; expected a part resolved "
+                            "with its symmetry checked (resolve_part(..., symmetry=True))")
+    name = part.name
+    fixed, loaded = part.pins.fixed, part.pins.loaded
     with gmsh_model("link"):
-        volumes = [add_link(parametric_dimensions(source))] if is_parametric(source) else import_step(name)
-        if bores is not None:
-            if len(volumes) != 1:
-                raise GeometryError(f"{name}: holds {len(volumes)} solids; expected exactly one solid link")
-            fixed, loaded = bores_from_override(volumes, bores, name)
-        else:
-            link_source = LinkSource(Path(name)) if is_parametric(source) else as_link_source(source)
-            body, pins = pick_body(volumes, link_source, name)
-            fixed, loaded = pins.fixed, pins.loaded
-            _keep_only(volumes, body)
-            volumes = [body]
-        cad_volume_m3 = sum(gmsh.model.occ.getMass(3, v) for v in volumes)
-        size = _checked_mesh_size(mesh_size_m, cad_volume_m3, name)
-        plane = symmetry_plane(volumes, fixed.bore, loaded.bore) if mirror else None
+        volumes = part.load_body()
+        size = _checked_mesh_size(mesh_size_m, part.volume_m3, name)
+        plane = part.mirror_plane if mirror else None
         if plane is not None:
             volumes = keep_positive_half(volumes, plane)
         volumes = split_at_loaded_half(volumes, fixed.bore, loaded.bore)
@@ -87,7 +90,7 @@ def load_link(
         loaded_bore_facets=arrays.loaded_bore_facets,
         fixed_bore=fixed.bore,
         loaded_bore=loaded.bore,
-        cad_volume_m3=float(cad_volume_m3),
+        cad_volume_m3=float(part.volume_m3),
         mesh_size_m=size,
         source=name,
         tets10=arrays.tets10,
@@ -96,26 +99,11 @@ def load_link(
     )
 
 
-def _keep_only(volumes: list[int], body: int) -> None:
-    """Remove every solid but the link body (its hardware is not meshed)."""
-    others = [(3, v) for v in volumes if v != body]
-    if others:
-        gmsh.model.occ.remove(others, recursive=True)
-        gmsh.model.occ.synchronize()
-def is_parametric(source) -> bool:
-    """The source is the built-in parametric link (None) or a `LinkDimensions` variant of it."""
-    return source is None or isinstance(source, LinkDimensions)
-
-
-def parametric_dimensions(source: LinkDimensions | None) -> LinkDimensions:
-    return DEFAULT_LINK if source is None else source
-
-
-def source_name(source) -> str:
-    """How a link source is named in messages and in `LinkMesh.source`."""
-    if source is None:
-        return "default"
-    return f"parametric {source}" if isinstance(source, LinkDimensions) else os.fspath(source)
+def _check_mesh_options(order: int, bore_refinement: float) -> None:
+    if order not in (1, 2):
+        raise GeometryError(f"order={order!r}: expected 1 or 2")
+    if not (isinstance(bore_refinement, (int, float)) and 0 < bore_refinement <= 1):
+        raise GeometryError(f"bore_refinement={bore_refinement!r}: expected a fraction in (0, 1]")
 
 
 def _checked_mesh_size(mesh_size_m: float | None, volume_m3: float, name: str) -> float:

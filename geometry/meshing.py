@@ -34,6 +34,9 @@ DISTANCE_SAMPLING = 20
 # the hole. Only there: one global size from the smallest hole gave the 400 mm arm bar (r 1.05 mm
 # screw holes) 305,012 tets and no answer within 300 s.
 SMALL_HOLE_SIZE_FRACTION = 1.0
+# A tet of radius ratio below this is flat to round-off (fem.quality.DEGENERATE_QUALITY is 1e-12);
+# one seen from HXT on a sample part with small-hole fields at 8 mm elements.
+FLAT_TET_QUALITY = 1e-9
 # Two pin bores whose radii differ by more than this fraction are sized each for itself.
 UNEQUAL_BORES_TOL = 0.01
 # Grading from a small hole's size to the far size: the size grows by at most this much per unit
@@ -131,9 +134,22 @@ def mesh_volumes(
     # checks the default level).
     gmsh.option.setNumber("Mesh.Algorithm", 1 if mirror_plane is not None else 6)
     gmsh.model.mesh.generate(3)
+    if _has_flat_tets():  # HXT can leave a sliver of zero volume: optimise, else mesh by Delaunay
+        gmsh.model.mesh.optimize("")
+        if _has_flat_tets():
+            gmsh.model.mesh.clear()
+            gmsh.option.setNumber("Mesh.Algorithm3D", 1)
+            gmsh.model.mesh.generate(3)
     if order == 2:
         gmsh.model.mesh.setOrder(2)  # mid-edge nodes placed on the CAD surfaces
     return _mesh_arrays(fixed_faces, loaded_faces, order, mirror_faces)
+
+
+def _has_flat_tets() -> bool:
+    """Whether the linear mesh holds a numerically flat tetrahedron (gmsh's radius ratio "gamma"
+    below FLAT_TET_QUALITY): the FEA refuses such a mesh (fem.quality.require_valid)."""
+    tags, _ = gmsh.model.mesh.getElementsByType(_TET[1])
+    return len(tags) > 0 and float(np.min(gmsh.model.mesh.getElementQualities(tags, "gamma"))) < FLAT_TET_QUALITY
 
 
 def _pin_bore_fields(fixed: DetectedBore, fixed_faces: list[int], loaded: DetectedBore, loaded_faces: list[int],

@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
+import sys
 from pathlib import Path
 
 from geometry.assembly import LinkSource, PartSummary
@@ -28,6 +30,29 @@ def add_part_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--hardware-material", metavar="ID[,ID...]",
                        help="material of the other solids (pins, bushings...), one for all or one per hardware solid in file "
                             "order: reports their masses")
+
+
+# options whose value may start with a minus sign (a negative CAD coordinate)
+SIGNED_VALUE_OPTIONS = ("--bores",)
+_SIGNED_NUMBER = re.compile(r"-\.?\d")
+
+
+def signed_values_attached(argv: list[str] | None) -> list[str]:
+    """argv with `--bores -103.3,2.2,-25:...` written as `--bores=-103.3,...`: argparse takes a
+    value that starts with '-' (and is not one plain number) for an option and refuses it."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    out: list[str] = []
+    i = 0
+    while i < len(args):
+        if args[i] == "--":
+            return out + args[i:]
+        if args[i] in SIGNED_VALUE_OPTIONS and i + 1 < len(args) and _SIGNED_NUMBER.match(args[i + 1]):
+            out.append(f"{args[i]}={args[i + 1]}")
+            i += 2
+        else:
+            out.append(args[i])
+            i += 1
+    return out
 
 
 def link_source(path: str | os.PathLike | None, args: argparse.Namespace) -> LinkSource | None:

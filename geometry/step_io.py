@@ -10,6 +10,7 @@ header's length unit then rewritten to metres.
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 import gmsh
@@ -32,23 +33,38 @@ def import_step(path: str | os.PathLike) -> list[int]:
     Files that hold only faces are sewn and turned into solids. Raises GeometryError for a file that
     is missing, unreadable, not STEP, or holds no solid.
     """
+    return import_step_bytes(read_step(path), path)
+
+
+def read_step(path: str | os.PathLike) -> bytes:
+    """The bytes of a STEP file; GeometryError for a file that is missing, unreadable or not STEP."""
     path = Path(path)
     if not path.is_file():
         raise GeometryError(f"{path}: no such file; expected a STEP file (.step/.stp)")
     try:
-        with path.open("rb") as f:
-            head = f.read(256)
+        data = path.read_bytes()
     except OSError as exc:
         raise GeometryError(f"{path}: cannot be read ({exc.strerror}); expected a readable STEP file") from exc
-    if not head.lstrip().startswith(_STEP_MAGIC):
+    if not data[:256].lstrip().startswith(_STEP_MAGIC):
         raise GeometryError(f"{path}: not a STEP file (no ISO-10303-21 header); expected a STEP AP203/AP214/AP242 file")
-    gmsh.option.setString("Geometry.OCCTargetUnit", "M")
-    try:
-        with quiet_stdout():
-            gmsh.model.occ.importShapes(str(path), highestDimOnly=True, format="step")
-            gmsh.model.occ.synchronize()
-    except Exception as exc:  # gmsh reports every failure as a bare Exception
-        raise GeometryError(f"{path}: OpenCASCADE could not read it ({exc}); expected a valid STEP file") from exc
+    return data
+
+
+def import_step_bytes(data: bytes, name: str | os.PathLike) -> list[int]:
+    """`import_step` of a STEP file's bytes (read once by `read_step`); messages name the file `name`.
+
+    OpenCASCADE reads only files: the bytes go through a temporary copy, removed after the import.
+    """
+    with tempfile.TemporaryDirectory(prefix="link-step-") as folder:
+        copy = Path(folder) / "part.step"
+        copy.write_bytes(data)
+        gmsh.option.setString("Geometry.OCCTargetUnit", "M")
+        try:
+            with quiet_stdout():
+                gmsh.model.occ.importShapes(str(copy), highestDimOnly=True, format="step")
+                gmsh.model.occ.synchronize()
+        except Exception as exc:  # gmsh reports every failure as a bare Exception
+            raise GeometryError(f"{name}: OpenCASCADE could not read it ({exc}); expected a valid STEP file") from exc
     volumes = [tag for _, tag in gmsh.model.getEntities(3)]
     if not volumes and gmsh.model.getEntities(2):
         # Heal the whole model: listing the faces sews them but makes no solid (gmsh 4.15).
@@ -56,7 +72,7 @@ def import_step(path: str | os.PathLike) -> list[int]:
         gmsh.model.occ.synchronize()
         volumes = [tag for _, tag in gmsh.model.getEntities(3)]
     if not volumes:
-        raise GeometryError(f"{path}: holds no solid (and its faces, if any, do not close one); expected one solid link")
+        raise GeometryError(f"{name}: holds no solid (and its faces, if any, do not close one); expected one solid link")
     return volumes
 
 

@@ -13,17 +13,22 @@ import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from dynamics.clearance_sim import ChainModelKind
 from dynamics.metrics import rank_cams, rms, station_links
-from dynamics.reduction import lowest_natural_frequencies_Hz
 from reporting import html, plots
 from reporting.history import CamHistory
+from reporting.sections import Report, build_sections
 from reporting.tables import Table, max_acceleration_table, rms_table
 
+if TYPE_CHECKING:
+    from stages.chain import RunResults
+    from stages.replica import ReplicaRun
+
 RANKING_METRIC = "residual_vibration_m"
-DEFAULT_STATION = "tight-side"  # where tables, rankings and plots look unless --station says otherwise
 SUMMARY_STATION_KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2",
                         "max_abs_acceleration_m_s2", "max_deviation_m", "max_velocity_deviation_m_s",
                         "max_acceleration_deviation_m_s2", "residual_vibration_m")
@@ -95,21 +100,16 @@ def _settling(value: float) -> float | None:
 
 
 def _focus(cfg) -> str:
-    return cfg.station or DEFAULT_STATION
+    return cfg.focus_station
 
 
 def _tension_extremes_N(scenario) -> tuple[float, float]:
-    """Peak and minimum span force: the clearance integrator's own (every step), else the samples'."""
-    contact = getattr(scenario, "contact", None)
-    if contact is not None:
-        return contact.peak_tension_N, contact.min_tension_N
-    return scenario.tension.peak_N, scenario.tension.min_N
+    """Peak and minimum span force as the chain model saw them (the clearance integrator: every step)."""
+    return scenario.contact.peak_tension_N, scenario.contact.min_tension_N
 
 
 def _contact_summary(contact) -> dict:
     """Which model ran and why, and what it says about free play and impacts (issue #11)."""
-    if contact is None:
-        return {}
     ss = contact.steady_state
     return {
         "model": contact.model,
@@ -138,7 +138,7 @@ def _scenario_summary(scenario, fea, band_m: float) -> dict:
         "per_link": {k: getattr(scenario.metrics, k).tolist() for k in PER_LINK_KEYS},
         "peak_tension_N": peak_N,
         "min_tension_N": min_N,
-        **_contact_summary(getattr(scenario, "contact", None)),
+        **_contact_summary(scenario.contact),
         "samples_per_degree": scenario.samples_per_degree,
     }
     if scenario.rel_error_estimate is not None:
@@ -158,7 +158,8 @@ def _rankings(scenarios: dict, materials, cams, station: str) -> dict:
     return result
 
 
-def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict) -> dict:
+def default_summary(results: RunResults) -> dict:
+    cfg, fea, scenarios = results.cfg, results.fea, results.scenarios
     first = next(iter(fea.values()))
     return {
         "inputs": _inputs(cfg),
@@ -176,8 +177,8 @@ def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict)
                 "stiffness_N_per_m": r.stiffness_N_per_m,
                 "stiffness_rel_error_estimate": r.stiffness_rel_error_estimate,
                 "body_mass_kg": r.body_mass_kg,
-                "lumped_mass_kg": models[name].link_mass_kg,
-                "natural_frequencies_Hz": lowest_natural_frequencies_Hz(models[name], 10).tolist(),
+                "lumped_mass_kg": results.chains[name].model.link_mass_kg,
+                "natural_frequencies_Hz": results.chains[name].natural_frequencies_Hz.tolist(),
                 "peak_von_mises_Pa_per_N": r.peak_von_mises_Pa_per_N,
                 "peak_von_mises_away_from_clamp_Pa_per_N": r.peak_von_mises_away_from_clamp_Pa_per_N,
                 "peak_von_mises_converged_Pa_per_N": r.peak_von_mises_converged_Pa_per_N,
@@ -194,14 +195,14 @@ def default_summary(cfg, fea: dict, models: dict, scenarios: dict, timing: dict)
         },
         "ranking": {"station": _focus(cfg), "by_material": _rankings(scenarios, fea, cfg.cams, _focus(cfg))},
         "fidelity": _fidelity(cfg, fea, scenarios),
-        "timing_s": timing,
+        "timing_s": results.timing,
     }
 
 
 def _fidelity(cfg, fea: dict, scenarios: dict) -> dict:
     """What resolution each stage used and the error it is estimated to leave in the metrics."""
     estimates = [sc.rel_error_estimate["total"] for sc in scenarios.values() if sc.rel_error_estimate]
-    models = {sc.contact.model for sc in scenarios.values() if getattr(sc, "contact", None) is not None}
+    models = {sc.contact.model for sc in scenarios.values()}
     return {
         "tolerance": cfg.tolerance,
         "fea": {m: {"mesh_size_m": r.mesh_size_m, "order": cfg.order, "dofs": r.dofs,
@@ -227,16 +228,16 @@ def _inputs(cfg) -> dict:
 
 
 def _chain_model_inputs(cfg) -> dict:
-    clearance = getattr(cfg, "pin_clearance_m", None)
+    clearance = cfg.pin_clearance_m
     return {
-        "model": getattr(cfg, "model", None),
-        "pin_clearance_m": None if clearance is None or np.isinf(clearance) else clearance,
-        "pin_clearance_infinite": bool(clearance is not None and np.isinf(clearance)),
-        "span_damping": getattr(cfg, "span_damping", None),
-        "rayleigh_alpha_beta": None if getattr(cfg, "rayleigh", None) is None else list(cfg.rayleigh),
-        "tensioner_rate_N_per_m": getattr(cfg, "tensioner_rate_N_per_m", None),
-        "tensioner_mass_kg": getattr(cfg, "tensioner_mass_kg", None),
-        "tensioner_damping_N_s_per_m": getattr(cfg, "tensioner_damping_N_s_per_m", None),
+        "model": cfg.model,
+        "pin_clearance_m": None if np.isinf(clearance) else clearance,
+        "pin_clearance_infinite": bool(np.isinf(clearance)),
+        "span_damping": cfg.span_damping,
+        "rayleigh_alpha_beta": None if cfg.rayleigh is None else list(cfg.rayleigh),
+        "tensioner_rate_N_per_m": cfg.tensioner_rate_N_per_m,
+        "tensioner_mass_kg": cfg.tensioner_mass_kg,
+        "tensioner_damping_N_s_per_m": cfg.tensioner_damping_N_s_per_m,
     }
 
 
@@ -307,16 +308,6 @@ def _material_plots(staged: StagedOutput, histories: list[CamHistory], links: di
     return figures
 
 
-def _fea_table(fea: dict, models: dict) -> Table:
-    rows = tuple((name, r.stiffness_N_per_m, 100 * r.stiffness_rel_error_estimate, r.body_mass_kg,
-                  models[name].link_mass_kg, float(lowest_natural_frequencies_Hz(models[name], 10)[0]),
-                  r.peak_von_mises_converged_Pa_per_N * 1e3 / 1e6, r.dofs, "yes" if r.cached else "no")
-                 for name, r in fea.items())
-    return Table("Link stiffness and mass (FEA) and the chain they make",
-                 ("material", "k (N/m)", "k error estimate (%)", "body mass (kg)", "lumped mass (kg)",
-                  "chain f1 (Hz)", "converged peak von Mises per kN (MPa)", "FEA DOFs", "from cache"), rows)
-
-
 def _station_table(scenarios: dict, band_m: float) -> Table:
     rows = []
     for (material, cam), sc in scenarios.items():
@@ -372,11 +363,8 @@ def _sweep_table(sweeps: dict) -> Table:
                  tuple(rows))
 
 
-def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing: dict, progress,
-                          sweeps: dict | None = None) -> None:
-    from dynamics.sweep import plot_rpm_sweep
-
-    sweeps = sweeps or {}
+def write_default_outputs(results: RunResults, progress) -> None:
+    cfg, fea, scenarios, sweeps, timing = results.cfg, results.fea, results.scenarios, results.sweeps, results.timing
     with StagedOutput(cfg.out) as staged:
         progress("outputs: tables, plots and report")
         links = station_links(cfg.links)
@@ -384,7 +372,7 @@ def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing:
         focus_link = links[focus]
         histories = {key: sc.history for key, sc in scenarios.items()}
         at_link = {key: _link_rms(sc.stations[focus]) for key, sc in scenarios.items()}
-        summary = default_summary(cfg, fea, models, scenarios, timing)
+        summary = default_summary(results)
         ranking = _ranking_table(summary["ranking"]["by_material"], focus)
         report_tables = dict(zip(("rms_table", "max_acceleration_table"),
                                  _tables(histories, at_link, focus_link, focus_link)))
@@ -401,53 +389,15 @@ def write_default_outputs(cfg, fea: dict, models: dict, scenarios: dict, timing:
             if r.image is not None:
                 images[m] = staged.path(f"{m}_deformed.png")
                 shutil.copyfile(r.image, images[m])
-        sweep_pngs = {}
-        for m, sweep in sweeps.items():
-            sweep_pngs[m] = staged.path(f"{m}_rpm_sweep.png")
-            plot_rpm_sweep(sweep, sweep_pngs[m])
+        sweep_pngs = {m: plots.plot_rpm_sweep(sweep, staged.path(f"{m}_rpm_sweep.png")) for m, sweep in sweeps.items()}
         if sweeps:
             staged.write_text("rpm_sweep.csv", _sweep_table(sweeps).to_csv())
             summary["rpm_sweep"] = {m: _sweep_summary(sweep) for m, sweep in sweeps.items()}
         _close_timing(timing, progress)
         staged.write_text("summary.json", json.dumps(summary, indent=1))
-        sections = _default_sections(cfg, summary, tables, fea, models, residual_png, figures, images)
-        if sweeps:
-            sections.insert(3, html.Section("Speed sweep", html.paragraph(
-                f"Periodic steady state at the {focus} station versus cam speed, on the linear chain (friction "
-                "left out of the sweep); dashed lines: critical speeds, where a harmonic of the index frequency "
-                "meets a natural frequency of the chain.") + "".join(
-                html.image_html(p, f"{m}: speed sweep") for m, p in sweep_pngs.items())))
-        staged.write_text("report.html", html.render_page("link-conveyor: chain vibration report", sections))
+        report = Report(results, summary, tables, residual_png, figures, images, sweep_pngs)
+        staged.write_text("report.html", html.render_page("link-conveyor: chain vibration report", build_sections(report)))
     _announce(cfg, staged, timing, progress, ranking)
-
-
-def _model_paragraphs(summary: dict) -> str:
-    """Which chain model ran for which scenarios and why; the clearance chain's steady-state statements."""
-    groups: dict[tuple[str, str], list[str]] = {}
-    linear_min: dict[tuple[str, str], list[float]] = {}
-    statements = []
-    for m, d in summary["materials"].items():
-        for c, x in d["cams"].items():
-            if "model" not in x:
-                continue
-            groups.setdefault((x["model"], x["model_reason"]), []).append(f"{m} / {c}")
-            linear_min.setdefault((x["model"], x["model_reason"]), []).append(x["linear_min_tension_N"])
-            ss = x.get("clearance_steady_state")
-            if ss is not None and not (ss["found"] and ss["period_cycles"] == 1):
-                statements.append(f"{m} / {c}: {ss['statement']}")
-    out = ""
-    for (model, reason), runs in groups.items():
-        name = ("linear chain (exact solver)" if model == "linear"
-                else "clearance chain (pin free play, impacts; explicit integrator)")
-        css = "warn" if "NOT valid" in reason else None
-        low, high = min(linear_min[model, reason]) / 1e3, max(linear_min[model, reason]) / 1e3
-        which = (f"all {len(runs)} scenarios (material x cam law)" if len(groups) == 1 and len(runs) > 1
-                 else ", ".join(runs))
-        out += html.paragraph(f"Model: {name} for {which}: {reason} (linear chain's minimum tension "
-                              f"{low:.3g} to {high:.3g} kN).", css)
-    for text in statements:
-        out += html.paragraph(text, "warn")
-    return out
 
 
 def _tension_maps(staged: StagedOutput, scenarios: dict, materials, cams) -> dict[str, Path]:
@@ -456,58 +406,23 @@ def _tension_maps(staged: StagedOutput, scenarios: dict, materials, cams) -> dic
     for m in materials:
         worst = max(cams, key=lambda c: _tension_extremes_N(scenarios[m, c])[0])
         sc = scenarios[m, worst]
-        contact = getattr(sc, "contact", None)
-        clearance_ran = contact is not None and contact.model == "clearance"
+        clearance_ran = sc.contact.model == ChainModelKind.CLEARANCE
         free_play = sc.history.tension_N == 0.0 if clearance_ran else np.zeros(sc.history.tension_N.shape, bool)
-        note = "" if contact is None else f"{contact.model} model; highest peak tension of the cam laws"
+        note = f"{sc.contact.model} model; highest peak tension of the cam laws"
         maps[m] = plots.plot_tension_map(sc.history, free_play, staged.path(f"{m}_tension_map.png"), note)
     return maps
 
 
-def _default_sections(cfg, summary, tables, fea, models, residual_png, figures, images) -> list[html.Section]:
-    inputs = summary["inputs"]
-    geo = summary["geometry"]
-    intro = html.paragraph(
-        f"Link: {geo['source']} (pitch {geo['pitch_m'] * 1e3:.2f} mm, body volume {geo['body_volume_m3'] * 1e6:.2f} cm³). "
-        f"Chain of {inputs['links']} links, cam at {inputs['rpm']:g} rpm, "
-        f"{'periodic steady state of continuous indexing' if inputs['steady_state'] else 'start from rest'}, "
-        f"friction μ = {inputs['friction_coefficient']:g}, damping ζ = {inputs['damping_ratio']:g}, "
-        f"preload {inputs['preload_N']:g} N, solver {inputs['solver']}. Stations: "
-        + ", ".join(f"{k} = link {v}" for k, v in summary["stations"].items()) + ".")
-    sections = [
-        html.Section("Run", intro + _model_paragraphs(summary)),
-        html.Section("Link stiffness and mass", html.table_html(_fea_table(fea, models))
-                     + "".join(html.image_html(p, f"{m}: deformed link (exaggerated), von Mises stress")
-                               for m, p in images.items())),
-        html.Section("Which cam law", html.table_html(tables["ranking"])
-                     + html.image_html(residual_png, "Residual vibration in the dwell per cam law and material")),
-        html.Section("Accelerometer stations", html.table_html(tables["stations"])),
-        html.Section("The report's tables", html.table_html(tables["rms_table"])
-                     + html.table_html(tables["max_acceleration_table"])),
-        html.Section("Link tension and stress", html.table_html(tables["tension"])
-                     + "".join(html.image_html(f["tension map"], f"{m}: span force over time, worst cam law "
-                                               "(grey: free play)") for m, f in figures.items() if "tension map" in f)
-                     + "".join(html.image_html(f["tension"], f"{m}: link tension extremes")
-                               for m, f in figures.items() if "tension" in f)),
-    ]
-    for m, f in figures.items():
-        sections.append(html.Section(f"Time histories: {m}", "".join(
-            html.image_html(p, f"{m}: {label}") for label, p in f.items() if label not in ("tension", "tension map"))))
-    sections.append(html.Section("Timing", html.table_html(
-        Table("Wall time per stage (s)", ("stage", "seconds"), tuple(summary["timing_s"].items())))))
-    return sections
-
-
-def replica_summary(cfg, replicas: dict, timing: dict) -> dict:
+def replica_summary(cfg, runs: dict[str, ReplicaRun], timing: dict) -> dict:
+    from dynamics.metrics import station_metrics
     from dynamics.mqp2012 import REPORT_TABLE1, REPORT_TABLE2
 
-    from dynamics.metrics import link_metrics, station_metrics
-
     materials = {}
-    for name, r in replicas.items():
+    for name, run in runs.items():
+        r = run.replica
         cams = {}
-        for cam, c in r.cams.items():
-            metrics = link_metrics(c.x_m, c.v_m_s, c.a_m_s2, c.z_m, c.zdot_m_s, c.zddot_m_s2, c.dwell_mask)
+        for cam in r.cams:
+            metrics = run.metrics[cam]
             x, v, a = r.table1_si()[cam]["link"]
             cams[cam] = {
                 "stations": {s: _station_dict(st) for s, st in station_metrics(metrics).items()},
@@ -522,7 +437,7 @@ def replica_summary(cfg, replicas: dict, timing: dict) -> dict:
         materials[name] = {"stiffness_N_per_m": r.stiffness_N_per_m, "lumped_mass_kg": r.lumped_mass_kg,
                            "natural_frequencies_Hz": (np.sort(r.natural_frequencies_rad_s)[:10] / (2 * np.pi)).tolist(),
                            "stable": r.stable, "cams": cams}
-    first = next(iter(replicas.values()))
+    first = next(iter(runs.values())).replica
     return {
         "inputs": _inputs(cfg),
         "preset": "mqp2012",
@@ -552,7 +467,8 @@ def _replica_comparison_table(replicas: dict) -> Table:
                                                                   "report", "difference (%)"), tuple(rows))
 
 
-def write_replica_outputs(cfg, replicas: dict, timing: dict, progress) -> None:
+def write_replica_outputs(cfg, runs: dict[str, ReplicaRun], timing: dict, progress) -> None:
+    replicas = {name: run.replica for name, run in runs.items()}
     with StagedOutput(cfg.out) as staged:
         progress("outputs: tables, plots and report (mqp2012 preset)")
         first = next(iter(replicas.values()))
@@ -573,7 +489,7 @@ def write_replica_outputs(cfg, replicas: dict, timing: dict, progress) -> None:
         cams = list(first.cams)
         figures = {m: _material_plots(staged, [histories[m, c] for c in cams], links, link) for m in replicas}
         _close_timing(timing, progress)
-        summary = replica_summary(cfg, replicas, timing)
+        summary = replica_summary(cfg, runs, timing)
         staged.write_text("summary.json", json.dumps(summary, indent=1))
         sections = [html.Section("Run", html.paragraph(
             f"Preset mqp2012: the 2012 report's MATLAB model, quirks included (mm units inside, K(1,1) = 3k, "

@@ -7,6 +7,7 @@ tensions in kN. Every function writes one PNG and returns its path.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -15,6 +16,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from reporting.history import CamHistory  # noqa: E402
+
+if TYPE_CHECKING:
+    from dynamics.sweep import SweepResult
 
 CAM_COLOURS = {
     "modified-sine": "tab:red",
@@ -167,3 +171,33 @@ def plot_tension_map(history: CamHistory, free_play: np.ndarray, path: Path, not
     ax.set_title(f"{history.material} / {history.cam}: span force; grey = free play ({share:.1f} % of span-time)"
                  + (f"\n{note}" if note else ""))
     return _save(fig, path)
+
+
+def plot_rpm_sweep(result: SweepResult, path: Path) -> Path:
+    """Residual vibration (mm) and peak acceleration (m/s^2) versus cam speed, one line per cam,
+    critical speeds as vertical lines (labelled mode/harmonic); written to `path` (PNG)."""
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 7.5), sharex=True, dpi=100)
+    for i, cam in enumerate(result.cam_ids):
+        ax1.semilogy(result.rpm, result.residual_vibration_m[i] * 1e3, label=cam, lw=1.2)
+        ax2.semilogy(result.rpm, result.peak_acceleration_m_s2[i], label=cam, lw=1.2)
+    for c in result.critical_speeds:
+        for ax in (ax1, ax2):
+            ax.axvline(c.rpm, color="0.5", lw=0.8, ls="--", alpha=max(0.25, 1.0 / c.harmonic))
+        ax1.annotate(f"m{c.mode}/h{c.harmonic}", (c.rpm, 1.0), xycoords=("data", "axes fraction"), fontsize=7,
+                     rotation=90, va="top", ha="right", color="0.35")
+    ax1.set_ylabel("residual vibration in dwell, max |x - z| (mm)")
+    ax2.set_ylabel("peak |acceleration| (m/s²)")
+    ax2.set_xlabel("cam speed (rev/min)")
+    ax1.set_title(
+        f"Speed sweep at {result.station} (link {result.station_link}), periodic steady state, "
+        f"{result.n_modes} modes, friction 0\n"
+        "dashed: critical speeds, harmonic h of the index frequency = natural frequency of mode m",
+        fontsize=9,
+    )
+    ax1.legend(fontsize=8, ncol=3)
+    for ax in (ax1, ax2):
+        ax.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path

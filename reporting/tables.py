@@ -76,13 +76,3 @@ def max_acceleration_table(max_acc_m_s2: dict[str, dict[str, float]], link: int)
     cams = list(next(iter(max_acc_m_s2.values())))
     rows = tuple((cam, *[max_acc_m_s2[m][cam] * 1e3 for m in materials]) for cam in cams)
     return Table(f"Maximum acceleration of link {link} (mm/s²)", ("cam law", *materials), rows)
-
-
-def ranking_table(metric_values: dict[str, dict[str, float]], metric: str, unit: str, scale: float) -> Table:
-    """Cam laws ranked best first (smallest metric) per material; metric_values[material][cam]."""
-    rows = []
-    for material, by_cam in metric_values.items():
-        for rank, (cam, value) in enumerate(sorted(by_cam.items(), key=lambda kv: kv[1]), start=1):
-            rows.append((material, rank, cam, value * scale))
-    return Table(f"Cam laws ranked by {metric} (smaller is better)", ("material", "rank", "cam law", f"{metric} ({unit})"),
-                 tuple(rows))

@@ -3,24 +3,56 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from stages.config import RunConfig
+from settings import RunConfig
 from stages.fea import MaterialFea
 from stages.progress import Progress
+
+if TYPE_CHECKING:  # numpy, scipy and the dynamics load when a stage runs, not when it is imported
+    import numpy as np
+
+    from dynamics.chain import ChainModel
+    from dynamics.clearance_sim import ContactSummary, Scene
+    from dynamics.metrics import LinkMetrics, StationMetrics, TensionExtremes
+    from dynamics.sweep import SweepResult
+    from reporting.history import CamHistory
+
+REPORTED_MODES = 10  # natural frequencies kept per chain for the report
 
 
 @dataclass(frozen=True)
 class Scenario:
     """One material x cam law: its histories (for plots), its metrics and their error estimate."""
 
-    history: object  # reporting.history.CamHistory
-    metrics: object  # dynamics.metrics.LinkMetrics
-    stations: dict
-    tension: object  # dynamics.metrics.TensionExtremes
+    history: CamHistory
+    metrics: LinkMetrics
+    stations: dict[str, StationMetrics]  # station name -> its link's metrics
+    tension: TensionExtremes
     samples_per_degree: int
-    rel_error_estimate: dict | None  # {"time_step", "stiffness", "total"} when --tolerance is given
-    settling_time_s: "np.ndarray"  # per link, the longest settling into --settling-band over the dwells (NaN: never)
-    contact: object = None  # dynamics.clearance_sim.ContactSummary: which model ran and why, free play, impacts
+    rel_error_estimate: dict[str, float] | None  # {"time_step", "stiffness", "total"} when --tolerance is given
+    settling_time_s: np.ndarray  # per link, the longest settling into --settling-band over the dwells (NaN: never)
+    contact: ContactSummary  # which model ran, why and whether it holds; free play, impacts
+
+
+@dataclass(frozen=True)
+class MaterialChain:
+    """One material's chain as the dynamics stage made it, with its lowest natural frequencies."""
+
+    model: ChainModel
+    natural_frequencies_Hz: np.ndarray  # the lowest REPORTED_MODES (fewer for a shorter chain)
+
+
+@dataclass
+class RunResults:
+    """Everything one run computed, for the outputs: they format it and compute no physics of their own."""
+
+    cfg: RunConfig
+    fea: dict[str, MaterialFea]
+    chains: dict[str, MaterialChain]
+    scenarios: dict[tuple[str, str], Scenario]  # (material, cam law) -> its scenario
+    sweeps: dict[str, SweepResult]  # material -> its speed sweep (empty without --rpm-sweep)
+    timing: dict[str, float]  # wall seconds per stage; the outputs add theirs
 
 
 def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> "np.ndarray":
@@ -31,7 +63,16 @@ def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.
     return degrees / (6.0 * rpm)
 
 
-def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None):
+def chain_scene(cfg: RunConfig) -> Scene:
+    """The chain beyond its linear model, as the dynamics take it (the settings are checked already)."""
+    from dynamics.clearance_sim import Scene, tensioner_from
+
+    return Scene(cfg.pin_clearance_m, cfg.span_damping,
+                 tensioner_from(cfg.tensioner_rate_N_per_m, cfg.tensioner_mass_kg, cfg.tensioner_damping_N_s_per_m),
+                 cfg.model, cfg.steady_state, cfg.solver)
+
+
+def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None) -> ChainModel:
     from dynamics.chain import ChainModel
 
     return ChainModel(
@@ -62,7 +103,7 @@ def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m
     # a one-station question keeps one link's history (the spring tensions are kept whole: they are
     # what the slack check and the stress need)
     kept = None if cfg.station is None else (station_links(cfg.links)[cfg.station],)
-    r, contact = simulate_scene(cfg, model, cam, t, links=None if kept is None else [link - 1 for link in kept],
+    r, contact = simulate_scene(chain_scene(cfg), model, cam, t, links=None if kept is None else [link - 1 for link in kept],
                                 n_modes=modes_to_keep(cfg.links))
     history = CamHistory(material, cam_id, t, r.z_m, r.zdot_m_s, r.zddot_m_s2, r.x_m, r.v_m_s, r.a_m_s2,
                          r.tension_N, cam.dwell_mask(t), kept)
@@ -99,11 +140,12 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
     return replace(runs[spd], rel_error_estimate=estimate)
 
 
-def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress):
-    """Simulate every material x cam law; returns the chain models and the scenarios."""
+def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea],
+                 progress: Progress) -> tuple[dict[str, MaterialChain], dict[tuple[str, str], Scenario]]:
+    """Simulate every material x cam law; returns each material's chain and the scenarios."""
     from dynamics.reduction import lowest_natural_frequencies_Hz, modes_to_keep
 
-    models, scenarios = {}, {}
+    chains, models, scenarios = {}, {}, {}
     for name, result in fea.items():
         models[name] = chain_model(cfg, result)
         for cam_id in cfg.cams:
@@ -114,13 +156,14 @@ def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress
                 scenarios[name, cam_id] = sc = scenario_to_tolerance(cfg, result, name, cam_id)
                 progress(f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
                          f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %")
+        chains[name] = MaterialChain(models[name], lowest_natural_frequencies_Hz(models[name], REPORTED_MODES))
         progress(f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
-                 f"f1 = {lowest_natural_frequencies_Hz(models[name], 10)[0]:.1f} Hz"
+                 f"f1 = {chains[name].natural_frequencies_Hz[0]:.1f} Hz"
                  + ("" if modes_to_keep(cfg.links) is None else f", solved in its {modes_to_keep(cfg.links)} lowest modes"))
-    return models, scenarios
+    return chains, scenarios
 
 
-def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress) -> dict:
+def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress) -> dict[str, SweepResult]:
     """Speed sweep per material on the linear chain (the fast modal path cannot carry friction)."""
     from dataclasses import replace
 
@@ -131,7 +174,7 @@ def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progre
     sweeps = {}
     for name, result in fea.items():
         model = replace(chain_model(cfg, result), friction_coefficient=0.0)
-        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.station or "tight-side",
+        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.focus_station,
                                  n_modes=modes_to_keep(cfg.links))
         progress(f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws, "
                  f"{len(sweeps[name].critical_speeds)} critical speeds in range"

@@ -5,10 +5,16 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from fem.errors import FemError
-from stages.config import RunConfig
+from settings import RunConfig
+from stages.geometry import resolve_run_part
 from stages.progress import Progress
+
+if TYPE_CHECKING:  # importing geometry pulls in gmsh
+    from fem.settings import FeaSettings
+    from geometry.part import Part
 
 
 @dataclass(frozen=True)
@@ -36,16 +42,23 @@ class MaterialFea:
     image: Path | None
 
 
-def fea_cache_settings(cfg: RunConfig, material, stiffness_tolerance: float | None) -> dict:
+def fea_settings(cfg: RunConfig, concurrent_levels: bool = True) -> FeaSettings:
+    """The run's FEA settings: its --mesh-size (the finest level) and --order, FeaSettings' defaults
+    for the rest. `concurrent_levels`: see fem.stiffness_studies."""
+    from fem.settings import FeaSettings
+
+    return FeaSettings.with_finest(cfg.mesh_size_m, order=cfg.order, concurrent_levels=concurrent_levels)
+
+
+def fea_cache_settings(cfg: RunConfig, settings: FeaSettings, material, stiffness_tolerance: float | None) -> dict:
+    """What the FEA result depends on besides the part's fingerprint: the cache key's settings."""
     from dataclasses import asdict
 
-    from fem.stress import DEFAULT_TOLERANCE
-
-    settings = {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": cfg.order,
-                "stiffness_tolerance": stiffness_tolerance, "stress_tolerance": DEFAULT_TOLERANCE}
+    key = {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": settings.order,
+           "stiffness_tolerance": stiffness_tolerance, "stress_tolerance": settings.stress_tolerance}
     if cfg.link_source is not None and (cfg.link_source.bores.given or cfg.link_source.body is not None):
-        settings["part"] = repr((cfg.link_source.bores, cfg.link_source.body))  # another pair: another link
-    return settings
+        key["part"] = repr((cfg.link_source.bores, cfg.link_source.body))  # another pair: another link
+    return key
 
 
 def _fea_record(name: str, material, study, stress) -> dict:
@@ -71,60 +84,52 @@ def _fea_record(name: str, material, study, stress) -> dict:
     }
 
 
-def _part(cfg: RunConfig):
-    """What the FEA meshes: the STEP file with its part options, the STEP file, or else the built-in
-    parametric link's dimensions (None: the default link; a study varies them)."""
-    if cfg.link_source is not None:
-        return cfg.link_source
-    return cfg.geometry if cfg.geometry is not None else cfg.link
-
-
-def _solve_fea(cfg: RunConfig, materials: list, stiffness_tolerance: float | None, progress: Progress,
-               solved_levels: dict | None, concurrent_levels: bool) -> tuple[dict, dict]:
+def _solve_fea(part: Part, settings: FeaSettings, materials: list, stiffness_tolerance: float | None,
+               progress: Progress, solved_levels: dict | None) -> tuple[dict, dict]:
     """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
     (reusing the levels in `solved_levels`, see fem.adaptive); then the peak stress converged by
     local refinement from the finest level (fem.stress). Returns (stiffness, stress) per material."""
     from fem import stiffness_studies
     from fem.adaptive import stiffnesses_to_tolerance
     from fem.stress import stress_study
-    from fem.study import levels_for_finest
 
-    source = "built-in default link" if cfg.geometry is None else str(cfg.geometry)
+    source = part.name if part.is_step else "built-in default link"
     if stiffness_tolerance is None:
-        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, 2 mesh levels")
-        sizes = None if cfg.mesh_size_m is None else levels_for_finest(cfg.mesh_size_m)
-        studies = stiffness_studies(_part(cfg), materials, mesh_sizes_m=sizes, order=cfg.order, progress=progress,
-                                    concurrent_levels=concurrent_levels)
+        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, 2 mesh levels")
+        studies = stiffness_studies(part, materials, settings, progress=progress)
     else:
-        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{cfg.order}, refining to a k error <= "
+        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, refining to a k error <= "
                  f"{100 * stiffness_tolerance:.2g} %")
-        studies = stiffnesses_to_tolerance(_part(cfg), materials, stiffness_tolerance, order=cfg.order,
-                                           progress=progress, solved=solved_levels)
+        studies = stiffnesses_to_tolerance(part, materials, stiffness_tolerance, settings, progress=progress,
+                                           solved=solved_levels)
     finest = {name: study.finest for name, study in studies.items()}
-    stresses = stress_study(_part(cfg), materials, base_mesh_size_m=next(iter(finest.values())).mesh_size_m,
-                            order=cfg.order, base=finest, progress=progress)
+    stresses = stress_study(part, materials, settings, base_mesh_size_m=next(iter(finest.values())).mesh_size_m,
+                            base=finest, progress=progress)
     return studies, stresses
 
 
 def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None,
-            solved_levels: dict | None = None, concurrent_levels: bool = True) -> dict[str, MaterialFea]:
+            solved_levels: dict | None = None, concurrent_levels: bool = True,
+            part: Part | None = None) -> dict[str, MaterialFea]:
     """Stiffness, mass and stress per material, from the cache when nothing they depend on changed.
-    `concurrent_levels`: see fem.stiffness_studies (False where every core already runs a task)."""
+    `concurrent_levels`: see fem.stiffness_studies (False where every core already runs a task).
+    `part`: the run's part (stages.geometry.inspect_geometry); None resolves it here."""
     import warnings
 
     from fem import load_materials, render_deformed
-    from fem.cache import FeaCache, cache_key, geometry_fingerprint
+    from fem.cache import FeaCache, cache_key
     from fem.errors import FemWarning
-    from geometry import DEFAULT_LINK
 
     library = load_materials(cfg.materials_file)
     unknown = [m for m in cfg.materials if m not in library]
     if unknown:
         raise FemError(f"--materials: unknown material {unknown[0]!r}; expected one of {', '.join(library)}")
     cache = FeaCache(cfg.cache_dir)
+    if part is None:
+        part = resolve_run_part(cfg)
+    settings = fea_settings(cfg, concurrent_levels)
     # the parametric link is keyed by its dimensions (the default link's key is unchanged)
-    fingerprint = geometry_fingerprint(cfg.geometry, repr(cfg.link or DEFAULT_LINK))
-    keys = {name: cache_key(fingerprint, fea_cache_settings(cfg, library[name], stiffness_tolerance))
+    keys = {name: cache_key(part.fingerprint, fea_cache_settings(cfg, settings, library[name], stiffness_tolerance))
             for name in cfg.materials}
     images = {name: cache.image_path(key) if cfg.images else None for name, key in keys.items()}
     out: dict[str, MaterialFea] = {}
@@ -136,7 +141,7 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
     missing = [library[name] for name in cfg.materials if name not in out]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
-        studies, stresses = (_solve_fea(cfg, missing, stiffness_tolerance, progress, solved_levels, concurrent_levels)
+        studies, stresses = (_solve_fea(part, settings, missing, stiffness_tolerance, progress, solved_levels)
                              if missing else ({}, {}))
     cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
     for message in cautions:

@@ -25,6 +25,8 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from settings import DEFAULT_MATERIALS, DEFAULT_STATION, LIMITS, RunConfig, cam_ids, known_cam_ids
+from settings import registries
 from study.variables import CAM, MATERIAL, VARIABLES
 
 SAMPLING_METHODS = ("grid", "lhs", "sobol")
@@ -48,13 +50,15 @@ class Choices:
 
 @dataclass(frozen=True)
 class Settings:
-    mesh_size_m: float | None = None  # finest FEA level; None: the pipeline's default levels
-    order: int = 2
-    samples_per_degree: int = 4
-    solver: str = "exact"
-    station: str = "tight-side"
-    settling_band_m: float = 0.0005
-    steady_state: bool = True
+    """The run settings a study holds for every design point; the defaults are RunConfig's."""
+
+    mesh_size_m: float | None = RunConfig.mesh_size_m  # finest FEA level; None: the pipeline's default levels
+    order: int = RunConfig.order
+    samples_per_degree: int = RunConfig.samples_per_degree
+    solver: str = RunConfig.solver
+    station: str = DEFAULT_STATION  # where the records' metrics are taken
+    settling_band_m: float = RunConfig.settling_band_m
+    steady_state: bool = RunConfig.steady_state
     fea_cache: bool = True  # each worker's own on-disk FEA cache (no shared disk needed)
 
 
@@ -199,15 +203,7 @@ def _list(data: dict, name: str) -> list:
 
 
 def _known_materials() -> tuple[str, ...]:
-    from fem import load_materials
-
-    return tuple(load_materials(None))
-
-
-def _cam_ids() -> tuple[str, ...]:
-    from pipeline import CAM_IDS, EXTRA_CAM_IDS
-
-    return CAM_IDS + EXTRA_CAM_IDS
+    return registries.material_ids()
 
 
 def _metric_names() -> tuple[str, ...]:
@@ -235,8 +231,8 @@ def _check_value(name: str, value, key: str, materials: tuple[str, ...]):
             raise StudyError(f"{key}: unknown material {value!r}; expected one of {', '.join(materials)}")
         return value
     if variable.target == CAM:
-        if value not in _cam_ids():
-            raise StudyError(f"{key}: unknown cam law {value!r}; expected one of {', '.join(_cam_ids())} or 'all'")
+        if value not in known_cam_ids():
+            raise StudyError(f"{key}: unknown cam law {value!r}; expected one of {', '.join(known_cam_ids())} or 'all'")
         return value
     number = _number(value, key)
     if variable.kind is int and number != int(number):
@@ -256,9 +252,7 @@ def _variable(name: str, value, materials) -> Range | Choices:
     _known(name, key)
     choice = VARIABLES[name].kind is str
     if value == "all" and VARIABLES[name].target == CAM:
-        from pipeline import CAM_IDS
-
-        return Choices(CAM_IDS)
+        return Choices(cam_ids())
     if isinstance(value, list):
         if not value:
             raise StudyError(f"{key}: empty list; expected at least one value")
@@ -288,35 +282,41 @@ def _fixed(name: str, value, materials):
 
 
 def _default_choices(variables: dict, fixed: dict) -> None:
-    """Material and cam law default to pipeline.py's: both materials, every cam law."""
-    from pipeline import CAM_IDS, DEFAULT_MATERIALS
-
-    for name, default in (("material", DEFAULT_MATERIALS), ("cam", CAM_IDS)):
+    """Material and cam law default to RunConfig's: both materials, every cam law."""
+    for name, default in (("material", DEFAULT_MATERIALS), ("cam", cam_ids())):
         if name not in variables and name not in fixed:
             variables[name] = Choices(tuple(default))
 
 
-def _settings(table: dict) -> Settings:
-    from dynamics.solvers import METHODS
+def _in_limits(table: dict, name: str) -> float:
+    """A number of [settings] within the RunConfig field's LIMITS (SI, as the study file is)."""
+    key = f"settings.{name}"
+    value = _number(table[name], key)
+    bounds = LIMITS[name].bounds
+    if not bounds.accepts(value):
+        raise StudyError(f"{key}: expected {LIMITS[name].what} {bounds.expected()}, got {table[name]!r}")
+    return value
 
+
+def _settings(table: dict) -> Settings:
     defaults = Settings()
     _only(table, tuple(Settings.__dataclass_fields__), "settings.")
     values = {}
     if "mesh_size_m" in table:
-        values["mesh_size_m"] = _number(table["mesh_size_m"], "settings.mesh_size_m")
-        if not values["mesh_size_m"] > 0:
-            raise StudyError(f"settings.mesh_size_m: expected an element size > 0 m, got {table['mesh_size_m']!r}")
-    if "order" in table and table["order"] not in (1, 2):
-        raise StudyError(f"settings.order: expected 1 or 2, got {table['order']!r}")
+        values["mesh_size_m"] = _in_limits(table, "mesh_size_m")
+    if "order" in table and table["order"] not in registries.ELEMENT_ORDERS:
+        raise StudyError(f"settings.order: expected one of {', '.join(map(str, registries.ELEMENT_ORDERS))}, "
+                         f"got {table['order']!r}")
     if "samples_per_degree" in table:
-        _int(table["samples_per_degree"], "settings.samples_per_degree", 1)
-    if "solver" in table and table["solver"] not in METHODS:
-        raise StudyError(f"settings.solver: unknown method {table['solver']!r}; expected one of {', '.join(METHODS)}")
-    stations = ("drive-end", "tight-side", "idler-end", "slack-side")
+        _int(table["samples_per_degree"], "settings.samples_per_degree", int(LIMITS["samples_per_degree"].bounds.lower))
+    methods = registries.solver_methods()
+    if "solver" in table and table["solver"] not in methods:
+        raise StudyError(f"settings.solver: unknown method {table['solver']!r}; expected one of {', '.join(methods)}")
+    stations = registries.station_names()
     if "station" in table and table["station"] not in stations:
         raise StudyError(f"settings.station: expected one of {', '.join(stations)}, got {table['station']!r}")
-    if "settling_band_m" in table and not _number(table["settling_band_m"], "settings.settling_band_m") > 0:
-        raise StudyError(f"settings.settling_band_m: expected a band > 0 m, got {table['settling_band_m']!r}")
+    if "settling_band_m" in table:
+        _in_limits(table, "settling_band_m")
     for flag in ("steady_state", "fea_cache"):
         if flag in table and not isinstance(table[flag], bool):
             raise StudyError(f"settings.{flag}: expected true or false, got {table[flag]!r}")

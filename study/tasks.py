@@ -16,24 +16,23 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from settings import RunConfig
 from study.records import chain_metrics, fea_metrics, record
 from study.spec import Settings
 from study.variables import GEOMETRY_TARGETS, VARIABLES, link_dimensions, run_fields
 from study.worker_malloc import keep_large_arrays_on_heap
 
 
-def base_config(settings: Settings, cache_dir: Path | None = None):
-    """pipeline.py's defaults with the study's settings (quiet, no images)."""
-    from pipeline import parse_cli
-
-    cfg = parse_cli([])
+def base_config(settings: Settings, cache_dir: Path | None = None) -> RunConfig:
+    """The default run (RunConfig()) with the study's settings (quiet, no images)."""
+    cfg = RunConfig()
     return replace(cfg, quiet=True, images=False, mesh_size_m=settings.mesh_size_m, order=settings.order,
                    samples_per_degree=settings.samples_per_degree, solver=settings.solver,
                    settling_band_m=settings.settling_band_m, steady_state=settings.steady_state,
                    cache_dir=cfg.cache_dir if cache_dir is None else cache_dir)
 
 
-def point_config(settings: Settings, inputs: dict, cache_dir: Path | None = None):
+def point_config(settings: Settings, inputs: dict, cache_dir: Path | None = None) -> RunConfig:
     """The RunConfig of one design point."""
     geometry_values = {n: v for n, v in inputs.items() if n in VARIABLES and VARIABLES[n].target in GEOMETRY_TARGETS
                        and n != "rail_width_m"}
@@ -115,7 +114,7 @@ def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings) -> dict
     """pipeline.py's full report of one design (its material, the study's cam laws): the files'
     bytes, so the client writes them and the worker needs no shared disk."""
     from reporting.outputs import write_default_outputs
-    from stages.chain import run_dynamics
+    from stages.chain import RunResults, run_dynamics
     from stages.fea import run_fea
     from stages.progress import Progress
 
@@ -125,8 +124,7 @@ def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings) -> dict
         out.mkdir()
         cfg = replace(point_config(settings, inputs), cams=tuple(cams), out=out, station=None, images=True)
         progress = Progress(True)
-        timing: dict = {}
         fea = run_fea(cfg, progress)
-        models, scenarios = run_dynamics(cfg, fea, progress)
-        write_default_outputs(cfg, fea, models, scenarios, timing, progress)
+        chains, scenarios = run_dynamics(cfg, fea, progress)
+        write_default_outputs(RunResults(cfg, fea, chains, scenarios, {}, {}), progress)
         return {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.is_file()}

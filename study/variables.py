@@ -11,6 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 from geometry.dimensions import LinkDimensions
+from settings import LIMITS, Bounds
 
 LINK = "link"  # a LinkDimensions field
 RAIL = "rail"  # the side rail width: sets recess_width_m = body_width_m - 2 * value
@@ -25,16 +26,18 @@ class Variable:
     target: str  # LINK, RAIL, MATERIAL, CAM or RUN
     field: str  # the LinkDimensions or RunConfig field it sets
     kind: type  # float, int or str (str: a choice from a list)
-    lower: float = 0.0  # numbers only: values above lower (or equal to it when lower_included)
-    lower_included: bool = False
-    upper: float = float("inf")  # values at most upper
+    bounds: Bounds = Bounds()  # numbers only: the allowed values (a length: > 0)
 
     def accepts(self, value: float) -> bool:
-        return (value >= self.lower if self.lower_included else value > self.lower) and value <= self.upper
+        return self.bounds.accepts(value)
 
     def expected(self) -> str:
-        low = f"{'>=' if self.lower_included else '>'} {self.lower:g}"
-        return low if self.upper == float("inf") else f"{low} and <= {self.upper:g}"
+        return self.bounds.expected()
+
+
+def _run(name: str, kind: type) -> Variable:
+    """A RunConfig field as a variable, with the values RunConfig allows (settings.LIMITS)."""
+    return Variable(name, RUN, name, kind, LIMITS[name].bounds)
 
 
 VARIABLES: dict[str, Variable] = {v.name: v for v in [
@@ -42,14 +45,14 @@ VARIABLES: dict[str, Variable] = {v.name: v for v in [
     Variable("rail_width_m", RAIL, "recess_width_m", float),
     Variable("material", MATERIAL, "materials", str),
     Variable("cam", CAM, "cams", str),
-    Variable("rpm", RUN, "rpm", float),
-    Variable("preload_N", RUN, "preload_N", float, lower_included=True),
-    Variable("links", RUN, "links", int, lower=2, lower_included=True, upper=10_000),
-    Variable("nest_mass_kg", RUN, "nest_mass_kg", float, lower_included=True),
-    Variable("hardware_mass_kg", RUN, "hardware_mass_kg", float, lower_included=True),
-    Variable("friction", RUN, "friction", float, lower_included=True, upper=1.0),
-    Variable("damping", RUN, "damping", float, lower_included=True, upper=0.999),
-    Variable("pin_clearance_m", RUN, "pin_clearance_m", float, lower_included=True),
+    _run("rpm", float),
+    _run("preload_N", float),
+    _run("links", int),
+    _run("nest_mass_kg", float),
+    _run("hardware_mass_kg", float),
+    _run("friction", float),
+    _run("damping", float),
+    _run("pin_clearance_m", float),
 ]}
 
 #: Variables that change the geometry (one mesh each) and so the FEA.

@@ -9,7 +9,7 @@ import pytest
 from dynamics.cams import CamProgram
 from dynamics.chain import ChainModel
 from dynamics.clearance import ClearanceChain, Tensioner, contact_state, span_energy_J, span_force_N
-from dynamics.clearance_sim import choose_model, simulate_chain
+from dynamics.clearance_sim import Validity, choose_model, simulate_chain
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.simulate import simulate
 from dynamics.solvers import clearance_verlet as verlet
@@ -101,8 +101,9 @@ def test_choices_and_their_limits():
     long = ClearanceChain(_chain(n=401), 94e-6)
     with pytest.raises(DynamicsError, match="kelvin-voigt"):
         choose_model(long, "clearance", -1.0)
-    which, reason = choose_model(long, "auto", -1.0)
-    assert which == "linear" and "NOT valid" in reason
+    which, reason, validity = choose_model(long, "auto", -1.0)
+    assert which == "linear" and "NOT valid" in reason and validity == Validity.NOT_VALID_WHERE_TENSION_NEGATIVE
+    assert choose_model(m, "auto", -1.0).validity == Validity.VALID
     with pytest.raises(DynamicsError, match="model"):
         choose_model(m, "nonlinear", 1.0)
 

@@ -14,6 +14,7 @@ import pytest
 import pipeline
 from browser import page_in_browser, screenshot
 from geometry import EXAMPLE_STEP
+from settings import cam_ids
 
 ROOT = Path(__file__).resolve().parents[1]
 # Coarse on purpose: 3 FEA levels ending at 10 mm and a short chain keep one run to seconds.
@@ -45,7 +46,7 @@ def test_summary_has_the_documented_keys_in_si(default_run):
     assert s["geometry"]["source"] == "default"
     assert 0.11 < s["geometry"]["pitch_m"] < 0.115  # the default link's 112.5 mm pitch, in metres
     assert 1e-4 < s["geometry"]["body_volume_m3"] < 2e-4
-    assert set(s["cams"]) == set(pipeline.CAM_IDS)
+    assert set(s["cams"]) == set(cam_ids())
     for cam in s["cams"].values():
         assert set(cam) == {"input_rms_displacement_m", "input_rms_velocity_m_s", "input_rms_acceleration_m_s2"}
     assert set(s["materials"]) == {"al6061-t6", "ti-grade2"}

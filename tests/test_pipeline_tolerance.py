@@ -12,7 +12,7 @@ from stages.progress import Progress
 def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
     calls = []
 
-    def fea(cfg, progress, stiffness_tolerance, levels):
+    def fea(cfg, progress, stiffness_tolerance, levels, part=None):
         calls.append((stiffness_tolerance, levels))
         return {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=stiffness_tolerance)}
 
@@ -35,7 +35,7 @@ def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
 
 def test_no_second_pass_when_k_is_good_enough(monkeypatch):
     calls = []
-    monkeypatch.setattr(tolerance, "run_fea", lambda cfg, progress, tol, levels: calls.append(tol) or
+    monkeypatch.setattr(tolerance, "run_fea", lambda cfg, progress, tol, levels, part=None: calls.append(tol) or
                         {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=tol)})
     monkeypatch.setattr(tolerance, "run_dynamics", lambda cfg, fea, progress: (
         {}, {("al6061-t6", "modified-sine"): SimpleNamespace(rel_error_estimate={"stiffness": 0.5 * 0.01})}))

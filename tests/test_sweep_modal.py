@@ -17,10 +17,10 @@ from dynamics.sweep import (
     critical_speeds_rpm,
     modal_periodic_response,
     parse_rpm_range,
-    plot_rpm_sweep,
     rpm_sweep,
     stiffness_matrix_sparse,
 )
+from reporting.plots import plot_rpm_sweep
 
 LAWS = ("modified-sine", "cycloidal")
 

@@ -1,0 +1,240 @@
+"""Periodic steady state of the machine on its wheels, with relabelling (issue #22).
+
+Each index moves the chain one pitch: one link seats on each wheel from the strand behind it and one
+leaves onto the strand ahead. The DOFs of dynamics.machine are places on the machine (a wheel's
+seated group, the k-th free link of a strand, the carriage), so with identical links the machine
+after an index is the machine before it with every link moved one place ahead. The steady state of
+continuous indexing is therefore the state x0 at the start of an index with
+
+    x0 = T(P(x0)),
+
+P the motion over one index cycle (from the start of one index to the start of the next, the cam at
+rest at both ends) and T the transfer at the dwell:
+- a free link takes the state of the link one place behind it;
+- the link that leaves a wheel onto the strand ahead starts at its seat: y = u + d(a_end) (d the
+  feed's departure, dynamics.wheels; 0 without the polygonal action), y' = u' dX/du;
+- the link that arrives from the strand behind seats with a plastic impact along the strand
+  (the tooth takes it at the wheel's pitch-circle speed): the group's generalised momentum
+  M_g u' + m c y'_in is kept, u'+ = (M_g u' + m c y'_in) / (M_g + m c^2), c = dX/du at the seat
+  (1 without the polygonal action); on a sprocket held to the cam u' stays 0. Rigid seating also
+  puts it at its seat, moving it by its span's dynamic stretch e2 (tens of micrometres); that
+  changes the elastic energy of the span behind it by k e1 e2 and releases the arriving span's
+  1/2 k e2^2. The impact's kinetic loss is reported per wheel, the transfer's whole change of
+  stored energy (both effects, all wheels) per cycle;
+- the carriage keeps its state.
+
+For the linear (polygon-free) model P(x) = Phi x + r and T(x) = A x are linear, so x0 solves
+(I - A Phi) x0 = A r exactly (Phi the exact first-order-hold one-cycle propagator). With the
+polygonal feed P is dynamics.machine_ivp's integrator and the transfer is nonlinear only through
+d(a_end); x0 comes from Newton shooting with the linear model's A Phi as the Jacobian.
+
+`labelled_periodic_state` is the other steady state: the same links stay seated every cycle
+(x0 = P(x0)), the frame the issue's first figures were computed in; it is kept to compare with them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import lu_factor, lu_solve
+
+from dynamics.errors import DynamicsError, SolverFailedError
+from dynamics.machine import MachineOnWheels
+from dynamics.machine_ivp import integrate_cycle
+from dynamics.solvers import solve
+from dynamics.solvers.exact import propagate
+from dynamics.steady_state import monodromy
+from dynamics.system import SampledForce
+
+
+@dataclass(frozen=True)
+class CycleResponse:
+    """One index cycle in steady state: DOF displacement, velocity, acceleration (relative to the cam)
+    at the samples, the cam's samples, and the seating diagnostics of the transfer that ends it."""
+
+    t_s: np.ndarray
+    q_m: np.ndarray
+    v_m_s: np.ndarray
+    a_m_s2: np.ndarray  # relative acceleration y''
+    zddot_m_s2: np.ndarray
+    seating_speed_m_s: tuple[float, ...]  # per wheel: |y'_in - c u'| of the link that seats
+    seating_impact_J: tuple[float, ...]  # per wheel: kinetic energy lost in the plastic seating impact
+    transfer_energy_change_J: float  # stored energy after the transfer minus before (all wheels)
+
+
+@dataclass(frozen=True)
+class _Places:
+    """Index maps of the transfer: per DOF, the DOF whose state it takes (-1: none), and per wheel
+    (group DOF or None, DOF of the link arriving from behind, DOF of the link leaving ahead)."""
+
+    source: np.ndarray
+    wheels: tuple[tuple[int | None, int, int], ...]
+
+
+def _places(machine: MachineOnWheels) -> _Places:
+    if machine.drive != "wheels":
+        raise DynamicsError("drive: the relabelled steady state needs drive='wheels' (the link drive has no seats)")
+    topo = machine.topology
+    n = topo.n_dof
+    n_places = len(machine.groups)
+    held = machine.drive_held
+    dof_of_place = [None if (p == 0 and held) else p - (1 if held else 0) for p in range(n_places)]
+    source = np.full(n, -1)
+    group_places = {0} | ({machine.idler_place} if machine.idler_place is not None else set())
+    for p in range(n_places):
+        d = dof_of_place[p]
+        if d is None or p in group_places:
+            continue
+        behind = (p - 1) % n_places
+        if behind not in group_places:
+            source[d] = dof_of_place[behind]
+    if topo.n_dof > len([d for d in dof_of_place if d is not None]):
+        source[n - 1] = n - 1  # the carriage keeps its state
+    wheels = []
+    for place in sorted(group_places):
+        wheels.append((dof_of_place[place], dof_of_place[(place - 1) % n_places],
+                       dof_of_place[(place + 1) % n_places]))
+    return _Places(source, tuple(wheels))
+
+
+def transfer(machine: MachineOnWheels, q: np.ndarray, v: np.ndarray, *, linear: bool = False):
+    """(q, v) after the seat changes at the dwell, and per wheel the seating speed and the kinetic
+    energy the plastic impact takes. `linear`: the polygon-free map even when the machine has the
+    polygonal action (the Newton Jacobian)."""
+    places = _places(machine)
+    topo = machine.topology
+    masses = np.asarray(topo.masses_kg)
+    link_mass = machine.chain.link_mass_kg
+    q_new = np.where(places.source >= 0, q[np.maximum(places.source, 0)], 0.0)
+    v_new = np.where(places.source >= 0, v[np.maximum(places.source, 0)], 0.0)
+    speeds, impacts = [], []
+    for ends, (group, arriving, leaving) in zip(machine.wheel_ends, places.wheels):
+        wheel = ends.wheel
+        polygon = machine.polygonal and not linear
+        u = 0.0 if group is None else q[group]
+        ud = 0.0 if group is None else v[group]
+        a_end = wheel.tooth_angle_rad + u / wheel.feed_radius_m
+        d = float(wheel.feed_departure_m(a_end)) if polygon else 0.0
+        c = (1.0 + float(wheel.feed_departure_slope(a_end)) / wheel.feed_radius_m) if polygon else 1.0
+        if group is None:
+            ud_new = 0.0
+            impact = 0.5 * link_mass * v[arriving] ** 2
+        else:
+            mg = masses[group]
+            ud_new = (mg * ud + link_mass * c * v[arriving]) / (mg + link_mass * c**2)
+            impact = 0.5 * mg * link_mass * (v[arriving] - c * ud) ** 2 / (mg + link_mass * c**2)
+            q_new[group], v_new[group] = u, ud_new
+        q_new[leaving] = u + d
+        v_new[leaving] = c * ud_new
+        speeds.append(float(abs(v[arriving] - c * ud)))
+        impacts.append(float(impact))
+    return q_new, v_new, tuple(speeds), tuple(impacts)
+
+
+def transfer_matrix(machine: MachineOnWheels) -> np.ndarray:
+    """A with [q; v] -> A [q; v], the polygon-free transfer (linear)."""
+    n = machine.topology.n_dof
+    out = np.empty((2 * n, 2 * n))
+    for j in range(2 * n):
+        e = np.zeros(2 * n)
+        e[j] = 1.0
+        q, v, _, _ = transfer(machine, e[:n], e[n:], linear=True)
+        out[:, j] = np.concatenate([q, v])
+    return out
+
+
+def cycle_grid(cam, samples_per_cycle: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Times of one index cycle (both ends), the cam's lift and acceleration there."""
+    t = cam.cycle_s * np.arange(samples_per_cycle + 1) / samples_per_cycle
+    s, _, a, _ = cam.svaj(t)
+    return t, np.asarray(s, dtype=float), np.asarray(a, dtype=float)
+
+
+def periodic_state(machine: MachineOnWheels, cam, samples_per_cycle: int = 360, *, relabel: bool = True,
+                   tol: float = 1e-7, max_iterations: int = 20) -> CycleResponse:
+    """The steady state of continuous indexing over one index cycle (relabelled by default, see the
+    module docstring); the cam's acceleration is held linearly between the samples. `tol` bounds the
+    period residual of the polygonal model's Newton shooting relative to the state's scale: the
+    integrator's own error is about 1e-8 of it (its residual stalls there), so 1e-7 is the tightest
+    that is reliably met; the linear model's state is exact (one linear solve) and ignores it."""
+    t, s, a = cycle_grid(cam, samples_per_cycle)
+    system = machine.system()
+    load = machine.inertial_load()
+    forces = -np.outer(a, load)
+    n = system.n_dof
+    phi = monodromy(system, t)
+    r = propagate(system, t, forces, np.zeros(2 * n))[-1]
+    jac = transfer_matrix(machine) @ phi if relabel else phi
+    rhs = transfer_matrix(machine) @ r if relabel else r
+    lu = lu_factor(np.eye(2 * n) - jac)
+    x0 = lu_solve(lu, rhs)
+    if machine.polygonal:
+        x0 = _newton(machine, lu, x0, t, s, a, relabel, tol, max_iterations)
+    return _cycle(machine, x0, t, s, a, relabel)
+
+
+def labelled_periodic_state(machine: MachineOnWheels, cam, samples_per_cycle: int = 360) -> CycleResponse:
+    return periodic_state(machine, cam, samples_per_cycle, relabel=False)
+
+
+def _run(machine, x0, t, s, a):
+    n = x0.size // 2
+    if machine.polygonal:
+        r = integrate_cycle(machine, lambda x: np.interp(x, t, a), lambda x: np.interp(x, t, s), t, x0[:n], x0[n:])
+        return r.q_m, r.v_m_s
+    resp = solve(machine.system(), SampledForce(t, -np.outer(a, machine.inertial_load())), t, method="exact",
+                 x0=x0[:n], v0=x0[n:])
+    return resp.x, resp.v
+
+
+def _end_state(machine, x0, t, s, a, relabel):
+    q, v = _run(machine, x0, t, s, a)
+    if not relabel:
+        return np.concatenate([q[-1], v[-1]])
+    qn, vn, _, _ = transfer(machine, q[-1], v[-1])
+    return np.concatenate([qn, vn])
+
+
+def _newton(machine, lu, x0, t, s, a, relabel, tol, max_iterations):
+    n = x0.size // 2
+    scale = np.concatenate([np.full(n, max(np.max(np.abs(x0[:n])), 1e-300)),
+                            np.full(n, max(np.max(np.abs(x0[n:])), 1e-300))])
+    for _ in range(max_iterations):
+        residual = _end_state(machine, x0, t, s, a, relabel) - x0
+        if np.max(np.abs(residual) / scale) <= tol:
+            return x0
+        x0 = x0 + lu_solve(lu, residual)
+    raise SolverFailedError(f"machine steady state: period residual above {tol:g} after {max_iterations} iterations")
+
+
+def _cycle(machine, x0, t, s, a, relabel) -> CycleResponse:
+    n = x0.size // 2
+    q, v = _run(machine, x0, t, s, a)
+    m = np.diag(machine.mass_matrix())
+    acc = -(q @ machine.stiffness_matrix().T + v @ machine.damping_matrix().T) - np.outer(a, machine.inertial_load())
+    if machine.polygonal:
+        radii = np.array([e.wheel.feed_radius_m for e in machine.wheel_ends])
+        acc = acc + np.array([machine.polygon_force((s_i - s[0]) / radii, q_i) for s_i, q_i in zip(s, q)])
+    acc = acc / m
+    speeds, impacts, change = (), (), 0.0
+    if relabel:
+        q_new, v_new, speeds, impacts = transfer(machine, q[-1], v[-1])
+        end = np.array([w.tooth_angle_rad for w in (e.wheel for e in machine.wheel_ends)])
+        change = (machine.stored_energy_J(q_new, v_new, 0.0, np.zeros(end.size))
+                  - machine.stored_energy_J(q[-1], v[-1], 0.0, end))
+    return CycleResponse(t, q, v, acc, a, speeds, impacts, change)
+
+
+def link_residual_and_peak(machine: MachineOnWheels, cycle: CycleResponse, dwell_mask: np.ndarray,
+                           link: int) -> tuple[float, float]:
+    """At 0-based `link` (the link at that place at the start of the index): residual vibration,
+    max |x - z| over the dwell samples, and peak |absolute acceleration| over the cycle. A link held
+    to the cam has neither vibration nor acceleration beyond the cam's."""
+    dof = int(machine.topology.link_dof()[link])
+    y = np.zeros_like(cycle.t_s) if dof < 0 else cycle.q_m[:, dof]
+    a = cycle.zddot_m_s2 + (0.0 if dof < 0 else cycle.a_m_s2[:, dof])
+    mask = np.asarray(dwell_mask, dtype=bool)
+    if not mask.any():
+        raise DynamicsError("dwell_mask: no sample lies in a dwell; expected at least one")
+    return float(np.max(np.abs(y[mask]))), float(np.max(np.abs(a)))

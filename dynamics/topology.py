@@ -1,0 +1,133 @@
+"""The chain's topology: one description from which its linear matrices derive (issue #22).
+
+A chain is a set of degrees of freedom (DOFs), each a path displacement in metres relative to the
+cam (y = x - z 1, dynamics.chain): a free link, a wheel's group of seated links (they move together
+with the wheel's pitch circle), or the idler carriage. Spans join the DOFs:
+
+    stretch e = y[ahead] - y[behind] + carriage_gain * y[carriage]
+
+(carriage_gain 2 where the idler carriage sits inside a span: moving it by u lengthens the loop by
+2u; 1 for each of the two spans beside an idler wheel's seated group). Span force P + k e (tension
+positive, preload P). Ground springs tie a DOF to the cam's frame: the drive (k_d on the driven
+DOF) and the tensioner's spring (k_t on the carriage). So
+
+    K = B^T diag(k) B + diag(ground),    M = diag(masses),
+
+with B the spans' incidence matrix (n_spans x n_dof). `links` says which chain links each DOF
+carries, so stations and relabelling know where every link is. Every linear matrix of the chain
+(the dense K and M of dynamics.chain.ChainModel, the sparse K of dynamics.sweep, the tensioner's
+full-contact K of dynamics.clearance, the machine on its wheels of dynamics.machine) is built from
+this one object instead of each rebuilding the ring.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from dynamics.errors import DynamicsError
+
+
+@dataclass(frozen=True)
+class Span:
+    """One span (a link's body between two pins): stretch y[ahead] - y[behind] + gain * y[carriage];
+    an end of None is held to the cam (y = 0 there: a link seated on a sprocket that follows the cam)."""
+
+    behind: int | None
+    ahead: int | None
+    carriage: int | None = None
+    carriage_gain: float = 0.0
+
+
+@dataclass(frozen=True)
+class ChainTopology:
+    """DOFs (masses and the links each carries), spans, ground springs; SI units."""
+
+    masses_kg: tuple[float, ...]  # per DOF
+    links: tuple[tuple[int, ...], ...]  # per DOF: the 0-based chain links it carries (() for a carriage)
+    spans: tuple[Span, ...]
+    span_stiffness_N_per_m: float
+    preload_N: float
+    ground: tuple[tuple[int, float], ...] = ()  # (DOF, stiffness N/m): springs to the cam's frame
+    held_links: tuple[int, ...] = ()  # links that move with the cam (seated on a sprocket that follows it)
+
+    def __post_init__(self) -> None:
+        n = len(self.masses_kg)
+        if len(self.links) != n:
+            raise DynamicsError(f"links: got {len(self.links)} entries; expected one per DOF ({n})")
+        for s in self.spans:
+            ends = tuple(d for d in (s.behind, s.ahead, s.carriage) if d is not None)
+            if not all(0 <= d < n for d in ends):
+                raise DynamicsError(f"spans: got {s!r}; expected DOF indices in 0..{n - 1}")
+        for dof, stiffness in self.ground:
+            if not (0 <= dof < n and np.isfinite(stiffness) and stiffness >= 0):
+                raise DynamicsError(f"ground: got ({dof!r}, {stiffness!r}); expected a DOF in 0..{n - 1} "
+                                    "and a stiffness >= 0")
+
+    @property
+    def n_dof(self) -> int:
+        return len(self.masses_kg)
+
+    @property
+    def n_links(self) -> int:
+        return sum(len(c) for c in self.links) + len(self.held_links)
+
+    def incidence(self) -> sp.csr_matrix:
+        """B (n_spans x n_dof): the spans' stretches are B y."""
+        rows, cols, vals = [], [], []
+        for r, s in enumerate(self.spans):
+            for dof, value in ((s.ahead, 1.0), (s.behind, -1.0), (s.carriage, s.carriage_gain)):
+                if dof is not None:
+                    rows.append(r)
+                    cols.append(dof)
+                    vals.append(value)
+        return sp.csr_matrix((vals, (rows, cols)), shape=(len(self.spans), self.n_dof))
+
+    def ground_vector(self) -> np.ndarray:
+        g = np.zeros(self.n_dof)
+        for dof, stiffness in self.ground:
+            g[dof] += stiffness
+        return g
+
+    def stiffness_matrix_sparse(self) -> sp.csr_matrix:
+        """K = k B^T B + diag(ground), sparse."""
+        b = self.incidence()
+        return (self.span_stiffness_N_per_m * (b.T @ b) + sp.diags(self.ground_vector())).tocsr()
+
+    def stiffness_matrix(self) -> np.ndarray:
+        return self.stiffness_matrix_sparse().toarray()
+
+    def mass_matrix(self) -> np.ndarray:
+        return np.diag(np.asarray(self.masses_kg, dtype=float))
+
+    def stretches_m(self, y_m: np.ndarray) -> np.ndarray:
+        """Span stretches (..., n_spans) from DOF displacements (..., n_dof)."""
+        return np.asarray(y_m, dtype=float) @ self.incidence().T.toarray()
+
+    def link_dof(self) -> np.ndarray:
+        """For every chain link (0-based), the DOF that carries it (-1: held to the cam)."""
+        out = np.full(self.n_links, -1, dtype=int)
+        for dof, carried in enumerate(self.links):
+            out[list(carried)] = dof
+        return out
+
+
+def ring_topology(n_links: int, link_mass_kg: float, stiffness_N_per_m: float, preload_N: float,
+                  drive_stiffness_N_per_m: float, carriage: tuple[int, float, float] | None = None) -> ChainTopology:
+    """Today's chain: N free links in a loop, span j from link j to link j + 1 (the last closes the
+    loop), the drive spring on link 0. `carriage` = (span, rate N/m, mass kg) adds the idler carriage
+    as DOF N inside that span (gain 2), tied to the frame by its spring."""
+    spans = [Span(j, (j + 1) % n_links) for j in range(n_links)]
+    masses = [float(link_mass_kg)] * n_links
+    links = [(j,) for j in range(n_links)]
+    ground = [(0, float(drive_stiffness_N_per_m))]
+    if carriage is not None:
+        span, rate, mass = carriage
+        spans[span] = Span(span, (span + 1) % n_links, n_links, 2.0)
+        masses.append(float(mass))
+        links.append(())
+        ground.append((n_links, float(rate)))
+    return ChainTopology(tuple(masses), tuple(links), tuple(spans), float(stiffness_N_per_m), float(preload_N),
+                         tuple(ground))

@@ -1,0 +1,82 @@
+"""The named choices a run can make, each read from the module that implements it.
+
+A new cam law is one `dynamics.cams.register_law` call: `cam_ids()` (what 'all' means) and
+`extra_cam_ids()` (accepted by name only) are derived from the law registry. Materials come from
+fem/data/materials.toml (plus a user's --materials-file), solver methods from
+`dynamics.solvers.METHODS`, chain models and span damping laws from dynamics.clearance(_sim),
+accelerometer stations from `dynamics.metrics.station_links`. The imports are deferred so that
+reading the settings does not load numpy, scipy or gmsh.
+"""
+
+from __future__ import annotations
+
+DEFAULT_MATERIALS = ("al6061-t6", "ti-grade2")
+DEFAULT_STATION = "tight-side"  # where tables, rankings and plots look unless --station says otherwise
+PRESETS = ("mqp2012",)
+ELEMENT_ORDERS = (1, 2)  # P1 / P2 tetrahedra
+
+
+def cam_ids() -> tuple[str, ...]:
+    """The laws 'all' means: every registered law that enters and leaves its dwells without an
+    acceleration jump (a law with one, such as simple harmonic, has infinite jerk at the joints)."""
+    from dynamics.cams import get_law, law_ids
+
+    return tuple(law_id for law_id in law_ids() if get_law(law_id).zero_end_acceleration)
+
+
+def extra_cam_ids() -> tuple[str, ...]:
+    """Registered laws accepted by name but left out of 'all'."""
+    from dynamics.cams import law_ids
+
+    default = cam_ids()
+    return tuple(law_id for law_id in law_ids() if law_id not in default)
+
+
+def known_cam_ids() -> tuple[str, ...]:
+    return cam_ids() + extra_cam_ids()
+
+
+def preset_cam_ids(preset: str) -> tuple[str, ...]:
+    """The cam laws a preset replicates (the 2012 report's five for mqp2012)."""
+    from dynamics.mqp2012 import CAMS
+
+    return {"mqp2012": CAMS}[preset]
+
+
+def preset_material_ids(preset: str) -> tuple[str, ...]:
+    from dynamics.mqp2012 import MATERIALS
+
+    return {"mqp2012": tuple(MATERIALS)}[preset]
+
+
+def material_ids(materials_file=None) -> tuple[str, ...]:
+    """The built-in materials and those of a user's TOML file."""
+    from fem import load_materials
+
+    return tuple(load_materials(materials_file))
+
+
+def station_names() -> tuple[str, ...]:
+    """The four accelerometer stations, drive end first."""
+    from dynamics.metrics import station_links
+
+    return tuple(station_links(1))
+
+
+def chain_models() -> tuple[str, ...]:
+    from dynamics.clearance_sim import MODEL_CHOICES
+
+    return MODEL_CHOICES
+
+
+def span_damping_laws() -> tuple[str, ...]:
+    from dynamics.clearance import SPAN_DAMPING_LAWS
+
+    return SPAN_DAMPING_LAWS
+
+
+def solver_methods() -> dict:
+    """Method id -> dynamics.solvers.MethodInfo (what each can model)."""
+    from dynamics.solvers import METHODS
+
+    return METHODS

@@ -1,0 +1,182 @@
+"""The settings of one design run: every default, the unit conversions and the checks.
+
+`RunConfig()` is the default run; `pipeline.py` maps its flags onto these fields, `python -m study`
+starts each design point from `RunConfig()`, and both check values against `LIMITS` (one table of
+allowed ranges, SI). Fields are SI; the command line takes some lengths in mm (`mm_to_m`).
+Defaults that belong to a physical model stay with it and are read from there (the pin clearance
+from dynamics.clearance, the hardware and nest masses from geometry.dimensions), through
+`default_factory`, so that reading the settings does not import numpy or gmsh.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from settings.registries import DEFAULT_MATERIALS, DEFAULT_STATION, cam_ids
+
+if TYPE_CHECKING:  # importing geometry pulls in gmsh, which reading settings does not need
+    from geometry.assembly import LinkSource
+    from geometry.dimensions import LinkDimensions
+
+MM_PER_M = 1000.0
+
+
+class SettingsError(ValueError):
+    """A setting that cannot be used; the one-line message names the option, what was expected
+    and what was given."""
+
+
+def mm_to_m(value_mm: float) -> float:
+    return value_mm / MM_PER_M
+
+
+def m_to_mm(value_m: float) -> float:
+    return value_m * MM_PER_M
+
+
+def _default_pin_clearance_m() -> float:
+    from dynamics.clearance import DEFAULT_PIN_CLEARANCE_M
+
+    return DEFAULT_PIN_CLEARANCE_M
+
+
+def _default_hardware_mass_kg() -> float:
+    from geometry.dimensions import DEFAULT_HARDWARE_MASS_KG
+
+    return DEFAULT_HARDWARE_MASS_KG
+
+
+def _default_nest_mass_kg() -> float:
+    from geometry.dimensions import NEST_MASS_KG
+
+    return NEST_MASS_KG
+
+
+def _default_cache_dir() -> Path:
+    from fem.cache import default_cache_dir
+
+    return default_cache_dir()
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """One run's settings (SI). `RunConfig()` is the default run."""
+
+    geometry: Path | None = None  # STEP file of one link; None: the built-in parametric link
+    materials: tuple[str, ...] = DEFAULT_MATERIALS
+    materials_file: Path | None = None  # extra user materials (TOML)
+    links: int = 85
+    rpm: float = 180.0
+    cams: tuple[str, ...] = field(default_factory=cam_ids)  # every registered law without a dwell jump
+    friction: float = 0.35  # Coulomb coefficient between links and guide
+    damping: float = 0.13  # modal damping ratio of every chain mode (the sponsor's figure)
+    preload_N: float = 2224.0
+    solver: str = "exact"
+    preset: str | None = None
+    out: Path = Path("results")
+    images: bool = True
+    quiet: bool = False
+    mesh_size_m: float | None = None  # finest FEA level; None: chosen for < 1 % error in k
+    order: int = 2
+    hardware_mass_kg: float = field(default_factory=_default_hardware_mass_kg)
+    nest_mass_kg: float = field(default_factory=_default_nest_mass_kg)
+    cache_dir: Path = field(default_factory=_default_cache_dir)
+    steady_state: bool = True  # periodic steady state of continuous indexing (False: from rest)
+    samples_per_degree: int = 4
+    tolerance: float | None = None  # relative tolerance on the metrics (None: fixed settings)
+    rpm_sweep: str | None = None  # "FROM:TO:STEP" rev/min
+    settling_band_m: float = 0.0005
+    station: str | None = None  # one accelerometer station only (None: every link)
+    link_source: LinkSource | None = None  # --geometry with --bores/--pitch/--bore-radius/--body
+    hardware_material: str | None = None  # --hardware-material: ids for the STEP file's hardware solids
+    hardware_from_step: bool = False  # --hardware-from-step: hardware mass from those solids
+    # the chain model (issue #11): see dynamics.clearance_sim
+    model: str = "auto"
+    pin_clearance_m: float = field(default_factory=_default_pin_clearance_m)  # inf: a chain that only pulls
+    span_damping: str = "global"
+    rayleigh: tuple[float, float] | None = None  # (alpha 1/s, beta s) instead of the modal damping
+    tensioner_rate_N_per_m: float | None = None
+    tensioner_mass_kg: float | None = None
+    tensioner_damping_N_s_per_m: float | None = None
+    # the built-in link's dimensions when `geometry` is None (None: DEFAULT_LINK); a study varies them
+    link: LinkDimensions | None = None
+
+    @property
+    def focus_station(self) -> str:
+        """Where tables, rankings, plots and the speed sweep look: --station, else the tight side."""
+        return self.station or DEFAULT_STATION
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """An allowed range: above `lower` (or at it when lower_included), below `upper` (or at it)."""
+
+    lower: float = 0.0
+    lower_included: bool = False
+    upper: float = math.inf
+    upper_included: bool = True
+
+    def accepts(self, value: float) -> bool:
+        above = value >= self.lower if self.lower_included else value > self.lower
+        below = value <= self.upper if self.upper_included else value < self.upper
+        return above and below
+
+    def expected(self, per_si: float = 1.0) -> str:
+        low = f"{'>=' if self.lower_included else '>'} {self.lower * per_si:g}"
+        if self.upper == math.inf:
+            return low
+        return f"{low} and {'<=' if self.upper_included else '<'} {self.upper * per_si:g}"
+
+
+MAX_LINKS = 10_000  # chains above dynamics.reduction.DENSE_LINK_LIMIT links are solved in their lowest modes
+
+
+@dataclass(frozen=True)
+class Limit:
+    """The allowed values of one numeric RunConfig field and the option that sets it."""
+
+    option: str  # the command-line option, named in the error
+    what: str  # what the value is, for the error: "a cam speed"
+    bounds: Bounds
+    unit: str = ""  # the option's unit
+    per_si: float = 1.0  # option units per SI unit (MM_PER_M for an option in mm)
+    whole: bool = False  # a whole number
+    finite: bool = True  # inf is refused (the pin clearance takes it: a chain that can only pull)
+
+    def problem(self, value) -> str | None:
+        """Why `value` (SI) is refused, one line naming the option; None when it is allowed."""
+        shown = value * self.per_si
+        ok = (isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isnan(value)
+              and self.bounds.accepts(value) and (math.isfinite(value) or not self.finite)
+              and (not self.whole or float(value).is_integer()))
+        if ok:
+            return None
+        unit = f" {self.unit}" if self.unit else ""
+        inf = "" if self.finite else " or inf"
+        return f"{self.option}: expected {self.what} {self.bounds.expected(self.per_si)}{unit}{inf}, got {shown:g}"
+
+
+AT_LEAST_ZERO = Bounds(0.0, lower_included=True)
+ABOVE_ZERO = Bounds(0.0)
+
+#: The numeric fields' allowed values (a field set to None, where allowed, is not checked).
+LIMITS: dict[str, Limit] = {
+    "links": Limit("--links", "a whole number of links", Bounds(2, True, MAX_LINKS), whole=True),
+    "rpm": Limit("--rpm", "a cam speed", ABOVE_ZERO, "rev/min"),
+    "friction": Limit("--friction", "a friction coefficient", Bounds(0.0, True, 1.0)),
+    "damping": Limit("--damping", "a damping ratio", Bounds(0.0, True, 1.0, upper_included=False)),
+    "preload_N": Limit("--preload", "a tension", AT_LEAST_ZERO, "N"),
+    "hardware_mass_kg": Limit("--hardware-mass", "a mass", AT_LEAST_ZERO, "kg"),
+    "nest_mass_kg": Limit("--nest-mass", "a mass", AT_LEAST_ZERO, "kg"),
+    "mesh_size_m": Limit("--mesh-size", "an element size", ABOVE_ZERO, "mm", MM_PER_M),
+    "samples_per_degree": Limit("--samples-per-degree", "a whole number", Bounds(1, True), whole=True),
+    "tolerance": Limit("--tolerance", "a relative tolerance (e.g. 0.01)", Bounds(0.0, False, 1.0, False)),
+    "settling_band_m": Limit("--settling-band", "a band", ABOVE_ZERO, "mm", MM_PER_M),
+    "pin_clearance_m": Limit("--pin-clearance", "a free play", AT_LEAST_ZERO, "mm", MM_PER_M, finite=False),
+    "tensioner_rate_N_per_m": Limit("--tensioner-rate", "a finite spring rate", AT_LEAST_ZERO, "N/m"),
+    "tensioner_mass_kg": Limit("--tensioner-mass", "a finite mass", ABOVE_ZERO, "kg"),
+    "tensioner_damping_N_s_per_m": Limit("--tensioner-damping", "a finite damping", AT_LEAST_ZERO, "N*s/m"),
+}

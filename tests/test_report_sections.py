@@ -1,0 +1,57 @@
+"""report.html is built from a list of section builders: one registered builder is one new section;
+the chain model's warning style comes from the result's validity field, not from its words."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import pytest
+
+import pipeline
+from dynamics.clearance_sim import ChainModelKind, Validity
+from reporting import html, sections
+
+COARSE = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "--no-images", "-q",
+          "--materials", "al6061-t6", "--cams", "modified-sine,cycloidal"]
+
+
+@pytest.fixture
+def registry(monkeypatch):
+    """The section list, restored after the test."""
+    monkeypatch.setattr(sections, "_BUILDERS", list(sections._BUILDERS))
+
+
+def _cam_count(report: sections.Report) -> list[html.Section]:
+    cams = sorted({cam for _, cam in report.results.scenarios})
+    return [html.Section("Cam laws simulated", html.paragraph(f"{len(cams)} cam laws: {', '.join(cams)}"))]
+
+
+def test_a_registered_section_builder_shows_up_in_the_report(registry, tmp_path):
+    sections.register_section("cam count", _cam_count, before="timing")
+    assert sections.section_names()[-2:] == ("cam count", "timing")
+    out = tmp_path / "out"
+    assert pipeline.main([*COARSE, "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
+    page = (out / "report.html").read_text()
+    assert ">Cam laws simulated</h2><p>2 cam laws: cycloidal, modified-sine</p>" in page
+    assert page.index("Cam laws simulated</h2>") < page.index(">Timing</h2>")
+
+
+def test_section_names_are_unique_and_before_must_exist(registry):
+    with pytest.raises(ValueError, match="already registered"):
+        sections.register_section("timing", _cam_count)
+    with pytest.raises(ValueError, match="no section 'appendix'"):
+        sections.register_section("cam count", _cam_count, before="appendix")
+
+
+def _results(validity: Validity, reason: str):
+    contact = SimpleNamespace(model=ChainModelKind.LINEAR, reason=reason, validity=validity,
+                              linear_min_tension_N=-500.0, steady_state=None)
+    return SimpleNamespace(scenarios={("al6061-t6", "modified-sine"): SimpleNamespace(contact=contact)})
+
+
+@pytest.mark.parametrize("validity, warned", [(Validity.VALID, False),
+                                              (Validity.NOT_VALID_WHERE_TENSION_NEGATIVE, True)])
+def test_the_model_paragraph_is_a_warning_by_the_validity_field(validity, warned):
+    # the same words either way: the style follows the data
+    text = sections._model_paragraphs(_results(validity, "a reason that says nothing of validity"))
+    assert text.startswith('<p class="warn">') == warned and "Model: linear chain" in text
