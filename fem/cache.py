@@ -15,7 +15,7 @@ from pathlib import Path
 
 from geometry.atomic import atomic_target
 
-CACHE_FORMAT = 4  # 2: k is the Richardson-extrapolated value; 3: FEA warnings stored; 4: finest level on the mirror half
+CACHE_FORMAT = 5  # 2: k is the Richardson-extrapolated value; 3: FEA warnings stored; 4: finest level on the mirror half; 5: small holes refined locally, curved cells kept away from the bores, memory budget
 
 
 def default_cache_dir() -> Path:

@@ -15,6 +15,7 @@ from geometry.part import resolve_part
 from settings import DEFAULT_MATERIALS, RunConfig
 from settings.registries import ELEMENT_ORDERS
 
+from .budget import DEFAULT_MAX_MEMORY_GB
 from .errors import FemError
 from .materials import get_material, load_materials
 from .settings import LEVEL_RATIO, FeaSettings
@@ -57,6 +58,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--full-model", action="store_true",
                         help="solve the whole link even where it is mirror symmetric about the plane through its bore "
                              "axes (default: solve that half, the same k and stresses at about half the unknowns)")
+    parser.add_argument("--max-memory", type=str, default=str(DEFAULT_MAX_MEMORY_GB), metavar="GB",
+                        help="memory budget of the solves in GB, checked before solving: default sizes are coarsened to "
+                             "fit it, a --mesh-size that does not fit is refused (default: %(default)s, for a 2-core 24 GB "
+                             "machine shared with other work)")
     parser.add_argument("--scalar", choices=("von_mises", "displacement"), default="von_mises", help="colouring of --image (default: %(default)s)")
     add_part_arguments(parser)
     return parser
@@ -164,7 +169,8 @@ def run(argv: list[str] | None = None) -> dict:
         raise FemError("--hardware-material: only for a STEP file with hardware solids; expected a STEP path with it")
     # resolved once (body and pin bores chosen): refuses a part that cannot be a link before any meshing
     settings = FeaSettings.with_finest(finest_m, order=args.order, load_N=load_N, solver=args.solver,
-                                       mirror_symmetry=not args.full_model)
+                                       mirror_symmetry=not args.full_model,
+                                       max_memory_gb=_positive(args.max_memory, "--max-memory"))
     part = resolve_part(source, symmetry=settings.mirror_symmetry)
     record = _inspect(part.summary, args, materials) if part.is_step else None
     estimate = stiffness_study(part, material, settings)

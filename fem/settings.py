@@ -14,6 +14,7 @@ from typing import Sequence
 
 import numpy as np
 
+from .budget import DEFAULT_MAX_MEMORY_GB
 from .errors import FemError
 from .problem import element
 from .solvers import resolve
@@ -67,6 +68,8 @@ class FeaSettings:
     # runs a task (the design study's workers)
     concurrent_levels: bool = True
     stress_tolerance: float = DEFAULT_STRESS_TOLERANCE
+    # the memory budget of the stiffness study's solves (fem.budget), checked before solving
+    max_memory_gb: float = DEFAULT_MAX_MEMORY_GB
 
     def __post_init__(self) -> None:
         element(self.order)

@@ -11,9 +11,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import glob
 import os
 import sys
+from collections.abc import Iterator
 from typing import Callable
 
 import numpy as np
@@ -56,6 +58,38 @@ def _point_pypardiso_at_mkl() -> None:
         os.environ["PYPARDISO_MKL_RT"] = found[0]
 
 
+# MKL PARDISO's error codes (Intel's documentation of the `error` argument) that a user can act on.
+_PARDISO_ERRORS = {-2: "not enough memory", -3: "reordering failed", -4: "zero pivot (the matrix is singular: a "
+                   "flat element or a part not held)", -9: "not enough memory for the out-of-core solve",
+                   -11: "read/write problem with the out-of-core files", -12: "the matrix is not symmetric positive definite"}
+SOLVER_REMEDY = "pass a larger --mesh-size MM (fewer unknowns) or --solver amg (less memory)"
+
+
+@contextlib.contextmanager
+def explained_solver_errors(method: str, n_unknowns: int) -> Iterator[None]:
+    """Turn a linear solver's failure (PyPardisoError, MemoryError) into a one-line FemError that
+    says what failed and what to change."""
+    try:
+        yield
+    except MemoryError:
+        raise FemError(f"solver {method}: out of memory on {n_unknowns} unknowns; {SOLVER_REMEDY}") from None
+    except Exception as exc:
+        if type(exc).__name__ != "PyPardisoError":
+            raise
+        code = getattr(exc, "value", None)
+        code = code if isinstance(code, int) else _error_code(str(exc))
+        what = _PARDISO_ERRORS.get(code, "failed")
+        raise FemError(f"solver {method}: error {code} ({what}) on {n_unknowns} unknowns; {SOLVER_REMEDY}") from None
+
+
+def _error_code(message: str) -> int | None:
+    """The number in pypardiso's message "The Pardiso solver failed with error code -2. ..."."""
+    import re
+
+    found = re.search(r"error code (-?\d+)", message)
+    return int(found.group(1)) if found else None
+
+
 class Factorization:
     """A kept MKL PARDISO Cholesky factorisation of one SPD matrix, to solve it again or to
     precondition a nearby one (another material on the same mesh). Call `free()` when done."""
@@ -68,10 +102,12 @@ class Factorization:
         for one_based, value in PARDISO_IPARM.items():
             self._solver.set_iparm(one_based, value)
         self._upper = sp.triu(A, format="csr")
-        self._solver.factorize(self._upper)
+        with explained_solver_errors("pardiso", A.shape[0]):
+            self._solver.factorize(self._upper)
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        return np.asarray(self._solver.solve(self._upper, np.asarray(b, dtype=float)))
+        with explained_solver_errors("pardiso", self._upper.shape[0]):
+            return np.asarray(self._solver.solve(self._upper, np.asarray(b, dtype=float)))
 
     def free(self) -> None:
         self._solver.free_memory(everything=True)
@@ -160,4 +196,6 @@ def resolve(method: str) -> str:
 
 def solve(A: sp.spmatrix, b: np.ndarray, method: str = "auto", near_nullspace: np.ndarray | None = None) -> np.ndarray:
     """Solve A x = b for symmetric positive definite A."""
-    return np.asarray(SOLVERS[resolve(method)](sp.csr_matrix(A), np.asarray(b, dtype=float), near_nullspace))
+    method = resolve(method)
+    with explained_solver_errors(method, A.shape[0]):
+        return np.asarray(SOLVERS[method](sp.csr_matrix(A), np.asarray(b, dtype=float), near_nullspace))

@@ -1,8 +1,8 @@
 """Link stiffness with a discretisation-error estimate: 2-3 mesh levels + Richardson extrapolation.
 
 Default levels are relative to the part (`default_mesh_sizes`), not fixed millimetres: the finest
-element is the smallest of PITCH_FRACTION x pitch, BORE_FRACTION x bore radius and HOLE_FRACTION x
-the radius of the smallest other hole (screw and grease holes), and one level
+element is the smaller of PITCH_FRACTION x pitch and BORE_FRACTION x bore radius (smaller holes,
+screw and grease holes, are refined locally by geometry.meshing), and one level
 LEVEL_RATIO coarser gives the second point for the extrapolation. On the default link (pitch
 112.5 mm, bore radius 8.73 mm) that is 4.5 and 6 mm; a 12.7 mm-pitch roller-chain plate gets
 0.5 / 0.68 mm and a link scaled to 300 mm pitch 12 / 16 mm, the same mesh relative to the part.
@@ -24,12 +24,12 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from . import quality
+from . import budget, quality
 from .errors import FemError, FemWarning
 from .link import LinkSolution, analyse_link_materials, check_mesh_and_materials
 from .materials import Material
 from .richardson import Extrapolation, extrapolate, rate_bracket
-from .settings import FeaSettings, levels_for_finest, settings_with
+from .settings import LEVEL_RATIO, FeaSettings, levels_for_finest, settings_with
 
 # Relative sizes, chosen by measurement on the default link (README, FEA work-precision): two
 # curved-P2 levels (6 and 4.5 mm there) put k's guaranteed-under-the-model estimate below 1 %.
@@ -37,8 +37,6 @@ from .settings import FeaSettings, levels_for_finest, settings_with
 # pocket is crossed by flattened elements and k jumps by 1.5 % (measured, 7.5 -> 6 mm).
 PITCH_FRACTION = 1 / 25
 BORE_FRACTION = 0.52
-#: Elements at most this many times the smallest other hole's radius (screw and grease holes).
-HOLE_FRACTION = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,21 +55,22 @@ class StiffnessEstimate:
     timing_s: dict[str, float]  # summed over levels: mesh, assembly, load, solve, post, total; the study's wall
 
 
-def finest_size_for(pitch_m: float, bore_radius_m: float, smallest_hole_radius_m: float = np.inf) -> float:
-    """The default finest element size of a link with this pitch, (smaller) pin-bore radius and
-    smallest other hole (screw, grease hole): gmsh's volume mesher fails where elements are much
-    larger than a hole (measured: a 3 mm grease hole meshes at 4.0 mm elements, not at 4.4 mm)."""
-    return min(PITCH_FRACTION * pitch_m, BORE_FRACTION * bore_radius_m, HOLE_FRACTION * smallest_hole_radius_m)
+def finest_size_for(pitch_m: float, bore_radius_m: float) -> float:
+    """The default finest element size of a link with this pitch and (larger) pin-bore radius.
+    Smaller holes (screw, grease holes) and a smaller pin bore are refined locally
+    (geometry.meshing's size fields), not by a smaller size everywhere."""
+    return min(PITCH_FRACTION * pitch_m, BORE_FRACTION * bore_radius_m)
 
 
 def default_mesh_sizes(source) -> tuple[float, ...]:
     """Default levels (coarse to fine) for the link (a `geometry.Part`, or a source it resolves):
-    relative to its pitch, bores and holes."""
-    return levels_for_finest(finest_size_for(*part_scale(source)))
+    relative to its pitch and pin bores."""
+    pitch_m, bore_radius_m, _ = part_scale(source)
+    return levels_for_finest(finest_size_for(pitch_m, bore_radius_m))
 
 
 def part_scale(source) -> tuple[float, float, float]:
-    """(pitch, smaller pin-bore radius, smallest other hole radius or inf) in metres of the link: a
+    """(pitch, larger pin-bore radius, smallest other hole radius or inf) in metres of the link: a
     `geometry.Part`, or a source it resolves (a STEP path or `LinkSource`: the body and pin bores
     the meshes use; None or `LinkDimensions`: the built-in link's nominal pitch and bore)."""
     from geometry.part import as_part
@@ -133,6 +132,16 @@ def stiffness_studies(
     part = geometry.as_part(source, symmetry=mirror_symmetry)
     sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
     mesh_time = time.perf_counter() - start
+
+    def mesh_level(level: int, level_sizes: tuple[float, ...]):
+        return geometry.mesh_part(part, mesh_size_m=level_sizes[level], order=settings.mesh_order,
+                                  bore_refinement=settings.bore_refinement,
+                                  mirror=mirror_symmetry and level == len(level_sizes) - 1)
+
+    start = time.perf_counter()
+    sizes, finest_link = _within_budget(sizes, mesh_level, order, budget.MemoryBudget.gigabytes(settings.max_memory_gb),
+                                        given=settings.mesh_sizes_m is not None)
+    mesh_time += time.perf_counter() - start
     # finest first: it is the longest solve, so the coarser levels are meshed and solved beside it
     with ThreadPoolExecutor(max_workers=len(sizes) if concurrent_levels else 1,
                             thread_name_prefix="fem-level") as pool:
@@ -140,8 +149,7 @@ def stiffness_studies(
         for level in reversed(range(len(sizes))):
             start = time.perf_counter()
             finest = level == len(sizes) - 1
-            link = geometry.mesh_part(part, mesh_size_m=sizes[level], order=settings.mesh_order,
-                                      bore_refinement=settings.bore_refinement, mirror=mirror_symmetry and finest)
+            link = finest_link if finest else mesh_level(level, sizes)
             if finest:
                 wall = quality.thin_wall_warning(link)
                 if wall:
@@ -168,6 +176,30 @@ def stiffness_studies(
     return {name: estimate_from_levels(sizes, sols, mesh_time if i == 0 else 0.0, order=order,
                                        wall_s=wall_s if i == 0 else None)
             for i, (name, sols) in enumerate(solutions.items())}
+
+
+def _within_budget(sizes: tuple[float, ...], mesh_level, order: int, memory: budget.MemoryBudget, given: bool):
+    """(sizes, finest level's mesh) whose levels' solves fit the memory budget: the finest level is
+    meshed and its unknowns counted before any solve; default sizes are coarsened until the
+    estimate fits (FemWarning), given sizes that do not fit are a FemError naming the options."""
+    requested = sizes
+    for _ in range(budget.MAX_RETRIES + 1):
+        link = mesh_level(len(sizes) - 1, sizes)
+        copies = 2 if link.mirror_plane is not None else 1
+        finest_dofs = budget.mesh_dofs(link.tets, link.tets10, order)
+        level_dofs = [finest_dofs] + [n * copies for n in budget.levels_dofs(finest_dofs, len(sizes), LEVEL_RATIO)[1:]]
+        if memory.fits(level_dofs):
+            if sizes != requested:
+                warnings.warn(f"memory budget: the default {requested[-1] * 1e3:.3g} mm elements would exceed "
+                              f"--max-memory {memory.gb:g} GB; k computed at {sizes[-1] * 1e3:.3g} mm elements "
+                              "instead (its error estimate says what that costs; a larger --max-memory GB refines)",
+                              FemWarning, stacklevel=3)
+            return sizes, link
+        if given:
+            raise FemError(budget.over_budget_message(f"--mesh-size {sizes[-1] * 1e3:g}", level_dofs, memory))
+        factor = memory.coarsening(level_dofs)
+        sizes = tuple(h * factor for h in sizes)
+    raise FemError(budget.over_budget_message(f"elements of {sizes[-1] * 1e3:.3g} mm", level_dofs, memory))
 
 
 def estimate_from_levels(sizes: Sequence[float], solutions: list[LinkSolution], mesh_time_s: float,

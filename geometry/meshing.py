@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import gmsh
 import numpy as np
 
-from geometry.bores import DetectedBore, faces_on_bore
+from geometry.bores import DetectedBore, faces_on_bore, find_holes
 from geometry.errors import GeometryError
 from geometry.link_mesh import Bore, MirrorPlane
 from geometry.symmetry import faces_on_plane
@@ -28,6 +28,20 @@ _GMSH_TO_MESHIO_TET10 = [0, 1, 2, 3, 4, 5, 6, 7, 9, 8]
 _TET = {1: 4, 2: 11}  # gmsh element type of the tetrahedron of each order
 _TRIANGLE = {1: 2, 2: 9}
 DISTANCE_SAMPLING = 20
+# Elements at a hole other than the pin bores (screw, grease holes) at most this many times its
+# radius, graded to the size elsewhere: ~6 elements round the hole, enough for gmsh's volume
+# mesher (it failed at elements 2.2x a screw hole's radius) and for curved P2 cells that follow
+# the hole. Only there: one global size from the smallest hole gave the 400 mm arm bar (r 1.05 mm
+# screw holes) 305,012 tets and no answer within 300 s.
+SMALL_HOLE_SIZE_FRACTION = 1.0
+# A tet of radius ratio below this is flat to round-off (fem.quality.DEGENERATE_QUALITY is 1e-12);
+# one seen from HXT on a sample part with small-hole fields at 8 mm elements.
+FLAT_TET_QUALITY = 1e-9
+# Two pin bores whose radii differ by more than this fraction are sized each for itself.
+UNEQUAL_BORES_TOL = 0.01
+# Grading from a small hole's size to the far size: the size grows by at most this much per unit
+# distance (a gentle gradient keeps the tets' shape).
+SIZE_GRADIENT = 0.5
 
 
 
@@ -105,7 +119,10 @@ def mesh_volumes(
     mirror_faces = faces_on_plane(volumes, mirror_plane) if mirror_plane is not None else None
     if mirror_plane is not None and not mirror_faces:
         raise GeometryError(f"the half link has no face on its mirror plane {mirror_plane.name}; expected the cut face")
-    _refine_near(fixed_faces + loaded_faces, mesh_size_m, bore_size_m, min(fixed.bore.radius_m, loaded.bore.radius_m))
+    small_holes = small_hole_fields(volumes, (fixed, loaded), mesh_size_m)
+    pin_faces, pin_radius, smaller_pin = _pin_bore_fields(fixed, fixed_faces, loaded, loaded_faces, bore_size_m)
+    small_holes += smaller_pin
+    _refine_near(pin_faces, mesh_size_m, bore_size_m, pin_radius, small_holes)
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT: 4-6x faster than Delaunay here
     # One thread: HXT then gives the same mesh on every run (with two it did not, and it was no
     # faster on these ~40k-tet meshes).
@@ -117,12 +134,81 @@ def mesh_volumes(
     # checks the default level).
     gmsh.option.setNumber("Mesh.Algorithm", 1 if mirror_plane is not None else 6)
     gmsh.model.mesh.generate(3)
+    if _has_flat_tets():  # HXT can leave a sliver of zero volume: optimise, else mesh by Delaunay
+        gmsh.model.mesh.optimize("")
+        if _has_flat_tets():
+            gmsh.model.mesh.clear()
+            gmsh.option.setNumber("Mesh.Algorithm3D", 1)
+            gmsh.model.mesh.generate(3)
     if order == 2:
         gmsh.model.mesh.setOrder(2)  # mid-edge nodes placed on the CAD surfaces
     return _mesh_arrays(fixed_faces, loaded_faces, order, mirror_faces)
 
 
-def _refine_near(faces: list[int], size_far: float, size_near: float, radius: float) -> None:
+def _has_flat_tets() -> bool:
+    """Whether the linear mesh holds a numerically flat tetrahedron (gmsh's radius ratio "gamma"
+    below FLAT_TET_QUALITY): the FEA refuses such a mesh (fem.quality.require_valid)."""
+    tags, _ = gmsh.model.mesh.getElementsByType(_TET[1])
+    return len(tags) > 0 and float(np.min(gmsh.model.mesh.getElementQualities(tags, "gamma"))) < FLAT_TET_QUALITY
+
+
+def _pin_bore_fields(fixed: DetectedBore, fixed_faces: list[int], loaded: DetectedBore, loaded_faces: list[int],
+                     bore_size_m: float) -> tuple[list[int], float, list[FaceRefinement]]:
+    """(faces, radius) of the pin-bore refinement at `bore_size_m`, and for two unequal bores (given
+    by --bores) the smaller one's own refinement, its size scaled by its radius: each bore is
+    sized for itself, the larger one does not set the size at the smaller."""
+    r_fixed, r_loaded = fixed.bore.radius_m, loaded.bore.radius_m
+    if abs(r_fixed - r_loaded) <= UNEQUAL_BORES_TOL * max(r_fixed, r_loaded):
+        return fixed_faces + loaded_faces, min(r_fixed, r_loaded), []
+    (large_faces, r_large), (small_faces, r_small) = sorted(
+        [(fixed_faces, r_fixed), (loaded_faces, r_loaded)], key=lambda fr: -fr[1])
+    return large_faces, r_large, [FaceRefinement(tuple(small_faces), r_small, bore_size_m * r_small / r_large)]
+
+
+@dataclass(frozen=True)
+class FaceRefinement:
+    """Element size `size_m` on some faces (a small hole's, a smaller pin bore's), graded to the far size."""
+
+    faces: tuple[int, ...]
+    radius_m: float
+    size_m: float
+
+
+def small_hole_fields(volumes: list[int], pins: Sequence[DetectedBore], size_far: float) -> list[FaceRefinement]:
+    """The holes other than the pin bores that need elements finer than `size_far`
+    (SMALL_HOLE_SIZE_FRACTION x their radius)."""
+    refinements = []
+    for hole in find_holes(volumes).full:
+        size = SMALL_HOLE_SIZE_FRACTION * hole.bore.radius_m
+        if size < size_far and not any(_same_axis(hole, pin) for pin in pins):
+            refinements.append(FaceRefinement(hole.faces, hole.bore.radius_m, size))
+    return refinements
+
+
+def _same_axis(a: DetectedBore, b: DetectedBore) -> bool:
+    rel = a.bore.center_m - b.bore.center_m
+    off_axis = rel - (rel @ b.bore.axis) * b.bore.axis
+    return abs(abs(float(a.bore.axis @ b.bore.axis)) - 1) < 1e-6 and float(np.linalg.norm(off_axis)) < 1e-3 * b.bore.radius_m
+
+
+def _hole_field(hole: FaceRefinement, size_far: float) -> int:
+    """Distance + Threshold: `hole.size_m` within half a radius of the hole's faces, growing by
+    SIZE_GRADIENT per unit distance to the far size."""
+    field = gmsh.model.mesh.field
+    distance = field.add("Distance")
+    field.setNumbers(distance, "SurfacesList", list(hole.faces))
+    field.setNumber(distance, "Sampling", DISTANCE_SAMPLING)
+    threshold = field.add("Threshold")
+    field.setNumber(threshold, "InField", distance)
+    field.setNumber(threshold, "SizeMin", hole.size_m)
+    field.setNumber(threshold, "SizeMax", size_far)
+    field.setNumber(threshold, "DistMin", 0.5 * hole.radius_m)
+    field.setNumber(threshold, "DistMax", 0.5 * hole.radius_m + (size_far - hole.size_m) / SIZE_GRADIENT)
+    return threshold
+
+
+def _refine_near(faces: list[int], size_far: float, size_near: float, radius: float,
+                 small_holes: Sequence[FaceRefinement] = ()) -> None:
     field = gmsh.model.mesh.field
     distance = field.add("Distance")
     field.setNumbers(distance, "SurfacesList", faces)
@@ -137,7 +223,7 @@ def _refine_near(faces: list[int], size_far: float, size_near: float, radius: fl
     # to the far size over two radii.
     field.setNumber(threshold, "DistMin", 0.5 * radius)
     field.setNumber(threshold, "DistMax", 2.5 * radius)
-    extra = [_ball(ball, size_far) for ball in _REFINEMENTS.get()]
+    extra = [_ball(ball, size_far) for ball in _REFINEMENTS.get()] + [_hole_field(h, size_far) for h in small_holes]
     if extra:
         smallest = field.add("Min")
         field.setNumbers(smallest, "FieldsList", [threshold, *extra])

@@ -45,7 +45,7 @@ class PartScale:
     """The lengths the default mesh sizes are relative to (metres)."""
 
     pitch_m: float
-    bore_radius_m: float  # the smaller pin bore's
+    bore_radius_m: float  # the larger pin bore's (a smaller one, named by --bores, is refined locally)
     smallest_hole_radius_m: float  # of the other holes (screw, grease holes); inf if none
 
 
@@ -191,7 +191,7 @@ def _scale(pins: PinBores, dims: LinkDimensions | None) -> PartScale:
     if dims is not None:
         return PartScale(dims.pitch_m, dims.bore_radius_m, math.inf)
     holes = [h.hole.bore.radius_m for h in pins.ignored]
-    return PartScale(pins.pitch_m, float(min(pins.fixed.bore.radius_m, pins.loaded.bore.radius_m)),
+    return PartScale(pins.pitch_m, float(max(pins.fixed.bore.radius_m, pins.loaded.bore.radius_m)),
                      min(holes, default=math.inf))
 
 

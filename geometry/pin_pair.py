@@ -9,7 +9,9 @@ counterbores and chamfers on the pin bores themselves. The rule, in order:
 2. Candidate pairs are two bores with parallel axes and equal radius (within 1 %), more than the
    sum of their radii apart.
 3. Pins sit at the ends of a link: only pairs at the ends of the part count (it reaches no more
-   than one pitch beyond either bore, along the line joining them), so lightening holes and nest
+   than one pitch beyond either bore, along the line joining them, and that line runs along the
+   part's length: the pitch spans at least 30 % of the part's extent along its principal axis, so two
+   screw holes across one end of a long part are not a pair), so lightening holes and nest
    screw holes between the pins lose even when they are larger, and a plate full of holes is not
    taken for a link. Then the largest radius wins (end-cap screw holes on the lugs are smaller
    than the pins), then the pair farthest apart. With --pitch or --bore-radius, pairs away from
@@ -20,7 +22,9 @@ counterbores and chamfers on the pin bores themselves. The rule, in order:
 `BoreChoice` narrows the candidates from the command line: `--bores` names the two axes by a point
 on each (the first is the fixed bore), `--pitch` and `--bore-radius` keep only pairs of that pitch
 and radius. Open holes (a half bore of a connecting rod drawn without its cap) are never pins: the
-pull load case needs a full bore, so they are named in the refusal.
+pull load case needs a full bore, so the largest open hole that reaches at least half way round is
+named in the refusal, with its radius and centre (the feature a person would name, not a pocket's
+rounded end).
 """
 
 from __future__ import annotations
@@ -36,6 +40,14 @@ from geometry.errors import GeometryError
 EQUAL_RADIUS_TOL = 0.01  # relative: two bores of one pin size (drawn H7 vs a clearance fit still count)
 EQUAL_PITCH_TOL = 1e-3  # relative: two pairs this close in pitch (and radius) are a tie
 PITCH_MATCH_TOL = 0.01  # relative: how close --pitch must be to a pair's pitch
+# The pins sit at the two ends of the part's length: the pitch, projected on the part's principal
+# axis, spans at least this fraction of the part's extent along it (a link's pitch spans 60-90 %
+# of its length, a bar reaching one pitch beyond each bore a third; two holes across one end of
+# a long part span next to nothing of it).
+LENGTH_SPAN_FRACTION = 0.3
+# An open hole is named in a refusal only if its faces reach at least this far round (a half bore
+# drawn without its cap spans 180 deg; a pocket's rounded end or a slot end can span less).
+HALF_ROUND_DEG = 175.0
 _PARALLEL_TOL = 1e-6  # 1 - |cos| of the angle between two parallel axes
 BORES_HINT = "--bores X1,Y1,Z1:X2,Y2,Z2 (a point on each pin axis in mm, fixed bore first)"
 CHOOSE_HINT = f"pass {BORES_HINT} or --pitch MM --bore-radius MM to choose"
@@ -102,7 +114,7 @@ def select_pin_bores(holes: Holes, choice: BoreChoice, source: str) -> PinBores:
             raise GeometryError(f"{source}: both --bores points lie on the bore at {_mm(fixed.bore.center_m)} mm; "
                                 "expected one point on each pin axis")
         _check_pair(fixed, loaded, source)
-        pair, rule = (fixed, loaded), f"given by {choice.describe()}"
+        pair, rule = (fixed, loaded), f"given by {choice.describe()}{_unequal_note(fixed, loaded)}"
     else:
         pair, rule = _best_pair(bores, holes, choice, source)
         pair = order_pair(*pair, source)
@@ -162,7 +174,33 @@ def _at_the_ends(pair: tuple[DetectedBore, DetectedBore], holes: Holes) -> bool:
     pitch = float(np.linalg.norm(offset))
     direction = offset / pitch
     lo, hi = holes.reach_m(direction)
-    return max(float(a.center_m @ direction) - lo, hi - float(b.center_m @ direction)) <= (1 + 1e-9) * pitch
+    beyond = max(float(a.center_m @ direction) - lo, hi - float(b.center_m @ direction))
+    return beyond <= (1 + 1e-9) * pitch and _spans_the_length(pair, holes)
+
+
+def principal_axis(holes: Holes, pin_axis: np.ndarray) -> np.ndarray:
+    """The part's length direction normal to the pin axis: the principal axis (largest variance) of
+    its outline projected on the plane normal to the pins."""
+    points = holes.outline_m - holes.outline_m.mean(axis=0)
+    points = points - np.outer(points @ pin_axis, pin_axis)
+    _, _, vt = np.linalg.svd(points, full_matrices=False)
+    return vt[0]
+
+
+def _spans_the_length(pair: tuple[DetectedBore, DetectedBore], holes: Holes) -> bool:
+    """The pitch spans at least LENGTH_SPAN_FRACTION of the part's extent along its principal axis."""
+    a, b = pair[0].bore, pair[1].bore
+    length_axis = principal_axis(holes, a.axis)
+    lo, hi = holes.reach_m(length_axis)
+    return abs(float((b.center_m - a.center_m) @ length_axis)) >= LENGTH_SPAN_FRACTION * (hi - lo)
+
+
+def ends_used(pair: tuple[DetectedBore, DetectedBore], holes: Holes) -> str:
+    """Which ends of the part the pins were taken at, in words (mm)."""
+    length_axis = principal_axis(holes, pair[0].bore.axis)
+    lo, hi = holes.reach_m(length_axis)
+    direction = ",".join(f"{round(x, 3) + 0.0:g}" for x in length_axis)
+    return f"the ends of its length: along ({direction}), {(hi - lo) * 1e3:.1f} mm"
 
 
 def _best_pair(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, source: str):
@@ -176,6 +214,7 @@ def _best_pair(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, sour
     ties = [p for p in pairs if _at_the_ends(p, holes) == _at_the_ends(best, holes)
             and _radius(p) >= (1 - EQUAL_RADIUS_TOL) * _radius(best)
             and _axis_distance(*p) >= (1 - EQUAL_PITCH_TOL) * _axis_distance(*best)]
+    rule = f"{rule}; {ends_used(best, holes)}"
     if len(ties) > 1:
         listed = " or ".join(f"{_mm(a.bore.center_m)}:{_mm(b.bore.center_m)}" for a, b in ties)
         raise GeometryError(
@@ -188,12 +227,20 @@ def _best_pair(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, sour
 def _no_pair_message(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, source: str) -> str:
     wanted = f" matching {choice.describe()}" if choice.given else " at the part's ends"
     message = f"{source}: no pair of equal parallel full-round bores{wanted} (full round holes, mm: {_listed(bores)})"
-    if holes.open:
-        hole, angle = holes.open[0]
-        return (f"{message}; the bore at {_mm(hole.bore.center_m)} mm is open (about {angle:.0f} deg, a half bore) and "
-                "the pull load case needs a full bore: draw its cap as part of the solid (or pass --bores to name two "
-                "full bores)")
+    open_bore = largest_open_bore(holes)
+    if open_bore is not None:
+        hole, angle = open_bore
+        return (f"{message}; the r {hole.bore.radius_m * 1e3:.4g} mm bore at {_mm(hole.bore.center_m)} mm is open (about "
+                f"{angle:.0f} deg, {'a half bore' if angle < 200 else 'not a full round'}) and the pull load case needs a full bore: draw its cap as part of "
+                "the solid (or pass --bores to name two full bores)")
     return f"{message}; expected two pin bores ({CHOOSE_HINT})"
+
+
+def largest_open_bore(holes: Holes) -> tuple[DetectedBore, float] | None:
+    """The largest open hole reaching at least HALF_ROUND_DEG round (the half bore a person would
+    name), with its span in degrees; None if there is none."""
+    half_round = [(hole, angle) for hole, angle in holes.open if angle >= HALF_ROUND_DEG]
+    return max(half_round, key=lambda ha: ha[0].bore.radius_m, default=None)
 
 
 def _bore_at(bores: list[DetectedBore], point_m, holes: Holes, source: str) -> DetectedBore:
@@ -218,6 +265,16 @@ def _listed(bores: list[DetectedBore], most: int = 6) -> str:
     largest = sorted(bores, key=lambda h: -h.bore.radius_m)
     text = ", ".join(f"r {h.bore.radius_m * 1e3:.3f} at {_mm(h.bore.center_m)}" for h in largest[:most]) or "none"
     return text + (f" and {len(bores) - most} smaller" if len(bores) > most else "")
+
+
+def _unequal_note(fixed: DetectedBore, loaded: DetectedBore) -> str:
+    """How the pull load case treats two bores of different radii (empty for equal ones)."""
+    r_fixed, r_loaded = fixed.bore.radius_m, loaded.bore.radius_m
+    if abs(r_fixed - r_loaded) <= EQUAL_RADIUS_TOL * max(r_fixed, r_loaded):
+        return ""
+    return (f"; unequal bores: the fixed one (r {r_fixed * 1e3:.4g} mm) is clamped all round, the loaded one (r "
+            f"{r_loaded * 1e3:.4g} mm) carries the cosine bearing pressure of a pin of its own radius, pulling along the "
+            "line between the axes; each bore is meshed for its own radius")
 
 
 def _check_pair(a: DetectedBore, b: DetectedBore, source: str) -> None:
@@ -270,4 +327,5 @@ def _coaxial(a: DetectedBore, b: DetectedBore) -> bool:
 
 
 def _mm(point_m) -> str:
-    return ",".join(f"{x * 1e3:.6g}" for x in np.asarray(point_m, float))
+    # rounded to 0.1 um so that round-off (-7e-14 mm) does not clutter the messages
+    return ",".join(f"{round(x * 1e3, 4) + 0.0:.6g}" for x in np.asarray(point_m, float))

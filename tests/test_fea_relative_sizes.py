@@ -91,14 +91,16 @@ def test_one_default_gives_about_one_percent_on_a_small_plate_and_a_large_link(p
     assert large.stiffness_N_per_m / LARGE_SCALE == pytest.approx(default.stiffness_N_per_m, rel=0.005)
 
 
-def test_a_small_hole_sets_the_size_and_an_assembly_is_scaled_by_its_body(tmp_path):
+def test_a_small_hole_is_refined_locally_and_an_assembly_is_scaled_by_its_body(tmp_path):
     from geometry.assembly import LinkSource
     from geometry.sample_parts import write_part
 
     write_part("nest_holes", tmp_path / "nest.step")
     pitch, bore, hole = part_scale(tmp_path / "nest.step")
     assert (pitch, bore, hole) == pytest.approx((0.1016, 0.00635, 0.0015), rel=1e-6)  # the 3 mm grease hole
-    assert default_mesh_sizes(tmp_path / "nest.step") == pytest.approx((0.004, 0.003), rel=1e-6)
+    # The sizes come from the pitch and the pin bores (0.52 x 6.35 mm); the grease hole gets its own
+    # finer elements from a size field (geometry.meshing.small_hole_fields), not the whole part.
+    assert default_mesh_sizes(tmp_path / "nest.step") == pytest.approx((0.52 * 0.00635 * 4 / 3, 0.52 * 0.00635), rel=1e-6)
     write_part("assembly", tmp_path / "assembly.step")  # body, pins and bushings: the body's pair counts
     assert part_scale(LinkSource(tmp_path / "assembly.step"))[:2] == part_scale(tmp_path / "assembly.step")[:2]
     assert part_scale(tmp_path / "assembly.step")[0] > 0

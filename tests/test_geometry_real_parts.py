@@ -60,7 +60,8 @@ def test_nest_screw_holes_and_the_grease_hole_are_ignored_with_reasons(parts):
 def test_the_printed_choice_names_the_pair_the_rule_and_each_ignored_hole(parts):
     lines = inspect_part(parts["nest_holes"][0]).lines()
     assert lines[0] == ("pin bores       fixed at (0.00, 0.00, 8.00) mm, loaded at (101.60, 0.00, 8.00) mm, radius 6.350 mm, "
-                        "pitch 101.600 mm (equal parallel bores at the part's ends, the largest such, farthest apart)")
+                        "pitch 101.600 mm (equal parallel bores at the part's ends, the largest such, farthest apart; the ends of "
+                        "its length: along (1,0,0), 139.6 mm)")
     assert "  ignored hole  r 2.100 mm at (32.80, -9.00, 8.00) mm: smaller than the pin bores" in lines
     assert len(lines) == 8
 
