@@ -149,9 +149,14 @@ class Limit:
     def problem(self, value) -> str | None:
         """Why `value` (SI) is refused, one line naming the option; None when it is allowed."""
         shown = value * self.per_si
-        ok = (isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isnan(value)
-              and self.bounds.accepts(value) and (math.isfinite(value) or not self.finite)
-              and (not self.whole or float(value).is_integer()))
+        ok = (
+            isinstance(value, (int, float))
+            and not isinstance(value, bool)
+            and not math.isnan(value)
+            and self.bounds.accepts(value)
+            and (math.isfinite(value) or not self.finite)
+            and (not self.whole or float(value).is_integer())
+        )
         if ok:
             return None
         unit = f" {self.unit}" if self.unit else ""

@@ -49,8 +49,11 @@ def range_samples(spec: StudySpec) -> list[dict]:
         return [_kinds(d) for d in unit_free]
     from scipy.stats import qmc
 
-    engine = (qmc.LatinHypercube(d=len(names), seed=s.seed) if s.method == "lhs"
-              else qmc.Sobol(d=len(names), scramble=True, seed=s.seed))
+    engine = (
+        qmc.LatinHypercube(d=len(names), seed=s.seed)
+        if s.method == "lhs"
+        else qmc.Sobol(d=len(names), scramble=True, seed=s.seed)
+    )
     unit = engine.random(s.points)
     scaled = qmc.scale(unit, lows, highs)
     return [_kinds(dict(zip(names, row))) for row in scaled]
@@ -115,8 +118,11 @@ def make_point(index: int, values: dict, settings: dict, parts: dict | None = No
     except GeometryError as e:
         link_fields.update({VARIABLES[n].field: v for n, v in geometry_values.items() if VARIABLES[n].target == LINK})
         infeasible = f"geometry: {e}"
-    inputs = {**link_fields, "rail_width_m": (link_fields["body_width_m"] - link_fields["recess_width_m"]) / 2,
-              **{n: v for n, v in values.items() if VARIABLES[n].target not in (*GEOMETRY_TARGETS, STEP)}}
+    inputs = {
+        **link_fields,
+        "rail_width_m": (link_fields["body_width_m"] - link_fields["recess_width_m"]) / 2,
+        **{n: v for n, v in values.items() if VARIABLES[n].target not in (*GEOMETRY_TARGETS, STEP)},
+    }
     if "rail_width_m" in geometry_values and infeasible is not None:
         inputs["rail_width_m"] = geometry_values["rail_width_m"]
     geometry = _digest({"link": geometry_values, "fea": fea_settings})

@@ -58,7 +58,24 @@ def test_pipeline_refuses_a_bad_signed_value_naming_bores(plate, tmp_path, capsy
 
 
 def test_fem_reads_negative_bore_coordinates_after_a_space(plate):
-    r = subprocess.run([sys.executable, "-m", "fem", str(plate), "--json", "--mesh-size", "8", "--order", "1",
-                        "--bores", SIGNED_BORES], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "fem",
+            str(plate),
+            "--json",
+            "--mesh-size",
+            "8",
+            "--order",
+            "1",
+            "--bores",
+            SIGNED_BORES,
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr
     assert json.loads(r.stdout)["part"]["pin_bores"]["rule"] == f"given by --bores {SIGNED_BORES}"
