@@ -191,12 +191,14 @@ def _write_page(spec: StudySpec, results: StudyResults, out: Path, reports, hist
 
 
 def _sensitivity_text(spec: StudySpec, sensitivity) -> str:
-    from study.sensitivity import ESTIMATOR, METHODS
+    from study.samplers import SAMPLERS
+    from study.sensitivity import ESTIMATOR
 
     if sensitivity is None:
+        filling = " or ".join(name for name, s in SAMPLERS.items() if s.space_filling)
         return (
             f"Sensitivity: not estimated ({spec.sampling.method} sampling"
-            f"{'' if spec.ranges else ', no range variable'}; it needs {' or '.join(METHODS)} sampling of ranges)."
+            f"{'' if spec.ranges else ', no range variable'}; it needs {filling} sampling of ranges)."
         )
 
     def one(s) -> str:

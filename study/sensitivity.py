@@ -29,6 +29,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from study.samplers import SAMPLERS
+
 #: Harmonics RBD-FAST sums: 4 had the smallest error on Ishigami at 32-256 points (6 and 10, the
 #: SALib default, were worse below 256 points: benchmarks/bench_sensitivity.py).
 HARMONICS = 4
@@ -43,7 +45,6 @@ MIN_TO_ESTIMATE = 4 * HARMONICS + 2
 #: Largest interval half-width at which indices are read as a ranking: inputs whose indices differ by
 #: more than twice this are told apart.
 MAX_HALF_WIDTH = 0.2
-METHODS = ("lhs", "sobol")
 ESTIMATOR = (
     f"first-order Sobol' indices: RBD-FAST (SALib, {HARMONICS} harmonics) for range variables, "
     f"between-value variance for list variables; {CONF_LEVEL:.0%} bootstrap intervals"
@@ -162,7 +163,7 @@ def adequacy(samples: int, indices: tuple[InputIndex, ...]) -> tuple[bool, str]:
 def study_sensitivity(spec, rows: list[dict], metrics: list[str]) -> list[MetricSensitivity] | None:
     """The indices of each metric over the study's varied inputs; None when the study was not
     sampled with Latin hypercube or Sobol' or has no range variable (nothing to estimate from)."""
-    if spec.sampling.method not in METHODS or not spec.ranges:
+    if not SAMPLERS[spec.sampling.method].space_filling or not spec.ranges:
         return None
     range_names = list(spec.ranges)
     combos = math.prod(len(c.values) for c in spec.choices.values())

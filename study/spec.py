@@ -31,9 +31,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from settings import DEFAULT_MATERIALS, DEFAULT_STATION, LIMITS, RunConfig, cam_ids, known_cam_ids, registries
+from study.samplers import SAMPLERS, SamplingSize
 from study.variables import CAM, GEOMETRY_KEY, GEOMETRY_TARGETS, MATERIAL, STEP, VARIABLES
 
-SAMPLING_METHODS = ("grid", "lhs", "sobol")
 #: pipeline.py's part options, as keys of [fixed] (with a STEP geometry only)
 PART_OPTIONS = ("bores", "pitch", "bore_radius", "body", "hardware_material", "hardware_from_step")
 #: The first bytes of every STEP (ISO 10303-21) file.
@@ -501,24 +501,27 @@ def _settings(table: dict) -> Settings:
 
 def _sampling(table: dict, variables: dict) -> Sampling:
     _only(table, ("method", "levels", "points", "seed"), "sampling.")
-    method = table.get("method", "grid")
-    if method not in SAMPLING_METHODS:
-        raise StudyError(f"sampling.method: expected one of {', '.join(SAMPLING_METHODS)}, got {method!r}")
-    levels = _int(table.get("levels", 3), "sampling.levels", 2)
-    points = _int(table.get("points", 8), "sampling.points", 1)
-    seed = _int(table.get("seed", 0), "sampling.seed", 0)
+    default = Sampling()
+    method = table.get("method", default.method)
+    if method not in SAMPLERS:
+        raise StudyError(f"sampling.method: expected one of {', '.join(SAMPLERS)}, got {method!r}")
+    sampler = SAMPLERS[method]
+    levels = _int(table.get("levels", default.levels), "sampling.levels", 2)
+    points = _int(table.get("points", default.points), "sampling.points", 1)
+    seed = _int(table.get("seed", default.seed), "sampling.seed", 0)
     has_range = any(isinstance(v, Range) for v in variables.values())
-    if method != "grid" and not has_range:
+    if sampler.size_key == "points" and not has_range:
         raise StudyError(
             f"sampling.method: {method} samples ranges, and [variables] has none; "
             'expected a {min, max} range or method = "grid"'
         )
-    if method == "sobol" and points & (points - 1):
-        raise StudyError(f"sampling.points: Sobol sampling needs a power of 2 to stay balanced, got {points}")
-    if method != "grid" and "levels" in table:
-        raise StudyError(f'sampling.levels: only for method = "grid"; {method} takes points')
-    if method == "grid" and "points" in table:
-        raise StudyError("sampling.points: only for lhs and sobol; the grid takes levels per range")
+    other_key = "levels" if sampler.size_key == "points" else "points"
+    if other_key in table:
+        takers = ", ".join(name for name, s in SAMPLERS.items() if s.size_key == other_key)
+        raise StudyError(f"sampling.{other_key}: only for {takers}; {method} takes {sampler.size_key}")
+    problem = sampler.check(SamplingSize(levels, points, seed))
+    if problem:
+        raise StudyError(problem)
     return Sampling(method, levels, points, seed)
 
 
