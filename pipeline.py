@@ -101,7 +101,15 @@ def build_parser() -> argparse.ArgumentParser:
         "--mesh-size",
         type=float,
         default=None,
-        help="FEA element size in mm on the finest of 3 mesh levels (default: chosen for < 1%% error in k)",
+        help="FEA element size in mm on the finest of 2 mesh levels (default: relative to the part, for < 1%% error in k)",
+    )
+    p.add_argument(
+        "--max-memory",
+        type=float,
+        default=d.max_memory_gb,
+        metavar="GB",
+        help="memory budget of the FEA solves in GB, checked before solving: default sizes are coarsened to "
+        "fit it, a --mesh-size that does not fit is refused (default: %(default)s)",
     )
     p.add_argument(
         "--order",
@@ -270,6 +278,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         quiet=args.quiet,
         mesh_size_m=d.mesh_size_m if args.mesh_size is None else mm_to_m(args.mesh_size),
         order=args.order,
+        max_memory_gb=args.max_memory,
         hardware_mass_kg=args.hardware_mass,
         nest_mass_kg=args.nest_mass,
         cache_dir=args.cache_dir,

@@ -47,7 +47,9 @@ def fea_settings(cfg: RunConfig, concurrent_levels: bool = True) -> FeaSettings:
     for the rest. `concurrent_levels`: see fem.stiffness_studies."""
     from fem.settings import FeaSettings
 
-    return FeaSettings.with_finest(cfg.mesh_size_m, order=cfg.order, concurrent_levels=concurrent_levels)
+    return FeaSettings.with_finest(
+        cfg.mesh_size_m, order=cfg.order, concurrent_levels=concurrent_levels, max_memory_gb=cfg.max_memory_gb
+    )
 
 
 def fea_cache_settings(cfg: RunConfig, settings: FeaSettings, material, stiffness_tolerance: float | None) -> dict:
@@ -57,6 +59,7 @@ def fea_cache_settings(cfg: RunConfig, settings: FeaSettings, material, stiffnes
     key = {
         "material": asdict(material),
         "mesh_size_m": cfg.mesh_size_m,
+        "max_memory_gb": settings.max_memory_gb,  # a budget that coarsens the default sizes changes k
         "order": settings.order,
         "stiffness_tolerance": stiffness_tolerance,
         "stress_tolerance": settings.stress_tolerance,

@@ -46,6 +46,21 @@ def test_the_defaults_are_read_from_the_models_that_own_them():
     )
 
 
+def test_the_memory_budget_reaches_the_fea_settings_and_its_cache_key():
+    from fem.budget import DEFAULT_MAX_MEMORY_GB
+    from fem.materials import get_material
+    from stages.fea import fea_cache_settings, fea_settings
+
+    assert RunConfig().max_memory_gb == DEFAULT_MAX_MEMORY_GB
+    cfg = pipeline.parse_cli(["--max-memory", "3"])
+    settings = fea_settings(cfg)
+    assert cfg.max_memory_gb == settings.max_memory_gb == 3.0
+    material = get_material("al6061-t6")
+    assert fea_cache_settings(cfg, settings, material, None) != fea_cache_settings(
+        RunConfig(), fea_settings(RunConfig()), material, None
+    )
+
+
 def test_help_shows_the_run_config_defaults_in_the_options_units():
     text = pipeline.build_parser().format_help()
     d = RunConfig()
