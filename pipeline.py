@@ -16,8 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from settings import RunConfig, SettingsError, cam_ids, check_run_config, extra_cam_ids, m_to_mm, mm_to_m
-from settings import registries
+from settings import RunConfig, SettingsError, cam_ids, check_run_config, extra_cam_ids, m_to_mm, mm_to_m, registries
 from stages.progress import Progress, timed
 
 
@@ -33,73 +32,196 @@ def build_parser() -> argparse.ArgumentParser:
             "and in summary.json (m, kg, s, N, Pa); options state their units."
         ),
     )
-    p.add_argument("--geometry", type=Path, default=d.geometry,
-                   help="STEP file of one link with two pin bores (other holes and hardware solids allowed: see the part options), "
-                        "any length unit the file declares (default: the built-in parametric link)")
+    p.add_argument(
+        "--geometry",
+        type=Path,
+        default=d.geometry,
+        help="STEP file of one link with two pin bores (other holes and hardware solids allowed: see the part options), "
+        "any length unit the file declares (default: the built-in parametric link)",
+    )
     add_part_arguments(p)
-    p.add_argument("--materials", default=",".join(d.materials),
-                   help="comma-separated material ids (default: %(default)s); see fem/data/materials.toml or --materials-file")
-    p.add_argument("--materials-file", type=Path, default=d.materials_file,
-                   help="TOML file of extra user-defined materials (E in Pa, density in kg/m^3, yield in Pa)")
-    p.add_argument("--links", type=int, default=d.links, help="number of links N in the closed chain (default: %(default)s)")
+    p.add_argument(
+        "--materials",
+        default=",".join(d.materials),
+        help="comma-separated material ids (default: %(default)s); see fem/data/materials.toml or --materials-file",
+    )
+    p.add_argument(
+        "--materials-file",
+        type=Path,
+        default=d.materials_file,
+        help="TOML file of extra user-defined materials (E in Pa, density in kg/m^3, yield in Pa)",
+    )
+    p.add_argument(
+        "--links", type=int, default=d.links, help="number of links N in the closed chain (default: %(default)s)"
+    )
     p.add_argument("--rpm", type=float, default=d.rpm, help="cam speed in rev/min (default: %(default)s)")
-    p.add_argument("--cams", default="all",
-                   help=f"comma-separated cam laws or 'all' (default): {', '.join(cam_ids())}; "
-                        f"also {', '.join(extra_cam_ids())}")
-    p.add_argument("--friction", type=float, default=d.friction,
-                   help="Coulomb friction coefficient mu between links and guide, force mu*m*g per link (default: %(default)s)")
-    p.add_argument("--damping", type=float, default=d.damping, help="modal damping ratio zeta of every chain mode (default: %(default)s, the sponsor's figure)")
-    p.add_argument("--preload", type=float, default=d.preload_N,
-                   help="static chain tension from the idler tensioner in N (default: %(default)s)")
-    p.add_argument("--solver", default=d.solver, help="dynamics method (default: %(default)s, exact for the linear model); see README, Solvers")
-    p.add_argument("--preset", choices=registries.PRESETS, default=d.preset,
-                   help="mqp2012: replicate the 2012 report's MATLAB model, quirks included (see README)")
-    p.add_argument("--out", type=Path, default=d.out, help="output folder (default: %(default)s); existing files of the same name are replaced only when the run succeeds")
+    p.add_argument(
+        "--cams",
+        default="all",
+        help=f"comma-separated cam laws or 'all' (default): {', '.join(cam_ids())}; also {', '.join(extra_cam_ids())}",
+    )
+    p.add_argument(
+        "--friction",
+        type=float,
+        default=d.friction,
+        help="Coulomb friction coefficient mu between links and guide, force mu*m*g per link (default: %(default)s)",
+    )
+    p.add_argument(
+        "--damping",
+        type=float,
+        default=d.damping,
+        help="modal damping ratio zeta of every chain mode (default: %(default)s, the sponsor's figure)",
+    )
+    p.add_argument(
+        "--preload",
+        type=float,
+        default=d.preload_N,
+        help="static chain tension from the idler tensioner in N (default: %(default)s)",
+    )
+    p.add_argument(
+        "--solver",
+        default=d.solver,
+        help="dynamics method (default: %(default)s, exact for the linear model); see README, Solvers",
+    )
+    p.add_argument(
+        "--preset",
+        choices=registries.PRESETS,
+        default=d.preset,
+        help="mqp2012: replicate the 2012 report's MATLAB model, quirks included (see README)",
+    )
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=d.out,
+        help="output folder (default: %(default)s); existing files of the same name are replaced only when the run succeeds",
+    )
     p.add_argument("--no-images", action="store_true", help="skip the pyvista images of the deformed link")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
-    p.add_argument("--mesh-size", type=float, default=None,
-                   help="FEA element size in mm on the finest of 3 mesh levels (default: chosen for < 1%% error in k)")
-    p.add_argument("--order", type=int, choices=registries.ELEMENT_ORDERS, default=d.order, help="FEA element order: 1 or 2 (P1/P2 tetrahedra; default: %(default)s)")
-    p.add_argument("--hardware-mass", type=float, default=d.hardware_mass_kg,
-                   help="mass per link of pins, bushings and rollers in kg (default: %(default).4g)")
-    p.add_argument("--hardware-from-step", action="store_true",
-                   help="take the hardware mass from the STEP file's other solids (with --hardware-material) instead of --hardware-mass")
-    p.add_argument("--nest-mass", type=float, default=d.nest_mass_kg, help="mass of the nest carried by each link in kg (default: %(default)s)")
+    p.add_argument(
+        "--mesh-size",
+        type=float,
+        default=None,
+        help="FEA element size in mm on the finest of 2 mesh levels (default: relative to the part, for < 1%% error in k)",
+    )
+    p.add_argument(
+        "--max-memory",
+        type=float,
+        default=d.max_memory_gb,
+        metavar="GB",
+        help="memory budget of the FEA solves in GB, checked before solving: default sizes are coarsened to "
+        "fit it, a --mesh-size that does not fit is refused (default: %(default)s)",
+    )
+    p.add_argument(
+        "--order",
+        type=int,
+        choices=registries.ELEMENT_ORDERS,
+        default=d.order,
+        help="FEA element order: 1 or 2 (P1/P2 tetrahedra; default: %(default)s)",
+    )
+    p.add_argument(
+        "--hardware-mass",
+        type=float,
+        default=d.hardware_mass_kg,
+        help="mass per link of pins, bushings and rollers in kg (default: %(default).4g)",
+    )
+    p.add_argument(
+        "--hardware-from-step",
+        action="store_true",
+        help="take the hardware mass from the STEP file's other solids (with --hardware-material) instead of --hardware-mass",
+    )
+    p.add_argument(
+        "--nest-mass",
+        type=float,
+        default=d.nest_mass_kg,
+        help="mass of the nest carried by each link in kg (default: %(default)s)",
+    )
     p.add_argument("--cache-dir", type=Path, default=d.cache_dir, help="FEA result cache folder (default: %(default)s)")
-    p.add_argument("--from-rest", action="store_true",
-                   help="start the chain from rest at t=0 instead of the periodic steady state of continuous indexing")
-    p.add_argument("--samples-per-degree", type=int, default=d.samples_per_degree,
-                   help="output samples per degree of cam rotation (default: %(default)s)")
-    p.add_argument("--tolerance", type=float, default=d.tolerance,
-                   help="relative tolerance on the reported metrics (e.g. 0.01): picks the FEA mesh and the "
-                        "time step for it and reports the achieved error estimate (default: fixed settings)")
-    p.add_argument("--rpm-sweep", metavar="FROM:TO:STEP", default=d.rpm_sweep,
-                   help="also sweep the cam speed (rev/min): residual vibration and peak acceleration at the "
-                        "tight-side station (or --station) per cam law, critical speeds marked (linear model, "
-                        "friction left out)")
-    p.add_argument("--station", choices=registries.station_names(), default=d.station,
-                   help="answer for one accelerometer station only: keep only that link's history (default: every "
-                        "link, with tables and plots at the tight side)")
-    p.add_argument("--settling-band", type=float, default=None, metavar="MM",
-                   help="band for the settling time after each index: |x - z| within it, in mm "
-                        f"(default: {m_to_mm(d.settling_band_m):g})")
-    p.add_argument("--model", choices=registries.chain_models(), default=d.model,
-                   help="chain model: auto (default) runs the exact linear chain where no span leaves pulling contact "
-                        "(or the clearance is 0), else the clearance chain with pin free play and impacts")
-    p.add_argument("--pin-clearance", default=None, metavar="MM",
-                   help="axial free play of each span (its two pin joints), mm, or inf for a chain that can only pull "
-                        f"(default: {m_to_mm(d.pin_clearance_m):g}, 2 x the mean clearance of an ISO 286 H8/f7 fit at "
-                        "the 19.05 mm pin)")
-    p.add_argument("--rayleigh", default=None, metavar="ALPHA:BETA",
-                   help="Rayleigh damping C = alpha M + beta K (alpha 1/s, beta s) instead of the modal --damping")
-    p.add_argument("--span-damping", choices=registries.span_damping_laws(), default=d.span_damping,
-                   help="clearance chain's damping: global (the chain's C, always acting; default) or kelvin-voigt "
-                        "(a dashpot beta k per span, only while in contact)")
-    p.add_argument("--tensioner-rate", type=float, default=d.tensioner_rate_N_per_m, metavar="N/m",
-                   help="idler tensioner spring rate, N/m (with --tensioner-mass; default: rigid idler)")
-    p.add_argument("--tensioner-mass", type=float, default=d.tensioner_mass_kg, metavar="KG", help="idler carriage mass, kg")
-    p.add_argument("--tensioner-damping", type=float, default=d.tensioner_damping_N_s_per_m, metavar="N*s/m",
-                   help="idler carriage damping, N*s/m (default 0 with a tensioner)")
+    p.add_argument(
+        "--from-rest",
+        action="store_true",
+        help="start the chain from rest at t=0 instead of the periodic steady state of continuous indexing",
+    )
+    p.add_argument(
+        "--samples-per-degree",
+        type=int,
+        default=d.samples_per_degree,
+        help="output samples per degree of cam rotation (default: %(default)s)",
+    )
+    p.add_argument(
+        "--tolerance",
+        type=float,
+        default=d.tolerance,
+        help="relative tolerance on the reported metrics (e.g. 0.01): picks the FEA mesh and the "
+        "time step for it and reports the achieved error estimate (default: fixed settings)",
+    )
+    p.add_argument(
+        "--rpm-sweep",
+        metavar="FROM:TO:STEP",
+        default=d.rpm_sweep,
+        help="also sweep the cam speed (rev/min): residual vibration and peak acceleration at the "
+        "tight-side station (or --station) per cam law, critical speeds marked (linear model, "
+        "friction left out)",
+    )
+    p.add_argument(
+        "--station",
+        choices=registries.station_names(),
+        default=d.station,
+        help="answer for one accelerometer station only: keep only that link's history (default: every "
+        "link, with tables and plots at the tight side)",
+    )
+    p.add_argument(
+        "--settling-band",
+        type=float,
+        default=None,
+        metavar="MM",
+        help="band for the settling time after each index: |x - z| within it, in mm "
+        f"(default: {m_to_mm(d.settling_band_m):g})",
+    )
+    p.add_argument(
+        "--model",
+        choices=registries.chain_models(),
+        default=d.model,
+        help="chain model: auto (default) runs the exact linear chain where no span leaves pulling contact "
+        "(or the clearance is 0), else the clearance chain with pin free play and impacts",
+    )
+    p.add_argument(
+        "--pin-clearance",
+        default=None,
+        metavar="MM",
+        help="axial free play of each span (its two pin joints), mm, or inf for a chain that can only pull "
+        f"(default: {m_to_mm(d.pin_clearance_m):g}, 2 x the mean clearance of an ISO 286 H8/f7 fit at "
+        "the 19.05 mm pin)",
+    )
+    p.add_argument(
+        "--rayleigh",
+        default=None,
+        metavar="ALPHA:BETA",
+        help="Rayleigh damping C = alpha M + beta K (alpha 1/s, beta s) instead of the modal --damping",
+    )
+    p.add_argument(
+        "--span-damping",
+        choices=registries.span_damping_laws(),
+        default=d.span_damping,
+        help="clearance chain's damping: global (the chain's C, always acting; default) or kelvin-voigt "
+        "(a dashpot beta k per span, only while in contact)",
+    )
+    p.add_argument(
+        "--tensioner-rate",
+        type=float,
+        default=d.tensioner_rate_N_per_m,
+        metavar="N/m",
+        help="idler tensioner spring rate, N/m (with --tensioner-mass; default: rigid idler)",
+    )
+    p.add_argument(
+        "--tensioner-mass", type=float, default=d.tensioner_mass_kg, metavar="KG", help="idler carriage mass, kg"
+    )
+    p.add_argument(
+        "--tensioner-damping",
+        type=float,
+        default=d.tensioner_damping_N_s_per_m,
+        metavar="N*s/m",
+        help="idler carriage damping, N*s/m (default 0 with a tensioner)",
+    )
     return p
 
 
@@ -156,6 +278,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         quiet=args.quiet,
         mesh_size_m=d.mesh_size_m if args.mesh_size is None else mm_to_m(args.mesh_size),
         order=args.order,
+        max_memory_gb=args.max_memory,
         hardware_mass_kg=args.hardware_mass,
         nest_mass_kg=args.nest_mass,
         cache_dir=args.cache_dir,

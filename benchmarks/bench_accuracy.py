@@ -25,11 +25,16 @@ import numpy as np
 from dynamics.cams import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain
-from dynamics.scene import simulate_chain
 from dynamics.response.metrics import link_metrics, station_metrics
+from dynamics.scene import simulate_chain
 
-KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2",
-        "residual_vibration_m")
+KEYS = (
+    "rms_displacement_m",
+    "rms_velocity_m_s",
+    "rms_acceleration_m_s2",
+    "max_abs_acceleration_m_s2",
+    "residual_vibration_m",
+)
 PITCH_M = 0.1125
 TARGET = 1e-3
 TODAY = ("euler", 0.25)  # the default before issue 24: (predictor, safety)
@@ -49,8 +54,12 @@ class Scene:
     link_mass_kg: float = 2.03
 
     def model(self) -> ClearanceChain:
-        chain = ChainModel(n_links=self.n_links, link_mass_kg=self.link_mass_kg,
-                           stiffness_N_per_m=self.stiffness_N_per_m, friction_coefficient=0.35)
+        chain = ChainModel(
+            n_links=self.n_links,
+            link_mass_kg=self.link_mass_kg,
+            stiffness_N_per_m=self.stiffness_N_per_m,
+            friction_coefficient=0.35,
+        )
         return ClearanceChain(chain, self.clearance_m, span_damping=self.span_damping)
 
     def window(self):
@@ -58,10 +67,18 @@ class Scene:
         return CamProgram.indexing(self.cam, pitch_m=PITCH_M, rpm=self.rpm), t
 
 
-SCENES = (Scene("default: 85 links, 180 rpm, 0.094 mm, global damping", 85, 180.0, 94e-6, "global"),
-          Scene("41 links, 240 rpm, 0.094 mm, Kelvin-Voigt (window: no steady state)", 41, 240.0, 94e-6,
-                "kelvin-voigt", steady_state=False),
-          Scene("85 links, 300 rpm, 1 mm free play, global damping", 85, 300.0, 1e-3, "global"))
+SCENES = (
+    Scene("default: 85 links, 180 rpm, 0.094 mm, global damping", 85, 180.0, 94e-6, "global"),
+    Scene(
+        "41 links, 240 rpm, 0.094 mm, Kelvin-Voigt (window: no steady state)",
+        41,
+        240.0,
+        94e-6,
+        "kelvin-voigt",
+        steady_state=False,
+    ),
+    Scene("85 links, 300 rpm, 1 mm free play, global damping", 85, 300.0, 1e-3, "global"),
+)
 
 
 def station_values(scene: Scene, predictor=None, safety=None) -> tuple[np.ndarray, float, int]:
@@ -88,25 +105,34 @@ def scene_rows(scene: Scene, repeats: int) -> tuple[str, float]:
     walls = [(station_values(scene)[1], station_values(scene, *TODAY)[1]) for _ in range(repeats)]
     new_s, old_s = (float(np.median([w[i] for w in walls])) for i in (0, 1))
     err = worst_error(default, ref)
-    return (f"| {scene.label} | {sub} | {err:.1e} | {1e3 * new_s:.0f} ms | {today_sub} | "
-            f"{worst_error(today, ref):.1e} | {1e3 * old_s:.0f} ms |"), err
+    return (
+        f"| {scene.label} | {sub} | {err:.1e} | {1e3 * new_s:.0f} ms | {today_sub} | "
+        f"{worst_error(today, ref):.1e} | {1e3 * old_s:.0f} ms |"
+    ), err
 
 
 def run(quick: bool) -> list[str]:
     repeats = 3 if quick else 7
-    lines = ["Default accuracy of the clearance chain: the default run's 20 station metrics against a converged "
-             "run (euler at 1/16 of the old step), worst relative error; time = median of interleaved runs "
-             "(steady state + window, one scenario)", "",
-             "| scene | steps/sample (default) | worst error | time | steps/sample (before: euler, 0.25) | "
-             "worst error | time |", "|---|---|---|---|---|---|---|"]
+    lines = [
+        "Default accuracy of the clearance chain: the default run's 20 station metrics against a converged "
+        "run (euler at 1/16 of the old step), worst relative error; time = median of interleaved runs "
+        "(steady state + window, one scenario)",
+        "",
+        "| scene | steps/sample (default) | worst error | time | steps/sample (before: euler, 0.25) | "
+        "worst error | time |",
+        "|---|---|---|---|---|---|---|",
+    ]
     station_values(SCENES[0])  # compile / load the numba cache
     worst = 0.0
     for scene in SCENES:
         row, err = scene_rows(scene, repeats)
         lines.append(row)
         worst = max(worst, err)
-    lines += ["", f"worst error of the default over the scenes: {worst:.2e} (target {TARGET:g}: "
-              f"{'met' if worst <= TARGET else 'NOT met'})"]
+    lines += [
+        "",
+        f"worst error of the default over the scenes: {worst:.2e} (target {TARGET:g}: "
+        f"{'met' if worst <= TARGET else 'NOT met'})",
+    ]
     return lines
 
 

@@ -22,15 +22,15 @@ for the reference; Exudyn's solve alone, its model building is about as long aga
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
 from dynamics.cams import CamProgram
 from dynamics.models.chain import ChainModel
-from verification.clearance_reference import HeldCam, reference_response
 from dynamics.response.metrics import rms, station_links
+from verification.clearance_reference import HeldCam, reference_response
 
 K = 9.27e7
 MASS = 2.03
@@ -48,8 +48,15 @@ class Case:
     law: str
 
     def chain(self) -> dict:
-        return dict(n_links=self.n_links, link_mass_kg=MASS, stiffness_N_per_m=K, drive_stiffness_N_per_m=K,
-                    preload_N=PRELOAD, clearance_m=GAP, t_eval_s=T_WINDOW)
+        return dict(
+            n_links=self.n_links,
+            link_mass_kg=MASS,
+            stiffness_N_per_m=K,
+            drive_stiffness_N_per_m=K,
+            preload_N=PRELOAD,
+            clearance_m=GAP,
+            t_eval_s=T_WINDOW,
+        )
 
 
 def _reference(case: Case, rtol: float):
@@ -66,8 +73,13 @@ def _reference(case: Case, rtol: float):
 def _exudyn(case: Case, steps: int):
     from benchmarks.exudyn_chain import exudyn_chain_response
 
-    r = exudyn_chain_response(**case.chain(), cam=HeldCam(CAM, T_WINDOW), span_damping_beta_s=BETA,
-                              damping_law="rayleigh" if case.law == LAWS[0] else "kelvin-voigt", steps_per_output=steps)
+    r = exudyn_chain_response(
+        **case.chain(),
+        cam=HeldCam(CAM, T_WINDOW),
+        span_damping_beta_s=BETA,
+        damping_law="rayleigh" if case.law == LAWS[0] else "kelvin-voigt",
+        steps_per_output=steps,
+    )
     return r, r.wall_time_s, f"{r.n_steps} steps"
 
 
@@ -92,6 +104,7 @@ def station_differences(ours, reference, n_links: int) -> list[float]:
 def run(quick: bool) -> list[str]:
     try:
         import exudyn  # noqa: F401
+
         methods = METHODS
         missing = []
     except ImportError:
@@ -102,7 +115,7 @@ def run(quick: bool) -> list[str]:
         "beta 2e-5 s",
         f"{'links':>5}  {'damping':16s} {'method':26s} {'time':>8}  {'RMS x':>8} {'RMS v':>8} {'RMS a':>8}  note",
     ]
-    for n_links in ((20,) if quick else (20, 85)):
+    for n_links in (20,) if quick else (20, 85):
         for law in LAWS:
             case = Case(n_links, law)
             reference = None

@@ -33,16 +33,16 @@ import warnings
 
 import numpy as np
 
-from dynamics.solvers import simulate as simulate_module
 from dynamics.cams.program import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.mqp2012 import CAMS, MATERIALS, dynacam_table, preload_vector, replica_system
+from dynamics.models.system import SampledForce
+from dynamics.response.sweep import cam_cycle_samples, chain_modes, modal_periodic_response
 from dynamics.solvers import cache as solver_cache
 from dynamics.solvers import exact as exact_solver
+from dynamics.solvers import simulate as simulate_module
 from dynamics.solvers import solve
 from dynamics.solvers.simulate import SlackChainWarning, simulate
-from dynamics.response.sweep import cam_cycle_samples, chain_modes, modal_periodic_response
-from dynamics.models.system import SampledForce
 
 N_LINKS = 85
 RPM = 180.0
@@ -126,11 +126,16 @@ def _blas_threads_table() -> list[str]:
 
     serial = min(pass_s() for _ in range(REPEATS))
     # the runner pins BLAS to one thread for every measurement; lift that here and the solvers' own pin
-    with threadpool_limits(limits=os.cpu_count()), mock.patch("dynamics.solvers.simulate.serial_blas", nullcontext), \
-            mock.patch("dynamics.solvers.serial_blas", nullcontext):
+    with (
+        threadpool_limits(limits=os.cpu_count()),
+        mock.patch("dynamics.solvers.simulate.serial_blas", nullcontext),
+        mock.patch("dynamics.solvers.serial_blas", nullcontext),
+    ):
         threaded = min(pass_s() for _ in range(REPEATS))
-    return [f"\nBLAS threads, pipeline's 10 scenarios (N = {N_LINKS}, friction 0.35): one thread {serial:.3f} s, "
-            f"all cores {threaded:.3f} s ({threaded / serial:.2f}x)"]
+    return [
+        f"\nBLAS threads, pipeline's 10 scenarios (N = {N_LINKS}, friction 0.35): one thread {serial:.3f} s, "
+        f"all cores {threaded:.3f} s ({threaded / serial:.2f}x)"
+    ]
 
 
 def _long_chain_table(quick: bool) -> list[str]:
@@ -144,8 +149,10 @@ def _long_chain_table(quick: bool) -> list[str]:
 
     cam = CamProgram.indexing("modified-sine", rpm=RPM)
     t = np.arange(721) / (4 * 6.0 * RPM)  # 180 deg at 4 samples per degree, as the pipeline
-    out = [f"\nLong chains: simulate(exact, steady state) in the {MODES_FOR_LONG_CHAINS} lowest modes, "
-           "721 samples, one cam"]
+    out = [
+        f"\nLong chains: simulate(exact, steady state) in the {MODES_FOR_LONG_CHAINS} lowest modes, "
+        "721 samples, one cam"
+    ]
     for n_links in (1000,) if quick else (1000, 3000, 10_000):
         for mu in (0.0, 0.35):
             model = ChainModel(n_links, 2.03, 92696969.7, friction_coefficient=mu)
@@ -180,8 +187,11 @@ def _linear_table(scenarios, n_slow: int) -> list[str]:
 
     # the slow methods on the first n_slow scenarios (each is a separate, uncached computation)
     slow = {}
-    for method, opts in (("report-rk45", {}), ("rk45", {"rtol": 1e-3, "atol": 1e-6}),
-                         ("radau", {"rtol": 1e-3, "atol": 1e-6})):
+    for method, opts in (
+        ("report-rk45", {}),
+        ("rk45", {"rtol": 1e-3, "atol": 1e-6}),
+        ("radau", {"rtol": 1e-3, "atol": 1e-6}),
+    ):
         times, errs = [], []
         for s in scenarios[:n_slow]:
             x, wall = _timed(cases[s], method, **opts)
@@ -209,21 +219,24 @@ def _linear_table(scenarios, n_slow: int) -> list[str]:
         f"{'report-rk45 (ode45 restarted/deg)':34s} {rep_t * 1e3:11.2f} ms {rep_e:14.3g} {1.0:18.1f}x "
         f"{mem['report-rk45']:6.1f} MB",
     ]
-    for label, wall in (("exact, amortised over scenarios", amortised), ("exact, cold (set-up included)",
-                                                                          float(np.mean(cold))),
-                        ("exact, warm (cached set-up)", float(np.mean(warm)) if warm else np.nan)):
+    for label, wall in (
+        ("exact, amortised over scenarios", amortised),
+        ("exact, cold (set-up included)", float(np.mean(cold))),
+        ("exact, warm (cached set-up)", float(np.mean(warm)) if warm else np.nan),
+    ):
         memory = mem["exact (cold)"] if "cold" in label or "amortised" in label else mem["exact (warm)"]
-        out.append(f"{label:34s} {wall * 1e3:11.2f} ms {max(exact_errs):14.3g} {rep_t / wall:18.1f}x "
-                   f"{memory:6.1f} MB")
+        out.append(f"{label:34s} {wall * 1e3:11.2f} ms {max(exact_errs):14.3g} {rep_t / wall:18.1f}x {memory:6.1f} MB")
     for method, label in (("rk45", "scipy RK45, whole interval"), ("radau", "scipy Radau, whole interval")):
         wall, err = slow[method]
         out.append(f"{label:34s} {wall * 1e3:11.2f} ms {err:14.3g} {rep_t / wall:18.1f}x {mem[method]:6.1f} MB")
     out.append(f"{'floor: exp. / 5 + 180 bare steps':34s} {floor_s * 1e3:11.2f} ms {'':14s} {rep_t / floor_s:18.1f}x")
     out.append("(scipy tolerances: rtol 1e-3, atol 1e-6 in the script's mm units; reference: exact, 4 sub-steps)")
-    out.append(f"(floor of exact dense stepping: the material's exponential {exponential_s * 1e3:.2f} ms shared by "
-               f"{len(CAMS)} cams + 180 bare 170 x 170 products {products_s * 1e3:.2f} ms. The damping is not "
-               f"classical: its complex modes would cost an eigensolve of {eig_s * 1e3:.1f} ms per material, "
-               f"eigenvector condition number {eig_condition:.1e})")
+    out.append(
+        f"(floor of exact dense stepping: the material's exponential {exponential_s * 1e3:.2f} ms shared by "
+        f"{len(CAMS)} cams + 180 bare 170 x 170 products {products_s * 1e3:.2f} ms. The damping is not "
+        f"classical: its complex modes would cost an eigensolve of {eig_s * 1e3:.1f} ms per material, "
+        f"eigenvector condition number {eig_condition:.1e})"
+    )
     return out
 
 
@@ -359,8 +372,10 @@ def _stepping_table() -> list[str]:
 
 
 def _friction_table(scenarios) -> list[str]:
-    out = [f"\nThe report script's own model with its friction (mu 0.35, sign law), {len(scenarios)} scenario(s); "
-           "reference: exact, 16 sub-steps (estimate)"]
+    out = [
+        f"\nThe report script's own model with its friction (mu 0.35, sign law), {len(scenarios)} scenario(s); "
+        "reference: exact, 16 sub-steps (estimate)"
+    ]
     rep_times, exact_times, rep_errs, exact_errs = [], [], [], []
     for s in scenarios:
         case = report_case(*s, friction=0.35)
@@ -384,8 +399,11 @@ STEADY_CYCLES = 8  # from rest, the slowest mode (zeta 0.13, ~38 Hz) decays by ~
 def _steady_state_table(quick: bool) -> list[str]:
     materials = {"al6061-t6": MATERIALS["al6061-t6"], "ti-grade2": MATERIALS["ti-grade2"]}
     n = 90  # one-degree samples of the 90-degree index cycle
-    out = [f"\nPipeline question: periodic steady state, default SI chain, 85 links, "
-           f"{len(materials)} materials x {len(CAMS)} cams, all links"]
+    out = [
+        f"\nPipeline question: periodic steady state, default SI chain, 85 links, "
+        f"{len(materials)} materials x {len(CAMS)} cams, all links"
+    ]
+
     def simulate_pass():
         simulate_module._system.cache_clear()
         solver_cache.clear()
@@ -407,8 +425,9 @@ def _steady_state_table(quick: bool) -> list[str]:
             model = ChainModel(N_LINKS, m, k)
             start = time.perf_counter()
             modes = chain_modes(model)
-            zdd = np.array([cam_cycle_samples(cam, n, pitch_m=0.1125, index_deg=45.0, dwell_deg=45.0, rpm=RPM)[1]
-                            for cam in CAMS])
+            zdd = np.array(
+                [cam_cycle_samples(cam, n, pitch_m=0.1125, index_deg=45.0, dwell_deg=45.0, rpm=RPM)[1] for cam in CAMS]
+            )
             y, _ = modal_periodic_response(modes, zdd, (60.0 / RPM) / 4 / n, np.arange(N_LINKS))
             times.append(time.perf_counter() - start)
             ys.update({(material, cam): y[i] for i, cam in enumerate(CAMS)})
@@ -424,16 +443,25 @@ def _steady_state_table(quick: bool) -> list[str]:
     engine_amortised = sum(engine_times) / n_scen
     rep_time, rep_err = _report_scheme_to_steady_state(materials, sims, 1 if quick else 2)
     out.append(f"{'method':34s} {'time/scenario':>14s} {'max error (m)':>14s} {'speed-up vs report':>19s}")
-    out.append(f"{f'report-rk45 from rest, {STEADY_CYCLES} cycles':34s} {rep_time * 1e3:11.2f} ms {rep_err:14.3g} "
-               f"{1.0:18.1f}x")
-    out.append(f"{'simulate(exact), amortised':34s} {sim_amortised * 1e3:11.2f} ms {'(reference)':>14s} "
-               f"{rep_time / sim_amortised:18.1f}x")
-    out.append(f"{'simulate(exact), cold (1st cam)':34s} {sim_times[0] * 1e3:11.2f} ms {'(reference)':>14s} "
-               f"{rep_time / sim_times[0]:18.1f}x")
-    out.append(f"{'simulate(exact), warm (mean)':34s} {np.mean(sim_times[1:len(CAMS)]) * 1e3:11.2f} ms "
-               f"{'(reference)':>14s} {rep_time / np.mean(sim_times[1:len(CAMS)]):18.1f}x")
-    out.append(f"{'modal engine, 5 cams batched':34s} {engine_amortised * 1e3:11.2f} ms {max(diffs):14.3g} "
-               f"{rep_time / engine_amortised:18.1f}x")
+    out.append(
+        f"{f'report-rk45 from rest, {STEADY_CYCLES} cycles':34s} {rep_time * 1e3:11.2f} ms {rep_err:14.3g} {1.0:18.1f}x"
+    )
+    out.append(
+        f"{'simulate(exact), amortised':34s} {sim_amortised * 1e3:11.2f} ms {'(reference)':>14s} "
+        f"{rep_time / sim_amortised:18.1f}x"
+    )
+    out.append(
+        f"{'simulate(exact), cold (1st cam)':34s} {sim_times[0] * 1e3:11.2f} ms {'(reference)':>14s} "
+        f"{rep_time / sim_times[0]:18.1f}x"
+    )
+    out.append(
+        f"{'simulate(exact), warm (mean)':34s} {np.mean(sim_times[1 : len(CAMS)]) * 1e3:11.2f} ms "
+        f"{'(reference)':>14s} {rep_time / np.mean(sim_times[1 : len(CAMS)]):18.1f}x"
+    )
+    out.append(
+        f"{'modal engine, 5 cams batched':34s} {engine_amortised * 1e3:11.2f} ms {max(diffs):14.3g} "
+        f"{rep_time / engine_amortised:18.1f}x"
+    )
     out.append("(errors against simulate(exact); the report scheme's error is its last cycle against it)")
     return out
 

@@ -93,7 +93,9 @@ def _ours(link, lam, mu) -> dict:
     t2 = time.perf_counter()
     u = problem.solve_displacement(K, f, clamped, problem.dof_locations(basis), solver="pardiso")
     t3 = time.perf_counter()
-    return dict(k=LOAD_N**2 / float(f @ u), setup=t1 - t0, assembly=t2 - t1, solve=t3 - t2, dofs=K.shape[0], base_MB=base)
+    return dict(
+        k=LOAD_N**2 / float(f @ u), setup=t1 - t0, assembly=t2 - t1, solve=t3 - t2, dofs=K.shape[0], base_MB=base
+    )
 
 
 def _skfem_stock(link, lam, mu) -> dict:
@@ -109,7 +111,9 @@ def _skfem_stock(link, lam, mu) -> dict:
     t2 = time.perf_counter()
     u = solve(*condense(K, f, D=clamped))
     t3 = time.perf_counter()
-    return dict(k=LOAD_N**2 / float(f @ u), setup=t1 - t0, assembly=t2 - t1, solve=t3 - t2, dofs=K.shape[0], base_MB=base)
+    return dict(
+        k=LOAD_N**2 / float(f @ u), setup=t1 - t0, assembly=t2 - t1, solve=t3 - t2, dofs=K.shape[0], base_MB=base
+    )
 
 
 def _sfepy(link, lam, mu, solver: str) -> dict:
@@ -151,8 +155,16 @@ def _sfepy(link, lam, mu, solver: str) -> dict:
     pb.set_bcs(ebcs=Conditions([EssentialBC("clamp", clamp, {"u.all": 0.0})]))
     pb.time_update()
     t1 = time.perf_counter()
-    K = pb.evaluate("dw_lin_elastic.i.Omega(m.D, v, u)", integrals=Integrals([integral]), mode="weak",
-                    dw_mode="matrix", m=material, v=v, u=u, copy_materials=False)
+    K = pb.evaluate(
+        "dw_lin_elastic.i.Omega(m.D, v, u)",
+        integrals=Integrals([integral]),
+        mode="weak",
+        dw_mode="matrix",
+        m=material,
+        v=v,
+        u=u,
+        copy_materials=False,
+    )
     t2 = time.perf_counter()
     # Our load vector as nodal forces on SfePy's DOFs (matched by node position), then its solver.
     distance, ours_of_sfepy = cKDTree(ours_nodes).query(field.get_coor())
@@ -168,8 +180,15 @@ def _sfepy(link, lam, mu, solver: str) -> dict:
     t3 = time.perf_counter()
     if not np.array_equal(np.sort(ours_of_sfepy[np.unique(np.flatnonzero(~active) // 3)]), np.unique(clamped // 3)):
         raise RuntimeError("SfePy's clamped nodes differ from ours")
-    return dict(k=LOAD_N**2 / float(rhs @ x), setup=t1 - t0, assembly=t2 - t1, solve=t3 - t2, dofs=len(eq), base_MB=base,
-                solver=linear_solver.name)
+    return dict(
+        k=LOAD_N**2 / float(rhs @ x),
+        setup=t1 - t0,
+        assembly=t2 - t1,
+        solve=t3 - t2,
+        dofs=len(eq),
+        base_MB=base,
+        solver=linear_solver.name,
+    )
 
 
 def _warm_up() -> None:
@@ -205,7 +224,9 @@ def worker(path: str, mesh_file: str) -> dict:
 def run_worker(path: str, mesh_file: Path) -> dict:
     done = subprocess.run(
         [sys.executable, str(Path(__file__).resolve()), "--worker", path, str(mesh_file)],
-        capture_output=True, text=True, cwd=ROOT,
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
     )
     if done.returncode != 0:
         raise RuntimeError(f"{path} worker failed:\n{done.stderr[-2000:]}")
@@ -221,8 +242,9 @@ def _sfepy_version() -> str | None:
 
 
 def compare_on_mesh(mesh_size_m: float, tmp: Path) -> tuple[list[str], dict]:
-    import geometry
     import skfem
+
+    import geometry
 
     start = time.perf_counter()
     link = geometry.load_link(None, mesh_size_m=mesh_size_m, order=1, bore_refinement=0.7)
@@ -247,12 +269,16 @@ def compare_on_mesh(mesh_size_m: float, tmp: Path) -> tuple[list[str], dict]:
             f"{total:>8.2f} {total / ours_total:>7.1f} {r['peak_MB']:>8.0f} {r['peak_MB'] - r['base_MB']:>8.0f}"
         )
         if diff > AGREEMENT:  # the benchmark is only meaningful if all paths solve the same problem
-            raise RuntimeError(f"{path}: k = {r['k']:.10e} differs from ours ({ours['k']:.10e}) by {diff:.1e} > {AGREEMENT:g}")
+            raise RuntimeError(
+                f"{path}: k = {r['k']:.10e} differs from ours ({ours['k']:.10e}) by {diff:.1e} > {AGREEMENT:g}"
+            )
     for path in results:
         if path != "ours":
             r = results[path]
-            lines.append(f"{path} / ours: assembly {r['assembly'] / ours['assembly']:.1f}x, solve {r['solve'] / ours['solve']:.1f}x"
-                         + (f" ({r['solver']})" if "solver" in r else ""))
+            lines.append(
+                f"{path} / ours: assembly {r['assembly'] / ours['assembly']:.1f}x, solve {r['solve'] / ours['solve']:.1f}x"
+                + (f" ({r['solver']})" if "solver" in r else "")
+            )
     return lines, {"link": link, "mesh_s": mesh_s, "results": results}
 
 
@@ -266,9 +292,11 @@ def time_to_accuracy(tolerance: float, tmp: Path, with_reference: bool) -> list[
     start = time.perf_counter()
     estimate = stiffness_to_tolerance(None, material, tolerance)
     adaptive_s = time.perf_counter() - start
-    lines = [f"ours, stiffness_to_tolerance({tolerance:g}): k = {estimate.stiffness_N_per_m:.6e} N/m, estimated error "
-             f"{estimate.stiffness_rel_error_estimate:.2e}, {len(estimate.levels)} levels up to {estimate.levels[-1][1]} DOFs, "
-             f"{adaptive_s:.1f} s wall (meshing, assembly, solves and stress post-processing of every level)"]
+    lines = [
+        f"ours, stiffness_to_tolerance({tolerance:g}): k = {estimate.stiffness_N_per_m:.6e} N/m, estimated error "
+        f"{estimate.stiffness_rel_error_estimate:.2e}, {len(estimate.levels)} levels up to {estimate.levels[-1][1]} DOFs, "
+        f"{adaptive_s:.1f} s wall (meshing, assembly, solves and stress post-processing of every level)"
+    ]
     if not with_reference:
         return lines
     levels = []
@@ -278,8 +306,10 @@ def time_to_accuracy(tolerance: float, tmp: Path, with_reference: bool) -> list[
         levels.append((s.dofs, s.stiffness_N_per_m))
     ref = extrapolate([k for _, k in levels], [d for d, _ in levels])
     actual = abs(estimate.stiffness_N_per_m - ref.extrapolated) / ref.extrapolated
-    lines.append(f"reference k = {ref.extrapolated:.6e} N/m (curved P2 3.8/2.85/2.5 mm, {levels[-1][0]} DOFs finest), "
-                 f"its estimated error {ref.rel_error_estimate:.1e}; adaptive k's actual error {actual:.2e}")
+    lines.append(
+        f"reference k = {ref.extrapolated:.6e} N/m (curved P2 3.8/2.85/2.5 mm, {levels[-1][0]} DOFs finest), "
+        f"its estimated error {ref.rel_error_estimate:.1e}; adaptive k's actual error {actual:.2e}"
+    )
     # The coarsest straight-P2 mesh of the ladder whose own k is within the tolerance (k agrees
     # across the three codes to 1e-8, so ours finds the mesh for all of them).
     h = 0.012
@@ -294,8 +324,10 @@ def time_to_accuracy(tolerance: float, tmp: Path, with_reference: bool) -> list[
     compare_lines, data = compare_on_mesh(h, tmp)
     for path, r in data["results"].items():
         total = data["mesh_s"] + r["setup"] + r["assembly"] + r["solve"]
-        lines.append(f"{path}: time to a {tolerance:g}-accurate k on one mesh (meshing + setup + assembly + solve) {total:.1f} s, "
-                     f"peak {r['peak_MB']:.0f} MB ({r['peak_MB'] - r['base_MB']:.0f} MB for the work)")
+        lines.append(
+            f"{path}: time to a {tolerance:g}-accurate k on one mesh (meshing + setup + assembly + solve) {total:.1f} s, "
+            f"peak {r['peak_MB']:.0f} MB ({r['peak_MB'] - r['base_MB']:.0f} MB for the work)"
+        )
     return lines + compare_lines
 
 

@@ -53,27 +53,48 @@ PATHS = {  # materials, mesh sizes, levels solved side by side, mirror half
     "new default (2 relative levels)": (["al6061-t6"], None, True, True),
     "new default on the whole link": (["al6061-t6"], None, True, False),
     "new default, levels one after the other": (["al6061-t6"], None, False, True),
-    "previous default levels (6.5/4.5/3.5 mm), same code, whole link": (["al6061-t6"], (0.0065, 0.0045, 0.0035), True, False),
+    "previous default levels (6.5/4.5/3.5 mm), same code, whole link": (
+        ["al6061-t6"],
+        (0.0065, 0.0045, 0.0035),
+        True,
+        False,
+    ),
     "new default, aluminium + titanium": (["al6061-t6", "ti-grade2"], None, True, True),
 }
 
 
 def run_study(materials, sizes, concurrent, mirror) -> dict:
     code = STUDY.format(materials=materials, sizes=sizes, concurrent=concurrent, mirror=mirror)
-    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True,
-                         env={**__import__("os").environ, "PYTHONPATH": str(ROOT)})
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**__import__("os").environ, "PYTHONPATH": str(ROOT)},
+    )
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
 def run_cli(tree: Path) -> dict:
     """`python -m fem --json` of the tree, the whole process, as a user runs it."""
     start = time.perf_counter()
-    out = subprocess.run([sys.executable, "-m", "fem", "--json"], cwd=tree, capture_output=True, text=True, check=True,
-                         env={**__import__("os").environ, "PYTHONPATH": str(tree)})
+    out = subprocess.run(
+        [sys.executable, "-m", "fem", "--json"],
+        cwd=tree,
+        capture_output=True,
+        text=True,
+        check=True,
+        env={**__import__("os").environ, "PYTHONPATH": str(tree)},
+    )
     wall = time.perf_counter() - start
     report = json.loads(out.stdout)
-    return {"wall_s": wall, "k": report["stiffness_N_per_m"], "estimate": report["stiffness_rel_error_estimate"],
-            "study_s": report["timing_s"].get("wall", report["timing_s"]["total"])}
+    return {
+        "wall_s": wall,
+        "k": report["stiffness_N_per_m"],
+        "estimate": report["stiffness_rel_error_estimate"],
+        "study_s": report["timing_s"].get("wall", report["timing_s"]["total"]),
+    }
 
 
 def main(argv=None) -> int:
@@ -99,28 +120,40 @@ def main(argv=None) -> int:
         r = results[0]
         ks = ", ".join(f"{n} {k:.5g}" for n, k in r["k"].items())
         est = ", ".join(f"{e * 100:.2f} %" for e in r["estimate"].values())
-        print(f"{name} | {wall:.2f} | {cpu:.2f} | {statistics.median(x['import_s'] for x in results):.2f} | {ks} | {est} | {r['dofs']}")
+        print(
+            f"{name} | {wall:.2f} | {cpu:.2f} | {statistics.median(x['import_s'] for x in results):.2f} | {ks} | {est} | {r['dofs']}"
+        )
     parts = runs["new default (2 relative levels)"][0]["parts_s"]
-    print("new default, where the study's time goes (first run, both levels; solve = PARDISO): "
-          + ", ".join(f"{name} {seconds:.2f} s" for name, seconds in parts.items()))
+    print(
+        "new default, where the study's time goes (first run, both levels; solve = PARDISO): "
+        + ", ".join(f"{name} {seconds:.2f} s" for name, seconds in parts.items())
+    )
     both, one = medians["new default, aluminium + titanium"], medians["new default (2 relative levels)"]
     print(f"titanium on aluminium's meshes: +{both[0] - one[0]:.2f} s wall, +{both[1] - one[1]:.2f} s CPU")
     prev = medians["previous default levels (6.5/4.5/3.5 mm), same code, whole link"]
     print(f"new default vs previous levels: {prev[0] / one[0]:.2f}x wall, {prev[1] / one[1]:.2f}x CPU")
     whole = medians["new default on the whole link"]
-    print(f"mirror half vs whole link: {one[0]:.2f} vs {whole[0]:.2f} s wall ({whole[0] / one[0]:.2f}x), "
-          f"CPU {one[1]:.2f} vs {whole[1]:.2f} s")
+    print(
+        f"mirror half vs whole link: {one[0]:.2f} vs {whole[0]:.2f} s wall ({whole[0] / one[0]:.2f}x), "
+        f"CPU {one[1]:.2f} vs {whole[1]:.2f} s"
+    )
     apart = medians["new default, levels one after the other"]
-    print(f"levels side by side vs one after the other: {one[0]:.2f} vs {apart[0]:.2f} s wall "
-          f"({apart[0] / one[0]:.2f}x), CPU {one[1]:.2f} vs {apart[1]:.2f} s")
+    print(
+        f"levels side by side vs one after the other: {one[0]:.2f} vs {apart[0]:.2f} s wall "
+        f"({apart[0] / one[0]:.2f}x), CPU {one[1]:.2f} vs {apart[1]:.2f} s"
+    )
     walls = [c["wall_s"] for c in cli]
-    print(f"this tree's python -m fem: {statistics.median(walls):.2f} s whole process (median; runs "
-          f"{', '.join(f'{w:.2f}' for w in walls)} s), k {cli[0]['k']:.5g} +- {cli[0]['estimate'] * 100:.2f} %")
+    print(
+        f"this tree's python -m fem: {statistics.median(walls):.2f} s whole process (median; runs "
+        f"{', '.join(f'{w:.2f}' for w in walls)} s), k {cli[0]['k']:.5g} +- {cli[0]['estimate'] * 100:.2f} %"
+    )
     if old:
         wall = statistics.median(o["wall_s"] for o in old)
         study = statistics.median(o["study_s"] for o in old)
-        print(f"old tree python -m fem: {wall:.2f} s whole process (its study {study:.2f} s), "
-              f"k {old[0]['k']:.5g} +- {old[0]['estimate'] * 100:.2f} %")
+        print(
+            f"old tree python -m fem: {wall:.2f} s whole process (its study {study:.2f} s), "
+            f"k {old[0]['k']:.5g} +- {old[0]['estimate'] * 100:.2f} %"
+        )
     return 0
 
 

@@ -21,12 +21,17 @@ import numpy as np
 from dynamics.cams import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain
-from dynamics.scene import simulate_chain
-from dynamics.response.metrics import link_metrics, station_links, station_metrics
 from dynamics.models.reduction import DENSE_LINK_LIMIT, modes_to_keep
+from dynamics.response.metrics import link_metrics, station_links
+from dynamics.scene import simulate_chain
 
-KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2",
-        "residual_vibration_m")
+KEYS = (
+    "rms_displacement_m",
+    "rms_velocity_m_s",
+    "rms_acceleration_m_s2",
+    "max_abs_acceleration_m_s2",
+    "residual_vibration_m",
+)
 SIZES = (100, 400, 1000, 2000, 10000)
 # Above this the steady-state search (about 60 cam cycles at N = 1000) takes too long for a benchmark
 # run: the window alone is timed (two cam cycles from the linear chain's periodic state), and the
@@ -56,11 +61,14 @@ def run(quick: bool) -> list[str]:
     sizes = SIZES[:3] if quick else SIZES
     _run(40)  # compile / load the numba cache
     _run(40, 1e-4)
-    lines = ["Long clearance chains, one scenario each (default link, 0.094 mm, 180 rpm, steady state); the "
-             "global damping law in its O(N) form above 400 links (dynamics/models/reduced_damping.py)", "",
-             "| N | model | damping form | time (whole scenario) | peak memory | steady state | steps/sample | "
-             "check vs dense C |",
-             "|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "Long clearance chains, one scenario each (default link, 0.094 mm, 180 rpm, steady state); the "
+        "global damping law in its O(N) form above 400 links (dynamics/models/reduced_damping.py)",
+        "",
+        "| N | model | damping form | time (whole scenario) | peak memory | steady state | steps/sample | "
+        "check vs dense C |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
     for n in sizes:
         steady = n <= STEADY_STATE_UP_TO
         wall, peak, contact, values = _run(n, steady_state=steady)
@@ -73,10 +81,15 @@ def run(quick: bool) -> list[str]:
         target = TARGETS_S.get(n)
         cycles = (ss.cycles if ss else 0) + 2  # the window is two cam cycles
         mark = "" if target is None else f" (target {target:g} s: {'met' if wall <= target else 'NOT met'})"
-        state = (f"{'found' if ss.found else 'NOT found'} after {ss.cycles} cycles" if steady else
-                 "not searched (window only)")
-        lines.append(f"| {n} | {contact.model} | {form} | {wall:.2f} s{mark}, {wall / cycles:.2f} s per cam cycle | "
-                     f"{peak / 1e6:.0f} MB | {state} | {contact.steps_per_output} | {check} |")
+        state = (
+            f"{'found' if ss.found else 'NOT found'} after {ss.cycles} cycles"
+            if steady
+            else "not searched (window only)"
+        )
+        lines.append(
+            f"| {n} | {contact.model} | {form} | {wall:.2f} s{mark}, {wall / cycles:.2f} s per cam cycle | "
+            f"{peak / 1e6:.0f} MB | {state} | {contact.steps_per_output} | {check} |"
+        )
     return lines
 
 

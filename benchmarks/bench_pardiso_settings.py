@@ -61,13 +61,17 @@ def run(quick: bool) -> list[str]:
     for _ in range(2 if quick else 5):
         for name, iparm in SETTINGS.items():
             runs[name].append(_phases(K, upper, b, iparm))
-    lines = [f"default link, 4.5 mm, {K.shape[0]} DOFs; medians of {len(runs['MKL defaults'])} alternating runs",
-             "| settings | analysis (s) | factorisation (s) | one solve (s) | relative residual |",
-             "|---|---|---|---|---|"]
+    lines = [
+        f"default link, 4.5 mm, {K.shape[0]} DOFs; medians of {len(runs['MKL defaults'])} alternating runs",
+        "| settings | analysis (s) | factorisation (s) | one solve (s) | relative residual |",
+        "|---|---|---|---|---|",
+    ]
     for name, rows in runs.items():
         median = {key: statistics.median(r[key] for r in rows) for key in rows[0]}
-        lines.append(f"| {name} | {median['analysis']:.3f} | {median['factorisation']:.3f} | {median['solve']:.3f} | "
-                     f"{median['residual']:.1e} |")
+        lines.append(
+            f"| {name} | {median['analysis']:.3f} | {median['factorisation']:.3f} | {median['solve']:.3f} | "
+            f"{median['residual']:.1e} |"
+        )
     return lines
 
 

@@ -40,6 +40,7 @@ def _rbd_fast(harmonics: int):
 
         found = rbd_fast.analyze(PROBLEM, X, Y, M=harmonics, seed=seed)
         return np.array(found["S1"]), np.array(found["S1_conf"])
+
     return estimate
 
 
@@ -54,18 +55,25 @@ def _delta_s1(X, Y, seed):
 def _src2(X, Y, seed):
     Xs, Ys = (X - X.mean(0)) / X.std(0), (Y - Y.mean()) / Y.std()
     coefficients = np.linalg.lstsq(Xs, Ys, rcond=None)[0]
-    return coefficients ** 2, np.full(3, np.nan)  # no interval
+    return coefficients**2, np.full(3, np.nan)  # no interval
 
 
-ESTIMATORS = {"RBD-FAST M=4": _rbd_fast(4), "RBD-FAST M=6": _rbd_fast(6), "RBD-FAST M=10": _rbd_fast(10),
-              "delta's S1": _delta_s1, "SRC^2": _src2}
+ESTIMATORS = {
+    "RBD-FAST M=4": _rbd_fast(4),
+    "RBD-FAST M=6": _rbd_fast(6),
+    "RBD-FAST M=10": _rbd_fast(10),
+    "delta's S1": _delta_s1,
+    "SRC^2": _src2,
+}
 
 
 def run(quick: bool) -> list[str]:
     repeats = 5 if quick else 20
     sizes = (64, 256) if quick else (32, 64, 128, 256)
-    lines = [f"Ishigami, {repeats} samples per size; exact S1 = {EXACT.tolist()}",
-             "method n    estimator       RMSE (x1 x2 x3)        bias (x1 x2 x3)        95 % coverage     half-width"]
+    lines = [
+        f"Ishigami, {repeats} samples per size; exact S1 = {EXACT.tolist()}",
+        "method n    estimator       RMSE (x1 x2 x3)        bias (x1 x2 x3)        95 % coverage     half-width",
+    ]
     warnings.filterwarnings("ignore")
     for method in ("lhs", "sobol"):
         for n in sizes:
@@ -79,9 +87,11 @@ def run(quick: bool) -> list[str]:
                     covered.append(np.abs(S - EXACT) <= half_width)
                     widths.append(half_width)
                 errors = np.array(errors)
-                lines.append(f"{method:6s} {n:4d} {name:15s} {_three(np.sqrt((errors ** 2).mean(0)))}  "
-                             f"{_three(errors.mean(0))}  {_three(np.mean(covered, 0))}  {_three(np.mean(widths, 0))}"
-                             f"  ({(time.perf_counter() - start) / repeats * 1e3:.0f} ms each)")
+                lines.append(
+                    f"{method:6s} {n:4d} {name:15s} {_three(np.sqrt((errors**2).mean(0)))}  "
+                    f"{_three(errors.mean(0))}  {_three(np.mean(covered, 0))}  {_three(np.mean(widths, 0))}"
+                    f"  ({(time.perf_counter() - start) / repeats * 1e3:.0f} ms each)"
+                )
     return lines
 
 

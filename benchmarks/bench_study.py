@@ -29,7 +29,8 @@ def _spec(geometries: int, cams: str = '["modified-sine"]'):
 
     from study.spec import parse_study
 
-    return parse_study(tomllib.loads(f"""
+    return parse_study(
+        tomllib.loads(f"""
 [variables]
 web_thickness_m = {{min = 0.004, max = 0.010}}
 cam = {cams}
@@ -46,7 +47,8 @@ fea_cache = false
 [sampling]
 method = "grid"
 levels = {geometries}
-"""))
+""")
+    )
 
 
 def _run_study(spec, workers: int) -> dict:
@@ -60,8 +62,11 @@ def _run_study(spec, workers: int) -> dict:
 
     points = design_points(spec, base_config(spec.settings))
     start = time.perf_counter()
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
-            Client(cluster) as client, tempfile.TemporaryDirectory() as folder:
+    with (
+        LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None) as cluster,
+        Client(cluster) as client,
+        tempfile.TemporaryDirectory() as folder,
+    ):
         up = time.perf_counter() - start
         client.run(lambda: __import__("study.tasks") and None)  # imports paid before the clock starts
         store = ResultStore(Path(folder))
@@ -74,11 +79,19 @@ def _run_study(spec, workers: int) -> dict:
     fea = [t["seconds"] for t in timings if t["kind"] == "fea"]
     fea_cpu = [t["cpu_seconds"] for t in timings if t["kind"] == "fea"]
     chain = [t for t in timings if t["kind"] == "chain"]
-    return {"startup_s": up, "wall_s": wall, "points": len(points), "fea_s": fea,
-            "chain_s_per_point": sum(t["seconds"] for t in chain) / sum(t["points"] for t in chain),
-            "tasks": len(timings), "task_s": sum(t["seconds"] for t in timings), "tiny_task_s": tiny,
-            "fea_cpu_share": sum(fea_cpu) / sum(fea), "fea_cpu_s": sum(fea_cpu) / len(fea_cpu),
-            "load": os.getloadavg()}
+    return {
+        "startup_s": up,
+        "wall_s": wall,
+        "points": len(points),
+        "fea_s": fea,
+        "chain_s_per_point": sum(t["seconds"] for t in chain) / sum(t["points"] for t in chain),
+        "tasks": len(timings),
+        "task_s": sum(t["seconds"] for t in timings),
+        "tiny_task_s": tiny,
+        "fea_cpu_share": sum(fea_cpu) / sum(fea),
+        "fea_cpu_s": sum(fea_cpu) / len(fea_cpu),
+        "load": os.getloadavg(),
+    }
 
 
 FEA_TASK_IN_A_PROCESS = """
@@ -110,8 +123,14 @@ def _fea_task_cpu_s(dask_malloc_variable: bool, remedy: bool) -> float:
     env.pop("MALLOC_TRIM_THRESHOLD_", None)
     if dask_malloc_variable:
         env["MALLOC_TRIM_THRESHOLD_"] = "65536"
-    out = subprocess.run([sys.executable, "-c", FEA_TASK_IN_A_PROCESS.format(remedy=remedy)], cwd=root, env=env,
-                         capture_output=True, text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", FEA_TASK_IN_A_PROCESS.format(remedy=remedy)],
+        cwd=root,
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
     return json.loads(out.stdout.strip().splitlines()[-1])[-1]
 
 
@@ -147,8 +166,11 @@ def run(quick: bool) -> list[str]:
         "| workers | wall (s) | points/min | cluster start (s) | FEA task CPU (s) | FEA task CPU / wall | "
         "load average after (1 min) |",
         "|---|---|---|---|---|---|---|",
-        *(f"| {n} | {r['wall_s']:.1f} | {60 * r['points'] / r['wall_s']:.2f} | {r['startup_s']:.1f} | "
-          f"{r['fea_cpu_s']:.2f} | {r['fea_cpu_share']:.2f} | {r['load'][0]:.1f} |" for n, r in ((1, one), (2, two))),
+        *(
+            f"| {n} | {r['wall_s']:.1f} | {60 * r['points'] / r['wall_s']:.2f} | {r['startup_s']:.1f} | "
+            f"{r['fea_cpu_s']:.2f} | {r['fea_cpu_share']:.2f} | {r['load'][0]:.1f} |"
+            for n, r in ((1, one), (2, two))
+        ),
         "(CPU / wall below 1: the tasks waited for a core, i.e. the machine was shared; the ratio below is "
         "only meaningful on an otherwise idle machine. Equal CPU per FEA task with 1 and 2 workers: running "
         "two at once adds no work)",

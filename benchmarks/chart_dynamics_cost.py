@@ -25,10 +25,10 @@ import numpy as np
 from dynamics.cams.program import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.reduction import DENSE_LINK_LIMIT, MODES_FOR_LONG_CHAINS, modes_to_keep
+from dynamics.response.sweep import chain_modes, rpm_sweep
+from dynamics.solvers import cache as solver_cache
 from dynamics.solvers import simulate as simulate_module
 from dynamics.solvers.simulate import SlackChainWarning, simulate
-from dynamics.solvers import cache as solver_cache
-from dynamics.response.sweep import chain_modes, rpm_sweep
 from verification.workprecision import observed_order
 
 K_N_PER_M, M_KG = 9e7, 2.0
@@ -94,28 +94,38 @@ def make(out_dir: Path, quick: bool) -> list[str]:
     trunc_ns = (5000, 7000, 10000) if not quick else (5000, 7000)
     pipeline_ns = (500, 1000, 2000, 5000, 10000) if not quick else (500, 1000)
     curves = {
-        "default: simulate(exact), periodic steady state, all links": (default_ns, [time_default(n) for n in default_ns]),
+        "default: simulate(exact), periodic steady state, all links": (
+            default_ns,
+            [time_default(n) for n in default_ns],
+        ),
         "modal sweep engine, all N modes (dense eigh)": (modal_ns, [time_modal(n, None) for n in modal_ns]),
-        f"modal sweep engine, {TRUNCATED_MODES} lowest modes (sparse Lanczos)":
-            (trunc_ns, [time_modal(n, TRUNCATED_MODES) for n in trunc_ns]),
-        f"pipeline path: simulate(exact) in {MODES_FOR_LONG_CHAINS} modes above {DENSE_LINK_LIMIT} links":
-            (pipeline_ns, [time_pipeline_path(n) for n in pipeline_ns]),
+        f"modal sweep engine, {TRUNCATED_MODES} lowest modes (sparse Lanczos)": (
+            trunc_ns,
+            [time_modal(n, TRUNCATED_MODES) for n in trunc_ns],
+        ),
+        f"pipeline path: simulate(exact) in {MODES_FOR_LONG_CHAINS} modes above {DENSE_LINK_LIMIT} links": (
+            pipeline_ns,
+            [time_pipeline_path(n) for n in pipeline_ns],
+        ),
     }
     fig, ax = plt.subplots(figsize=(8.5, 6), dpi=100)
     lines = []
     for (label, (ns, ts)), marker in zip(curves.items(), "osD^"):
         p = fit(ns, ts)
         ax.loglog(ns, ts, marker=marker, label=f"{label}: time ~ N^{p:.2f}")
-        lines.append(f"{label}: exponent {p:.2f} (fit over N >= 100); " +
-                     ", ".join(f"N={n}: {t:.3g} s" for n, t in zip(ns, ts)))
+        lines.append(
+            f"{label}: exponent {p:.2f} (fit over N >= 100); " + ", ".join(f"N={n}: {t:.3g} s" for n, t in zip(ns, ts))
+        )
     n_big = trunc_ns[-1]
     model = ChainModel(n_big, M_KG, K_N_PER_M)
     r1 = rpm_sweep(model, "modified-sine", [180.0], modes=chain_modes(model, TRUNCATED_MODES))
     r2 = rpm_sweep(model, "modified-sine", [180.0], modes=chain_modes(model, 2 * TRUNCATED_MODES))
     rel = abs(r1.residual_vibration_m[0, 0] - r2.residual_vibration_m[0, 0]) / r2.residual_vibration_m[0, 0]
     rel_a = abs(r1.peak_acceleration_m_s2[0, 0] - r2.peak_acceleration_m_s2[0, 0]) / r2.peak_acceleration_m_s2[0, 0]
-    lines.append(f"N={n_big}: {TRUNCATED_MODES} vs {2 * TRUNCATED_MODES} modes: residual vibration differs by "
-                 f"{rel:.2e}, peak acceleration by {rel_a:.2e} (relative)")
+    lines.append(
+        f"N={n_big}: {TRUNCATED_MODES} vs {2 * TRUNCATED_MODES} modes: residual vibration differs by "
+        f"{rel:.2e}, peak acceleration by {rel_a:.2e} (relative)"
+    )
     ax.set_xlabel("number of links N")
     ax.set_ylabel("CPU time (s), one thread, one cam, 180 rpm, cold")
     ax.set_title(

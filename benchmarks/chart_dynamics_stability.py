@@ -24,13 +24,24 @@ def make(out_dir: Path, quick: bool) -> list[str]:
     fig, axes = plt.subplots(3, 4, figsize=(15, 10.5), dpi=100)
     k_line = np.logspace(np.log10(min(stiff)) - 0.3, np.log10(max(stiff)) + 0.3, 50)
     for ax, panel in zip(axes.flat, panels):
-        chosen = [c for c in cases if (c.method in ("exact", "modal")) == (panel == "exact / modal")
-                  and (panel == "exact / modal" or c.method == panel)]
+        chosen = [
+            c
+            for c in cases
+            if (c.method in ("exact", "modal")) == (panel == "exact / modal")
+            and (panel == "exact / modal" or c.method == panel)
+        ]
         for c in chosen:
             marker, offset = N_MARKERS[c.n_links]
             x = {"exact": 1.0, "modal": 2.0}[c.method] if panel == "exact / modal" else c.parameter
-            ax.scatter(x, c.stiffness_N_per_m * offset, color=COLORS[c.outcome], marker=marker, s=36,
-                       edgecolors="k", linewidths=0.4)
+            ax.scatter(
+                x,
+                c.stiffness_N_per_m * offset,
+                color=COLORS[c.outcome],
+                marker=marker,
+                s=36,
+                edgecolors="k",
+                linewidths=0.4,
+            )
         ax.set_yscale("log")
         ax.set_ylabel("link stiffness k (N/m)")
         if panel == "exact / modal":
@@ -57,11 +68,17 @@ def make(out_dir: Path, quick: bool) -> list[str]:
     legend_ax.legend(loc="center", fontsize=9)
     legend_ax.axis("off")
     axes.flat[-1].axis("off")
-    axes.flat[-1].text(0, 0.5, "accurate: max |y − y_ref| ≤ 1 % of max |y_ref|\n"
-                       "reference: exact first-order hold\n"
-                       "one index cycle from rest, 180 rpm, modified sine,\n"
-                       "one-degree outputs, m = 2 kg, ζ = 0.13, friction 0\n"
-                       "central difference above 2/ω_max: refused\n(SolverDivergedError)", fontsize=8, va="center")
+    axes.flat[-1].text(
+        0,
+        0.5,
+        "accurate: max |y − y_ref| ≤ 1 % of max |y_ref|\n"
+        "reference: exact first-order hold\n"
+        "one index cycle from rest, 180 rpm, modified sine,\n"
+        "one-degree outputs, m = 2 kg, ζ = 0.13, friction 0\n"
+        "central difference above 2/ω_max: refused\n(SolverDivergedError)",
+        fontsize=8,
+        va="center",
+    )
     fig.suptitle("Dynamics stability map: outcome per method, step/tolerance, stiffness and N", fontsize=11)
     fig.tight_layout()
     path = out_dir / "dynamics_stability_map.png"
@@ -72,8 +89,11 @@ def make(out_dir: Path, quick: bool) -> list[str]:
         mine = [c for c in cases if c.method == method]
         counts = {o: sum(c.outcome == o for c in mine) for o in COLORS}
         worst = max(mine, key=lambda c: c.wall_s)
-        lines.append(f"{method:18s} " + ", ".join(f"{o} {n}" for o, n in counts.items() if n) +
-                     f"; slowest case {worst.wall_s:.2f} s (k {worst.stiffness_N_per_m:.0e}, N {worst.n_links})")
+        lines.append(
+            f"{method:18s} "
+            + ", ".join(f"{o} {n}" for o, n in counts.items() if n)
+            + f"; slowest case {worst.wall_s:.2f} s (k {worst.stiffness_N_per_m:.0e}, N {worst.n_links})"
+        )
     cd = [c for c in cases if c.method == "central-difference"]
     agree = all((c.outcome == "diverged") == (c.parameter > c.central_difference_limit_s) for c in cd)
     lines.append(f"central difference: diverged exactly where dt > 2/omega_max: {agree}")

@@ -25,8 +25,12 @@ def make(out_dir: Path, quick: bool) -> list[str]:
     i180 = int(np.argmin(np.abs(rpms - 180.0)))
     lines = [f"{rpms.size} speeds x {len(CAMS)} cams, 85 modes, {result.samples_per_cycle} samples/cycle: {wall:.2f} s"]
     for k, cam in enumerate(CAMS):
-        lines.append(f"  {cam:20s} at {rpms[i180]:.1f} rpm: residual {result.residual_vibration_m[k, i180] * 1e3:.3f} mm, "
-                     f"peak |a| {result.peak_acceleration_m_s2[k, i180]:.4g} m/s^2")
-    lines.append("critical speeds (rpm, mode, harmonic): " + ", ".join(
-        f"{c.rpm:.1f} (m{c.mode}, h{c.harmonic})" for c in result.critical_speeds))
+        lines.append(
+            f"  {cam:20s} at {rpms[i180]:.1f} rpm: residual {result.residual_vibration_m[k, i180] * 1e3:.3f} mm, "
+            f"peak |a| {result.peak_acceleration_m_s2[k, i180]:.4g} m/s^2"
+        )
+    lines.append(
+        "critical speeds (rpm, mode, harmonic): "
+        + ", ".join(f"{c.rpm:.1f} (m{c.mode}, h{c.harmonic})" for c in result.critical_speeds)
+    )
     return lines + [f"wrote {path}"]

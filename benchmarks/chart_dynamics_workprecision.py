@@ -53,21 +53,36 @@ def make(out_dir: Path, quick: bool) -> list[str]:
                 continue
             t = [m.wall_s for m in pts]
             e = [max(m.error_m, FLOOR_M) for m in pts]
-            ax.loglog(t, e, "-", color=colors[method], marker=markers[method], ms=14 if method == "exact" else 5,
-                      label=method, lw=1.2)
+            ax.loglog(
+                t,
+                e,
+                "-",
+                color=colors[method],
+                marker=markers[method],
+                ms=14 if method == "exact" else 5,
+                label=method,
+                lw=1.2,
+            )
             best = min(pts, key=lambda m: m.wall_s)
-            lines.append(f"N={n} {method:18s} fastest {best.wall_s * 1e3:9.2f} ms at error {best.error_m:.3g} m; "
-                         f"most accurate {min(m.error_m for m in pts):.3g} m")
+            lines.append(
+                f"N={n} {method:18s} fastest {best.wall_s * 1e3:9.2f} ms at error {best.error_m:.3g} m; "
+                f"most accurate {min(m.error_m for m in pts):.3g} m"
+            )
         failed = [m for m in results if m.status != "ok"]
         for m in failed:
             lines.append(f"N={n} {m.method} {m.parameter_name}={m.parameter:g}: {m.status}")
         ax.axhline(floor, color="k", ls=":", lw=1)
-        ax.text(ax.get_xlim()[0] * 1.1, floor * 1.4, "force sampling error (1° first-order hold vs analytic cam)",
-                fontsize=7)
+        ax.text(
+            ax.get_xlim()[0] * 1.1,
+            floor * 1.4,
+            "force sampling error (1° first-order hold vs analytic cam)",
+            fontsize=7,
+        )
         ax.set_xlabel("wall time per solve (s), cold (one-off set-up included)")
         ax.set_ylabel("max |x − x_ref| over links and output times (m)")
-        ax.set_title(f"N = {n} links (2N = {2 * n} states); peak |x − z| = {np.max(np.abs(ref)) * 1e3:.2f} mm",
-                     fontsize=10)
+        ax.set_title(
+            f"N = {n} links (2N = {2 * n} states); peak |x − z| = {np.max(np.abs(ref)) * 1e3:.2f} mm", fontsize=10
+        )
         ax.grid(True, which="both", alpha=0.3)
         lines.append(f"N={n}: force sampling error {floor:.3g} m, peak relative deflection {np.max(np.abs(ref)):.3g} m")
     handles, labels = axes[0].get_legend_handles_labels()

@@ -19,8 +19,8 @@ from chart_fea_workprecision import _finish  # benchmarks/ is on the path (chart
 
 import fem
 import geometry
-from fem.stress import stress_study
 from fem.settings import DEFAULT_BORE_REFINEMENT
+from fem.stress import stress_study
 
 MATERIAL = "al6061-t6"
 BASE_M = 0.0045
@@ -45,20 +45,36 @@ def make(out_dir: Path, quick: bool) -> list[str]:
     best = local.peak_Pa_per_N
     fig, ax = plt.subplots(figsize=(8.5, 6), dpi=100)
     lines = []
-    ax.semilogx([t for *_, t in uniform], [abs(p / best - 1) for _, _, p, _ in uniform], "s-",
-                label="uniform refinement (6, 4.5, 3.4, 2.6 mm)")
+    ax.semilogx(
+        [t for *_, t in uniform],
+        [abs(p / best - 1) for _, _, p, _ in uniform],
+        "s-",
+        label="uniform refinement (6, 4.5, 3.4, 2.6 mm)",
+    )
     for h, dofs, peak, t in uniform:
         lines.append(f"uniform {h * 1e3:.2g} mm: {dofs} DOFs, peak {peak * 1e-3:.4g} MPa/kN, cumulative {t:.1f} s")
     times = local.level_seconds
-    ax.semilogx(times, [abs(p / best - 1) for _, _, p in local.levels], "o-",
-                label="local refinement at the hot spots (fem.stress), from the 4.5 mm mesh")
+    ax.semilogx(
+        times,
+        [abs(p / best - 1) for _, _, p in local.levels],
+        "o-",
+        label="local refinement at the hot spots (fem.stress), from the 4.5 mm mesh",
+    )
     for (size, dofs, peak), t in zip(local.levels, times):
         lines.append(f"local {size * 1e3:.2g} mm: {dofs} DOFs, peak {peak * 1e-3:.4g} MPa/kN, cumulative {t:.1f} s")
-    ax.axhspan(0, local.rel_change, color="grey", alpha=0.2,
-               label=f"finest value's last change ({local.rel_change * 100:.1f} %): not resolved")
+    ax.axhspan(
+        0,
+        local.rel_change,
+        color="grey",
+        alpha=0.2,
+        label=f"finest value's last change ({local.rel_change * 100:.1f} %): not resolved",
+    )
     ax.axhline(0.05, color="k", ls=":", label="5 % (the issue's convergence target)")
     ax.set_xlabel("wall time (s), cumulative: meshing + assembly + solve + stress")
     ax.set_ylabel("relative difference to the finest local-refinement peak")
-    ax.set_title(f"Peak von Mises stress work-precision, default link, aluminium: {best * 1e-3:.4g} MPa per kN "
-                 f"at {tuple(round(x * 1e3, 1) for x in local.location_m)} mm", fontsize=9)
+    ax.set_title(
+        f"Peak von Mises stress work-precision, default link, aluminium: {best * 1e-3:.4g} MPa per kN "
+        f"at {tuple(round(x * 1e3, 1) for x in local.location_m)} mm",
+        fontsize=9,
+    )
     return lines + [local.description, _finish(fig, ax, out_dir / "fea_stress_work_precision.png")]

@@ -116,13 +116,15 @@ def measure(quick: bool) -> Measurements:
     whole = {"mirror_symmetry": False}  # the paths before the mirror half, as they ran
     studies = {
         "previous default: 3 uniform levels 6.5/4.5/3.5 mm": fem.stiffness_study(
-            None, material, mesh_sizes_m=(0.0065, 0.0045, 0.0035), **whole),
+            None, material, mesh_sizes_m=(0.0065, 0.0045, 0.0035), **whole
+        ),
         "2 levels relative to the part (6/4.5 mm), whole link": fem.stiffness_study(None, material, **whole),
         "new default: the same, finest on the mirror half": fem.stiffness_study(None, material),
     }
     if not quick:
-        studies["2 levels 4.5/3.4 mm, whole link"] = fem.stiffness_study(None, material, mesh_sizes_m=(0.0045, 0.003375),
-                                                                         **whole)
+        studies["2 levels 4.5/3.4 mm, whole link"] = fem.stiffness_study(
+            None, material, mesh_sizes_m=(0.0045, 0.003375), **whole
+        )
     return Measurements(curves, curved, reference, adaptive, studies)
 
 
@@ -148,23 +150,37 @@ def plot_work_precision(m: Measurements, path: Path) -> list[str]:
         errors = [relative_error(p.stiffness_N_per_m, ref) for p in pts]
         ax.loglog([p.wall_s for p in pts], errors, marker=marker, label=kind)
         for p, e in zip(pts, errors):
-            lines.append(f"{kind}: h = {p.mesh_size_m * 1e3:.3g} mm, {p.dofs} DOFs, k = {p.stiffness_N_per_m:.6e} N/m, "
-                         f"error {e:.2e}, {p.wall_s:.2f} s (mesh {p.timing_s['mesh']:.2f}, assembly {p.timing_s['assembly']:.2f}, solve {p.timing_s['solve']:.2f})")
+            lines.append(
+                f"{kind}: h = {p.mesh_size_m * 1e3:.3g} mm, {p.dofs} DOFs, k = {p.stiffness_N_per_m:.6e} N/m, "
+                f"error {e:.2e}, {p.wall_s:.2f} s (mesh {p.timing_s['mesh']:.2f}, assembly {p.timing_s['assembly']:.2f}, solve {p.timing_s['solve']:.2f})"
+            )
     certified = {f"stiffness_to_tolerance({tol:g})": est for tol, est in m.adaptive.items()} | m.studies
     for (label, est), marker in zip(certified.items(), "*DPXhv"):
         actual = relative_error(est.stiffness_N_per_m, ref)
         wall = adaptive_wall_s(est)
         estimate = est.stiffness_rel_error_estimate
         ax.loglog([wall, wall], [actual, estimate], "k-", lw=0.8)
-        ax.loglog([wall], [actual], "k" + marker, markersize=9, label=f"{label}: actual error (filled), estimate (open)")
+        ax.loglog(
+            [wall], [actual], "k" + marker, markersize=9, label=f"{label}: actual error (filled), estimate (open)"
+        )
         ax.loglog([wall], [estimate], marker, color="k", markerfacecolor="none", markersize=9)
-        lines.append(f"{label}: {len(est.levels)} levels, estimated error {estimate:.2e}, "
-                     f"actual {actual:.2e}, {wall:.1f} s (meshing + assembly + solve)")
-    ax.axhspan(1e-6, ref.rel_error_estimate, color="grey", alpha=0.2,
-               label=f"below the reference's own estimated error ({ref.rel_error_estimate:.1e}): not resolved")
+        lines.append(
+            f"{label}: {len(est.levels)} levels, estimated error {estimate:.2e}, "
+            f"actual {actual:.2e}, {wall:.1f} s (meshing + assembly + solve)"
+        )
+    ax.axhspan(
+        1e-6,
+        ref.rel_error_estimate,
+        color="grey",
+        alpha=0.2,
+        label=f"below the reference's own estimated error ({ref.rel_error_estimate:.1e}): not resolved",
+    )
     ax.set_xlabel("wall time (s): meshing + assembly + solve, 2 cores")
     ax.set_ylabel("relative error of k against the reference")
-    ax.set_title(f"FEA work-precision, default link, aluminium; reference k = {ref.extrapolated / 1e6:.2f} MN/m (Richardson, curved P2)", fontsize=9)
+    ax.set_title(
+        f"FEA work-precision, default link, aluminium; reference k = {ref.extrapolated / 1e6:.2f} MN/m (Richardson, curved P2)",
+        fontsize=9,
+    )
     ax.set_ylim(bottom=1e-4)
     walls = [p.wall_s for pts in m.curves.values() for p in pts] + [adaptive_wall_s(e) for e in certified.values()]
     ax.set_xlim(0.8 * min(walls), 1.5 * max(walls))
@@ -180,11 +196,16 @@ def plot_cost_growth(m: Measurements, path: Path) -> list[str]:
     for (part, times), marker in zip(parts.items(), "oD^v"):
         exponent = fit_exponent(dofs, times)
         ax.loglog(dofs, times, marker=marker, label=f"{part}: time ~ DOFs^{exponent:.2f}")
-        lines.append(f"cost growth, curved P2, {part}: exponent {exponent:.2f} (fit over >= {FIT_MIN_DOFS} DOFs); "
-                     + ", ".join(f"{d}: {t:.2f} s" for d, t in zip(dofs, times)))
+        lines.append(
+            f"cost growth, curved P2, {part}: exponent {exponent:.2f} (fit over >= {FIT_MIN_DOFS} DOFs); "
+            + ", ".join(f"{d}: {t:.2f} s" for d, t in zip(dofs, times))
+        )
     ax.set_xlabel("FEA degrees of freedom (curved P2)")
     ax.set_ylabel("wall time (s), 2 cores")
-    ax.set_title("FEA cost growth on the default link: meshing (gmsh HXT), assembly (scikit-fem blocks), solve (PARDISO)", fontsize=9)
+    ax.set_title(
+        "FEA cost growth on the default link: meshing (gmsh HXT), assembly (scikit-fem blocks), solve (PARDISO)",
+        fontsize=9,
+    )
     return lines + [_finish(fig, ax, path)]
 
 
@@ -199,4 +220,6 @@ def _finish(fig, ax, path: Path) -> str:
 
 def make(out_dir: Path, quick: bool) -> list[str]:
     m = measure(quick)
-    return plot_work_precision(m, out_dir / "fea_work_precision.png") + plot_cost_growth(m, out_dir / "fea_cost_growth.png")
+    return plot_work_precision(m, out_dir / "fea_work_precision.png") + plot_cost_growth(
+        m, out_dir / "fea_cost_growth.png"
+    )

@@ -26,9 +26,11 @@ import gmsh  # noqa: E402
 import geometry.assembly  # noqa: E402
 import pipeline  # noqa: E402
 
-COUNTED = ((gmsh.model.occ, "importShapes", "STEP translations (importShapes)"),
-           (geometry.assembly, "find_holes", "hole detections (find_holes)"),
-           (geometry.assembly, "select_pin_bores", "pin-bore choices (select_pin_bores)"))
+COUNTED = (
+    (gmsh.model.occ, "importShapes", "STEP translations (importShapes)"),
+    (geometry.assembly, "find_holes", "hole detections (find_holes)"),
+    (geometry.assembly, "select_pin_bores", "pin-bore choices (select_pin_bores)"),
+)
 
 
 def count(argv: list[str]) -> tuple[Counter, Counter]:
@@ -42,6 +44,7 @@ def count(argv: list[str]) -> tuple[Counter, Counter]:
                 return function(*args, **kwargs)
             finally:
                 seconds[key] += time.perf_counter() - start
+
         return wrapper
 
     for owner, name, key in COUNTED:

@@ -104,11 +104,21 @@ def exudyn_chain_response(
     spans = []
     for j in range(n):
         data = mbs.AddNode(ii.NodeGenericData(numberOfDataCoordinates=3, initialCoordinates=[0.0, 0.0, static_state]))
-        spans.append(mbs.AddObject(ii.CoordinateSpringDamperExt(
-            markerNumbers=[markers[j], markers[(j + 1) % n]], nodeNumber=data, stiffness=0.0,
-            damping=beta * k if damping_law == "rayleigh" else 0.0,
-            useLimitStops=True, limitStopsStiffness=k, limitStopsUpper=upper, limitStopsLower=lower,
-            limitStopsDamping=beta * k if damping_law == "kelvin-voigt" else 0.0)))
+        spans.append(
+            mbs.AddObject(
+                ii.CoordinateSpringDamperExt(
+                    markerNumbers=[markers[j], markers[(j + 1) % n]],
+                    nodeNumber=data,
+                    stiffness=0.0,
+                    damping=beta * k if damping_law == "rayleigh" else 0.0,
+                    useLimitStops=True,
+                    limitStopsStiffness=k,
+                    limitStopsUpper=upper,
+                    limitStopsLower=lower,
+                    limitStopsDamping=beta * k if damping_law == "kelvin-voigt" else 0.0,
+                )
+            )
+        )
     mbs.AddObject(ii.CoordinateSpringDamper(markerNumbers=[ground_marker, markers[0]], stiffness=kd, damping=beta * kd))
 
     def cam_load(mbs_, t_s, load):
@@ -116,12 +126,33 @@ def exudyn_chain_response(
         return kd * z + beta * kd * zd
 
     mbs.AddLoad(ii.LoadCoordinate(markerNumber=markers[0], load=0.0, loadUserFunction=cam_load))
-    kinds = (exu.OutputVariableType.Coordinates, exu.OutputVariableType.Coordinates_t,
-             exu.OutputVariableType.Coordinates_tt)
-    sensors = [[mbs.AddSensor(ii.SensorNode(nodeNumber=node, storeInternal=True, writeToFile=False,
-                                            outputVariableType=kind)) for node in nodes] for kind in kinds]
-    sensors.append([mbs.AddSensor(ii.SensorObject(objectNumber=span, storeInternal=True, writeToFile=False,
-                                                  outputVariableType=exu.OutputVariableType.Force)) for span in spans])
+    kinds = (
+        exu.OutputVariableType.Coordinates,
+        exu.OutputVariableType.Coordinates_t,
+        exu.OutputVariableType.Coordinates_tt,
+    )
+    sensors = [
+        [
+            mbs.AddSensor(
+                ii.SensorNode(nodeNumber=node, storeInternal=True, writeToFile=False, outputVariableType=kind)
+            )
+            for node in nodes
+        ]
+        for kind in kinds
+    ]
+    sensors.append(
+        [
+            mbs.AddSensor(
+                ii.SensorObject(
+                    objectNumber=span,
+                    storeInternal=True,
+                    writeToFile=False,
+                    outputVariableType=exu.OutputVariableType.Force,
+                )
+            )
+            for span in spans
+        ]
+    )
     mbs.Assemble()
 
     settings = exu.SimulationSettings()

@@ -23,8 +23,8 @@ import numpy as np
 from dynamics.cams import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.machine import MachineOnWheels
-from dynamics.solvers.machine_steady import link_residual_and_peak, periodic_state
 from dynamics.models.wheels import Wheel, pitch_radius_m, steel_disc_inertia_kg_m2
+from dynamics.solvers.machine_steady import link_residual_and_peak, periodic_state
 from geometry.dimensions import DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG
 
 PITCH_M = 0.1125
@@ -42,17 +42,26 @@ def machines(with_polygon: bool):
     heavy = Wheel(TEETH, PITCH_M, WRAP, inertia_kg_m2=j)
     rows = [
         ("today: link 1 driven through k_d", MachineOnWheels(chain, drive="link"), False),
-        ("six seated links held to the cam", MachineOnWheels(chain, sprocket=bare, polygonal=False,
-                                                             drive_torsional_stiffness_N_m_per_rad=np.inf), None),
+        (
+            "six seated links held to the cam",
+            MachineOnWheels(chain, sprocket=bare, polygonal=False, drive_torsional_stiffness_N_m_per_rad=np.inf),
+            None,
+        ),
         ("+ drive compliance k_d R_m^2", MachineOnWheels(chain, sprocket=bare, polygonal=False), True),
         ("+ sprocket inertia", MachineOnWheels(chain, sprocket=heavy, polygonal=False), True),
-        ("+ idler wheel (6 seated, inertia, fixed axle)",
-         MachineOnWheels(chain, sprocket=heavy, idler=heavy, polygonal=False), True),
+        (
+            "+ idler wheel (6 seated, inertia, fixed axle)",
+            MachineOnWheels(chain, sprocket=heavy, idler=heavy, polygonal=False),
+            True,
+        ),
     ]
     if with_polygon:
         rows += [
-            ("polygonal action alone (held sprocket)",
-             MachineOnWheels(chain, sprocket=bare, drive_torsional_stiffness_N_m_per_rad=np.inf), True),
+            (
+                "polygonal action alone (held sprocket)",
+                MachineOnWheels(chain, sprocket=bare, drive_torsional_stiffness_N_m_per_rad=np.inf),
+                True,
+            ),
             ("all together (+ polygonal action)", MachineOnWheels(chain, sprocket=heavy, idler=heavy), True),
         ]
     return rows, j
@@ -71,13 +80,17 @@ def main() -> None:
     args = parser.parse_args()
     cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180.0)
     rows, j = machines(not args.no_polygon)
-    print(f"sprocket/idler: z = {TEETH}, R = {pitch_radius_m(PITCH_M, TEETH) * 1e3:.1f} mm, "
-          f"R_m = {PITCH_M * TEETH / (2 * np.pi) * 1e3:.1f} mm, J = {j:.3f} kg m^2 (steel disc, "
-          f"{DISC_THICKNESS_M * 1e3:.0f} mm); k_theta default = "
-          f"{rows[2][1].drive_stiffness_N_m_per_rad:.4g} N m/rad")
+    print(
+        f"sprocket/idler: z = {TEETH}, R = {pitch_radius_m(PITCH_M, TEETH) * 1e3:.1f} mm, "
+        f"R_m = {PITCH_M * TEETH / (2 * np.pi) * 1e3:.1f} mm, J = {j:.3f} kg m^2 (steel disc, "
+        f"{DISC_THICKNESS_M * 1e3:.0f} mm); k_theta default = "
+        f"{rows[2][1].drive_stiffness_N_m_per_rad:.4g} N m/rad"
+    )
     print("station: the tight strand's middle (machine) / link 64 (today's tight-side station)")
-    print(f"{'configuration':48s} {'f1 Hz':>7s} {'frame':>10s} {'resid mm':>9s} {'peak a':>8s} "
-          f"{'resid@64':>9s} {'peak@64':>8s} {'seat m/s':>9s} {'impact J':>9s} {'dE J':>9s} {'s':>5s}")
+    print(
+        f"{'configuration':48s} {'f1 Hz':>7s} {'frame':>10s} {'resid mm':>9s} {'peak a':>8s} "
+        f"{'resid@64':>9s} {'peak@64':>8s} {'seat m/s':>9s} {'impact J':>9s} {'dE J':>9s} {'s':>5s}"
+    )
     for name, machine, relabel_only in rows:
         f1 = machine.natural_frequencies_Hz()[0]  # of the polygon-free linearisation
         frames = [False] if relabel_only is False else ([True] if relabel_only else [False, True])
@@ -89,9 +102,11 @@ def main() -> None:
             impact = sum(r.seating_impact_J) if r.seating_impact_J else float("nan")
             change = r.transfer_energy_change_J if relabel else float("nan")
             frame = "relabelled" if relabel else "labelled"
-            print(f"{name:48s} {f1:7.2f} {frame:>10s} {res * 1e3:9.3f} {peak:8.1f} {res64 * 1e3:9.3f} "
-                  f"{peak64:8.1f} {seat:9.2e} {impact:9.2e} {change:9.2e} {time.perf_counter() - start:5.1f}",
-                  flush=True)
+            print(
+                f"{name:48s} {f1:7.2f} {frame:>10s} {res * 1e3:9.3f} {peak:8.1f} {res64 * 1e3:9.3f} "
+                f"{peak64:8.1f} {seat:9.2e} {impact:9.2e} {change:9.2e} {time.perf_counter() - start:5.1f}",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":

@@ -55,8 +55,9 @@ def machine_lines() -> list[str]:
 
     return [
         f"machine: {cpu_model()}, {os.cpu_count()} logical cores, {platform.system()} {platform.release()}",
-        "BLAS limited to 1 thread for every measurement" if _has_threadpoolctl() else
-        "BLAS threads NOT limited (threadpoolctl missing): timings are noisier",
+        "BLAS limited to 1 thread for every measurement"
+        if _has_threadpoolctl()
+        else "BLAS threads NOT limited (threadpoolctl missing): timings are noisier",
         f"python {platform.python_version()}, numpy {numpy.__version__}, scipy {scipy.__version__}",
     ]
 

@@ -32,11 +32,11 @@ from typing import NamedTuple
 
 import numpy as np
 
-from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.errors import DynamicsError
-from dynamics.solvers.simulate import ChainResponse, SlackChainWarning, simulate
+from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
+from dynamics.solvers.simulate import ChainResponse, SlackChainWarning, simulate
 
 MODEL_CHOICES = ("auto", "linear", "clearance")
 MAX_SUBHARMONIC = 6
@@ -123,9 +123,15 @@ class ImpactStatistics:
 def impact_statistics(run, cycles: float) -> ImpactStatistics:
     """ImpactStatistics of an integrator run (dynamics.solvers.clearance_verlet.Run) over `cycles` cam cycles."""
     speeds = run.impact_speeds_m_s
-    median, p90 = (np.percentile(speeds, [50.0, 90.0]) if speeds.size else (0.0, 0.0))
-    return ImpactStatistics(run.impact_max_speed_m_s, float(median), float(p90), run.impact_force_spike_N,
-                            float(run.impact_kinetic_energy_J / cycles), float(run.impact_dissipated_J / cycles))
+    median, p90 = np.percentile(speeds, [50.0, 90.0]) if speeds.size else (0.0, 0.0)
+    return ImpactStatistics(
+        run.impact_max_speed_m_s,
+        float(median),
+        float(p90),
+        run.impact_force_spike_N,
+        float(run.impact_kinetic_energy_J / cycles),
+        float(run.impact_dissipated_J / cycles),
+    )
 
 
 @dataclass(frozen=True)
@@ -166,39 +172,75 @@ def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float
     # the reasons carry no numbers (linear_min_tension_N is reported beside them), so that scenarios
     # with the same reason read as one group in the report
     if linear_min_tension_N >= 0.0:
-        return ModelChoice(linear, "the linear solution never leaves pulling contact (its minimum tension stays >= 0), "
-                                   "so the free play is never entered", valid)
-    return ModelChoice(clearance, "the linear solution leaves pulling contact (its minimum tension goes below zero "
-                                  "against the preload): the pin free play is crossed and the load reverses through "
-                                  "impacts", valid)
+        return ModelChoice(
+            linear,
+            "the linear solution never leaves pulling contact (its minimum tension stays >= 0), "
+            "so the free play is never entered",
+            valid,
+        )
+    return ModelChoice(
+        clearance,
+        "the linear solution leaves pulling contact (its minimum tension goes below zero "
+        "against the preload): the pin free play is crossed and the load reverses through "
+        "impacts",
+        valid,
+    )
 
 
-def simulate_chain(model: ClearanceChain, cam, t_eval_s, *, choice: str = "auto", steady_state: bool = True,
-                   links=None, n_modes: int | None = None, method: str = "exact", safety: float | None = None,
-                   tol: float = DEFAULT_TOL, max_cycles: int = DEFAULT_MAX_CYCLES,
-                   predictor: str | None = None) -> tuple[ChainResponse, ContactSummary]:
+def simulate_chain(
+    model: ClearanceChain,
+    cam,
+    t_eval_s,
+    *,
+    choice: str = "auto",
+    steady_state: bool = True,
+    links=None,
+    n_modes: int | None = None,
+    method: str = "exact",
+    safety: float | None = None,
+    tol: float = DEFAULT_TOL,
+    max_cycles: int = DEFAULT_MAX_CYCLES,
+    predictor: str | None = None,
+) -> tuple[ChainResponse, ContactSummary]:
     """The response of the scene's model at t_eval_s and what it says about contact. The clearance
     chain's step: a fraction `safety` (default `verlet.default_safety`) of the stability limit of the
     velocity `predictor` (default `verlet.default_predictor`)."""
     t = np.asarray(t_eval_s, dtype=float)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SlackChainWarning)  # reported through the summary
-        lin = simulate(model.chain, cam, t, method=method, steady_state=steady_state, n_modes=n_modes,
-                       links=None if choice != "linear" else links)
+        lin = simulate(
+            model.chain,
+            cam,
+            t,
+            method=method,
+            steady_state=steady_state,
+            n_modes=n_modes,
+            links=None if choice != "linear" else links,
+        )
     preload = model.chain.preload_N
     needed = max(preload - lin.min_tension_N, 0.0)
     chosen = choose_model(model, choice, lin.min_tension_N)
     if chosen.model == ChainModelKind.LINEAR:
         out = lin if links is None or choice == "linear" else _select(lin, links)
-        summary = ContactSummary(*chosen, model.clearance_m, lin.min_tension_N < 0.0,
-                                 float(np.mean(lin.tension_N < 0.0)) if model.clearance_m > 0 else 0.0,
-                                 0.0, 0.0, float(lin.tension_N.max()), lin.min_tension_N, needed, lin.min_tension_N)
+        summary = ContactSummary(
+            *chosen,
+            model.clearance_m,
+            lin.min_tension_N < 0.0,
+            float(np.mean(lin.tension_N < 0.0)) if model.clearance_m > 0 else 0.0,
+            0.0,
+            0.0,
+            float(lin.tension_N.max()),
+            lin.min_tension_N,
+            needed,
+            lin.min_tension_N,
+        )
         return out, summary
     predictor = verlet.default_predictor(model) if predictor is None else predictor
     safety = verlet.default_safety(model, predictor) if safety is None else safety
     with serial_blas():
-        return _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed,
-                                   predictor)
+        return _clearance_response(
+            model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor
+        )
 
 
 def _select(r: ChainResponse, links) -> ChainResponse:
@@ -226,24 +268,50 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
     if steady_state:
         state, ss = _periodic_state(model, cam, t[0], h, state, tol, max_cycles, predictor)
     zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
-    run = verlet.integrate(model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub,
-                           predictor=predictor)
+    run = verlet.integrate(
+        model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub, predictor=predictor
+    )
     s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
     cols = list(range(n)) if links is None else [int(i) for i in np.atleast_1d(links)]
     tension = model.tension_N(run.y, run.u)
     period = getattr(cam, "period_s", None) or (t[-1] - t[0])
     cycles = (t[-1] - t[0]) / period
     response = ChainResponse(
-        t_s=t, x_m=s[:, None] + run.y[:, cols], v_m_s=v[:, None] + run.w[:, cols], a_m_s2=a[:, None] + run.a[:, cols],
-        z_m=s, zdot_m_s=v, zddot_m_s2=a, tension_N=tension, drive_force_N=model.chain.drive_force_N(s + run.y[:, 0], s),
-        links=tuple(cols), min_tension_N=run.min_tension_N, slack=run.free_play_fraction > 0.0,
+        t_s=t,
+        x_m=s[:, None] + run.y[:, cols],
+        v_m_s=v[:, None] + run.w[:, cols],
+        a_m_s2=a[:, None] + run.a[:, cols],
+        z_m=s,
+        zdot_m_s=v,
+        zddot_m_s2=a,
+        tension_N=tension,
+        drive_force_N=model.chain.drive_force_N(s + run.y[:, 0], s),
+        links=tuple(cols),
+        min_tension_N=run.min_tension_N,
+        slack=run.free_play_fraction > 0.0,
         method="clearance-verlet",
-        diagnostics={"steps_per_output": sub, "step_s": h, "steady_state": ss,
-                     "carriage_m": run.u if model.tensioner is not None else None})
+        diagnostics={
+            "steps_per_output": sub,
+            "step_s": h,
+            "steady_state": ss,
+            "carriage_m": run.u if model.tensioner is not None else None,
+        },
+    )
     summary = ContactSummary(
-        *chosen, model.clearance_m, run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
-        run.free_play_fraction, run.impacts / cycles, run.impact_force_spike_N, run.peak_tension_N,
-        run.min_tension_N, needed, lin.min_tension_N, ss, sub, impacts=impact_statistics(run, cycles))
+        *chosen,
+        model.clearance_m,
+        run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
+        run.free_play_fraction,
+        run.impacts / cycles,
+        run.impact_force_spike_N,
+        run.peak_tension_N,
+        run.min_tension_N,
+        needed,
+        lin.min_tension_N,
+        ss,
+        sub,
+        impacts=impact_statistics(run, cycles),
+    )
     return response, summary
 
 
@@ -261,29 +329,44 @@ def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler"
     scale = None
     residual = math.inf
     for cycle in range(1, max_cycles + 1):
-        run = verlet.integrate(model, zd, zdd, h_p, state[0], state[1], u0=state[2], ud0=state[3], out_every=every,
-                               predictor=predictor)
+        run = verlet.integrate(
+            model, zd, zdd, h_p, state[0], state[1], u0=state[2], ud0=state[3], out_every=every, predictor=predictor
+        )
         state = (run.y[-1], run.w[-1], float(run.u[-1]), float(run.ud[-1]))
         ends.append(np.concatenate([state[0], state[1], [state[2], state[3]]]))
         scale = _scale(run, model.n_links)
         residual = float(np.max(np.abs(ends[-1] - ends[-2]) / scale))
         if residual <= tol:
-            return state, SteadyState(True, 1, cycle, residual,
-                                      f"periodic steady state found after {cycle} cam cycles "
-                                      f"(change per cycle {residual:.2g} <= {tol:g})")
+            return state, SteadyState(
+                True,
+                1,
+                cycle,
+                residual,
+                f"periodic steady state found after {cycle} cam cycles (change per cycle {residual:.2g} <= {tol:g})",
+            )
     for k in range(2, MAX_SUBHARMONIC + 1):
         if len(ends) > k:
             res_k = float(np.max(np.abs(ends[-1] - ends[-1 - k]) / scale))
             if res_k <= tol:
-                return state, SteadyState(True, k, max_cycles, res_k,
-                                          f"subharmonic response: the motion repeats every {k} cam cycles, not every "
-                                          f"cycle (change per {k} cycles {res_k:.2g}); the output window shows "
-                                          f"{'all' if k <= 2 else 'part'} of that period")
-    return state, SteadyState(False, None, max_cycles, residual,
-                              f"NO periodic steady state found: after {max_cycles} cam cycles the state still changes "
-                              f"by {residual:.2g} per cycle and repeats after no k <= {MAX_SUBHARMONIC} cycles "
-                              "(a chaotic or very slowly settling response); the results are the motion after "
-                              f"{max_cycles} cycles, not a steady state")
+                return state, SteadyState(
+                    True,
+                    k,
+                    max_cycles,
+                    res_k,
+                    f"subharmonic response: the motion repeats every {k} cam cycles, not every "
+                    f"cycle (change per {k} cycles {res_k:.2g}); the output window shows "
+                    f"{'all' if k <= 2 else 'part'} of that period",
+                )
+    return state, SteadyState(
+        False,
+        None,
+        max_cycles,
+        residual,
+        f"NO periodic steady state found: after {max_cycles} cam cycles the state still changes "
+        f"by {residual:.2g} per cycle and repeats after no k <= {MAX_SUBHARMONIC} cycles "
+        "(a chaotic or very slowly settling response); the results are the motion after "
+        f"{max_cycles} cycles, not a steady state",
+    )
 
 
 def _scale(run, n: int) -> np.ndarray:
@@ -313,8 +396,9 @@ def tensioner_from(rate_N_per_m, mass_kg, damping_N_s_per_m) -> Tensioner | None
         return None
     if mass_kg is None:
         raise ValueError("the tensioner needs its carriage mass (--tensioner-mass KG) with its rate or damping")
-    return Tensioner(0.0 if rate_N_per_m is None else rate_N_per_m, mass_kg,
-                     0.0 if damping_N_s_per_m is None else damping_N_s_per_m)
+    return Tensioner(
+        0.0 if rate_N_per_m is None else rate_N_per_m, mass_kg, 0.0 if damping_N_s_per_m is None else damping_N_s_per_m
+    )
 
 
 def scene_model(scene: Scene, chain) -> ClearanceChain:
@@ -322,7 +406,17 @@ def scene_model(scene: Scene, chain) -> ClearanceChain:
     return ClearanceChain(chain, scene.pin_clearance_m, span_damping=scene.span_damping, tensioner=scene.tensioner)
 
 
-def simulate_scene(scene: Scene, chain, cam, t_eval_s, *, links=None, n_modes=None) -> tuple[ChainResponse, ContactSummary]:
+def simulate_scene(
+    scene: Scene, chain, cam, t_eval_s, *, links=None, n_modes=None
+) -> tuple[ChainResponse, ContactSummary]:
     """What the orchestrators call: the scene's model (auto, linear or clearance) for one cam."""
-    return simulate_chain(scene_model(scene, chain), cam, t_eval_s, choice=scene.model, steady_state=scene.steady_state,
-                          links=links, n_modes=n_modes, method=scene.solver)
+    return simulate_chain(
+        scene_model(scene, chain),
+        cam,
+        t_eval_s,
+        choice=scene.model,
+        steady_state=scene.steady_state,
+        links=links,
+        n_modes=n_modes,
+        method=scene.solver,
+    )

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import time
-from typing import Callable, Sequence
+from collections.abc import Callable, Sequence
 
 from .errors import FemError
 from .link import LinkSolution, analyse_link
@@ -83,8 +83,15 @@ def stiffness_to_tolerance(
     if not isinstance(material, Material):
         raise FemError(f"material: expected a fem.Material, got {type(material).__name__}")
     return stiffnesses_to_tolerance(
-        source, [material], rel_tolerance, settings, start_mesh_size_m=start_mesh_size_m, progress=progress,
-        max_dofs=max_dofs, ratio=ratio, **changes,
+        source,
+        [material],
+        rel_tolerance,
+        settings,
+        start_mesh_size_m=start_mesh_size_m,
+        progress=progress,
+        max_dofs=max_dofs,
+        ratio=ratio,
+        **changes,
     )[material.name]
 
 
@@ -127,17 +134,28 @@ def stiffnesses_to_tolerance(
         if len(first) >= 2:
             predicted = first[-1].dofs * first[-1].dofs / first[-2].dofs
             if predicted > max_dofs:
-                raise FemError(_unreached(rel_tolerance, sizes, solutions, f"the next level (h = {h * 1e3:.3g} mm) would have about {predicted:.3g} DOFs, above max_dofs = {max_dofs}"))
+                raise FemError(
+                    _unreached(
+                        rel_tolerance,
+                        sizes,
+                        solutions,
+                        f"the next level (h = {h * 1e3:.3g} mm) would have about {predicted:.3g} DOFs, above max_dofs = {max_dofs}",
+                    )
+                )
         level_start = time.perf_counter()
         level = (*settings_key, f"{h:.12e}")
         keys = {m.name: (*level, m) for m in materials}
         if any(key not in known for key in keys.values()):
             try:
-                link = geometry.mesh_part(part, mesh_size_m=h, order=fea.mesh_order, bore_refinement=fea.bore_refinement)
+                link = geometry.mesh_part(
+                    part, mesh_size_m=h, order=fea.mesh_order, bore_refinement=fea.bore_refinement
+                )
             except geometry.GeometryError as exc:
                 if not sizes:
                     raise
-                raise FemError(_unreached(rel_tolerance, sizes, solutions, f"geometry refused the next level: {exc}")) from None
+                raise FemError(
+                    _unreached(rel_tolerance, sizes, solutions, f"geometry refused the next level: {exc}")
+                ) from None
             known[(*level, "mesh seconds")] = time.perf_counter() - level_start
         mesh_time += known[(*level, "mesh seconds")]
         reused = True
@@ -149,7 +167,9 @@ def stiffnesses_to_tolerance(
                 known[keys[material.name]] = solution
             previous = solutions[material.name]
             if previous and solution.dofs <= previous[-1].dofs:
-                raise FemError(f"mesh_size_m={h:.4g}: refining gave {solution.dofs} DOFs, not more than {previous[-1].dofs}; the mesh does not follow the size")
+                raise FemError(
+                    f"mesh_size_m={h:.4g}: refining gave {solution.dofs} DOFs, not more than {previous[-1].dofs}; the mesh does not follow the size"
+                )
             previous.append(solution)
         sizes.append(h)
         errors = {name: _error(sols) for name, sols in solutions.items()}
@@ -164,24 +184,36 @@ def stiffnesses_to_tolerance(
         if None not in errors.values() and max(errors.values()) <= rel_tolerance:
             break
         if first[-1].dofs > max_dofs:
-            raise FemError(_unreached(rel_tolerance, sizes, solutions, f"this level already has {first[-1].dofs} DOFs, above max_dofs = {max_dofs}"))
+            raise FemError(
+                _unreached(
+                    rel_tolerance,
+                    sizes,
+                    solutions,
+                    f"this level already has {first[-1].dofs} DOFs, above max_dofs = {max_dofs}",
+                )
+            )
         h /= ratio
-    return {name: estimate_from_levels(sizes, sols, mesh_time / len(materials), fit_last=MIN_LEVELS, order=order)
-            for name, sols in solutions.items()}
+    return {
+        name: estimate_from_levels(sizes, sols, mesh_time / len(materials), fit_last=MIN_LEVELS, order=order)
+        for name, sols in solutions.items()
+    }
 
 
 def _error(solutions: list[LinkSolution]) -> float | None:
     if len(solutions) < MIN_LEVELS:
         return None
     last = solutions[-MIN_LEVELS:]
-    return extrapolate([s.stiffness_N_per_m for s in last], [s.whole_link_dofs for s in last],
-                       rate_bracket(last[-1].order)).rel_error_estimate
+    return extrapolate(
+        [s.stiffness_N_per_m for s in last], [s.whole_link_dofs for s in last], rate_bracket(last[-1].order)
+    ).rel_error_estimate
 
 
 def _unreached(rel_tolerance: float, sizes: list[float], solutions: dict[str, list[LinkSolution]], why: str) -> str:
     errors = [_error(sols) for sols in solutions.values()]
     error = None if None in errors else max(errors)
-    reached = f"fewer than {MIN_LEVELS} levels solved" if error is None else f"best estimated error {error:.2e} at h = {sizes[-1] * 1e3:.3g} mm"
+    reached = (
+        f"fewer than {MIN_LEVELS} levels solved"
+        if error is None
+        else f"best estimated error {error:.2e} at h = {sizes[-1] * 1e3:.3g} mm"
+    )
     return f"rel_tolerance={rel_tolerance:g} not reached: {why} ({reached}); expected a looser tolerance or a larger max_dofs"
-
-

@@ -49,7 +49,7 @@ class ElasticityParts:
     def matrix(self, lam_Pa: float, mu_Pa: float) -> sp.csr_matrix:
         return self._csr(lam_Pa * self.volumetric_data + mu_Pa * self.shear_data)
 
-    def restricted(self, keep: np.ndarray) -> "ElasticityParts":
+    def restricted(self, keep: np.ndarray) -> ElasticityParts:
         """The parts on the rows and columns `keep` (sorted DOF indices, e.g. the unconstrained ones)."""
         kept_dof = np.zeros(self.size, dtype=bool)
         kept_dof[keep] = True
@@ -59,8 +59,13 @@ class ElasticityParts:
         size = int(kept_dof.sum())
         indptr = np.zeros(size + 1, dtype=self.indptr.dtype)
         np.cumsum(np.bincount(new_index[rows[kept]], minlength=size), out=indptr[1:])
-        return ElasticityParts(indptr, new_index[self.indices[kept]].astype(self.indices.dtype),
-                               self.volumetric_data[kept], self.shear_data[kept], size)
+        return ElasticityParts(
+            indptr,
+            new_index[self.indices[kept]].astype(self.indices.dtype),
+            self.volumetric_data[kept],
+            self.shear_data[kept],
+            size,
+        )
 
 
 def _entry_rows(indptr: np.ndarray) -> np.ndarray:
@@ -105,8 +110,9 @@ def _gradient_blocks(basis: Basis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return blocks, indptr, entry_keys % basis.N
 
 
-def _interleaved_parts(indptr: np.ndarray, indices: np.ndarray, volumetric: np.ndarray, shear: np.ndarray,
-                       n: int) -> ElasticityParts:
+def _interleaved_parts(
+    indptr: np.ndarray, indices: np.ndarray, volumetric: np.ndarray, shear: np.ndarray, n: int
+) -> ElasticityParts:
     """Interleave scalar-pattern 3 x 3 blocks: scalar entry (i, j) becomes rows 3i + a, columns 3j + b."""
     lengths = np.diff(indptr)
     rows = _entry_rows(indptr)
@@ -114,8 +120,12 @@ def _interleaved_parts(indptr: np.ndarray, indices: np.ndarray, volumetric: np.n
     a = np.arange(DIM)[None, :, None]
     b = np.arange(DIM)[None, None, :]
     # row 3i + a holds 3 x (row i's length) entries, in the order of row i's columns, then b
-    where = (DIM * DIM * indptr[rows])[:, None, None] + a * (DIM * lengths[rows])[:, None, None] \
-        + DIM * position[:, None, None] + b
+    where = (
+        (DIM * DIM * indptr[rows])[:, None, None]
+        + a * (DIM * lengths[rows])[:, None, None]
+        + DIM * position[:, None, None]
+        + b
+    )
     size = DIM * DIM * len(indices)
     vector_indices = np.empty(size, dtype=np.int32 if DIM * n < 2**31 else np.int64)
     vector_indices[where] = DIM * indices[:, None, None] + b

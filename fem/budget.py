@@ -47,10 +47,12 @@ class MemoryBudget:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.max_bytes) and self.max_bytes > BASE_BYTES):
-            raise FemError(f"--max-memory: expected more than {BASE_BYTES / 1e9:.2g} GB, got {self.max_bytes / 1e9:g} GB")
+            raise FemError(
+                f"--max-memory: expected more than {BASE_BYTES / 1e9:.2g} GB, got {self.max_bytes / 1e9:g} GB"
+            )
 
     @classmethod
-    def gigabytes(cls, gb: float) -> "MemoryBudget":
+    def gigabytes(cls, gb: float) -> MemoryBudget:
         return cls(float(gb) * 1e9)
 
     @property
@@ -89,5 +91,7 @@ def levels_dofs(finest_dofs: int, n_levels: int, ratio: float) -> list[int]:
 
 
 def over_budget_message(what: str, level_dofs: list[int], budget: MemoryBudget) -> str:
-    return (f"{what}: about {sum(level_dofs)} unknowns over the levels would need about {peak_bytes(level_dofs) / 1e9:.1f} "
-            f"GB, over the memory budget of {budget.gb:g} GB; pass a larger --mesh-size MM or a larger --max-memory GB")
+    return (
+        f"{what}: about {sum(level_dofs)} unknowns over the levels would need about {peak_bytes(level_dofs) / 1e9:.1f} "
+        f"GB, over the memory budget of {budget.gb:g} GB; pass a larger --mesh-size MM or a larger --max-memory GB"
+    )

@@ -9,8 +9,13 @@ import sys
 import warnings
 from pathlib import Path
 
-from geometry.options import (add_part_arguments, hardware_densities, hardware_masses_kg, link_source,
-                              signed_values_attached)
+from geometry.options import (
+    add_part_arguments,
+    hardware_densities,
+    hardware_masses_kg,
+    link_source,
+    signed_values_attached,
+)
 from geometry.part import resolve_part
 from settings import DEFAULT_MATERIALS, RunConfig
 from settings.registries import ELEMENT_ORDERS
@@ -35,10 +40,19 @@ class _OneLineParser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _OneLineParser(prog="python -m fem", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("step", nargs="?", help="STEP file of one link (any unit the file declares); default: the built-in link")
-    parser.add_argument("--material", default=DEFAULT_MATERIALS[0], help="material id from the materials table (default: %(default)s)")
-    parser.add_argument("--materials-file", help="TOML file of extra materials (SI units: youngs_modulus_Pa, poisson_ratio, density_kg_per_m3)")
+    parser = _OneLineParser(
+        prog="python -m fem", description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "step", nargs="?", help="STEP file of one link (any unit the file declares); default: the built-in link"
+    )
+    parser.add_argument(
+        "--material", default=DEFAULT_MATERIALS[0], help="material id from the materials table (default: %(default)s)"
+    )
+    parser.add_argument(
+        "--materials-file",
+        help="TOML file of extra materials (SI units: youngs_modulus_Pa, poisson_ratio, density_kg_per_m3)",
+    )
     parser.add_argument(
         "--mesh-size",
         type=str,
@@ -46,23 +60,57 @@ def build_parser() -> argparse.ArgumentParser:
         help=f"finest element size in millimetres; one coarser level (x{LEVEL_RATIO:.4g}) is added (default: relative "
         "to the part, the smaller of pitch/25 and 0.52 x bore radius: 4.5 and 6 mm on the built-in link)",
     )
-    parser.add_argument("--order", type=int, choices=ELEMENT_ORDERS, default=RunConfig.order, help="element order: 1 = linear, 2 = quadratic (default)")
-    parser.add_argument("--load", type=str, default="1000", metavar="N", help="pin load in newtons for the image and fields (default: %(default)s); k is linear")
-    parser.add_argument("--solver", default="auto", help="linear solver: auto, pardiso, amg or spsolve (default: %(default)s)")
+    parser.add_argument(
+        "--order",
+        type=int,
+        choices=ELEMENT_ORDERS,
+        default=RunConfig.order,
+        help="element order: 1 = linear, 2 = quadratic (default)",
+    )
+    parser.add_argument(
+        "--load",
+        type=str,
+        default="1000",
+        metavar="N",
+        help="pin load in newtons for the image and fields (default: %(default)s); k is linear",
+    )
+    parser.add_argument(
+        "--solver", default="auto", help="linear solver: auto, pardiso, amg or spsolve (default: %(default)s)"
+    )
     parser.add_argument("--json", action="store_true", help="print one JSON object (SI units) instead of text")
     parser.add_argument("--image", metavar="PNG", help="write an off-screen picture of the deformed link to this .png")
-    parser.add_argument("--vtu", metavar="VTU", help="write the finest level's mesh with displacement (m) and von Mises stress (Pa) at --load, for ParaView")
-    parser.add_argument("--converge-stress", action="store_true",
-                        help="refine the mesh at the stress hot spots until the peak von Mises stress changes by <= 5 %% "
-                             "(fem.stress; several more solves); without it the peak is the k mesh's, not converged")
-    parser.add_argument("--full-model", action="store_true",
-                        help="solve the whole link even where it is mirror symmetric about the plane through its bore "
-                             "axes (default: solve that half, the same k and stresses at about half the unknowns)")
-    parser.add_argument("--max-memory", type=str, default=str(DEFAULT_MAX_MEMORY_GB), metavar="GB",
-                        help="memory budget of the solves in GB, checked before solving: default sizes are coarsened to "
-                             "fit it, a --mesh-size that does not fit is refused (default: %(default)s, for a 2-core 24 GB "
-                             "machine shared with other work)")
-    parser.add_argument("--scalar", choices=("von_mises", "displacement"), default="von_mises", help="colouring of --image (default: %(default)s)")
+    parser.add_argument(
+        "--vtu",
+        metavar="VTU",
+        help="write the finest level's mesh with displacement (m) and von Mises stress (Pa) at --load, for ParaView",
+    )
+    parser.add_argument(
+        "--converge-stress",
+        action="store_true",
+        help="refine the mesh at the stress hot spots until the peak von Mises stress changes by <= 5 %% "
+        "(fem.stress; several more solves); without it the peak is the k mesh's, not converged",
+    )
+    parser.add_argument(
+        "--full-model",
+        action="store_true",
+        help="solve the whole link even where it is mirror symmetric about the plane through its bore "
+        "axes (default: solve that half, the same k and stresses at about half the unknowns)",
+    )
+    parser.add_argument(
+        "--max-memory",
+        type=str,
+        default=str(DEFAULT_MAX_MEMORY_GB),
+        metavar="GB",
+        help="memory budget of the solves in GB, checked before solving: default sizes are coarsened to "
+        "fit it, a --mesh-size that does not fit is refused (default: %(default)s, for a 2-core 24 GB "
+        "machine shared with other work)",
+    )
+    parser.add_argument(
+        "--scalar",
+        choices=("von_mises", "displacement"),
+        default="von_mises",
+        help="colouring of --image (default: %(default)s)",
+    )
     add_part_arguments(parser)
     return parser
 
@@ -117,12 +165,16 @@ def _mm(point_m: list[float]) -> str:
 def _model_line(r: dict) -> str:
     if r["mirror_plane"] is None:
         return "model           whole link"
-    return (f"model           half link: mirror symmetric about {r['mirror_plane']}, the plane through both bore "
-            "axes (mesh and DOFs below are the half's; --full-model solves the whole)")
+    return (
+        f"model           half link: mirror symmetric about {r['mirror_plane']}, the plane through both bore "
+        "axes (mesh and DOFs below are the half's; --full-model solves the whole)"
+    )
 
 
 def _text(r: dict) -> str:
-    levels = "; ".join(f"{lv['mesh_size_m'] * 1e3:g} mm: {lv['dofs']} DOFs, k = {lv['stiffness_N_per_m']:.5e}" for lv in r["levels"])
+    levels = "; ".join(
+        f"{lv['mesh_size_m'] * 1e3:g} mm: {lv['dofs']} DOFs, k = {lv['stiffness_N_per_m']:.5e}" for lv in r["levels"]
+    )
     t = r["timing_s"]
     lines = [
         f"link            {r['source']}",
@@ -139,12 +191,16 @@ def _text(r: dict) -> str:
         _model_line(r),
         f"mesh            finest {r['mesh_size_m'] * 1e3:g} mm, {r['tets']} tets, P{r['order']}{' curved' if r['curved_elements'] else ''}, {r['dofs']} DOFs, solver {r['solver']}",
         f"levels          {levels}",
-        "timing          " + ", ".join(f"{k} {v:.2f} s" for k, v in t.items() if k != "wall")
+        "timing          "
+        + ", ".join(f"{k} {v:.2f} s" for k, v in t.items() if k != "wall")
         + (f"; wall {t['wall']:.2f} s (levels solved side by side: stage times overlap)" if "wall" in t else ""),
     ]
     if "peak_von_mises_converged_Pa_per_N" in r:
-        lines.insert(10, f"  converged     {r['peak_von_mises_converged_Pa_per_N'] * 1e-3:.4g} MPa per kN at "
-                         f"{_mm(r['peak_von_mises_converged_location_m'])} mm: {r['stress_description']}")
+        lines.insert(
+            10,
+            f"  converged     {r['peak_von_mises_converged_Pa_per_N'] * 1e-3:.4g} MPa per kN at "
+            f"{_mm(r['peak_von_mises_converged_location_m'])} mm: {r['stress_description']}",
+        )
     else:
         lines.insert(10, "  (the k mesh's peaks, not converged under refinement: --converge-stress converges them)")
     if "image" in r:
@@ -168,9 +224,14 @@ def run(argv: list[str] | None = None) -> dict:
     if source is None and args.hardware_material is not None:
         raise FemError("--hardware-material: only for a STEP file with hardware solids; expected a STEP path with it")
     # resolved once (body and pin bores chosen): refuses a part that cannot be a link before any meshing
-    settings = FeaSettings.with_finest(finest_m, order=args.order, load_N=load_N, solver=args.solver,
-                                       mirror_symmetry=not args.full_model,
-                                       max_memory_gb=_positive(args.max_memory, "--max-memory"))
+    settings = FeaSettings.with_finest(
+        finest_m,
+        order=args.order,
+        load_N=load_N,
+        solver=args.solver,
+        mirror_symmetry=not args.full_model,
+        max_memory_gb=_positive(args.max_memory, "--max-memory"),
+    )
     part = resolve_part(source, symmetry=settings.mirror_symmetry)
     record = _inspect(part.summary, args, materials) if part.is_step else None
     estimate = stiffness_study(part, material, settings)
@@ -180,13 +241,21 @@ def run(argv: list[str] | None = None) -> dict:
     if args.converge_stress:
         from .stress import stress_study
 
-        stress = stress_study(part, [material], settings, base_mesh_size_m=estimate.finest.mesh_size_m,
-                              base={material.name: estimate.finest})[material.name]
-        result |= {"peak_von_mises_converged_Pa_per_N": stress.peak_Pa_per_N,
-                   "peak_von_mises_converged_rel_change": stress.rel_change,
-                   "peak_von_mises_converged_location_m": list(stress.location_m),
-                   "stress_converged": stress.converged, "stress_description": stress.description,
-                   "stress_seconds": stress.timing_s}
+        stress = stress_study(
+            part,
+            [material],
+            settings,
+            base_mesh_size_m=estimate.finest.mesh_size_m,
+            base={material.name: estimate.finest},
+        )[material.name]
+        result |= {
+            "peak_von_mises_converged_Pa_per_N": stress.peak_Pa_per_N,
+            "peak_von_mises_converged_rel_change": stress.rel_change,
+            "peak_von_mises_converged_location_m": list(stress.location_m),
+            "stress_converged": stress.converged,
+            "stress_description": stress.description,
+            "stress_seconds": stress.timing_s,
+        }
     if args.image is not None:
         from .render import render_deformed
 
@@ -208,14 +277,17 @@ def _inspect(summary, args, materials) -> dict:
     """The part's pin bores, ignored holes and hardware (JSON-able); printed at once in text mode."""
     part = summary.as_dict()
     lines = summary.lines()
-    densities = hardware_densities(args.hardware_material, summary,
-                                   lambda name: get_material(name, materials).density_kg_per_m3)
+    densities = hardware_densities(
+        args.hardware_material, summary, lambda name: get_material(name, materials).density_kg_per_m3
+    )
     if densities is not None:
         for record, density, mass in zip(part["hardware"], densities, hardware_masses_kg(summary, densities)):
             record.update(density_kg_per_m3=density, mass_kg=mass)
         part["hardware_mass_kg"] = sum(r["mass_kg"] for r in part["hardware"])
-        lines.append(f"hardware mass   {part['hardware_mass_kg']:.4f} kg ({len(summary.hardware)} solids, --hardware-material "
-                     f"{args.hardware_material})")
+        lines.append(
+            f"hardware mass   {part['hardware_mass_kg']:.4f} kg ({len(summary.hardware)} solids, --hardware-material "
+            f"{args.hardware_material})"
+        )
     if not args.json:
         print("\n".join(lines), flush=True)
     return part

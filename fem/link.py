@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from typing import Sequence
 
 import numpy as np
 from scipy.spatial import cKDTree
@@ -123,8 +123,9 @@ def whole_link_fields(solution: LinkSolution) -> NodalFields:
     return NodalFields(whole_points, whole_cells.T, displacement, von_mises)
 
 
-def check_mesh_and_materials(mesh: LinkMesh, materials: Sequence[Material], order: int, *,
-                             warn_quality: bool = True) -> None:
+def check_mesh_and_materials(
+    mesh: LinkMesh, materials: Sequence[Material], order: int, *, warn_quality: bool = True
+) -> None:
     """Refuse numerically flat elements (the solver would fail obscurely) and warn about slivers
     (unless warn_quality is False) and about P1 near incompressibility (volumetric locking), one
     line each."""
@@ -154,8 +155,7 @@ def skfem_mesh(link: LinkMesh, order: int, curved: bool = True) -> tuple[MeshTet
         points = np.ascontiguousarray(link.points_m[:, used10], dtype=float)
         bores = np.hstack([link.fixed_bore_facets, link.loaded_bore_facets])
         mesh = MeshTet2(points, compact.reshape(link.tets10.shape))
-        mesh = closest_to_cad(mesh, cells_on_facets(mesh.t, index[bores]),
-                              link.cad_volume_m3 / _copies(link))
+        mesh = closest_to_cad(mesh, cells_on_facets(mesh.t, index[bores]), link.cad_volume_m3 / _copies(link))
     else:
         mesh = MeshTet1(np.ascontiguousarray(link.points_m[:, used], dtype=float), index[link.tets])
     return mesh, index
@@ -192,8 +192,10 @@ def closest_to_cad(mesh: MeshTet2, on_facets: np.ndarray, cad_volume_m3: float) 
         except FemError:
             continue
     if not candidates:
-        raise FemError(f"LinkMesh.tets10: inverted curved cells remain after {STRAIGHTENING_ROUNDS} rounds of "
-                       "straightening; pass another --mesh-size MM (or --order 1)")
+        raise FemError(
+            f"LinkMesh.tets10: inverted curved cells remain after {STRAIGHTENING_ROUNDS} rounds of "
+            "straightening; pass another --mesh-size MM (or --order 1)"
+        )
     return min(candidates, key=lambda m: abs(_curved_volume_m3(m) - cad_volume_m3))
 
 
@@ -202,9 +204,12 @@ def _curved_volume_m3(mesh: MeshTet2) -> float:
     return float(np.sum(np.abs(mesh._mapping().detDF(points)) @ weights))
 
 
-def straighten_distorted(mesh: MeshTet2, min_ratio: float = MIN_CURVED_JACOBIAN_RATIO,
-                         on_facets: np.ndarray | None = None,
-                         away_ratio: float = MIN_CURVED_JACOBIAN_RATIO_AWAY) -> MeshTet2:
+def straighten_distorted(
+    mesh: MeshTet2,
+    min_ratio: float = MIN_CURVED_JACOBIAN_RATIO,
+    on_facets: np.ndarray | None = None,
+    away_ratio: float = MIN_CURVED_JACOBIAN_RATIO_AWAY,
+) -> MeshTet2:
     """Move the mid-edge nodes of badly distorted curved cells back onto their chords.
 
     gmsh's order-2 meshes can hold inverted cells next to small fillets or chamfers (seen on a
@@ -222,8 +227,10 @@ def straighten_distorted(mesh: MeshTet2, min_ratio: float = MIN_CURVED_JACOBIAN_
         doflocs = mesh.doflocs.copy()
         doflocs[:, mesh.nvertices + edges] = 0.5 * (mesh.p[:, mesh.edges[0, edges]] + mesh.p[:, mesh.edges[1, edges]])
         mesh = replace(mesh, doflocs=doflocs)
-    raise FemError(f"LinkMesh.tets10: inverted curved cells remain after {STRAIGHTENING_ROUNDS} rounds of "
-                   "straightening; pass another --mesh-size MM (or --order 1)")
+    raise FemError(
+        f"LinkMesh.tets10: inverted curved cells remain after {STRAIGHTENING_ROUNDS} rounds of "
+        "straightening; pass another --mesh-size MM (or --order 1)"
+    )
 
 
 def _facets(mesh, index: np.ndarray, triangles: np.ndarray, name: str) -> np.ndarray:
@@ -359,7 +366,9 @@ def analyse_link_materials(
     shared["assembly"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    stress_points = _StressPoints(basis, sk_mesh, fixed, mesh.fixed_bore.radius_m, mesh.mirror_plane) if stress else None
+    stress_points = (
+        _StressPoints(basis, sk_mesh, fixed, mesh.fixed_bore.radius_m, mesh.mirror_plane) if stress else None
+    )
     shared["post"] = time.perf_counter() - start
 
     results: dict[str, LinkSolution] = {}
@@ -386,8 +395,9 @@ def analyse_link_materials(
                 u[free] = _reuse(first, material, K, f[free], free, factor, method, modes)
             timing["solve"] = time.perf_counter() - start
             start = time.perf_counter()
-            results[material.name] = _solution(mesh, sk_mesh, basis, material, order, load_N, f, u, free, K, method,
-                                               stress_points, timing, whole_dofs)
+            results[material.name] = _solution(
+                mesh, sk_mesh, basis, material, order, load_N, f, u, free, K, method, stress_points, timing, whole_dofs
+            )
             timing["post"] = timing.get("post", 0.0) + time.perf_counter() - start
     finally:
         if factor is not None:
@@ -404,8 +414,16 @@ def _same_poisson_ratio(a: Material, b: Material) -> bool:
     return abs(a.poisson_ratio - b.poisson_ratio) <= 1e-12 * abs(a.poisson_ratio)
 
 
-def _reuse(first: tuple[Material, np.ndarray], material: Material, K, f_free: np.ndarray, free: np.ndarray,
-           factor, method: str, modes: np.ndarray | None) -> np.ndarray:
+def _reuse(
+    first: tuple[Material, np.ndarray],
+    material: Material,
+    K,
+    f_free: np.ndarray,
+    free: np.ndarray,
+    factor,
+    method: str,
+    modes: np.ndarray | None,
+) -> np.ndarray:
     """Displacement (free DOFs) of `material` from the first material's solution on the same mesh."""
     first_material, first_u = first
     scale = first_material.youngs_modulus_Pa / material.youngs_modulus_Pa
@@ -440,9 +458,22 @@ class _StressPoints:
         return problem.von_mises_Pa(grads, lam, mu)  # (n_elements, n_local)
 
 
-def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: int, load_N: float, f: np.ndarray,
-              u: np.ndarray, free: np.ndarray, K, method: str, points: _StressPoints | None,
-              timing: dict, whole_dofs: int) -> LinkSolution:
+def _solution(
+    mesh: LinkMesh,
+    sk_mesh,
+    basis: Basis,
+    material: Material,
+    order: int,
+    load_N: float,
+    f: np.ndarray,
+    u: np.ndarray,
+    free: np.ndarray,
+    K,
+    method: str,
+    points: _StressPoints | None,
+    timing: dict,
+    whole_dofs: int,
+) -> LinkSolution:
     work = _copies(mesh) * float(f @ u)  # of the whole link
     if not work > 0:
         raise FemError("the link did not deform under the load: check the bore facet sets")
@@ -472,15 +503,21 @@ def _solution(mesh: LinkMesh, sk_mesh, basis: Basis, material: Material, order: 
     )
 
 
-def _stress_fields(points: _StressPoints | None, basis: Basis, material: Material, u: np.ndarray,
-                   load_N: float) -> dict:
+def _stress_fields(
+    points: _StressPoints | None, basis: Basis, material: Material, u: np.ndarray, load_N: float
+) -> dict:
     """The LinkSolution's stress fields: evaluated at `points`, or NaN where the stress is skipped
     (points None: a study's coarser levels)."""
     if points is None:
         nan = float("nan")
-        return dict(peak_von_mises_Pa_per_N=nan, peak_von_mises_location_m=[nan] * 3,
-                    peak_von_mises_away_from_clamp_Pa_per_N=nan, peak_von_mises_away_location_m=[nan] * 3,
-                    von_mises_at_dofs_Pa=np.full(basis.N, nan), away_from_clamp_at_dofs=np.zeros(basis.N, dtype=bool))
+        return dict(
+            peak_von_mises_Pa_per_N=nan,
+            peak_von_mises_location_m=[nan] * 3,
+            peak_von_mises_away_from_clamp_Pa_per_N=nan,
+            peak_von_mises_away_location_m=[nan] * 3,
+            von_mises_at_dofs_Pa=np.full(basis.N, nan),
+            away_from_clamp_at_dofs=np.zeros(basis.N, dtype=bool),
+        )
     lam, mu = material.lame_Pa
     vm = points.von_mises(u, lam, mu)
     dofs = points.element_dofs

@@ -57,7 +57,9 @@ def material_from_table(material_id: str, table: dict, where: str) -> Material:
             raise FemError(f"{where}: yield_strength_Pa must be > 0, got {yield_Pa}")
     unknown = set(table) - set(_FIELDS) - {"description", "yield_strength_Pa"}
     if unknown:
-        raise FemError(f"{where}: unknown keys {sorted(unknown)}; expected description, {', '.join(_FIELDS)}, yield_strength_Pa")
+        raise FemError(
+            f"{where}: unknown keys {sorted(unknown)}; expected description, {', '.join(_FIELDS)}, yield_strength_Pa"
+        )
     return Material(material_id, E, nu, rho, yield_Pa, str(table.get("description", "")))
 
 

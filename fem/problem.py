@@ -5,7 +5,7 @@ Vector fields are stored interleaved (see `assembly`); as arrays for people they
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 import scipy.sparse as sp
@@ -89,9 +89,7 @@ def as_components(u: np.ndarray) -> np.ndarray:
 
 def displacement_gradients(basis: Basis, u: np.ndarray, local_points: np.ndarray) -> np.ndarray:
     """Displacement gradient du_i/dx_j (3, 3, n_elements, n_points) at reference-element points."""
-    at_points = Basis(
-        basis.mesh, basis.elem, quadrature=(local_points, np.ones(local_points.shape[1]))
-    )
+    at_points = Basis(basis.mesh, basis.elem, quadrature=(local_points, np.ones(local_points.shape[1])))
     components = as_components(u)
     return np.array([np.asarray(at_points.interpolate(components[c]).grad) for c in range(DIM)])
 

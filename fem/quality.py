@@ -182,9 +182,12 @@ def thinnest_wall_m(points_m: np.ndarray, tets: np.ndarray, search_radius_m: flo
 def thin_wall_warning(link) -> str | None:
     """One-line warning when a wall of the link (a geometry.LinkMesh) is thinner than its elements."""
     size = float(link.mesh_size_m)
-    wall = thinnest_wall_m(link.points_m, link.tets, search_radius_m=THIN_WALL_ELEMENT_FRACTION * size,
-                           mirror_plane=link.mirror_plane)
+    wall = thinnest_wall_m(
+        link.points_m, link.tets, search_radius_m=THIN_WALL_ELEMENT_FRACTION * size, mirror_plane=link.mirror_plane
+    )
     if not wall < THIN_WALL_ELEMENT_FRACTION * size:
         return None
-    return (f"mesh: a wall about {wall * 1e3:.3g} mm thick is thinner than half the {size * 1e3:.3g} mm elements; "
-            f"k and stresses in it are unreliable, pass a smaller mesh size (--mesh-size)")
+    return (
+        f"mesh: a wall about {wall * 1e3:.3g} mm thick is thinner than half the {size * 1e3:.3g} mm elements; "
+        f"k and stresses in it are unreliable, pass a smaller mesh size (--mesh-size)"
+    )

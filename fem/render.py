@@ -77,7 +77,9 @@ def render_deformed(
     grid.point_data["u"] = np.ascontiguousarray(fields.displacement_m.T)
     subdivision = 2 if grid.celltypes[0] == pv.CellType.QUADRATIC_TETRA else 0
     undeformed = grid.extract_surface(algorithm="dataset_surface", nonlinear_subdivision=subdivision)
-    deformed = grid.warp_by_vector("u", factor=factor).extract_surface(algorithm="dataset_surface", nonlinear_subdivision=subdivision)
+    deformed = grid.warp_by_vector("u", factor=factor).extract_surface(
+        algorithm="dataset_surface", nonlinear_subdivision=subdivision
+    )
     if title is None:
         material = solution.material.name
         title = f"{material}: k = {solution.stiffness_N_per_m:.4g} N/m, deformation x{factor:g}"

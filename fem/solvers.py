@@ -15,8 +15,7 @@ import contextlib
 import glob
 import os
 import sys
-from collections.abc import Iterator
-from typing import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 import scipy.sparse as sp
@@ -59,9 +58,14 @@ def _point_pypardiso_at_mkl() -> None:
 
 
 # MKL PARDISO's error codes (Intel's documentation of the `error` argument) that a user can act on.
-_PARDISO_ERRORS = {-2: "not enough memory", -3: "reordering failed", -4: "zero pivot (the matrix is singular: a "
-                   "flat element or a part not held)", -9: "not enough memory for the out-of-core solve",
-                   -11: "read/write problem with the out-of-core files", -12: "the matrix is not symmetric positive definite"}
+_PARDISO_ERRORS = {
+    -2: "not enough memory",
+    -3: "reordering failed",
+    -4: "zero pivot (the matrix is singular: a flat element or a part not held)",
+    -9: "not enough memory for the out-of-core solve",
+    -11: "read/write problem with the out-of-core files",
+    -12: "the matrix is not symmetric positive definite",
+}
 SOLVER_REMEDY = "pass a larger --mesh-size MM (fewer unknowns) or --solver amg (less memory)"
 
 
@@ -113,8 +117,13 @@ class Factorization:
         self._solver.free_memory(everything=True)
 
 
-def preconditioned_cg(A: sp.spmatrix, b: np.ndarray, precondition: Callable[[np.ndarray], np.ndarray],
-                      x0: np.ndarray, rtol: float = REUSE_RELATIVE_TOLERANCE) -> tuple[np.ndarray, int]:
+def preconditioned_cg(
+    A: sp.spmatrix,
+    b: np.ndarray,
+    precondition: Callable[[np.ndarray], np.ndarray],
+    x0: np.ndarray,
+    rtol: float = REUSE_RELATIVE_TOLERANCE,
+) -> tuple[np.ndarray, int]:
     """Solve SPD A x = b by conjugate gradients preconditioned with `precondition` (~A^-1), from x0.
 
     With another material's Cholesky factor as the preconditioner the spectrum of the
@@ -138,8 +147,10 @@ def preconditioned_cg(A: sp.spmatrix, b: np.ndarray, precondition: Callable[[np.
         z = precondition(r)
         rz, rz_old = float(r @ z), rz
         p = z + (rz / rz_old) * p
-    raise FemError(f"preconditioned CG did not converge in {REUSE_MAX_ITERATIONS} iterations "
-                   f"(relative residual {np.linalg.norm(r) / np.linalg.norm(b):.1e})")
+    raise FemError(
+        f"preconditioned CG did not converge in {REUSE_MAX_ITERATIONS} iterations "
+        f"(relative residual {np.linalg.norm(r) / np.linalg.norm(b):.1e})"
+    )
 
 
 def _pardiso(A: sp.csr_matrix, b: np.ndarray, near_nullspace: np.ndarray | None) -> np.ndarray:

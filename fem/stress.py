@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Callable, Sequence
 
 import numpy as np
 
@@ -60,13 +60,19 @@ class StressEstimate:
     def description(self) -> str:
         """What this stress is, for reports (one line)."""
         state = "converged" if self.converged else "NOT converged"
-        return (f"peak von Mises away from the clamped bore (beyond {self.clamp_distance_m * 1e3:.2g} mm of its rims), "
-                f"{state} under local refinement to {self.rel_change * 100:.1f} % "
-                f"({len(self.levels)} levels, finest local element {self.levels[-1][0] * 1e3:.2g} mm)")
+        return (
+            f"peak von Mises away from the clamped bore (beyond {self.clamp_distance_m * 1e3:.2g} mm of its rims), "
+            f"{state} under local refinement to {self.rel_change * 100:.1f} % "
+            f"({len(self.levels)} levels, finest local element {self.levels[-1][0] * 1e3:.2g} mm)"
+        )
 
 
-def hot_spots(solution: LinkSolution, fraction: float = HOT_SPOT_FRACTION, max_spots: int = MAX_HOT_SPOTS,
-              separation_m: float | None = None) -> list[np.ndarray]:
+def hot_spots(
+    solution: LinkSolution,
+    fraction: float = HOT_SPOT_FRACTION,
+    max_spots: int = MAX_HOT_SPOTS,
+    separation_m: float | None = None,
+) -> list[np.ndarray]:
     """Centres (3,) of up to `max_spots` separate regions whose stress (DOF-averaged, away from the
     clamp) is within `fraction` of the peak, highest first."""
     from . import problem
@@ -122,8 +128,9 @@ def stress_study(
 
     def mesh(balls: Sequence[Refinement]):
         with refined(balls):
-            return geometry.mesh_part(part, mesh_size_m=base_mesh_size_m, order=mesh_order,
-                                      bore_refinement=settings.bore_refinement)
+            return geometry.mesh_part(
+                part, mesh_size_m=base_mesh_size_m, order=mesh_order, bore_refinement=settings.bore_refinement
+            )
 
     def solve(link) -> dict[str, LinkSolution]:
         return analyse_link_materials(link, materials, order=order, load_N=settings.load_N, solver=settings.solver)
@@ -135,7 +142,6 @@ def stress_study(
     seconds = [time.perf_counter() - start]
     current = {n: base[n] for n in names}
     local = base_mesh_size_m
-    caught: list = []
     for _ in range(MAX_LEVELS):
         radius = BALL_RADIUS_ELEMENTS * local
         spots = _both_sides(hot_spots(current[names[0]], separation_m=radius), current[names[0]], radius)
@@ -150,10 +156,12 @@ def stress_study(
         seconds.append(time.perf_counter() - start)
         moved = [_change(levels[n]) for n in names]
         if progress is not None:
-            progress(f"stress level {len(levels[names[0]]) - 1}: local element {local * 1e3:.2g} mm at {len(spots)} hot "
-                     f"spot(s), {current[names[0]].dofs} DOFs, peak " + ", ".join(
-                         f"{n} {levels[n][-1][2] * 1e3 / 1e6:.4g} MPa/kN" for n in names)
-                     + f", change {max(moved) * 100:.2g} %")
+            progress(
+                f"stress level {len(levels[names[0]]) - 1}: local element {local * 1e3:.2g} mm at {len(spots)} hot "
+                f"spot(s), {current[names[0]].dofs} DOFs, peak "
+                + ", ".join(f"{n} {levels[n][-1][2] * 1e3 / 1e6:.4g} MPa/kN" for n in names)
+                + f", change {max(moved) * 100:.2g} %"
+            )
         if max(moved) <= tolerance:
             break
     for w in caught:
@@ -175,8 +183,9 @@ def _change(levels: list[tuple[float, int, float]]) -> float:
     return abs(levels[-1][2] - levels[-2][2]) / levels[-1][2]
 
 
-def _estimate(levels, solution: LinkSolution, tolerance: float, seconds: float,
-              level_seconds: tuple[float, ...]) -> StressEstimate:
+def _estimate(
+    levels, solution: LinkSolution, tolerance: float, seconds: float, level_seconds: tuple[float, ...]
+) -> StressEstimate:
     change = _change(levels)
     return StressEstimate(
         peak_Pa_per_N=levels[-1][2],
@@ -193,4 +202,3 @@ def _estimate(levels, solution: LinkSolution, tolerance: float, seconds: float,
 
 
 __all__ = ["StressEstimate", "hot_spots", "stress_study"]
-

@@ -18,11 +18,9 @@ from __future__ import annotations
 
 import time
 import warnings
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Callable, Sequence
-
-import numpy as np
 
 from . import budget, quality
 from .errors import FemError, FemWarning
@@ -134,17 +132,25 @@ def stiffness_studies(
     mesh_time = time.perf_counter() - start
 
     def mesh_level(level: int, level_sizes: tuple[float, ...]):
-        return geometry.mesh_part(part, mesh_size_m=level_sizes[level], order=settings.mesh_order,
-                                  bore_refinement=settings.bore_refinement,
-                                  mirror=mirror_symmetry and level == len(level_sizes) - 1)
+        return geometry.mesh_part(
+            part,
+            mesh_size_m=level_sizes[level],
+            order=settings.mesh_order,
+            bore_refinement=settings.bore_refinement,
+            mirror=mirror_symmetry and level == len(level_sizes) - 1,
+        )
 
     start = time.perf_counter()
-    sizes, finest_link = _within_budget(sizes, mesh_level, order, budget.MemoryBudget.gigabytes(settings.max_memory_gb),
-                                        given=settings.mesh_sizes_m is not None)
+    sizes, finest_link = _within_budget(
+        sizes,
+        mesh_level,
+        order,
+        budget.MemoryBudget.gigabytes(settings.max_memory_gb),
+        given=settings.mesh_sizes_m is not None,
+    )
     mesh_time += time.perf_counter() - start
     # finest first: it is the longest solve, so the coarser levels are meshed and solved beside it
-    with ThreadPoolExecutor(max_workers=len(sizes) if concurrent_levels else 1,
-                            thread_name_prefix="fem-level") as pool:
+    with ThreadPoolExecutor(max_workers=len(sizes) if concurrent_levels else 1, thread_name_prefix="fem-level") as pool:
         pending = {}
         for level in reversed(range(len(sizes))):
             start = time.perf_counter()
@@ -157,8 +163,16 @@ def stiffness_studies(
             mesh_time += time.perf_counter() - start
             # shape warnings concern the mesh whose stresses are reported
             check_mesh_and_materials(link, materials, order, warn_quality=finest)
-            pending[level] = pool.submit(analyse_link_materials, link, materials, order=order, load_N=settings.load_N,
-                                         solver=settings.solver, stress=finest, checked=True)
+            pending[level] = pool.submit(
+                analyse_link_materials,
+                link,
+                materials,
+                order=order,
+                load_N=settings.load_N,
+                solver=settings.solver,
+                stress=finest,
+                checked=True,
+            )
             if not concurrent_levels:
                 pending[level].result()  # an error stops the study before the next level is meshed
         solved = [pending[level].result() for level in range(len(sizes))]
@@ -166,16 +180,21 @@ def stiffness_studies(
     if progress is not None:
         for level, (h, by_material) in enumerate(zip(sizes, solved), start=1):
             for solution in by_material.values():
-                progress(f"FEA level {level}/{len(sizes)}, {solution.material.name}: h = {h * 1e3:.2f} mm, "
-                         f"{solution.dofs} DOFs, k = {solution.stiffness_N_per_m:.5g} N/m, "
-                         f"{sum(solution.timing_s.values()):.1f} s")
+                progress(
+                    f"FEA level {level}/{len(sizes)}, {solution.material.name}: h = {h * 1e3:.2f} mm, "
+                    f"{solution.dofs} DOFs, k = {solution.stiffness_N_per_m:.5g} N/m, "
+                    f"{sum(solution.timing_s.values()):.1f} s"
+                )
     # Meshing is shared and booked to the first material, as analyse_link_materials books the
     # shared assembly: the first material's timing is the cost of the study, the others' the extra.
     # Its "wall" is the study's elapsed time (less than the stages' sum where levels overlap).
     wall_s = time.perf_counter() - study_start
-    return {name: estimate_from_levels(sizes, sols, mesh_time if i == 0 else 0.0, order=order,
-                                       wall_s=wall_s if i == 0 else None)
-            for i, (name, sols) in enumerate(solutions.items())}
+    return {
+        name: estimate_from_levels(
+            sizes, sols, mesh_time if i == 0 else 0.0, order=order, wall_s=wall_s if i == 0 else None
+        )
+        for i, (name, sols) in enumerate(solutions.items())
+    }
 
 
 def _within_budget(sizes: tuple[float, ...], mesh_level, order: int, memory: budget.MemoryBudget, given: bool):
@@ -190,10 +209,13 @@ def _within_budget(sizes: tuple[float, ...], mesh_level, order: int, memory: bud
         level_dofs = [finest_dofs] + [n * copies for n in budget.levels_dofs(finest_dofs, len(sizes), LEVEL_RATIO)[1:]]
         if memory.fits(level_dofs):
             if sizes != requested:
-                warnings.warn(f"memory budget: the default {requested[-1] * 1e3:.3g} mm elements would exceed "
-                              f"--max-memory {memory.gb:g} GB; k computed at {sizes[-1] * 1e3:.3g} mm elements "
-                              "instead (its error estimate says what that costs; a larger --max-memory GB refines)",
-                              FemWarning, stacklevel=3)
+                warnings.warn(
+                    f"memory budget: the default {requested[-1] * 1e3:.3g} mm elements would exceed "
+                    f"--max-memory {memory.gb:g} GB; k computed at {sizes[-1] * 1e3:.3g} mm elements "
+                    "instead (its error estimate says what that costs; a larger --max-memory GB refines)",
+                    FemWarning,
+                    stacklevel=3,
+                )
             return sizes, link
         if given:
             raise FemError(budget.over_budget_message(f"--mesh-size {sizes[-1] * 1e3:g}", level_dofs, memory))
@@ -202,8 +224,14 @@ def _within_budget(sizes: tuple[float, ...], mesh_level, order: int, memory: bud
     raise FemError(budget.over_budget_message(f"elements of {sizes[-1] * 1e3:.3g} mm", level_dofs, memory))
 
 
-def estimate_from_levels(sizes: Sequence[float], solutions: list[LinkSolution], mesh_time_s: float,
-                         fit_last: int | None = None, order: int = 2, wall_s: float | None = None) -> StiffnessEstimate:
+def estimate_from_levels(
+    sizes: Sequence[float],
+    solutions: list[LinkSolution],
+    mesh_time_s: float,
+    fit_last: int | None = None,
+    order: int = 2,
+    wall_s: float | None = None,
+) -> StiffnessEstimate:
     """The estimate from solved levels (coarse to fine); k is extrapolated from the last `fit_last`
     levels (all when None), every level is recorded. `wall_s`, if given, is recorded as the
     timing's "wall" beside the stages' sum ("total")."""

@@ -83,7 +83,12 @@ class PartSummary:
                 for h in pins.ignored
             ],
             "hardware": [
-                {"solid": s.index, "volume_m3": s.volume_m3, "centre_m": s.centre_m.tolist(), "touches_body": s.touches_body}
+                {
+                    "solid": s.index,
+                    "volume_m3": s.volume_m3,
+                    "centre_m": s.centre_m.tolist(),
+                    "touches_body": s.touches_body,
+                }
                 for s in self.hardware
             ],
         }
@@ -97,13 +102,19 @@ class PartSummary:
         ]
         for ignored in pins.ignored:
             bore = ignored.hole.bore
-            lines.append(f"  ignored hole  r {bore.radius_m * 1e3:.3f} mm at ({_mm(bore.center_m)}) mm: {ignored.reason}")
+            lines.append(
+                f"  ignored hole  r {bore.radius_m * 1e3:.3f} mm at ({_mm(bore.center_m)}) mm: {ignored.reason}"
+            )
         if self.n_solids > 1:
-            lines.append(f"link body       solid {self.body_index} of {self.n_solids} ({self.body_volume_m3 * 1e6:.3f} cm^3); "
-                         "the other solids are hardware, not meshed and not fused into k")
+            lines.append(
+                f"link body       solid {self.body_index} of {self.n_solids} ({self.body_volume_m3 * 1e6:.3f} cm^3); "
+                "the other solids are hardware, not meshed and not fused into k"
+            )
             for s in self.hardware:
                 touch = "touches the body" if s.touches_body else "apart from the body"
-                lines.append(f"  hardware      solid {s.index}: {s.volume_m3 * 1e6:.3f} cm^3 at ({_mm(s.centre_m)}) mm, {touch}")
+                lines.append(
+                    f"  hardware      solid {s.index}: {s.volume_m3 * 1e6:.3f} cm^3 at ({_mm(s.centre_m)}) mm, {touch}"
+                )
         return lines
 
 
@@ -116,8 +127,10 @@ def pick_body(volumes: list[int], source: LinkSource, name: str) -> tuple[int, P
     choice = source.bores
     if source.body is not None:
         if not 1 <= source.body <= len(volumes):
-            raise GeometryError(f"--body {source.body}: {name} holds {len(volumes)} solid(s); expected a solid number "
-                                f"from 1 to {len(volumes)} (file order)")
+            raise GeometryError(
+                f"--body {source.body}: {name} holds {len(volumes)} solid(s); expected a solid number "
+                f"from 1 to {len(volumes)} (file order)"
+            )
         body = volumes[source.body - 1]
         return body, select_pin_bores(find_holes([body]), choice, name)
     if len(volumes) == 1:
@@ -126,16 +139,20 @@ def pick_body(volumes: list[int], source: LinkSource, name: str) -> tuple[int, P
     ranks = {v: pair_rank(holes[v], choice) for v in volumes}
     ranked = sorted((rank, v) for v, rank in ranks.items() if rank is not None)
     if not ranked:
-        raise GeometryError(f"{name}: none of its {len(volumes)} solids holds a pair of equal parallel pin bores; "
-                            "expected the link body among them (pass --body N to name it, "
-                            "--bores X1,Y1,Z1:X2,Y2,Z2 to give its bores)")
+        raise GeometryError(
+            f"{name}: none of its {len(volumes)} solids holds a pair of equal parallel pin bores; "
+            "expected the link body among them (pass --body N to name it, "
+            "--bores X1,Y1,Z1:X2,Y2,Z2 to give its bores)"
+        )
     (best_rank, body), *others = reversed(ranked)
     tied = [volumes.index(v) + 1 for rank, v in others if _same_rank(rank, best_rank)]
     if tied:
         numbers = ", ".join(str(i) for i in sorted([volumes.index(body) + 1] + tied))
-        raise GeometryError(f"{name}: solids {numbers} each hold an equally good pair of pin bores (radius "
-                            f"{best_rank[0] * 1e3:.3f} mm, pitch {best_rank[1] * 1e3:.3f} mm); ambiguous, pass --body N "
-                            "(1-based, file order) to name the link body")
+        raise GeometryError(
+            f"{name}: solids {numbers} each hold an equally good pair of pin bores (radius "
+            f"{best_rank[0] * 1e3:.3f} mm, pitch {best_rank[1] * 1e3:.3f} mm); ambiguous, pass --body N "
+            "(1-based, file order) to name the link body"
+        )
     return body, select_pin_bores(holes[body], choice, name)
 
 
@@ -145,8 +162,14 @@ def hardware_solids(volumes: list[int], body: int) -> tuple[HardwareSolid, ...]:
         if v == body:
             continue
         distance = gmsh.model.occ.getDistance(3, body, 3, v)[0]
-        solids.append(HardwareSolid(index, float(gmsh.model.occ.getMass(3, v)),
-                                    np.array(gmsh.model.occ.getCenterOfMass(3, v)), 0 <= distance < TOUCH_DISTANCE_M))
+        solids.append(
+            HardwareSolid(
+                index,
+                float(gmsh.model.occ.getMass(3, v)),
+                np.array(gmsh.model.occ.getCenterOfMass(3, v)),
+                0 <= distance < TOUCH_DISTANCE_M,
+            )
+        )
     return tuple(solids)
 
 

@@ -138,7 +138,9 @@ def bores_from_override(volumes: list[int], override: BoreOverride, source: str)
         cylinder = Cylinder(np.asarray(point, float), axis, float(override.radius_m))
         faces, samples = faces_on_cylinder(volumes, cylinder)
         if not faces:
-            raise GeometryError(f"{source}: no face lies on the {name} bore of {override}; expected the bore surface there")
+            raise GeometryError(
+                f"{source}: no face lies on the {name} bore of {override}; expected the bore surface there"
+            )
         found.append(DetectedBore(_bore_from_samples(cylinder, np.vstack(samples)), tuple(faces)))
     return found[0], found[1]
 
@@ -146,7 +148,9 @@ def bores_from_override(volumes: list[int], override: BoreOverride, source: str)
 def order_pair(a: DetectedBore, b: DetectedBore, source: str) -> tuple[DetectedBore, DetectedBore]:
     """(fixed, loaded): the fixed bore has the lower coordinate along the pitch line's main axis."""
     if abs(abs(float(a.bore.axis @ b.bore.axis)) - 1) > _SAME_BORE_TOL**2:
-        raise GeometryError(f"{source}: the two pin bores are not parallel (axes {a.bore.axis}, {b.bore.axis}); expected parallel pins")
+        raise GeometryError(
+            f"{source}: the two pin bores are not parallel (axes {a.bore.axis}, {b.bore.axis}); expected parallel pins"
+        )
     offset = b.bore.center_m - a.bore.center_m
     offset = offset - (offset @ a.bore.axis) * a.bore.axis
     main = int(np.argmax(np.abs(offset)))
@@ -159,7 +163,9 @@ def faces_on_bore(volumes: list[int], bore: Bore) -> list[int]:
     return faces
 
 
-def faces_on_cylinder(volumes: list[int], cylinder: Cylinder, within: Bore | None = None) -> tuple[list[int], list[np.ndarray]]:
+def faces_on_cylinder(
+    volumes: list[int], cylinder: Cylinder, within: Bore | None = None
+) -> tuple[list[int], list[np.ndarray]]:
     faces, samples = [], []
     tol = _SAME_BORE_TOL * cylinder.radius_m
     for face in boundary_faces(volumes):
@@ -205,7 +211,9 @@ def _analytic_cylinder(face: int) -> Cylinder | None:
     if gmsh.model.getType(2, face) != "Cylinder":
         return None
     _, reals = gmsh.model.getEntityProperties(2, face)
-    return Cylinder(np.array(reals[:3]), _canonical(_unit(np.array(reals[3:6]), f"surface {face} axis")), float(reals[6]))
+    return Cylinder(
+        np.array(reals[:3]), _canonical(_unit(np.array(reals[3:6]), f"surface {face} axis")), float(reals[6])
+    )
 
 
 def boundary_faces(volumes: list[int]) -> list[int]:

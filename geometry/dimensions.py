@@ -87,7 +87,11 @@ class LinkDimensions:
         for f in fields(self):
             value = getattr(self, f.name)
             lowest = 0.0 if f.name in FILLET_FIELDS else None  # a fillet radius of 0 is a sharp corner
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and (value >= 0 if lowest == 0.0 else value > 0)):
+            if not (
+                isinstance(value, (int, float))
+                and math.isfinite(value)
+                and (value >= 0 if lowest == 0.0 else value > 0)
+            ):
                 expected = "a length >= 0 in metres (0: sharp)" if lowest == 0.0 else "a positive length in metres"
                 raise GeometryError(f"LinkDimensions.{f.name}={value!r}: expected {expected}")
         checks = [
@@ -109,7 +113,8 @@ class LinkDimensions:
                 "pocket_floor_radius_m <= pocket_corner_radius_m",
             ),
             (
-                self.pocket_floor_radius_m < min(self.body_height_m - self.web_thickness_m, (self.body_width_m - self.recess_width_m) / 2),
+                self.pocket_floor_radius_m
+                < min(self.body_height_m - self.web_thickness_m, (self.body_width_m - self.recess_width_m) / 2),
                 "pocket_floor_radius_m below the recess depth and the side rail width",
             ),
             (

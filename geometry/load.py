@@ -64,8 +64,10 @@ def mesh_part(
     model from the part's own copy, with the bores chosen at resolution."""
     _check_mesh_options(order, bore_refinement)
     if mirror and not part.symmetry_checked:
-        raise GeometryError(f"mirror=True: {part.name} was resolved with symmetry=False; expected a part resolved "
-                            "with its symmetry checked (resolve_part(..., symmetry=True))")
+        raise GeometryError(
+            f"mirror=True: {part.name} was resolved with symmetry=False; expected a part resolved "
+            "with its symmetry checked (resolve_part(..., symmetry=True))"
+        )
     name = part.name
     fixed, loaded = part.pins.fixed, part.pins.loaded
     with gmsh_model("link"):
@@ -76,13 +78,22 @@ def mesh_part(
             volumes = keep_positive_half(volumes, plane)
         volumes = split_at_loaded_half(volumes, fixed.bore, loaded.bore)
         try:
-            arrays = mesh_volumes(volumes, fixed, loaded, mesh_size_m=size, bore_size_m=bore_refinement * size, order=order,
-                                  mirror_plane=plane)
+            arrays = mesh_volumes(
+                volumes,
+                fixed,
+                loaded,
+                mesh_size_m=size,
+                bore_size_m=bore_refinement * size,
+                order=order,
+                mirror_plane=plane,
+            )
         except Exception as exc:  # gmsh reports a failed mesh as a bare Exception
             if type(exc) is not Exception:
                 raise
-            raise GeometryError(f"{name}: gmsh could not mesh it at {size * 1e3:.3g} mm elements ({exc}); expected a size "
-                                "that resolves its smallest holes and walls: pass a smaller --mesh-size MM") from exc
+            raise GeometryError(
+                f"{name}: gmsh could not mesh it at {size * 1e3:.3g} mm elements ({exc}); expected a size "
+                "that resolves its smallest holes and walls: pass a smaller --mesh-size MM"
+            ) from exc
     return LinkMesh(
         points_m=arrays.points_m,
         tets=arrays.tets,
@@ -114,8 +125,10 @@ def _checked_mesh_size(mesh_size_m: float | None, volume_m3: float, name: str) -
     if mesh_size_m is None:
         return float(np.linalg.norm(extents) * DEFAULT_SIZE_FRACTION)
     if not (isinstance(mesh_size_m, (int, float)) and math.isfinite(mesh_size_m) and mesh_size_m > 0):
-        raise GeometryError(f"mesh_size_m={mesh_size_m!r}: expected a positive element size in metres "
-                            "(on the command line: a positive --mesh-size in mm)")
+        raise GeometryError(
+            f"mesh_size_m={mesh_size_m!r}: expected a positive element size in metres "
+            "(on the command line: a positive --mesh-size in mm)"
+        )
     if mesh_size_m > extents.max():
         raise GeometryError(
             f"mesh_size_m={mesh_size_m!r}: larger than {name} ({1e3 * extents.max():.4g} mm across); expected an "

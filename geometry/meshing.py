@@ -44,7 +44,6 @@ UNEQUAL_BORES_TOL = 0.01
 SIZE_GRADIENT = 0.5
 
 
-
 @dataclass(frozen=True)
 class Refinement:
     """A ball in which the element size is at most `size_m` (e.g. around a stress hot spot)."""
@@ -152,8 +151,9 @@ def _has_flat_tets() -> bool:
     return len(tags) > 0 and float(np.min(gmsh.model.mesh.getElementQualities(tags, "gamma"))) < FLAT_TET_QUALITY
 
 
-def _pin_bore_fields(fixed: DetectedBore, fixed_faces: list[int], loaded: DetectedBore, loaded_faces: list[int],
-                     bore_size_m: float) -> tuple[list[int], float, list[FaceRefinement]]:
+def _pin_bore_fields(
+    fixed: DetectedBore, fixed_faces: list[int], loaded: DetectedBore, loaded_faces: list[int], bore_size_m: float
+) -> tuple[list[int], float, list[FaceRefinement]]:
     """(faces, radius) of the pin-bore refinement at `bore_size_m`, and for two unequal bores (given
     by --bores) the smaller one's own refinement, its size scaled by its radius: each bore is
     sized for itself, the larger one does not set the size at the smaller."""
@@ -161,7 +161,8 @@ def _pin_bore_fields(fixed: DetectedBore, fixed_faces: list[int], loaded: Detect
     if abs(r_fixed - r_loaded) <= UNEQUAL_BORES_TOL * max(r_fixed, r_loaded):
         return fixed_faces + loaded_faces, min(r_fixed, r_loaded), []
     (large_faces, r_large), (small_faces, r_small) = sorted(
-        [(fixed_faces, r_fixed), (loaded_faces, r_loaded)], key=lambda fr: -fr[1])
+        [(fixed_faces, r_fixed), (loaded_faces, r_loaded)], key=lambda fr: -fr[1]
+    )
     return large_faces, r_large, [FaceRefinement(tuple(small_faces), r_small, bore_size_m * r_small / r_large)]
 
 
@@ -188,7 +189,10 @@ def small_hole_fields(volumes: list[int], pins: Sequence[DetectedBore], size_far
 def _same_axis(a: DetectedBore, b: DetectedBore) -> bool:
     rel = a.bore.center_m - b.bore.center_m
     off_axis = rel - (rel @ b.bore.axis) * b.bore.axis
-    return abs(abs(float(a.bore.axis @ b.bore.axis)) - 1) < 1e-6 and float(np.linalg.norm(off_axis)) < 1e-3 * b.bore.radius_m
+    return (
+        abs(abs(float(a.bore.axis @ b.bore.axis)) - 1) < 1e-6
+        and float(np.linalg.norm(off_axis)) < 1e-3 * b.bore.radius_m
+    )
 
 
 def _hole_field(hole: FaceRefinement, size_far: float) -> int:
@@ -207,8 +211,9 @@ def _hole_field(hole: FaceRefinement, size_far: float) -> int:
     return threshold
 
 
-def _refine_near(faces: list[int], size_far: float, size_near: float, radius: float,
-                 small_holes: Sequence[FaceRefinement] = ()) -> None:
+def _refine_near(
+    faces: list[int], size_far: float, size_near: float, radius: float, small_holes: Sequence[FaceRefinement] = ()
+) -> None:
     field = gmsh.model.mesh.field
     distance = field.add("Distance")
     field.setNumbers(distance, "SurfacesList", faces)
@@ -248,8 +253,9 @@ def _ball(ball: Refinement, size_far: float) -> int:
     return tag
 
 
-def _mesh_arrays(fixed_faces: list[int], loaded_faces: list[int], order: int,
-                 mirror_faces: list[int] | None = None) -> MeshArrays:
+def _mesh_arrays(
+    fixed_faces: list[int], loaded_faces: list[int], order: int, mirror_faces: list[int] | None = None
+) -> MeshArrays:
     node_tags, coords, _ = gmsh.model.mesh.getNodes()
     _, tet_nodes = gmsh.model.mesh.getElementsByType(_TET[order])
     n_nodes_per_tet = 4 if order == 1 else 10

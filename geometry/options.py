@@ -20,16 +20,26 @@ from geometry.pin_pair import BORES_HINT, BoreChoice
 
 def add_part_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("part (STEP files with other holes, or several solids)")
-    group.add_argument("--bores", metavar="X1,Y1,Z1:X2,Y2,Z2",
-                       help="a point on each pin-bore axis in mm (CAD coordinates), fixed (clamped) bore first; "
-                            "default: equal parallel bores at the part's ends, the largest such, farthest apart")
+    group.add_argument(
+        "--bores",
+        metavar="X1,Y1,Z1:X2,Y2,Z2",
+        help="a point on each pin-bore axis in mm (CAD coordinates), fixed (clamped) bore first; "
+        "default: equal parallel bores at the part's ends, the largest such, farthest apart",
+    )
     group.add_argument("--pitch", metavar="MM", help="keep only pin-bore pairs this far apart (within 1 %%)")
     group.add_argument("--bore-radius", metavar="MM", help="keep only pin bores of this radius (within 1 %%)")
-    group.add_argument("--body", metavar="N", help="in a file of several solids, the link body's number (1-based, file "
-                                                    "order); default: the solid holding the pin bores")
-    group.add_argument("--hardware-material", metavar="ID[,ID...]",
-                       help="material of the other solids (pins, bushings...), one for all or one per hardware solid in file "
-                            "order: reports their masses")
+    group.add_argument(
+        "--body",
+        metavar="N",
+        help="in a file of several solids, the link body's number (1-based, file "
+        "order); default: the solid holding the pin bores",
+    )
+    group.add_argument(
+        "--hardware-material",
+        metavar="ID[,ID...]",
+        help="material of the other solids (pins, bushings...), one for all or one per hardware solid in file "
+        "order: reports their masses",
+    )
 
 
 # options whose value may start with a minus sign (a negative CAD coordinate)
@@ -79,8 +89,10 @@ def hardware_densities(ids: str | None, summary: PartSummary, density_of) -> lis
     names = [s.strip() for s in ids.split(",") if s.strip()]
     n = len(summary.hardware)
     if len(names) not in (1, n):
-        raise GeometryError(f"--hardware-material: {len(names)} materials for {n} hardware solid(s) of {summary.source}; "
-                            "expected one for all or one per hardware solid in file order")
+        raise GeometryError(
+            f"--hardware-material: {len(names)} materials for {n} hardware solid(s) of {summary.source}; "
+            "expected one for all or one per hardware solid in file order"
+        )
     try:
         densities = [density_of(name) for name in names]
     except ValueError as exc:  # the materials table's "unknown material ..." names the known ids

@@ -32,7 +32,9 @@ class LinkFeatures:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.bore_edge_break_m) and self.bore_edge_break_m >= 0):
-            raise GeometryError(f"LinkFeatures.bore_edge_break_m={self.bore_edge_break_m!r}: expected a length >= 0 in metres")
+            raise GeometryError(
+                f"LinkFeatures.bore_edge_break_m={self.bore_edge_break_m!r}: expected a length >= 0 in metres"
+            )
         if self.bspline_bores and self.bore_edge_break_m > 0:
             # OpenCASCADE finds no chamfer for the B-spline bore edges.
             raise GeometryError(f"{self}: expected bore_edge_break_m = 0 with bspline_bores")
@@ -43,7 +45,14 @@ def add_link(dims: LinkDimensions, features: LinkFeatures = LinkFeatures()) -> i
     occ = gmsh.model.occ
     half_pitch = dims.pitch_m / 2
     height = dims.body_height_m
-    parts = [(3, occ.addBox(-dims.body_length_m / 2, -dims.body_width_m / 2, 0, dims.body_length_m, dims.body_width_m, height))]
+    parts = [
+        (
+            3,
+            occ.addBox(
+                -dims.body_length_m / 2, -dims.body_width_m / 2, 0, dims.body_length_m, dims.body_width_m, height
+            ),
+        )
+    ]
     for x in (-half_pitch, half_pitch):
         parts.append((3, occ.addCylinder(x, 0, 0, 0, 0, height, dims.lug_radius_m)))
         parts.append((3, occ.addBox(min(0.0, x), -dims.lug_radius_m, 0, abs(x), 2 * dims.lug_radius_m, height)))
@@ -96,8 +105,14 @@ def _pocket_tool(dims: LinkDimensions, overshoot: float) -> int:
     """The recess as an end mill leaves it: vertical corners and floor edges rounded (convex on the tool)."""
     occ = gmsh.model.occ
     floor = dims.web_thickness_m
-    tool = occ.addBox(-dims.recess_length_m / 2, -dims.recess_width_m / 2, floor,
-                      dims.recess_length_m, dims.recess_width_m, dims.body_height_m - floor + overshoot)
+    tool = occ.addBox(
+        -dims.recess_length_m / 2,
+        -dims.recess_width_m / 2,
+        floor,
+        dims.recess_length_m,
+        dims.recess_width_m,
+        dims.body_height_m - floor + overshoot,
+    )
     occ.synchronize()
     if dims.pocket_corner_radius_m > 0:
         vertical = _tool_edges(tool, lambda box: box[5] - box[2] > 0.5 * dims.body_height_m)
@@ -169,5 +184,7 @@ def _bore_end_edges(dims: LinkDimensions, z: float) -> list[int]:
     return [
         c
         for x in (-dims.pitch_m / 2, dims.pitch_m / 2)
-        for _, c in gmsh.model.getEntitiesInBoundingBox(x - r - tol, -r - tol, z - tol, x + r + tol, r + tol, z + tol, dim=1)
+        for _, c in gmsh.model.getEntitiesInBoundingBox(
+            x - r - tol, -r - tol, z - tol, x + r + tol, r + tol, z + tol, dim=1
+        )
     ]

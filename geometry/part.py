@@ -154,17 +154,26 @@ def _measure(part: Part) -> PartGeometry:
             body, pins = volumes[0], PinBores(fixed, loaded, f"given by {bores}", ())
         else:
             body, pins = pick_body(volumes, part.origin if data is not None else LinkSource(Path(name)), name)
-        summary = PartSummary(source=str(part.origin) if data is not None else name, n_solids=len(volumes),
-                              body_index=volumes.index(body) + 1,
-                              body_volume_m3=float(gmsh.model.occ.getMass(3, body)), pins=pins,
-                              hardware=hardware_solids(volumes, body))
+        summary = PartSummary(
+            source=str(part.origin) if data is not None else name,
+            n_solids=len(volumes),
+            body_index=volumes.index(body) + 1,
+            body_volume_m3=float(gmsh.model.occ.getMass(3, body)),
+            pins=pins,
+            hardware=hardware_solids(volumes, body),
+        )
         keep_only(volumes, body)
         volume_m3 = float(gmsh.model.occ.getMass(3, body))
         diagonal_m = _model_diagonal_m()
         plane = symmetry_plane([body], pins.fixed.bore, pins.loaded.bore) if part.symmetry_checked else None
-    return PartGeometry(summary=summary, scale=_scale(pins, None if data is not None else part.origin),
-                        volume_m3=volume_m3, diagonal_m=diagonal_m, all_solids_diagonal_m=all_solids_diagonal_m,
-                        mirror_plane=plane)
+    return PartGeometry(
+        summary=summary,
+        scale=_scale(pins, None if data is not None else part.origin),
+        volume_m3=volume_m3,
+        diagonal_m=diagonal_m,
+        all_solids_diagonal_m=all_solids_diagonal_m,
+        mirror_plane=plane,
+    )
 
 
 def as_part(source=None, *, bores: BoreOverride | None = None, symmetry: bool = True) -> Part:
@@ -172,8 +181,10 @@ def as_part(source=None, *, bores: BoreOverride | None = None, symmetry: bool = 
     take either, so that a caller with a path need not resolve it first."""
     if isinstance(source, Part):
         if bores is not None:
-            raise GeometryError(f"bores={bores!r}: the part {source.name} is resolved already; expected bores=None "
-                                "(pass the bores to resolve_part)")
+            raise GeometryError(
+                f"bores={bores!r}: the part {source.name} is resolved already; expected bores=None "
+                "(pass the bores to resolve_part)"
+            )
         return source
     return resolve_part(source, bores=bores, symmetry=symmetry)
 
@@ -191,8 +202,9 @@ def _scale(pins: PinBores, dims: LinkDimensions | None) -> PartScale:
     if dims is not None:
         return PartScale(dims.pitch_m, dims.bore_radius_m, math.inf)
     holes = [h.hole.bore.radius_m for h in pins.ignored]
-    return PartScale(pins.pitch_m, float(max(pins.fixed.bore.radius_m, pins.loaded.bore.radius_m)),
-                     min(holes, default=math.inf))
+    return PartScale(
+        pins.pitch_m, float(max(pins.fixed.bore.radius_m, pins.loaded.bore.radius_m)), min(holes, default=math.inf)
+    )
 
 
 def _model_diagonal_m() -> float:

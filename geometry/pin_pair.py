@@ -111,18 +111,26 @@ def select_pin_bores(holes: Holes, choice: BoreChoice, source: str) -> PinBores:
         fixed = _bore_at(bores, choice.fixed_point_m, holes, source)
         loaded = _bore_at(bores, choice.loaded_point_m, holes, source)
         if fixed is loaded:
-            raise GeometryError(f"{source}: both --bores points lie on the bore at {_mm(fixed.bore.center_m)} mm; "
-                                "expected one point on each pin axis")
+            raise GeometryError(
+                f"{source}: both --bores points lie on the bore at {_mm(fixed.bore.center_m)} mm; "
+                "expected one point on each pin axis"
+            )
         _check_pair(fixed, loaded, source)
         pair, rule = (fixed, loaded), f"given by {choice.describe()}{_unequal_note(fixed, loaded)}"
     else:
         pair, rule = _best_pair(bores, holes, choice, source)
         pair = order_pair(*pair, source)
-    ignored = tuple(IgnoredHole(h, _reason(h, pair, named=choice.fixed_point_m is not None))
-                    for h in bores if all(h is not p for p in pair))
-    ignored += tuple(IgnoredHole(h, f"coaxial relief (counterbore) of the bore at {_mm(of.bore.center_m)} mm")
-                     for h, of in reliefs)
-    ignored += tuple(IgnoredHole(h, f"open bore (spans about {angle:.0f} deg, not a full round)") for h, angle in holes.open)
+    ignored = tuple(
+        IgnoredHole(h, _reason(h, pair, named=choice.fixed_point_m is not None))
+        for h in bores
+        if all(h is not p for p in pair)
+    )
+    ignored += tuple(
+        IgnoredHole(h, f"coaxial relief (counterbore) of the bore at {_mm(of.bore.center_m)} mm") for h, of in reliefs
+    )
+    ignored += tuple(
+        IgnoredHole(h, f"open bore (spans about {angle:.0f} deg, not a full round)") for h, angle in holes.open
+    )
     return PinBores(pair[0], pair[1], rule, ignored)
 
 
@@ -154,9 +162,11 @@ def pair_rank(holes: Holes, choice: BoreChoice) -> tuple[float, float] | None:
     return (_radius(pairs[0]), _axis_distance(*pairs[0])) if pairs else None
 
 
-def _candidate_pairs(bores: list[DetectedBore], holes: Holes, choice: BoreChoice) -> list[tuple[DetectedBore, DetectedBore]]:
+def _candidate_pairs(
+    bores: list[DetectedBore], holes: Holes, choice: BoreChoice
+) -> list[tuple[DetectedBore, DetectedBore]]:
     """Pairs of equal parallel bores matching --pitch / --bore-radius, best first (rule 3)."""
-    pairs = [(a, b) for i, a in enumerate(bores) for b in bores[i + 1:] if _is_candidate_pair(a, b)]
+    pairs = [(a, b) for i, a in enumerate(bores) for b in bores[i + 1 :] if _is_candidate_pair(a, b)]
     if choice.pitch_m is not None:
         pairs = [p for p in pairs if abs(_axis_distance(*p) - choice.pitch_m) <= PITCH_MATCH_TOL * choice.pitch_m]
     if choice.radius_m is not None:
@@ -211,9 +221,13 @@ def _best_pair(bores: list[DetectedBore], holes: Holes, choice: BoreChoice, sour
     if not pairs:
         raise GeometryError(_no_pair_message(bores, holes, choice, source))
     best = pairs[0]
-    ties = [p for p in pairs if _at_the_ends(p, holes) == _at_the_ends(best, holes)
-            and _radius(p) >= (1 - EQUAL_RADIUS_TOL) * _radius(best)
-            and _axis_distance(*p) >= (1 - EQUAL_PITCH_TOL) * _axis_distance(*best)]
+    ties = [
+        p
+        for p in pairs
+        if _at_the_ends(p, holes) == _at_the_ends(best, holes)
+        and _radius(p) >= (1 - EQUAL_RADIUS_TOL) * _radius(best)
+        and _axis_distance(*p) >= (1 - EQUAL_PITCH_TOL) * _axis_distance(*best)
+    ]
     rule = f"{rule}; {ends_used(best, holes)}"
     if len(ties) > 1:
         listed = " or ".join(f"{_mm(a.bore.center_m)}:{_mm(b.bore.center_m)}" for a, b in ties)
@@ -230,9 +244,11 @@ def _no_pair_message(bores: list[DetectedBore], holes: Holes, choice: BoreChoice
     open_bore = largest_open_bore(holes)
     if open_bore is not None:
         hole, angle = open_bore
-        return (f"{message}; the r {hole.bore.radius_m * 1e3:.4g} mm bore at {_mm(hole.bore.center_m)} mm is open (about "
-                f"{angle:.0f} deg, {'a half bore' if angle < 200 else 'not a full round'}) and the pull load case needs a full bore: draw its cap as part of "
-                "the solid (or pass --bores to name two full bores)")
+        return (
+            f"{message}; the r {hole.bore.radius_m * 1e3:.4g} mm bore at {_mm(hole.bore.center_m)} mm is open (about "
+            f"{angle:.0f} deg, {'a half bore' if angle < 200 else 'not a full round'}) and the pull load case needs a full bore: draw its cap as part of "
+            "the solid (or pass --bores to name two full bores)"
+        )
     return f"{message}; expected two pin bores ({CHOOSE_HINT})"
 
 
@@ -256,8 +272,10 @@ def _bore_at(bores: list[DetectedBore], point_m, holes: Holes, source: str) -> D
                 f"--bores: the point {_mm(point)} mm is on an open bore (about {angle:.0f} deg, a half bore); the pull "
                 "load case needs a full bore: draw its cap as part of the solid"
             )
-    raise GeometryError(f"--bores: no full-round bore of {source} has its axis within its radius of {_mm(point)} mm "
-                        f"(bores, mm: {_listed(bores)}); expected {BORES_HINT}")
+    raise GeometryError(
+        f"--bores: no full-round bore of {source} has its axis within its radius of {_mm(point)} mm "
+        f"(bores, mm: {_listed(bores)}); expected {BORES_HINT}"
+    )
 
 
 def _listed(bores: list[DetectedBore], most: int = 6) -> str:
@@ -272,15 +290,19 @@ def _unequal_note(fixed: DetectedBore, loaded: DetectedBore) -> str:
     r_fixed, r_loaded = fixed.bore.radius_m, loaded.bore.radius_m
     if abs(r_fixed - r_loaded) <= EQUAL_RADIUS_TOL * max(r_fixed, r_loaded):
         return ""
-    return (f"; unequal bores: the fixed one (r {r_fixed * 1e3:.4g} mm) is clamped all round, the loaded one (r "
-            f"{r_loaded * 1e3:.4g} mm) carries the cosine bearing pressure of a pin of its own radius, pulling along the "
-            "line between the axes; each bore is meshed for its own radius")
+    return (
+        f"; unequal bores: the fixed one (r {r_fixed * 1e3:.4g} mm) is clamped all round, the loaded one (r "
+        f"{r_loaded * 1e3:.4g} mm) carries the cosine bearing pressure of a pin of its own radius, pulling along the "
+        "line between the axes; each bore is meshed for its own radius"
+    )
 
 
 def _check_pair(a: DetectedBore, b: DetectedBore, source: str) -> None:
     if not _parallel(a, b):
-        raise GeometryError(f"--bores: the bores at {_mm(a.bore.center_m)} and {_mm(b.bore.center_m)} mm of {source} are not "
-                            "parallel; expected the two parallel pin bores")
+        raise GeometryError(
+            f"--bores: the bores at {_mm(a.bore.center_m)} and {_mm(b.bore.center_m)} mm of {source} are not "
+            "parallel; expected the two parallel pin bores"
+        )
 
 
 def _is_candidate_pair(a: DetectedBore, b: DetectedBore) -> bool:

@@ -81,8 +81,10 @@ def counterbored_chamfered_link() -> PartSpec:
     holes = [_through_z(x, 0, r_bore, -t, 2 * t) for x in (0, p)]
     holes.append(_through_z(0, 0, 8 * MM, t - 4 * MM, 2 * t))
     c = 1 * MM
-    holes += [occ.addCone(p, 0, z0, 0, 0, dz, r0, r1) for z0, dz, r0, r1 in
-              ((-c, 2 * c, r_bore + 2 * c, r_bore), (t - c, 2 * c, r_bore, r_bore + 2 * c))]
+    holes += [
+        occ.addCone(p, 0, z0, 0, 0, dz, r0, r1)
+        for z0, dz, r0, r1 in ((-c, 2 * c, r_bore + 2 * c, r_bore), (t - c, 2 * c, r_bore, r_bore + 2 * c))
+    ]
     for x in (p / 2 - 12 * MM, p / 2 + 12 * MM):
         holes.append(_through_z(x, 0, 3.3 * MM, -t, 2 * t))
         holes.append(_through_z(x, 0, 5.5 * MM, t - 6.5 * MM, 2 * t))
@@ -94,7 +96,6 @@ def roller_chain_plate() -> PartSpec:
     """An ANSI 40 (12.7 mm pitch) pin-link plate: figure-eight outline of two 6 mm round ends with a
     waisted middle, 1.5 mm thick, 3.96 mm pin holes."""
     p, t, r_end, r_hole = 12.7 * MM, 1.5 * MM, 6 * MM, 1.98 * MM
-    occ = gmsh.model.occ
     plate = _stadium(p, r_end, t)
     waist = [_through_z(p / 2, s * 9.2 * MM, 5 * MM, -t, 2 * t) for s in (-1, 1)]
     holes = [_through_z(x, 0, r_hole, -t, 2 * t) for x in (0, p)]
@@ -118,7 +119,6 @@ def link_with_pins_and_bushings() -> PartSpec:
     steel bushings pressed into its bores (16 mm outside, 10 mm inside, 2 mm proud each side) and
     two 10 mm pins through them (4 mm longer than the bushings each side)."""
     p, t, r_end, r_bore, r_pin = 76.2 * MM, 14 * MM, 16 * MM, 8 * MM, 5 * MM
-    occ = gmsh.model.occ
     link = _stadium(p, r_end, t)
     _drill(link, [_through_z(x, 0, r_bore, -t, 2 * t) for x in (0, p)])
     for x in (0, p):
@@ -155,8 +155,10 @@ def perforated_plate() -> PartSpec:
     occ = gmsh.model.occ
     n = 150
     plate = occ.addBox(0, 0, 0, n * 6 * MM, 60 * MM, 10 * MM)
-    holes = [occ.addCylinder((3 + 6 * i) * MM, (10 + 40 * (i % 2)) * MM, -MM, 0, 0, 12 * MM, (1 + 0.05 * i) * MM)
-             for i in range(n)]
+    holes = [
+        occ.addCylinder((3 + 6 * i) * MM, (10 + 40 * (i % 2)) * MM, -MM, 0, 0, 12 * MM, (1 + 0.05 * i) * MM)
+        for i in range(n)
+    ]
     holes += [occ.addCylinder((3 + 6 * i) * MM, 30 * MM, 5 * MM, 0, 0, 6 * MM, (1.5 + 0.05 * i) * MM) for i in range(n)]
     _drill(plate, holes)
     return PartSpec(((n * 6 - 3) * MM, 50 * MM, 0), ((n * 6 - 3) * MM, 30 * MM, 0), 8.45 * MM)
@@ -185,8 +187,10 @@ def write_part(name: str, path: Path) -> tuple[PartSpec, list[float]]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m geometry.sample_parts",
-                                     description="Write real-world-shaped sample parts as millimetre STEP files.")
+    parser = argparse.ArgumentParser(
+        prog="python -m geometry.sample_parts",
+        description="Write real-world-shaped sample parts as millimetre STEP files.",
+    )
     parser.add_argument("out", type=Path, help="folder for NAME.step (created if missing)")
     parser.add_argument("names", nargs="*", metavar="NAME", help=f"parts to write (default: all): {', '.join(PARTS)}")
     args = parser.parse_args(argv)

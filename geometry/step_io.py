@@ -72,7 +72,9 @@ def import_step_bytes(data: bytes, name: str | os.PathLike) -> list[int]:
         gmsh.model.occ.synchronize()
         volumes = [tag for _, tag in gmsh.model.getEntities(3)]
     if not volumes:
-        raise GeometryError(f"{name}: holds no solid (and its faces, if any, do not close one); expected one solid link")
+        raise GeometryError(
+            f"{name}: holds no solid (and its faces, if any, do not close one); expected one solid link"
+        )
     return volumes
 
 

@@ -69,8 +69,9 @@ def is_mirror_symmetric(volumes: list[int], plane: MirrorPlane) -> bool:
     centroid = sum(np.array(occ.getCenterOfMass(3, v)) * occ.getMass(3, v) for v in volumes) / volume
     if abs(plane.distance_m(centroid)) > tolerance:
         return False
-    return (_entities_mirrored(2, boundary_faces(volumes), plane, tolerance)
-            and _entities_mirrored(1, boundary_edges(volumes), plane, tolerance))
+    return _entities_mirrored(2, boundary_faces(volumes), plane, tolerance) and _entities_mirrored(
+        1, boundary_edges(volumes), plane, tolerance
+    )
 
 
 def _entities_mirrored(dim: int, tags: list[int], plane: MirrorPlane, distance_tol: float) -> bool:
@@ -103,6 +104,9 @@ def faces_on_plane(volumes: list[int], plane: MirrorPlane) -> list[int]:
     found = []
     for tag in boundary_faces(volumes):
         box = np.array(gmsh.model.getBoundingBox(2, tag))
-        if abs(box[plane.axis] - plane.offset_m) <= tolerance and abs(box[3 + plane.axis] - plane.offset_m) <= tolerance:
+        if (
+            abs(box[plane.axis] - plane.offset_m) <= tolerance
+            and abs(box[3 + plane.axis] - plane.offset_m) <= tolerance
+        ):
             found.append(tag)
     return found

@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from dynamics.scene import ChainModelKind
 from dynamics.response.metrics import rank_cams, rms, station_links
+from dynamics.scene import ChainModelKind
 from reporting import html, plots
 from reporting.history import CamHistory
 from reporting.sections import Report, build_sections
@@ -29,11 +29,23 @@ if TYPE_CHECKING:
     from stages.replica import ReplicaRun
 
 RANKING_METRIC = "residual_vibration_m"
-SUMMARY_STATION_KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2",
-                        "max_abs_acceleration_m_s2", "max_deviation_m", "max_velocity_deviation_m_s",
-                        "max_acceleration_deviation_m_s2", "residual_vibration_m")
-PER_LINK_KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2",
-                 "residual_vibration_m")
+SUMMARY_STATION_KEYS = (
+    "rms_displacement_m",
+    "rms_velocity_m_s",
+    "rms_acceleration_m_s2",
+    "max_abs_acceleration_m_s2",
+    "max_deviation_m",
+    "max_velocity_deviation_m_s",
+    "max_acceleration_deviation_m_s2",
+    "residual_vibration_m",
+)
+PER_LINK_KEYS = (
+    "rms_displacement_m",
+    "rms_velocity_m_s",
+    "rms_acceleration_m_s2",
+    "max_abs_acceleration_m_s2",
+    "residual_vibration_m",
+)
 
 
 class StagedOutput:
@@ -119,13 +131,18 @@ def _contact_summary(contact) -> dict:
         "free_play_time_fraction": float(contact.free_play_time_fraction),
         "impacts_per_cycle": float(contact.impacts_per_cycle),
         "impact_force_spike_N": float(contact.impact_force_spike_N),
-        **{f"impact_{name}": float(value) for name, value in vars(contact.impacts).items()
-           if name != "force_spike_N"},
+        **{f"impact_{name}": float(value) for name, value in vars(contact.impacts).items() if name != "force_spike_N"},
         "preload_for_full_contact_N": float(contact.preload_for_full_contact_N),
         "linear_min_tension_N": float(contact.linear_min_tension_N),
-        "clearance_steady_state": None if ss is None else {
-            "found": ss.found, "period_cycles": ss.period_cycles, "cycles": ss.cycles, "residual": ss.residual,
-            "statement": ss.statement},
+        "clearance_steady_state": None
+        if ss is None
+        else {
+            "found": ss.found,
+            "period_cycles": ss.period_cycles,
+            "cycles": ss.cycles,
+            "residual": ss.residual,
+            "statement": ss.statement,
+        },
         "steps_per_output_sample": contact.steps_per_output,
     }
 
@@ -134,9 +151,14 @@ def _scenario_summary(scenario, fea, band_m: float) -> dict:
     peak_N, min_N = _tension_extremes_N(scenario)
     peak_stress = peak_N * fea.peak_von_mises_converged_Pa_per_N if fea is not None else None
     out = {
-        "stations": {name: {**_station_dict(s), "settling_time_s": _settling(scenario.settling_time_s[scenario.history.column(s.link)]),
-                            "settling_band_m": band_m}
-                     for name, s in scenario.stations.items()},
+        "stations": {
+            name: {
+                **_station_dict(s),
+                "settling_time_s": _settling(scenario.settling_time_s[scenario.history.column(s.link)]),
+                "settling_band_m": band_m,
+            }
+            for name, s in scenario.stations.items()
+        },
         "per_link": {k: getattr(scenario.metrics, k).tolist() for k in PER_LINK_KEYS},
         "peak_tension_N": peak_N,
         "min_tension_N": min_N,
@@ -155,8 +177,10 @@ def _rankings(scenarios: dict, materials, cams, station: str) -> dict:
     result = {}
     for material in materials:
         by_cam = {cam: scenarios[material, cam].stations for cam in cams}
-        result[material] = {metric: [list(cv) for cv in rank_cams(by_cam, metric, station).order]
-                            for metric in (RANKING_METRIC, "max_abs_acceleration_m_s2", "rms_acceleration_m_s2")}
+        result[material] = {
+            metric: [list(cv) for cv in rank_cams(by_cam, metric, station).order]
+            for metric in (RANKING_METRIC, "max_abs_acceleration_m_s2", "rms_acceleration_m_s2")
+        }
     return result
 
 
@@ -171,8 +195,9 @@ def default_summary(results: RunResults) -> dict:
             "body_volume_m3": first.body_volume_m3,
             "bore_radius_m": first.bore_radius_m,
         },
-        "stations": {name: link for name, link in station_links(cfg.links).items()
-                     if cfg.station is None or name == cfg.station},
+        "stations": {
+            name: link for name, link in station_links(cfg.links).items() if cfg.station is None or name == cfg.station
+        },
         "cams": {cam: _input_rms(scenarios[first.material, cam].history) for cam in cfg.cams},
         "materials": {
             name: {
@@ -207,11 +232,19 @@ def _fidelity(cfg, fea: dict, scenarios: dict) -> dict:
     models = {sc.contact.model for sc in scenarios.values()}
     return {
         "tolerance": cfg.tolerance,
-        "fea": {m: {"mesh_size_m": r.mesh_size_m, "order": cfg.order, "dofs": r.dofs,
-                    "stiffness_rel_error_estimate": r.stiffness_rel_error_estimate} for m, r in fea.items()},
+        "fea": {
+            m: {
+                "mesh_size_m": r.mesh_size_m,
+                "order": cfg.order,
+                "dofs": r.dofs,
+                "stiffness_rel_error_estimate": r.stiffness_rel_error_estimate,
+            }
+            for m, r in fea.items()
+        },
         "dynamics": {
-            "solver": cfg.solver if "clearance" not in models else
-            f"{cfg.solver} (linear chain); clearance-verlet (clearance chain)",
+            "solver": cfg.solver
+            if "clearance" not in models
+            else f"{cfg.solver} (linear chain); clearance-verlet (clearance chain)",
             "samples_per_degree": max(sc.samples_per_degree for sc in scenarios.values()),
             "metrics_rel_error_estimate": max(estimates) if estimates else None,
         },
@@ -220,11 +253,22 @@ def _fidelity(cfg, fea: dict, scenarios: dict) -> dict:
 
 def _inputs(cfg) -> dict:
     return {
-        "links": cfg.links, "rpm": cfg.rpm, "cams": list(cfg.cams), "materials": list(cfg.materials),
-        "friction_coefficient": cfg.friction, "damping_ratio": cfg.damping, "preload_N": cfg.preload_N,
-        "solver": cfg.solver, "preset": cfg.preset, "steady_state": cfg.steady_state, "station": cfg.station,
-        "samples_per_degree": cfg.samples_per_degree, "hardware_mass_kg": cfg.hardware_mass_kg,
-        "nest_mass_kg": cfg.nest_mass_kg, "fea_order": cfg.order, "fea_mesh_size_m": cfg.mesh_size_m,
+        "links": cfg.links,
+        "rpm": cfg.rpm,
+        "cams": list(cfg.cams),
+        "materials": list(cfg.materials),
+        "friction_coefficient": cfg.friction,
+        "damping_ratio": cfg.damping,
+        "preload_N": cfg.preload_N,
+        "solver": cfg.solver,
+        "preset": cfg.preset,
+        "steady_state": cfg.steady_state,
+        "station": cfg.station,
+        "samples_per_degree": cfg.samples_per_degree,
+        "hardware_mass_kg": cfg.hardware_mass_kg,
+        "nest_mass_kg": cfg.nest_mass_kg,
+        "fea_order": cfg.order,
+        "fea_mesh_size_m": cfg.mesh_size_m,
         **_chain_model_inputs(cfg),
     }
 
@@ -258,19 +302,36 @@ def _tables(histories: dict, at_link: dict, rms_link: int, max_link: int) -> lis
     materials = list(dict.fromkeys(m for m, _ in histories))
     cams = list(dict.fromkeys(c for _, c in histories))
     inputs = {cam: histories[materials[0], cam] for cam in cams}
-    input_rms = {cam: {"displacement": float(rms(h.z_m)), "velocity": float(rms(h.zdot_m_s)),
-                       "acceleration": float(rms(h.zddot_m_s2))} for cam, h in inputs.items()}
-    link_rms = {m: {cam: {"displacement": at_link[m, cam].rms_displacement_m,
-                          "velocity": at_link[m, cam].rms_velocity_m_s,
-                          "acceleration": at_link[m, cam].rms_acceleration_m_s2} for cam in cams}
-                for m in materials}
+    input_rms = {
+        cam: {
+            "displacement": float(rms(h.z_m)),
+            "velocity": float(rms(h.zdot_m_s)),
+            "acceleration": float(rms(h.zddot_m_s2)),
+        }
+        for cam, h in inputs.items()
+    }
+    link_rms = {
+        m: {
+            cam: {
+                "displacement": at_link[m, cam].rms_displacement_m,
+                "velocity": at_link[m, cam].rms_velocity_m_s,
+                "acceleration": at_link[m, cam].rms_acceleration_m_s2,
+            }
+            for cam in cams
+        }
+        for m in materials
+    }
     max_acc = {m: {cam: at_link[m, cam].max_abs_acceleration_m_s2 for cam in cams} for m in materials}
     return [rms_table(input_rms, link_rms, rms_link), max_acceleration_table(max_acc, max_link)]
 
 
 def _link_rms(station) -> LinkRms:
-    return LinkRms(station.rms_displacement_m, station.rms_velocity_m_s, station.rms_acceleration_m_s2,
-                   station.max_abs_acceleration_m_s2)
+    return LinkRms(
+        station.rms_displacement_m,
+        station.rms_velocity_m_s,
+        station.rms_acceleration_m_s2,
+        station.max_abs_acceleration_m_s2,
+    )
 
 
 def _ranking_table(rankings: dict, station: str) -> Table:
@@ -278,8 +339,11 @@ def _ranking_table(rankings: dict, station: str) -> Table:
     for material, by_metric in rankings.items():
         for rank, (cam, value) in enumerate(by_metric[RANKING_METRIC], start=1):
             rows.append((material, rank, cam, value * 1e3, dict(by_metric["max_abs_acceleration_m_s2"])[cam]))
-    return Table(f"Cam laws ranked by residual vibration in the dwell at the {station} station (best first)",
-                 ("material", "rank", "cam law", "residual vibration (mm)", "max |acceleration| (m/s²)"), tuple(rows))
+    return Table(
+        f"Cam laws ranked by residual vibration in the dwell at the {station} station (best first)",
+        ("material", "rank", "cam law", "residual vibration (mm)", "max |acceleration| (m/s²)"),
+        tuple(rows),
+    )
 
 
 def _write_tables(staged: StagedOutput, tables: dict[str, Table]) -> str:
@@ -289,17 +353,20 @@ def _write_tables(staged: StagedOutput, tables: dict[str, Table]) -> str:
     return "\n".join(t.to_markdown() for t in tables.values())
 
 
-def _material_plots(staged: StagedOutput, histories: list[CamHistory], links: dict[str, int],
-                    focus: int) -> dict[str, Path]:
+def _material_plots(
+    staged: StagedOutput, histories: list[CamHistory], links: dict[str, int], focus: int
+) -> dict[str, Path]:
     """The report's figures; links = the stations whose histories exist, focus = the link they centre on."""
     m = histories[0].material
     figures = {}
     if histories[0].links is None:
         n = histories[0].x_m.shape[1]
-        figures["three links"] = plots.plot_three_links(histories, [1, links["idler-end"], n],
-                                                        staged.path(f"{m}_three_links.png"))
+        figures["three links"] = plots.plot_three_links(
+            histories, [1, links["idler-end"], n], staged.path(f"{m}_three_links.png")
+        )
         figures["middle link, all cams"] = plots.plot_three_links(
-            histories, [links["idler-end"]], staged.path(f"{m}_link{links['idler-end']}_all_cams.png"))
+            histories, [links["idler-end"]], staged.path(f"{m}_link{links['idler-end']}_all_cams.png")
+        )
     figures |= {
         "vs input": plots.plot_link_vs_input(histories, focus, staged.path(f"{m}_link{focus}_vs_input.png")),
         "differences": plots.plot_differences(histories, focus, staged.path(f"{m}_link{focus}_differences.png")),
@@ -315,29 +382,76 @@ def _station_table(scenarios: dict, band_m: float) -> Table:
     for (material, cam), sc in scenarios.items():
         for station, s in sc.stations.items():
             settle = sc.settling_time_s[sc.history.column(s.link)]
-            rows.append((material, cam, station, s.link, s.rms_acceleration_m_s2, s.max_abs_acceleration_m_s2,
-                         s.residual_vibration_m * 1e3, s.max_deviation_m * 1e3,
-                         "not within the dwell" if np.isnan(settle) else settle * 1e3))
-    return Table(f"Accelerometer stations (settling: |x − z| within {band_m * 1e3:g} mm to the dwell's end)",
-                 ("material", "cam law", "station", "link", "RMS acceleration (m/s²)", "max |acceleration| (m/s²)",
-                  "residual vibration (mm)", "max |x − z| (mm)", "settling time (ms)"), tuple(rows))
+            rows.append(
+                (
+                    material,
+                    cam,
+                    station,
+                    s.link,
+                    s.rms_acceleration_m_s2,
+                    s.max_abs_acceleration_m_s2,
+                    s.residual_vibration_m * 1e3,
+                    s.max_deviation_m * 1e3,
+                    "not within the dwell" if np.isnan(settle) else settle * 1e3,
+                )
+            )
+    return Table(
+        f"Accelerometer stations (settling: |x − z| within {band_m * 1e3:g} mm to the dwell's end)",
+        (
+            "material",
+            "cam law",
+            "station",
+            "link",
+            "RMS acceleration (m/s²)",
+            "max |acceleration| (m/s²)",
+            "residual vibration (mm)",
+            "max |x − z| (mm)",
+            "settling time (ms)",
+        ),
+        tuple(rows),
+    )
 
 
 def _tension_table(summary_materials: dict) -> Table:
     rows = []
     for material, data in summary_materials.items():
         for cam, c in data["cams"].items():
-            rows.append((material, cam, c.get("model", "linear"), c["peak_tension_N"] / 1e3, c["min_tension_N"] / 1e3,
-                         "yes" if c.get("contact_lost") else "no", 100.0 * c.get("free_play_time_fraction", 0.0),
-                         c.get("impacts_per_cycle", 0.0), c.get("impact_force_spike_N", 0.0) / 1e3,
-                         c.get("preload_for_full_contact_N", float("nan")) / 1e3, c["peak_link_stress_Pa"] / 1e6,
-                         c["yield_safety_factor"]))
+            rows.append(
+                (
+                    material,
+                    cam,
+                    c.get("model", "linear"),
+                    c["peak_tension_N"] / 1e3,
+                    c["min_tension_N"] / 1e3,
+                    "yes" if c.get("contact_lost") else "no",
+                    100.0 * c.get("free_play_time_fraction", 0.0),
+                    c.get("impacts_per_cycle", 0.0),
+                    c.get("impact_force_spike_N", 0.0) / 1e3,
+                    c.get("preload_for_full_contact_N", float("nan")) / 1e3,
+                    c["peak_link_stress_Pa"] / 1e6,
+                    c["yield_safety_factor"],
+                )
+            )
     used = "; ".join(f"{m}: {data['safety_factor_stress']}" for m, data in summary_materials.items())
-    return Table("Link tension, contact and stress (min tension < 0: a span pushing after its free play closed; "
-                 f"stress = peak tension x the FEA's {used})",
-                 ("material", "cam law", "model", "peak tension (kN)", "min tension (kN)", "contact lost",
-                  "free play (% span-time)", "impacts per cycle", "impact force spike (kN)",
-                  "preload for full contact (kN)", "peak stress (MPa)", "safety factor on yield"), tuple(rows))
+    return Table(
+        "Link tension, contact and stress (min tension < 0: a span pushing after its free play closed; "
+        f"stress = peak tension x the FEA's {used})",
+        (
+            "material",
+            "cam law",
+            "model",
+            "peak tension (kN)",
+            "min tension (kN)",
+            "contact lost",
+            "free play (% span-time)",
+            "impacts per cycle",
+            "impact force spike (kN)",
+            "preload for full contact (kN)",
+            "peak stress (MPa)",
+            "safety factor on yield",
+        ),
+        tuple(rows),
+    )
 
 
 def _sweep_summary(sweep) -> dict:
@@ -346,9 +460,13 @@ def _sweep_summary(sweep) -> dict:
         "link": sweep.station_link,
         "rpm": sweep.rpm.tolist(),
         "friction_coefficient": 0.0,
-        "cams": {cam: {"residual_vibration_m": sweep.residual_vibration_m[i].tolist(),
-                       "peak_abs_acceleration_m_s2": sweep.peak_acceleration_m_s2[i].tolist()}
-                 for i, cam in enumerate(sweep.cam_ids)},
+        "cams": {
+            cam: {
+                "residual_vibration_m": sweep.residual_vibration_m[i].tolist(),
+                "peak_abs_acceleration_m_s2": sweep.peak_acceleration_m_s2[i].tolist(),
+            }
+            for i, cam in enumerate(sweep.cam_ids)
+        },
         "critical_speeds": [{"rpm": c.rpm, "mode": c.mode, "harmonic": c.harmonic} for c in sweep.critical_speeds],
         "critical_speed_definition": sweep.definition,
     }
@@ -359,10 +477,18 @@ def _sweep_table(sweeps: dict) -> Table:
     for material, sweep in sweeps.items():
         for i, cam in enumerate(sweep.cam_ids):
             for j, rpm in enumerate(sweep.rpm):
-                rows.append((material, cam, float(rpm), float(sweep.residual_vibration_m[i, j]),
-                             float(sweep.peak_acceleration_m_s2[i, j])))
-    return Table("Speed sweep", ("material", "cam law", "rpm", "residual_vibration_m", "peak_abs_acceleration_m_s2"),
-                 tuple(rows))
+                rows.append(
+                    (
+                        material,
+                        cam,
+                        float(rpm),
+                        float(sweep.residual_vibration_m[i, j]),
+                        float(sweep.peak_acceleration_m_s2[i, j]),
+                    )
+                )
+    return Table(
+        "Speed sweep", ("material", "cam law", "rpm", "residual_vibration_m", "peak_abs_acceleration_m_s2"), tuple(rows)
+    )
 
 
 def write_default_outputs(results: RunResults, progress) -> None:
@@ -376,10 +502,15 @@ def write_default_outputs(results: RunResults, progress) -> None:
         at_link = {key: _link_rms(sc.stations[focus]) for key, sc in scenarios.items()}
         summary = default_summary(results)
         ranking = _ranking_table(summary["ranking"]["by_material"], focus)
-        report_tables = dict(zip(("rms_table", "max_acceleration_table"),
-                                 _tables(histories, at_link, focus_link, focus_link)))
-        tables = {**report_tables, "ranking": ranking, "stations": _station_table(scenarios, cfg.settling_band_m),
-                  "tension": _tension_table(summary["materials"])}
+        report_tables = dict(
+            zip(("rms_table", "max_acceleration_table"), _tables(histories, at_link, focus_link, focus_link))
+        )
+        tables = {
+            **report_tables,
+            "ranking": ranking,
+            "stations": _station_table(scenarios, cfg.settling_band_m),
+            "tension": _tension_table(summary["materials"]),
+        }
         staged.write_text("tables.md", _write_tables(staged, tables))
         residual = {m: {c: scenarios[m, c].stations[focus].residual_vibration_m for c in cfg.cams} for m in fea}
         residual_png = plots.plot_residual_vibration(residual, focus, staged.path("residual_vibration.png"))
@@ -398,7 +529,9 @@ def write_default_outputs(results: RunResults, progress) -> None:
         _close_timing(timing, progress)
         staged.write_text("summary.json", json.dumps(summary, indent=1))
         report = Report(results, summary, tables, residual_png, figures, images, sweep_pngs)
-        staged.write_text("report.html", html.render_page("link-conveyor: chain vibration report", build_sections(report)))
+        staged.write_text(
+            "report.html", html.render_page("link-conveyor: chain vibration report", build_sections(report))
+        )
     _announce(cfg, staged, timing, progress, ranking)
 
 
@@ -416,8 +549,8 @@ def _tension_maps(staged: StagedOutput, scenarios: dict, materials, cams) -> dic
 
 
 def replica_summary(cfg, runs: dict[str, ReplicaRun], timing: dict) -> dict:
-    from dynamics.response.metrics import station_metrics
     from dynamics.models.mqp2012 import REPORT_TABLE1, REPORT_TABLE2
+    from dynamics.response.metrics import station_metrics
 
     materials = {}
     for name, run in runs.items():
@@ -430,21 +563,33 @@ def replica_summary(cfg, runs: dict[str, ReplicaRun], timing: dict) -> dict:
                 "stations": {s: _station_dict(st) for s, st in station_metrics(metrics).items()},
                 "per_link": {k: getattr(metrics, k).tolist() for k in PER_LINK_KEYS},
                 "table1_link": r.table_link,
-                "table1_rms_displacement_m": x, "table1_rms_velocity_m_s": v, "table1_rms_acceleration_m_s2": a,
+                "table1_rms_displacement_m": x,
+                "table1_rms_velocity_m_s": v,
+                "table1_rms_acceleration_m_s2": a,
                 "table2_link": r.table2_link,
                 "table2_max_abs_acceleration_m_s2": r.table2_si()[cam],
                 "report_table1_rms_m": [q * 1e-3 for q in REPORT_TABLE1[name][cam]],
                 "report_table2_max_abs_acceleration_m_s2": REPORT_TABLE2[name][cam] * 1e-3,
             }
-        materials[name] = {"stiffness_N_per_m": r.stiffness_N_per_m, "lumped_mass_kg": r.lumped_mass_kg,
-                           "natural_frequencies_Hz": (np.sort(r.natural_frequencies_rad_s)[:10] / (2 * np.pi)).tolist(),
-                           "stable": r.stable, "cams": cams}
+        materials[name] = {
+            "stiffness_N_per_m": r.stiffness_N_per_m,
+            "lumped_mass_kg": r.lumped_mass_kg,
+            "natural_frequencies_Hz": (np.sort(r.natural_frequencies_rad_s)[:10] / (2 * np.pi)).tolist(),
+            "stable": r.stable,
+            "cams": cams,
+        }
     first = next(iter(runs.values())).replica
     return {
         "inputs": _inputs(cfg),
         "preset": "mqp2012",
-        "cams": {cam: {"input_rms_displacement_m": float(rms(c.z_m)), "input_rms_velocity_m_s": float(rms(c.zdot_m_s)),
-                       "input_rms_acceleration_m_s2": float(rms(c.zddot_m_s2))} for cam, c in first.cams.items()},
+        "cams": {
+            cam: {
+                "input_rms_displacement_m": float(rms(c.z_m)),
+                "input_rms_velocity_m_s": float(rms(c.zdot_m_s)),
+                "input_rms_acceleration_m_s2": float(rms(c.zddot_m_s2)),
+            }
+            for cam, c in first.cams.items()
+        },
         "materials": materials,
         "timing_s": timing,
     }
@@ -463,10 +608,21 @@ def _replica_comparison_table(replicas: dict) -> Table:
                 rows.append((name, label, cam, ours, report, round((ours - report) / report * 100, 3)))
         for cam, ours in r.table2().items():
             report = REPORT_TABLE2[name][cam]
-            rows.append((name, f"max |acceleration| link {r.table2_link} (mm/s²)", cam, ours, report,
-                         round((ours - report) / report * 100, 3)))
-    return Table("Replica against the report's Tables 1 and 2", ("material", "quantity", "cam law", "replica",
-                                                                  "report", "difference (%)"), tuple(rows))
+            rows.append(
+                (
+                    name,
+                    f"max |acceleration| link {r.table2_link} (mm/s²)",
+                    cam,
+                    ours,
+                    report,
+                    round((ours - report) / report * 100, 3),
+                )
+            )
+    return Table(
+        "Replica against the report's Tables 1 and 2",
+        ("material", "quantity", "cam law", "replica", "report", "difference (%)"),
+        tuple(rows),
+    )
 
 
 def write_replica_outputs(cfg, runs: dict[str, ReplicaRun], timing: dict, progress) -> None:
@@ -478,13 +634,25 @@ def write_replica_outputs(cfg, runs: dict[str, ReplicaRun], timing: dict, progre
         histories, at_link = {}, {}
         for name, r in replicas.items():
             for cam, c in r.cams.items():
-                histories[name, cam] = CamHistory(name, cam, c.t_s, c.z_m, c.zdot_m_s, c.zddot_m_s2, c.x_m, c.v_m_s,
-                                                  c.a_m_s2, np.zeros_like(c.x_m), c.dwell_mask)
+                histories[name, cam] = CamHistory(
+                    name,
+                    cam,
+                    c.t_s,
+                    c.z_m,
+                    c.zdot_m_s,
+                    c.zddot_m_s2,
+                    c.x_m,
+                    c.v_m_s,
+                    c.a_m_s2,
+                    np.zeros_like(c.x_m),
+                    c.dwell_mask,
+                )
                 rx, rv, ra = r.table1_si()[cam]["link"]
                 at_link[name, cam] = LinkRms(rx, rv, ra, r.table2_si()[cam])
         comparison = _replica_comparison_table(replicas)
-        report_tables = dict(zip(("rms_table", "max_acceleration_table"), _tables(histories, at_link, link,
-                                                                                        first.table2_link)))
+        report_tables = dict(
+            zip(("rms_table", "max_acceleration_table"), _tables(histories, at_link, link, first.table2_link))
+        )
         tables = {**report_tables, "report_comparison": comparison}
         staged.write_text("tables.md", _write_tables(staged, tables))
         links = station_links(cfg.links)
@@ -493,16 +661,29 @@ def write_replica_outputs(cfg, runs: dict[str, ReplicaRun], timing: dict, progre
         _close_timing(timing, progress)
         summary = replica_summary(cfg, runs, timing)
         staged.write_text("summary.json", json.dumps(summary, indent=1))
-        sections = [html.Section("Run", html.paragraph(
-            f"Preset mqp2012: the 2012 report's MATLAB model, quirks included (mm units inside, K(1,1) = 3k, "
-            f"damping vector from sorted eigenfrequencies, preload acting as 2.224 N, friction ~500x too small). "
-            f"N = {cfg.links}, {cfg.rpm:g} rpm, friction {cfg.friction:g}, from rest, 181 one-degree samples. "
-            "Table 1's link is round(3N/4); Table 2's is floor(3N/4), as the report printed them."))]
+        sections = [
+            html.Section(
+                "Run",
+                html.paragraph(
+                    f"Preset mqp2012: the 2012 report's MATLAB model, quirks included (mm units inside, K(1,1) = 3k, "
+                    f"damping vector from sorted eigenfrequencies, preload acting as 2.224 N, friction ~500x too small). "
+                    f"N = {cfg.links}, {cfg.rpm:g} rpm, friction {cfg.friction:g}, from rest, 181 one-degree samples. "
+                    "Table 1's link is round(3N/4); Table 2's is floor(3N/4), as the report printed them."
+                ),
+            )
+        ]
         sections.append(html.Section("Against the report", html.table_html(comparison)))
-        sections.append(html.Section("Tables 1 and 2", html.table_html(tables["rms_table"])
-                                     + html.table_html(tables["max_acceleration_table"])))
+        sections.append(
+            html.Section(
+                "Tables 1 and 2",
+                html.table_html(tables["rms_table"]) + html.table_html(tables["max_acceleration_table"]),
+            )
+        )
         for m, f in figures.items():
-            sections.append(html.Section(f"Time histories: {m}", "".join(
-                html.image_html(p, f"{m}: {label}") for label, p in f.items())))
+            sections.append(
+                html.Section(
+                    f"Time histories: {m}", "".join(html.image_html(p, f"{m}: {label}") for label, p in f.items())
+                )
+            )
         staged.write_text("report.html", html.render_page("link-conveyor: mqp2012 replica", sections))
     _announce(cfg, staged, timing, progress, comparison)

@@ -86,8 +86,9 @@ def plot_differences(histories: list[CamHistory], link: int, path: Path) -> Path
     fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
     for row, (label, link_value, input_value) in enumerate(QUANTITIES):
         for h in histories:
-            axes[row].plot(h.t_s, link_value(h)[:, h.column(link)] - input_value(h), color=_colour(h.cam),
-                           lw=0.9, label=h.cam)
+            axes[row].plot(
+                h.t_s, link_value(h)[:, h.column(link)] - input_value(h), color=_colour(h.cam), lw=0.9, label=h.cam
+            )
         axes[row].set_ylabel(f"link − input\n{label}")
         axes[row].grid(alpha=0.3)
     axes[0].legend(fontsize=8)
@@ -138,7 +139,9 @@ def plot_tension(histories: list[CamHistory], path: Path) -> Path:
     ax.axhline(0.0, color="k", lw=0.8)
     ax.set_xlabel("link")
     ax.set_ylabel("link tension (kN); dashed = minimum")
-    ax.set_title(f"{histories[0].material}: link tension extremes (below zero: a span pushing through its closed free play)")
+    ax.set_title(
+        f"{histories[0].material}: link tension extremes (below zero: a span pushing through its closed free play)"
+    )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8, ncol=2)
     return _save(fig, path)
@@ -155,11 +158,24 @@ def plot_tension_map(history: CamHistory, free_play: np.ndarray, path: Path, not
     extent = (t_ms[0], t_ms[-1], 0.5, n_spans + 0.5)
     low, high = min(float(tension_kN.min()), -1e-3), max(float(tension_kN.max()), 1e-3)
     fig, ax = plt.subplots(figsize=(10, 5))
-    image = ax.imshow(tension_kN.T, aspect="auto", origin="lower", extent=extent, cmap="RdBu_r",
-                      norm=TwoSlopeNorm(0.0, low, high), interpolation="nearest")
+    image = ax.imshow(
+        tension_kN.T,
+        aspect="auto",
+        origin="lower",
+        extent=extent,
+        cmap="RdBu_r",
+        norm=TwoSlopeNorm(0.0, low, high),
+        interpolation="nearest",
+    )
     if np.any(free_play):
-        ax.imshow(np.where(free_play, 1.0, np.nan).T, aspect="auto", origin="lower", extent=extent,
-                  cmap=ListedColormap(["0.55"]), interpolation="nearest")
+        ax.imshow(
+            np.where(free_play, 1.0, np.nan).T,
+            aspect="auto",
+            origin="lower",
+            extent=extent,
+            cmap=ListedColormap(["0.55"]),
+            interpolation="nearest",
+        )
     dwell = history.dwell_mask
     edges = np.flatnonzero(np.diff(dwell.astype(int)))
     for i in edges:
@@ -168,8 +184,10 @@ def plot_tension_map(history: CamHistory, free_play: np.ndarray, path: Path, not
     ax.set_xlabel("time (ms); dotted: start and end of dwells")
     ax.set_ylabel("span (link j to j + 1)")
     share = 100.0 * float(np.mean(free_play))
-    ax.set_title(f"{history.material} / {history.cam}: span force; grey = free play ({share:.1f} % of span-time)"
-                 + (f"\n{note}" if note else ""))
+    ax.set_title(
+        f"{history.material} / {history.cam}: span force; grey = free play ({share:.1f} % of span-time)"
+        + (f"\n{note}" if note else "")
+    )
     return _save(fig, path)
 
 
@@ -183,8 +201,16 @@ def plot_rpm_sweep(result: SweepResult, path: Path) -> Path:
     for c in result.critical_speeds:
         for ax in (ax1, ax2):
             ax.axvline(c.rpm, color="0.5", lw=0.8, ls="--", alpha=max(0.25, 1.0 / c.harmonic))
-        ax1.annotate(f"m{c.mode}/h{c.harmonic}", (c.rpm, 1.0), xycoords=("data", "axes fraction"), fontsize=7,
-                     rotation=90, va="top", ha="right", color="0.35")
+        ax1.annotate(
+            f"m{c.mode}/h{c.harmonic}",
+            (c.rpm, 1.0),
+            xycoords=("data", "axes fraction"),
+            fontsize=7,
+            rotation=90,
+            va="top",
+            ha="right",
+            color="0.35",
+        )
     ax1.set_ylabel("residual vibration in dwell, max |x - z| (mm)")
     ax2.set_ylabel("peak |acceleration| (m/s²)")
     ax2.set_xlabel("cam speed (rev/min)")

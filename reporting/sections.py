@@ -15,9 +15,10 @@ they compute no physics of their own.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable
+from typing import TYPE_CHECKING
 
 from dynamics.scene import ChainModelKind, Validity
 from reporting import html
@@ -90,14 +91,19 @@ def _model_paragraphs(results: RunResults) -> str:
             statements.append(f"{m} / {c}: {ss.statement}")
     out = ""
     for (model, reason, validity), runs in groups.items():
-        name = ("linear chain (exact solver)" if model == ChainModelKind.LINEAR
-                else "clearance chain (pin free play, impacts; explicit integrator)")
+        name = (
+            "linear chain (exact solver)"
+            if model == ChainModelKind.LINEAR
+            else "clearance chain (pin free play, impacts; explicit integrator)"
+        )
         css = None if validity == Validity.VALID else "warn"
         low, high = min(linear_min[model, reason, validity]) / 1e3, max(linear_min[model, reason, validity]) / 1e3
-        which = (f"all {len(runs)} scenarios (material x cam law)" if len(groups) == 1 and len(runs) > 1
-                 else ", ".join(runs))
-        out += html.paragraph(f"Model: {name} for {which}: {reason} (linear chain's minimum tension "
-                              f"{low:.3g} to {high:.3g} kN).", css)
+        which = (
+            f"all {len(runs)} scenarios (material x cam law)" if len(groups) == 1 and len(runs) > 1 else ", ".join(runs)
+        )
+        out += html.paragraph(
+            f"Model: {name} for {which}: {reason} (linear chain's minimum tension {low:.3g} to {high:.3g} kN).", css
+        )
     for text in statements:
         out += html.paragraph(text, "warn")
     return out
@@ -112,40 +118,81 @@ def run_section(report: Report) -> list[html.Section]:
         f"{'periodic steady state of continuous indexing' if inputs['steady_state'] else 'start from rest'}, "
         f"friction μ = {inputs['friction_coefficient']:g}, damping ζ = {inputs['damping_ratio']:g}, "
         f"preload {inputs['preload_N']:g} N, solver {inputs['solver']}. Stations: "
-        + ", ".join(f"{k} = link {v}" for k, v in report.summary["stations"].items()) + ".")
+        + ", ".join(f"{k} = link {v}" for k, v in report.summary["stations"].items())
+        + "."
+    )
     return [html.Section("Run", intro + _model_paragraphs(report.results))]
 
 
 def fea_table(results: RunResults) -> Table:
-    rows = tuple((name, r.stiffness_N_per_m, 100 * r.stiffness_rel_error_estimate, r.body_mass_kg,
-                  results.chains[name].model.link_mass_kg, float(results.chains[name].natural_frequencies_Hz[0]),
-                  r.peak_von_mises_converged_Pa_per_N * 1e3 / 1e6, r.dofs, "yes" if r.cached else "no")
-                 for name, r in results.fea.items())
-    return Table("Link stiffness and mass (FEA) and the chain they make",
-                 ("material", "k (N/m)", "k error estimate (%)", "body mass (kg)", "lumped mass (kg)",
-                  "chain f1 (Hz)", "converged peak von Mises per kN (MPa)", "FEA DOFs", "from cache"), rows)
+    rows = tuple(
+        (
+            name,
+            r.stiffness_N_per_m,
+            100 * r.stiffness_rel_error_estimate,
+            r.body_mass_kg,
+            results.chains[name].model.link_mass_kg,
+            float(results.chains[name].natural_frequencies_Hz[0]),
+            r.peak_von_mises_converged_Pa_per_N * 1e3 / 1e6,
+            r.dofs,
+            "yes" if r.cached else "no",
+        )
+        for name, r in results.fea.items()
+    )
+    return Table(
+        "Link stiffness and mass (FEA) and the chain they make",
+        (
+            "material",
+            "k (N/m)",
+            "k error estimate (%)",
+            "body mass (kg)",
+            "lumped mass (kg)",
+            "chain f1 (Hz)",
+            "converged peak von Mises per kN (MPa)",
+            "FEA DOFs",
+            "from cache",
+        ),
+        rows,
+    )
 
 
 def link_section(report: Report) -> list[html.Section]:
-    return [html.Section("Link stiffness and mass", html.table_html(fea_table(report.results))
-                         + "".join(html.image_html(p, f"{m}: deformed link (exaggerated), von Mises stress")
-                                   for m, p in report.images.items()))]
+    return [
+        html.Section(
+            "Link stiffness and mass",
+            html.table_html(fea_table(report.results))
+            + "".join(
+                html.image_html(p, f"{m}: deformed link (exaggerated), von Mises stress")
+                for m, p in report.images.items()
+            ),
+        )
+    ]
 
 
 def cam_law_section(report: Report) -> list[html.Section]:
-    return [html.Section("Which cam law", html.table_html(report.tables["ranking"])
-                         + html.image_html(report.residual_png,
-                                           "Residual vibration in the dwell per cam law and material"))]
+    return [
+        html.Section(
+            "Which cam law",
+            html.table_html(report.tables["ranking"])
+            + html.image_html(report.residual_png, "Residual vibration in the dwell per cam law and material"),
+        )
+    ]
 
 
 def speed_sweep_section(report: Report) -> list[html.Section]:
     if not report.sweep_pngs:
         return []
-    return [html.Section("Speed sweep", html.paragraph(
-        f"Periodic steady state at the {report.focus} station versus cam speed, on the linear chain (friction "
-        "left out of the sweep); dashed lines: critical speeds, where a harmonic of the index frequency "
-        "meets a natural frequency of the chain.") + "".join(
-        html.image_html(p, f"{m}: speed sweep") for m, p in report.sweep_pngs.items()))]
+    return [
+        html.Section(
+            "Speed sweep",
+            html.paragraph(
+                f"Periodic steady state at the {report.focus} station versus cam speed, on the linear chain (friction "
+                "left out of the sweep); dashed lines: critical speeds, where a harmonic of the index frequency "
+                "meets a natural frequency of the chain."
+            )
+            + "".join(html.image_html(p, f"{m}: speed sweep") for m, p in report.sweep_pngs.items()),
+        )
+    ]
 
 
 def stations_section(report: Report) -> list[html.Section]:
@@ -153,32 +200,66 @@ def stations_section(report: Report) -> list[html.Section]:
 
 
 def report_tables_section(report: Report) -> list[html.Section]:
-    return [html.Section("The report's tables", html.table_html(report.tables["rms_table"])
-                         + html.table_html(report.tables["max_acceleration_table"]))]
+    return [
+        html.Section(
+            "The report's tables",
+            html.table_html(report.tables["rms_table"]) + html.table_html(report.tables["max_acceleration_table"]),
+        )
+    ]
 
 
 def tension_section(report: Report) -> list[html.Section]:
     figures = report.figures
-    return [html.Section("Link tension and stress", html.table_html(report.tables["tension"])
-                         + "".join(html.image_html(f["tension map"], f"{m}: span force over time, worst cam law "
-                                                   "(grey: free play)") for m, f in figures.items() if "tension map" in f)
-                         + "".join(html.image_html(f["tension"], f"{m}: link tension extremes")
-                                   for m, f in figures.items() if "tension" in f))]
+    return [
+        html.Section(
+            "Link tension and stress",
+            html.table_html(report.tables["tension"])
+            + "".join(
+                html.image_html(f["tension map"], f"{m}: span force over time, worst cam law (grey: free play)")
+                for m, f in figures.items()
+                if "tension map" in f
+            )
+            + "".join(
+                html.image_html(f["tension"], f"{m}: link tension extremes")
+                for m, f in figures.items()
+                if "tension" in f
+            ),
+        )
+    ]
 
 
 def time_histories_section(report: Report) -> list[html.Section]:
-    return [html.Section(f"Time histories: {m}", "".join(
-        html.image_html(p, f"{m}: {label}") for label, p in f.items() if label not in ("tension", "tension map")))
-        for m, f in report.figures.items()]
+    return [
+        html.Section(
+            f"Time histories: {m}",
+            "".join(
+                html.image_html(p, f"{m}: {label}") for label, p in f.items() if label not in ("tension", "tension map")
+            ),
+        )
+        for m, f in report.figures.items()
+    ]
 
 
 def timing_section(report: Report) -> list[html.Section]:
-    return [html.Section("Timing", html.table_html(
-        Table("Wall time per stage (s)", ("stage", "seconds"), tuple(report.summary["timing_s"].items()))))]
+    return [
+        html.Section(
+            "Timing",
+            html.table_html(
+                Table("Wall time per stage (s)", ("stage", "seconds"), tuple(report.summary["timing_s"].items()))
+            ),
+        )
+    ]
 
 
-for _name, _build in (("run", run_section), ("link", link_section), ("cam law", cam_law_section),
-                      ("speed sweep", speed_sweep_section), ("stations", stations_section),
-                      ("report tables", report_tables_section), ("tension", tension_section),
-                      ("time histories", time_histories_section), ("timing", timing_section)):
+for _name, _build in (
+    ("run", run_section),
+    ("link", link_section),
+    ("cam law", cam_law_section),
+    ("speed sweep", speed_sweep_section),
+    ("stations", stations_section),
+    ("report tables", report_tables_section),
+    ("tension", tension_section),
+    ("time histories", time_histories_section),
+    ("timing", timing_section),
+):
     register_section(_name, _build)

@@ -15,10 +15,16 @@ from reporting.tables import Table
 
 def design_table(title: str, rows: list[dict], columns: list[str], limit: int = 50) -> Table:
     """Rows of the study table in display units (mm, MPa, kN), at most `limit` of them."""
-    header, factors = zip(*(display_unit(c) if c not in ("point", "geometry_file", "material", "cam") else (c, None)
-                            for c in columns))
-    body = tuple(tuple(r.get(c) if f is None or r.get(c) is None or isinstance(r.get(c), bool)
-                       else float(r[c]) * f for c, f in zip(columns, factors)) for r in rows[:limit])
+    header, factors = zip(
+        *(display_unit(c) if c not in ("point", "geometry_file", "material", "cam") else (c, None) for c in columns)
+    )
+    body = tuple(
+        tuple(
+            r.get(c) if f is None or r.get(c) is None or isinstance(r.get(c), bool) else float(r[c]) * f
+            for c, f in zip(columns, factors)
+        )
+        for r in rows[:limit]
+    )
     more = f" (first {limit} of {len(rows)})" if len(rows) > limit else ""
     return Table(title + more, tuple(header), body)
 
@@ -32,15 +38,24 @@ def links_html(links: list[tuple[str, str]]) -> str:
     return f"<ul>{items}</ul>"
 
 
-def write_study_page(path: Path, title: str, intro: list[str], tables: list[Table], figures: list[tuple[str, Path, str]],
-                     reports: list[tuple[str, str]], optimiser: tuple[list[str], Table | None, Path | None] | None) -> Path:
+def write_study_page(
+    path: Path,
+    title: str,
+    intro: list[str],
+    tables: list[Table],
+    figures: list[tuple[str, Path, str]],
+    reports: list[tuple[str, str]],
+    optimiser: tuple[list[str], Table | None, Path | None] | None,
+) -> Path:
     """figures: (section title, png, caption); reports: (label, relative href)."""
     sections = [Section("Summary", "".join(paragraph(t) for t in intro) + "".join(table_html(t) for t in tables))]
     sections += [Section(name, image_html(png, caption)) for name, png, caption in figures]
     if optimiser is not None:
         notes, table, png = optimiser
         body = "".join(paragraph(n) for n in notes) + (table_html(table) if table else "")
-        sections.append(Section("Optimisation", body + (image_html(png, "best objective per generation") if png else "")))
+        sections.append(
+            Section("Optimisation", body + (image_html(png, "best objective per generation") if png else ""))
+        )
     if reports:
         sections.append(Section("Full reports of the best designs", links_html(reports)))
     path.write_text(render_page(title, sections))

@@ -44,13 +44,22 @@ def plot_pareto(rows: list[dict], objectives: list[str], path: Path) -> Path:
     red and joined in order."""
     x_name, y_name = objectives[:2]
     fig, ax = plt.subplots(figsize=(7, 5))
-    groups = (("infeasible (constraints)", [r for r in rows if r["status"] == "ok" and not r["feasible"]], "0.7", "x"),
-              ("feasible", [r for r in rows if r["feasible"] and not r["pareto"]], "tab:blue", "o"),
-              ("Pareto front", [r for r in rows if r["pareto"]], "tab:red", "D"))
+    groups = (
+        ("infeasible (constraints)", [r for r in rows if r["status"] == "ok" and not r["feasible"]], "0.7", "x"),
+        ("feasible", [r for r in rows if r["feasible"] and not r["pareto"]], "tab:blue", "o"),
+        ("Pareto front", [r for r in rows if r["pareto"]], "tab:red", "D"),
+    )
     for label, members, colour, marker in groups:
         if members:
-            ax.scatter(_values(members, x_name), _values(members, y_name), c=colour, marker=marker, s=28,
-                       label=f"{label} ({len(members)})", zorder=3 if label == "Pareto front" else 2)
+            ax.scatter(
+                _values(members, x_name),
+                _values(members, y_name),
+                c=colour,
+                marker=marker,
+                s=28,
+                label=f"{label} ({len(members)})",
+                zorder=3 if label == "Pareto front" else 2,
+            )
     front = [r for r in rows if r["pareto"]]
     if len(front) > 1:
         x, y = _values(front, x_name), _values(front, y_name)
@@ -70,8 +79,9 @@ def plot_metrics_vs_variables(rows: list[dict], metrics: list[str], variables: l
     computed = [r for r in rows if r["status"] == "ok"]
     materials = sorted({r["material"] for r in computed})
     colours = dict(zip(materials, plt.rcParams["axes.prop_cycle"].by_key()["color"]))
-    fig, axes = plt.subplots(len(metrics), len(variables), figsize=(3.2 * len(variables), 2.6 * len(metrics)),
-                             squeeze=False)
+    fig, axes = plt.subplots(
+        len(metrics), len(variables), figsize=(3.2 * len(variables), 2.6 * len(metrics)), squeeze=False
+    )
     for i, metric in enumerate(metrics):
         for j, variable in enumerate(variables):
             ax = axes[i, j]
@@ -79,9 +89,14 @@ def plot_metrics_vs_variables(rows: list[dict], metrics: list[str], variables: l
                 for feasible in (True, False):
                     members = [r for r in computed if r["material"] == material and r["feasible"] == feasible]
                     if members:
-                        ax.scatter(_values(members, variable), _values(members, metric), s=14,
-                                   facecolors=colours[material] if feasible else "none", edgecolors=colours[material],
-                                   label=f"{material}{'' if feasible else ' (infeasible)'}")
+                        ax.scatter(
+                            _values(members, variable),
+                            _values(members, metric),
+                            s=14,
+                            facecolors=colours[material] if feasible else "none",
+                            edgecolors=colours[material],
+                            label=f"{material}{'' if feasible else ' (infeasible)'}",
+                        )
             ax.grid(alpha=0.3)
             if i == len(metrics) - 1:
                 ax.set_xlabel(display_unit(variable)[0])
@@ -103,9 +118,11 @@ def plot_parallel_coordinates(rows: list[dict], columns: list[str], path: Path) 
     scaled = (data - low) / span
     fig, ax = plt.subplots(figsize=(max(8, 1.3 * len(columns)), 5))
     x = np.arange(len(columns))
-    for keep, colour, width, z in ((lambda r: not r["feasible"], "0.75", 0.6, 1),
-                                   (lambda r: r["feasible"] and not r["pareto"], "tab:blue", 0.8, 2),
-                                   (lambda r: r["pareto"], "tab:red", 1.6, 3)):
+    for keep, colour, width, z in (
+        (lambda r: not r["feasible"], "0.75", 0.6, 1),
+        (lambda r: r["feasible"] and not r["pareto"], "tab:blue", 0.8, 2),
+        (lambda r: r["pareto"], "tab:red", 1.6, 3),
+    ):
         for row, line in zip(computed, scaled):
             if keep(row):
                 ax.plot(x, line, color=colour, lw=width, alpha=0.8, zorder=z)
@@ -142,19 +159,29 @@ def plot_sensitivity(found, path: Path) -> Path:
     fig, ax = plt.subplots(figsize=(7, 0.45 * max(len(indices), 2) + 1.6))
     y = np.arange(len(indices))
     colours = ["tab:blue" if i.kind == "range" else "tab:orange" for i in indices]
-    ax.barh(y, [i.first_order for i in indices], xerr=[i.half_width for i in indices], color=colours,
-            error_kw={"ecolor": "k", "capsize": 3, "lw": 1})
+    ax.barh(
+        y,
+        [i.first_order for i in indices],
+        xerr=[i.half_width for i in indices],
+        color=colours,
+        error_kw={"ecolor": "k", "capsize": 3, "lw": 1},
+    )
     ax.set_yticks(y, [i.input for i in indices], fontsize=8)  # the study file's names
     ax.axvline(0, color="k", lw=0.6)
-    ax.set_xlim(min([-0.05, *(i.first_order - i.half_width for i in indices)]),
-                max([1.0, *(i.first_order + i.half_width for i in indices)]))
+    ax.set_xlim(
+        min([-0.05, *(i.first_order - i.half_width for i in indices)]),
+        max([1.0, *(i.first_order + i.half_width for i in indices)]),
+    )
     ax.set_xlabel("first-order index S1 (share of the variance explained alone), 95 % interval")
     ax.grid(axis="x", alpha=0.3)
     kinds = [k for k in ("range", "list") if any(i.kind == k for i in indices)]
-    ax.legend([plt.Rectangle((0, 0), 1, 1, color="tab:blue" if k == "range" else "tab:orange") for k in kinds],
-              [f"{k} variable" for k in kinds], fontsize=8, loc="lower right")
-    ax.set_title(f"{found.metric}\n{found.adequacy}", fontsize=9,
-                 color="k" if found.adequate else "tab:red")
+    ax.legend(
+        [plt.Rectangle((0, 0), 1, 1, color="tab:blue" if k == "range" else "tab:orange") for k in kinds],
+        [f"{k} variable" for k in kinds],
+        fontsize=8,
+        loc="lower right",
+    )
+    ax.set_title(f"{found.metric}\n{found.adequacy}", fontsize=9, color="k" if found.adequate else "tab:red")
     if not indices:
         ax.text(0.5, 0.5, found.adequacy, ha="center", va="center", transform=ax.transAxes, fontsize=8, wrap=True)
     return _save(fig, path)

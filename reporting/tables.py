@@ -53,8 +53,9 @@ def percent_difference(link: float, reference: float) -> float:
     return (link - reference) / reference * 100.0
 
 
-def rms_table(input_rms: dict[str, dict[str, float]], link_rms: dict[str, dict[str, dict[str, float]]],
-              link: int) -> Table:
+def rms_table(
+    input_rms: dict[str, dict[str, float]], link_rms: dict[str, dict[str, dict[str, float]]], link: int
+) -> Table:
     """Table 1/4 layout. input_rms[cam][quantity], link_rms[material][cam][quantity], SI values."""
     materials = list(link_rms)
     header = ("quantity", "cam law", "cam input")
@@ -65,8 +66,15 @@ def rms_table(input_rms: dict[str, dict[str, float]], link_rms: dict[str, dict[s
         for cam, values in input_rms.items():
             ref = values[quantity]
             links = [link_rms[m][cam][quantity] for m in materials]
-            rows.append((f"RMS {quantity} ({unit})", cam, ref * scale, *[v * scale for v in links],
-                         *[round(percent_difference(v, ref), 2) for v in links]))
+            rows.append(
+                (
+                    f"RMS {quantity} ({unit})",
+                    cam,
+                    ref * scale,
+                    *[v * scale for v in links],
+                    *[round(percent_difference(v, ref), 2) for v in links],
+                )
+            )
     return Table(f"RMS of the cam input and of link {link}", header, tuple(rows))
 
 

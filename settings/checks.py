@@ -47,13 +47,17 @@ def _check_cams(cams: tuple[str, ...]) -> None:
 
 
 def _check_choices(cfg: RunConfig) -> None:
-    for option, value, allowed in (("--order", cfg.order, registries.ELEMENT_ORDERS),
-                                   ("--preset", cfg.preset, (None, *registries.PRESETS)),
-                                   ("--station", cfg.station, (None, *registries.station_names())),
-                                   ("--model", cfg.model, registries.chain_models()),
-                                   ("--span-damping", cfg.span_damping, registries.span_damping_laws())):
-        _require(value in allowed, f"{option}: expected one of {', '.join(str(a) for a in allowed if a is not None)}, "
-                                   f"got {value!r}")
+    for option, value, allowed in (
+        ("--order", cfg.order, registries.ELEMENT_ORDERS),
+        ("--preset", cfg.preset, (None, *registries.PRESETS)),
+        ("--station", cfg.station, (None, *registries.station_names())),
+        ("--model", cfg.model, registries.chain_models()),
+        ("--span-damping", cfg.span_damping, registries.span_damping_laws()),
+    ):
+        _require(
+            value in allowed,
+            f"{option}: expected one of {', '.join(str(a) for a in allowed if a is not None)}, got {value!r}",
+        )
     _require(len(cfg.materials) > 0, "--materials: expected a comma-separated list of material ids, got none")
 
 
@@ -63,8 +67,10 @@ def _check_solver(method: str, friction: float) -> None:
     _require(method in methods, f"--solver: unknown method {method!r}; expected one of {', '.join(methods)}")
     if friction > 0 and not methods[method].handles_nonlinear_force:
         capable = ", ".join(m for m, info in methods.items() if info.handles_nonlinear_force)
-        raise SettingsError(f"--solver: {method} cannot model friction (--friction {friction:g} > 0); "
-                            f"use one of {capable} or --friction 0")
+        raise SettingsError(
+            f"--solver: {method} cannot model friction (--friction {friction:g} > 0); "
+            f"use one of {capable} or --friction 0"
+        )
 
 
 def _check_chain_model(cfg: RunConfig) -> None:
@@ -73,8 +79,10 @@ def _check_chain_model(cfg: RunConfig) -> None:
 
     if cfg.rayleigh is not None:
         alpha, beta = cfg.rayleigh
-        _require(cfg.span_damping == "global" or alpha == 0.0,
-                 f"--rayleigh: the kelvin-voigt span damping takes BETA only (ALPHA 0), got {alpha:g}:{beta:g}")
+        _require(
+            cfg.span_damping == "global" or alpha == 0.0,
+            f"--rayleigh: the kelvin-voigt span damping takes BETA only (ALPHA 0), got {alpha:g}:{beta:g}",
+        )
     try:
         tensioner_from(cfg.tensioner_rate_N_per_m, cfg.tensioner_mass_kg, cfg.tensioner_damping_N_s_per_m)
     except ValueError as e:
@@ -86,8 +94,9 @@ def _check_mqp2012(cfg: RunConfig) -> None:
     cams = registries.preset_cam_ids("mqp2012")
     outside = [c for c in cfg.cams if c not in cams]
     if outside:
-        raise SettingsError(f"--cams: the mqp2012 preset has the report's cams only ({', '.join(cams)}), "
-                            f"got {outside[0]!r}")
+        raise SettingsError(
+            f"--cams: the mqp2012 preset has the report's cams only ({', '.join(cams)}), got {outside[0]!r}"
+        )
     materials = registries.preset_material_ids("mqp2012")
     strange = [m for m in cfg.materials if m not in materials]
     if strange:
@@ -96,10 +105,16 @@ def _check_mqp2012(cfg: RunConfig) -> None:
 
 def _check_files(cfg: RunConfig) -> None:
     if cfg.geometry is not None:
-        _require(cfg.geometry.is_file(), f"--geometry: no such file {str(cfg.geometry)!r}; expected a STEP file of one link")
+        _require(
+            cfg.geometry.is_file(), f"--geometry: no such file {str(cfg.geometry)!r}; expected a STEP file of one link"
+        )
     if cfg.materials_file is not None:
         _require(cfg.materials_file.is_file(), f"--materials-file: no such file {str(cfg.materials_file)!r}")
-    _require(cfg.geometry is not None or (cfg.hardware_material is None and not cfg.hardware_from_step),
-             "--hardware-material/--hardware-from-step: only for a --geometry STEP file; expected --geometry with them")
-    _require(not cfg.hardware_from_step or cfg.hardware_material is not None,
-             "--hardware-from-step: the hardware solids need a material; expected --hardware-material ID[,ID...]")
+    _require(
+        cfg.geometry is not None or (cfg.hardware_material is None and not cfg.hardware_from_step),
+        "--hardware-material/--hardware-from-step: only for a --geometry STEP file; expected --geometry with them",
+    )
+    _require(
+        not cfg.hardware_from_step or cfg.hardware_material is not None,
+        "--hardware-from-step: the hardware solids need a material; expected --hardware-material ID[,ID...]",
+    )

@@ -55,6 +55,12 @@ def _default_nest_mass_kg() -> float:
     return NEST_MASS_KG
 
 
+def _default_max_memory_gb() -> float:
+    from fem.budget import DEFAULT_MAX_MEMORY_GB
+
+    return DEFAULT_MAX_MEMORY_GB
+
+
 def _default_cache_dir() -> Path:
     from fem.cache import default_cache_dir
 
@@ -81,6 +87,7 @@ class RunConfig:
     quiet: bool = False
     mesh_size_m: float | None = None  # finest FEA level; None: chosen for < 1 % error in k
     order: int = 2
+    max_memory_gb: float = field(default_factory=_default_max_memory_gb)  # the FEA solves' memory budget
     hardware_mass_kg: float = field(default_factory=_default_hardware_mass_kg)
     nest_mass_kg: float = field(default_factory=_default_nest_mass_kg)
     cache_dir: Path = field(default_factory=_default_cache_dir)
@@ -149,9 +156,14 @@ class Limit:
     def problem(self, value) -> str | None:
         """Why `value` (SI) is refused, one line naming the option; None when it is allowed."""
         shown = value * self.per_si
-        ok = (isinstance(value, (int, float)) and not isinstance(value, bool) and not math.isnan(value)
-              and self.bounds.accepts(value) and (math.isfinite(value) or not self.finite)
-              and (not self.whole or float(value).is_integer()))
+        ok = (
+            isinstance(value, (int, float))
+            and not isinstance(value, bool)
+            and not math.isnan(value)
+            and self.bounds.accepts(value)
+            and (math.isfinite(value) or not self.finite)
+            and (not self.whole or float(value).is_integer())
+        )
         if ok:
             return None
         unit = f" {self.unit}" if self.unit else ""
@@ -171,6 +183,7 @@ LIMITS: dict[str, Limit] = {
     "preload_N": Limit("--preload", "a tension", AT_LEAST_ZERO, "N"),
     "hardware_mass_kg": Limit("--hardware-mass", "a mass", AT_LEAST_ZERO, "kg"),
     "nest_mass_kg": Limit("--nest-mass", "a mass", AT_LEAST_ZERO, "kg"),
+    "max_memory_gb": Limit("--max-memory", "a memory budget", ABOVE_ZERO, "GB"),
     "mesh_size_m": Limit("--mesh-size", "an element size", ABOVE_ZERO, "mm", MM_PER_M),
     "samples_per_degree": Limit("--samples-per-degree", "a whole number", Bounds(1, True), whole=True),
     "tolerance": Limit("--tolerance", "a relative tolerance (e.g. 0.01)", Bounds(0.0, False, 1.0, False)),

@@ -13,9 +13,9 @@ if TYPE_CHECKING:  # numpy, scipy and the dynamics load when a stage runs, not w
     import numpy as np
 
     from dynamics.models.chain import ChainModel
-    from dynamics.scene import ContactSummary, Scene
     from dynamics.response.metrics import LinkMetrics, StationMetrics, TensionExtremes
     from dynamics.response.sweep import SweepResult
+    from dynamics.scene import ContactSummary, Scene
     from reporting.history import CamHistory
 
 REPORTED_MODES = 10  # natural frequencies kept per chain for the report
@@ -55,7 +55,7 @@ class RunResults:
     timing: dict[str, float]  # wall seconds per stage; the outputs add theirs
 
 
-def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> "np.ndarray":
+def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> np.ndarray:
     """Output samples over the report's 180 deg window (two index cycles)."""
     import numpy as np
 
@@ -67,9 +67,14 @@ def chain_scene(cfg: RunConfig) -> Scene:
     """The chain beyond its linear model, as the dynamics take it (the settings are checked already)."""
     from dynamics.scene import Scene, tensioner_from
 
-    return Scene(cfg.pin_clearance_m, cfg.span_damping,
-                 tensioner_from(cfg.tensioner_rate_N_per_m, cfg.tensioner_mass_kg, cfg.tensioner_damping_N_s_per_m),
-                 cfg.model, cfg.steady_state, cfg.solver)
+    return Scene(
+        cfg.pin_clearance_m,
+        cfg.span_damping,
+        tensioner_from(cfg.tensioner_rate_N_per_m, cfg.tensioner_mass_kg, cfg.tensioner_damping_N_s_per_m),
+        cfg.model,
+        cfg.steady_state,
+        cfg.solver,
+    )
 
 
 def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None) -> ChainModel:
@@ -86,30 +91,48 @@ def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | 
     )
 
 
-def simulate_scenario(cfg: RunConfig, model, material: str, cam_id: str, pitch_m: float,
-                      samples_per_degree: int) -> Scenario:
-    from dynamics.cams import CamProgram
+def simulate_scenario(
+    cfg: RunConfig, model, material: str, cam_id: str, pitch_m: float, samples_per_degree: int
+) -> Scenario:
     from dataclasses import replace
 
     import numpy as np
 
-    from dynamics.response.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
+    from dynamics.cams import CamProgram
     from dynamics.models.reduction import modes_to_keep
-    from reporting.history import CamHistory
+    from dynamics.response.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
     from dynamics.scene import simulate_scene
+    from reporting.history import CamHistory
 
     t = output_times_s(cfg.rpm, samples_per_degree)
     cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
     # a one-station question keeps one link's history (the spring tensions are kept whole: they are
     # what the slack check and the stress need)
     kept = None if cfg.station is None else (station_links(cfg.links)[cfg.station],)
-    r, contact = simulate_scene(chain_scene(cfg), model, cam, t, links=None if kept is None else [link - 1 for link in kept],
-                                n_modes=modes_to_keep(cfg.links))
-    history = CamHistory(material, cam_id, t, r.z_m, r.zdot_m_s, r.zddot_m_s2, r.x_m, r.v_m_s, r.a_m_s2,
-                         r.tension_N, cam.dwell_mask(t), kept)
+    r, contact = simulate_scene(
+        chain_scene(cfg),
+        model,
+        cam,
+        t,
+        links=None if kept is None else [link - 1 for link in kept],
+        n_modes=modes_to_keep(cfg.links),
+    )
+    history = CamHistory(
+        material,
+        cam_id,
+        t,
+        r.z_m,
+        r.zdot_m_s,
+        r.zddot_m_s2,
+        r.x_m,
+        r.v_m_s,
+        r.a_m_s2,
+        r.tension_N,
+        cam.dwell_mask(t),
+        kept,
+    )
     metrics = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, history.dwell_mask)
-    stations = (station_metrics(metrics) if kept is None
-                else {cfg.station: replace(metrics.at_link(1), link=kept[0])})
+    stations = station_metrics(metrics) if kept is None else {cfg.station: replace(metrics.at_link(1), link=kept[0])}
     settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
     # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
@@ -132,16 +155,22 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
     choice, stations = choose_samples_per_degree(stations_at, cfg.tolerance / 2)
     spd = choice.samples_per_degree
     k_error = stiffness_sensitivity(
-        lambda k: simulate_scenario(cfg, chain_model(cfg, result, k), material, cam_id, result.pitch_m,
-                                    spd).stations,
-        result.stiffness_N_per_m, result.stiffness_rel_error_estimate, stations)
-    estimate = {"time_step": choice.rel_error_estimate, "stiffness": k_error,
-                "total": choice.rel_error_estimate + k_error}
+        lambda k: simulate_scenario(cfg, chain_model(cfg, result, k), material, cam_id, result.pitch_m, spd).stations,
+        result.stiffness_N_per_m,
+        result.stiffness_rel_error_estimate,
+        stations,
+    )
+    estimate = {
+        "time_step": choice.rel_error_estimate,
+        "stiffness": k_error,
+        "total": choice.rel_error_estimate + k_error,
+    }
     return replace(runs[spd], rel_error_estimate=estimate)
 
 
-def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea],
-                 progress: Progress) -> tuple[dict[str, MaterialChain], dict[tuple[str, str], Scenario]]:
+def run_dynamics(
+    cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress
+) -> tuple[dict[str, MaterialChain], dict[tuple[str, str], Scenario]]:
     """Simulate every material x cam law; returns each material's chain and the scenarios."""
     from dynamics.models.reduction import lowest_natural_frequencies_Hz, modes_to_keep
 
@@ -150,16 +179,21 @@ def run_dynamics(cfg: RunConfig, fea: dict[str, MaterialFea],
         models[name] = chain_model(cfg, result)
         for cam_id in cfg.cams:
             if cfg.tolerance is None:
-                scenarios[name, cam_id] = simulate_scenario(cfg, models[name], name, cam_id, result.pitch_m,
-                                                            cfg.samples_per_degree)
+                scenarios[name, cam_id] = simulate_scenario(
+                    cfg, models[name], name, cam_id, result.pitch_m, cfg.samples_per_degree
+                )
             else:
                 scenarios[name, cam_id] = sc = scenario_to_tolerance(cfg, result, name, cam_id)
-                progress(f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
-                         f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %")
+                progress(
+                    f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
+                    f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %"
+                )
         chains[name] = MaterialChain(models[name], lowest_natural_frequencies_Hz(models[name], REPORTED_MODES))
-        progress(f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
-                 f"f1 = {chains[name].natural_frequencies_Hz[0]:.1f} Hz"
-                 + ("" if modes_to_keep(cfg.links) is None else f", solved in its {modes_to_keep(cfg.links)} lowest modes"))
+        progress(
+            f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
+            f"f1 = {chains[name].natural_frequencies_Hz[0]:.1f} Hz"
+            + ("" if modes_to_keep(cfg.links) is None else f", solved in its {modes_to_keep(cfg.links)} lowest modes")
+        )
     return chains, scenarios
 
 
@@ -174,9 +208,12 @@ def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progre
     sweeps = {}
     for name, result in fea.items():
         model = replace(chain_model(cfg, result), friction_coefficient=0.0)
-        sweeps[name] = rpm_sweep(model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.focus_station,
-                                 n_modes=modes_to_keep(cfg.links))
-        progress(f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws, "
-                 f"{len(sweeps[name].critical_speeds)} critical speeds in range"
-                 + (" (friction left out of the sweep)" if cfg.friction > 0 else ""))
+        sweeps[name] = rpm_sweep(
+            model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.focus_station, n_modes=modes_to_keep(cfg.links)
+        )
+        progress(
+            f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws, "
+            f"{len(sweeps[name].critical_speeds)} critical speeds in range"
+            + (" (friction left out of the sweep)" if cfg.friction > 0 else "")
+        )
     return sweeps

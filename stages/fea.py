@@ -47,15 +47,23 @@ def fea_settings(cfg: RunConfig, concurrent_levels: bool = True) -> FeaSettings:
     for the rest. `concurrent_levels`: see fem.stiffness_studies."""
     from fem.settings import FeaSettings
 
-    return FeaSettings.with_finest(cfg.mesh_size_m, order=cfg.order, concurrent_levels=concurrent_levels)
+    return FeaSettings.with_finest(
+        cfg.mesh_size_m, order=cfg.order, concurrent_levels=concurrent_levels, max_memory_gb=cfg.max_memory_gb
+    )
 
 
 def fea_cache_settings(cfg: RunConfig, settings: FeaSettings, material, stiffness_tolerance: float | None) -> dict:
     """What the FEA result depends on besides the part's fingerprint: the cache key's settings."""
     from dataclasses import asdict
 
-    key = {"material": asdict(material), "mesh_size_m": cfg.mesh_size_m, "order": settings.order,
-           "stiffness_tolerance": stiffness_tolerance, "stress_tolerance": settings.stress_tolerance}
+    key = {
+        "material": asdict(material),
+        "mesh_size_m": cfg.mesh_size_m,
+        "max_memory_gb": settings.max_memory_gb,  # a budget that coarsens the default sizes changes k
+        "order": settings.order,
+        "stiffness_tolerance": stiffness_tolerance,
+        "stress_tolerance": settings.stress_tolerance,
+    }
     if cfg.link_source is not None and (cfg.link_source.bores.given or cfg.link_source.body is not None):
         key["part"] = repr((cfg.link_source.bores, cfg.link_source.body))  # another pair: another link
     return key
@@ -84,8 +92,14 @@ def _fea_record(name: str, material, study, stress) -> dict:
     }
 
 
-def _solve_fea(part: Part, settings: FeaSettings, materials: list, stiffness_tolerance: float | None,
-               progress: Progress, solved_levels: dict | None) -> tuple[dict, dict]:
+def _solve_fea(
+    part: Part,
+    settings: FeaSettings,
+    materials: list,
+    stiffness_tolerance: float | None,
+    progress: Progress,
+    solved_levels: dict | None,
+) -> tuple[dict, dict]:
     """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
     (reusing the levels in `solved_levels`, see fem.adaptive); then the peak stress converged by
     local refinement from the finest level (fem.stress). Returns (stiffness, stress) per material."""
@@ -98,19 +112,33 @@ def _solve_fea(part: Part, settings: FeaSettings, materials: list, stiffness_tol
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, 2 mesh levels")
         studies = stiffness_studies(part, materials, settings, progress=progress)
     else:
-        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, refining to a k error <= "
-                 f"{100 * stiffness_tolerance:.2g} %")
-        studies = stiffnesses_to_tolerance(part, materials, stiffness_tolerance, settings, progress=progress,
-                                           solved=solved_levels)
+        progress(
+            f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, refining to a k error <= "
+            f"{100 * stiffness_tolerance:.2g} %"
+        )
+        studies = stiffnesses_to_tolerance(
+            part, materials, stiffness_tolerance, settings, progress=progress, solved=solved_levels
+        )
     finest = {name: study.finest for name, study in studies.items()}
-    stresses = stress_study(part, materials, settings, base_mesh_size_m=next(iter(finest.values())).mesh_size_m,
-                            base=finest, progress=progress)
+    stresses = stress_study(
+        part,
+        materials,
+        settings,
+        base_mesh_size_m=next(iter(finest.values())).mesh_size_m,
+        base=finest,
+        progress=progress,
+    )
     return studies, stresses
 
 
-def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | None = None,
-            solved_levels: dict | None = None, concurrent_levels: bool = True,
-            part: Part | None = None) -> dict[str, MaterialFea]:
+def run_fea(
+    cfg: RunConfig,
+    progress: Progress,
+    stiffness_tolerance: float | None = None,
+    solved_levels: dict | None = None,
+    concurrent_levels: bool = True,
+    part: Part | None = None,
+) -> dict[str, MaterialFea]:
     """Stiffness, mass and stress per material, from the cache when nothing they depend on changed.
     `concurrent_levels`: see fem.stiffness_studies (False where every core already runs a task).
     `part`: the run's part (stages.geometry.inspect_geometry); None resolves it here."""
@@ -129,8 +157,10 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
         part = resolve_run_part(cfg)
     settings = fea_settings(cfg, concurrent_levels)
     # the parametric link is keyed by its dimensions (the default link's key is unchanged)
-    keys = {name: cache_key(part.fingerprint, fea_cache_settings(cfg, settings, library[name], stiffness_tolerance))
-            for name in cfg.materials}
+    keys = {
+        name: cache_key(part.fingerprint, fea_cache_settings(cfg, settings, library[name], stiffness_tolerance))
+        for name in cfg.materials
+    }
     images = {name: cache.image_path(key) if cfg.images else None for name, key in keys.items()}
     out: dict[str, MaterialFea] = {}
     for name, key in keys.items():
@@ -141,16 +171,19 @@ def run_fea(cfg: RunConfig, progress: Progress, stiffness_tolerance: float | Non
     missing = [library[name] for name in cfg.materials if name not in out]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
-        studies, stresses = (_solve_fea(part, settings, missing, stiffness_tolerance, progress, solved_levels)
-                             if missing else ({}, {}))
+        studies, stresses = (
+            _solve_fea(part, settings, missing, stiffness_tolerance, progress, solved_levels) if missing else ({}, {})
+        )
     cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
     for message in cautions:
         print(f"pipeline.py: warning: {message}", file=sys.stderr)
     for material in missing:
         name, study = material.name, studies[material.name]
         stored = {**_fea_record(name, material, study, stresses[name]), "warnings": cautions}
-        progress(f"FEA {name}: k = {study.stiffness_N_per_m:.5g} N/m "
-                 f"(estimated error {100 * study.stiffness_rel_error_estimate:.2g} %)")
+        progress(
+            f"FEA {name}: k = {study.stiffness_N_per_m:.5g} N/m "
+            f"(estimated error {100 * study.stiffness_rel_error_estimate:.2g} %)"
+        )
         if images[name] is not None:
             images[name].parent.mkdir(parents=True, exist_ok=True)
             render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")

@@ -46,7 +46,10 @@ def inspect_geometry(cfg: RunConfig, progress: Progress) -> tuple[RunConfig, Par
     if densities is None:
         return cfg, part
     mass_kg = sum(hardware_masses_kg(summary, densities))
-    used = ("replaces --hardware-mass" if cfg.hardware_from_step
-            else f"for information: the chain uses --hardware-mass {cfg.hardware_mass_kg:g} kg without --hardware-from-step")
+    used = (
+        "replaces --hardware-mass"
+        if cfg.hardware_from_step
+        else f"for information: the chain uses --hardware-mass {cfg.hardware_mass_kg:g} kg without --hardware-from-step"
+    )
     progress(f"hardware in the STEP file: {len(summary.hardware)} solids, {mass_kg:.4f} kg ({used})")
     return (replace(cfg, hardware_mass_kg=mass_kg) if cfg.hardware_from_step else cfg), part

@@ -9,8 +9,8 @@ from settings import RunConfig
 from stages.progress import Progress
 
 if TYPE_CHECKING:
-    from dynamics.response.metrics import LinkMetrics
     from dynamics.models.mqp2012 import ReplicaResult
+    from dynamics.response.metrics import LinkMetrics
 
 
 @dataclass(frozen=True)
@@ -22,16 +22,23 @@ class ReplicaRun:
 
 
 def run_replicas(cfg: RunConfig, progress: Progress) -> dict[str, ReplicaRun]:
-    from dynamics.response.metrics import link_metrics
     from dynamics.models.mqp2012 import run_mqp2012
+    from dynamics.response.metrics import link_metrics
 
     runs = {}
     for material in cfg.materials:
         progress(f"mqp2012 replica {material}: RK45 restarted every degree, N = {cfg.links}")
         r = run_mqp2012(material, n_links=cfg.links, rpm=cfg.rpm, friction=cfg.friction, cams=cfg.cams)
         if not r.stable:
-            progress(f"warning: the script's model is unstable for N = {cfg.links} ({material}): its damping "
-                     "matrix feeds energy in below N = 24, so its numbers grow without bound (as the script's did)")
-        runs[material] = ReplicaRun(r, {cam: link_metrics(c.x_m, c.v_m_s, c.a_m_s2, c.z_m, c.zdot_m_s, c.zddot_m_s2,
-                                                          c.dwell_mask) for cam, c in r.cams.items()})
+            progress(
+                f"warning: the script's model is unstable for N = {cfg.links} ({material}): its damping "
+                "matrix feeds energy in below N = 24, so its numbers grow without bound (as the script's did)"
+            )
+        runs[material] = ReplicaRun(
+            r,
+            {
+                cam: link_metrics(c.x_m, c.v_m_s, c.a_m_s2, c.z_m, c.zdot_m_s, c.zddot_m_s2, c.dwell_mask)
+                for cam, c in r.cams.items()
+            },
+        )
     return runs

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from functools import partial
 
-from stages.chain import run_dynamics
 from settings import RunConfig
+from stages.chain import run_dynamics
 from stages.fea import run_fea
 from stages.geometry import resolve_run_part
 from stages.progress import Progress, timed
@@ -26,8 +26,10 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict, part=None
     if from_k > budget:
         worst_k_error = max(r.stiffness_rel_error_estimate for r in fea.values())
         stiffness_tolerance = 0.8 * worst_k_error * budget / from_k
-        progress(f"a {100 * worst_k_error:.2g} % error in k moves the metrics by {100 * from_k:.2g} %: "
-                 f"refining the FEA to {100 * stiffness_tolerance:.2g} %")
+        progress(
+            f"a {100 * worst_k_error:.2g} % error in k moves the metrics by {100 * from_k:.2g} %: "
+            f"refining the FEA to {100 * stiffness_tolerance:.2g} %"
+        )
         fea = timed(timing, "fea", progress, fea_of_part, cfg, progress, stiffness_tolerance, levels)
         chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     return fea, chains, scenarios

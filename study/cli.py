@@ -20,19 +20,32 @@ PROG = "python -m study"
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog=PROG, description=(
-        "Sweep or optimise the built-in link or your own (STEP files: geometry = ... in the study file) and "
-        "the drive: every design point meshed, solved (FEA) and run through the chain model on a Dask cluster; "
-        "writes a tidy table (Parquet, CSV), the feasible set, the Pareto front, which inputs matter "
-        "(sensitivity), plots and an HTML page. SI units throughout."))
+    p = argparse.ArgumentParser(
+        prog=PROG,
+        description=(
+            "Sweep or optimise the built-in link or your own (STEP files: geometry = ... in the study file) and "
+            "the drive: every design point meshed, solved (FEA) and run through the chain model on a Dask cluster; "
+            "writes a tidy table (Parquet, CSV), the feasible set, the Pareto front, which inputs matter "
+            "(sensitivity), plots and an HTML page. SI units throughout."
+        ),
+    )
     p.add_argument("study", type=Path, help="study file (TOML; see README, Design studies)")
     p.add_argument("--out", type=Path, default=None, help="output folder (default: results-<study file name>)")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="run on an existing Dask cluster, e.g. tcp://host:8786 (default: a local cluster)")
-    p.add_argument("--workers", type=int, default=2, help="worker processes of the local cluster (default: %(default)s)")
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run on an existing Dask cluster, e.g. tcp://host:8786 (default: a local cluster)",
+    )
+    p.add_argument(
+        "--workers", type=int, default=2, help="worker processes of the local cluster (default: %(default)s)"
+    )
     p.add_argument("--resume", action="store_true", help="continue a study in --out: run only its missing points")
-    p.add_argument("--optimise", action="store_true",
-                   help="also run the constrained optimiser of [optimise] over the range variables")
+    p.add_argument(
+        "--optimise",
+        action="store_true",
+        help="also run the constrained optimiser of [optimise] over the range variables",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
     return p
 
@@ -48,8 +61,9 @@ def _checked_out(args) -> Path:
     if problem is not None:
         raise StudyError(problem)
     if ResultStore(out).exists() and not args.resume:
-        raise StudyError(f"--out: {str(out)!r} already holds a study; pass --resume to continue it or choose "
-                         "another --out")
+        raise StudyError(
+            f"--out: {str(out)!r} already holds a study; pass --resume to continue it or choose another --out"
+        )
     return out
 
 
@@ -69,8 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return run_study(args, spec, out, client)
     except KeyboardInterrupt:
-        print(f"{PROG}: interrupted; every finished point is in {out}/points; rerun with --resume",
-              file=sys.stderr)
+        print(f"{PROG}: interrupted; every finished point is in {out}/points; rerun with --resume", file=sys.stderr)
         return 130
     finally:
         client.close()
@@ -84,8 +97,10 @@ def _connect(args):
     try:
         return connect(args.scheduler, args.workers)
     except (OSError, TimeoutError) as e:
-        raise StudyError(f"--scheduler: cannot reach {args.scheduler!r} ({e}); expected the address of a "
-                         "running `dask scheduler`, e.g. tcp://host:8786") from None
+        raise StudyError(
+            f"--scheduler: cannot reach {args.scheduler!r} ({e}); expected the address of a "
+            "running `dask scheduler`, e.g. tcp://host:8786"
+        ) from None
 
 
 def run_study(args, spec, out: Path, client) -> int:
@@ -106,8 +121,10 @@ def run_study(args, spec, out: Path, client) -> int:
     todo = [p for p in points if p.point_id not in done]
     run = store.start_run(len(todo))
     bar = ProgressBar(len(points), 0, worker_threads(client), args.quiet)
-    bar.message(f"study {spec.name!r}: {len(points)} points ({len(points) - len(todo)} already in {out}), "
-                f"{worker_threads(client)} workers" + (f" at {args.scheduler}" if args.scheduler else " (local)"))
+    bar.message(
+        f"study {spec.name!r}: {len(points)} points ({len(points) - len(todo)} already in {out}), "
+        f"{worker_threads(client)} workers" + (f" at {args.scheduler}" if args.scheduler else " (local)")
+    )
     bar.points_done = len(points) - len(todo)
     outcome = run_points(client, todo, spec.settings, store, run, bar, part_payloads(spec))
     history = None
@@ -116,12 +133,16 @@ def run_study(args, spec, out: Path, client) -> int:
 
         history = optimise(client, spec, store, run, bar, out)
     write_outputs(spec, points, store, out, client, bar, history)
-    write_text_atomic(out / "last_run.json", json.dumps({"run": run, "points": len(points), "ran": outcome.ran,
-                                                         "failed": outcome.failed}, indent=1))
+    write_text_atomic(
+        out / "last_run.json",
+        json.dumps({"run": run, "points": len(points), "ran": outcome.ran, "failed": outcome.failed}, indent=1),
+    )
     if outcome.failed:
         for line in outcome.failed:
             print(f"{PROG}: task failed: {line}", file=sys.stderr)
-        print(f"{PROG}: {len(outcome.failed)} tasks failed; their points are missing: rerun with --resume",
-              file=sys.stderr)
+        print(
+            f"{PROG}: {len(outcome.failed)} tasks failed; their points are missing: rerun with --resume",
+            file=sys.stderr,
+        )
         return 1
     return 0

@@ -37,8 +37,9 @@ def connect(scheduler: str | None, workers: int):
 
     if scheduler is not None:
         return Client(scheduler, timeout="15s"), None
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                           silence_logs=logging.ERROR)
+    cluster = LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR
+    )
     return Client(cluster), cluster
 
 
@@ -57,8 +58,15 @@ def plan(points: list[DesignPoint]) -> tuple[list[DesignPoint], dict]:
     return infeasible, groups
 
 
-def run_points(client, points: list[DesignPoint], settings: Settings, store: ResultStore, run: int,
-               bar: ProgressBar, parts: dict | None = None) -> RunOutcome:
+def run_points(
+    client,
+    points: list[DesignPoint],
+    settings: Settings,
+    store: ResultStore,
+    run: int,
+    bar: ProgressBar,
+    parts: dict | None = None,
+) -> RunOutcome:
     """`parts`: geometry_file name -> tasks.part_payload, for a study of STEP links (the bytes go
     with the FEA task of their geometry)."""
     from distributed import as_completed
@@ -79,9 +87,15 @@ def run_points(client, points: list[DesignPoint], settings: Settings, store: Res
         futures[fea] = ("fea", g, [])
         for material, members in by_material.items():
             for b in range(0, len(members), CHAIN_BATCH):
-                batch = members[b:b + CHAIN_BATCH]
-                chain = client.submit(chain_task, fea, material, [p.task_view() for p in batch], settings,
-                                      key=f"chain-{g}-{material}-{b}-{token}")
+                batch = members[b : b + CHAIN_BATCH]
+                chain = client.submit(
+                    chain_task,
+                    fea,
+                    material,
+                    [p.task_view() for p in batch],
+                    settings,
+                    key=f"chain-{g}-{material}-{b}-{token}",
+                )
                 futures[chain] = ("chain", g, batch)
     bar.fea_tasks, bar.chain_tasks = len(groups), len(futures) - len(groups)
     bar.show()
@@ -94,9 +108,18 @@ def run_points(client, points: list[DesignPoint], settings: Settings, store: Res
         for row in result.get("rows", []):
             store.write_point(row, run)
         outcome.ran += len(batch)
-        store.append_timing({"run": run, "task": future.key, "kind": kind, "geometry": g, "points": len(batch),
-                             "seconds": result["seconds"], "cpu_seconds": result["cpu_seconds"],
-                             "worker": result["worker"]})
+        store.append_timing(
+            {
+                "run": run,
+                "task": future.key,
+                "kind": kind,
+                "geometry": g,
+                "points": len(batch),
+                "seconds": result["seconds"],
+                "cpu_seconds": result["cpu_seconds"],
+                "worker": result["worker"],
+            }
+        )
         bar.task_done(kind, result["seconds"], len(batch))
     bar.show(final=True)
     return outcome

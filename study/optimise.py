@@ -49,8 +49,11 @@ def optimise(client, spec: StudySpec, store: ResultStore, run: int, bar: Progres
     names = list(spec.ranges)
     bounds = [(spec.ranges[n].min, spec.ranges[n].max) for n in names]
     integrality = [VARIABLES[n].kind is int for n in names]
-    held = {**held_values(spec, base_config(spec.settings)),
-            **{n: c.values[0] for n, c in spec.choices.items()}, **opt.held}
+    held = {
+        **held_values(spec, base_config(spec.settings)),
+        **{n: c.values[0] for n, c in spec.choices.items()},
+        **opt.held,
+    }
     settings = asdict(spec.settings)
     opt_store = ResultStore(out / "optimisation")
     opt_store.open()
@@ -59,8 +62,10 @@ def optimise(client, spec: StudySpec, store: ResultStore, run: int, bar: Progres
     history: list[dict] = []
 
     def evaluate_population(_func, population) -> list[float]:
-        points = [make_point(len(evaluated) + i, {**held, **_values(names, x)}, settings, part_identities(spec))
-                  for i, x in enumerate(population)]
+        points = [
+            make_point(len(evaluated) + i, {**held, **_values(names, x)}, settings, part_identities(spec))
+            for i, x in enumerate(population)
+        ]
         done = opt_store.done_ids()
         todo = list({p.point_id: p for p in points if p.point_id not in done}.values())
         run_points(client, todo, spec.settings, opt_store, run, quiet, part_payloads(spec))
@@ -72,27 +77,53 @@ def optimise(client, spec: StudySpec, store: ResultStore, run: int, bar: Progres
 
     def record_generation(intermediate_result) -> None:
         best = intermediate_result
-        history.append({"generation": len(history) + 1, "best_objective": float(best.fun),
-                        "best_feasible": bool(best.fun < INFEASIBLE_OFFSET), "evaluations": len(evaluated),
-                        **{f"best_{n}": v for n, v in _values(names, best.x).items()}})
-        bar.message(f"optimiser generation {len(history)}: best penalised {opt.objective} = {best.fun:.5g}"
-                    f"{'' if best.fun < INFEASIBLE_OFFSET else ' (no feasible design yet)'}, "
-                    f"{len(evaluated)} evaluations")
+        history.append(
+            {
+                "generation": len(history) + 1,
+                "best_objective": float(best.fun),
+                "best_feasible": bool(best.fun < INFEASIBLE_OFFSET),
+                "evaluations": len(evaluated),
+                **{f"best_{n}": v for n, v in _values(names, best.x).items()},
+            }
+        )
+        bar.message(
+            f"optimiser generation {len(history)}: best penalised {opt.objective} = {best.fun:.5g}"
+            f"{'' if best.fun < INFEASIBLE_OFFSET else ' (no feasible design yet)'}, "
+            f"{len(evaluated)} evaluations"
+        )
 
-    bar.message(f"optimiser: differential evolution over {', '.join(names)}, {opt.sense}imise {opt.objective}, "
-                f"population {opt.popsize} x {len(names)}, at most {opt.maxiter} generations")
+    bar.message(
+        f"optimiser: differential evolution over {', '.join(names)}, {opt.sense}imise {opt.objective}, "
+        f"population {opt.popsize} x {len(names)}, at most {opt.maxiter} generations"
+    )
     result = differential_evolution(
-        _never_called, bounds, popsize=opt.popsize, maxiter=opt.maxiter, seed=opt.seed, tol=opt.tol,
-        workers=evaluate_population, updating="deferred", polish=False, init="latinhypercube",
-        integrality=integrality if any(integrality) else None, callback=record_generation)
+        _never_called,
+        bounds,
+        popsize=opt.popsize,
+        maxiter=opt.maxiter,
+        seed=opt.seed,
+        tol=opt.tol,
+        workers=evaluate_population,
+        updating="deferred",
+        polish=False,
+        init="latinhypercube",
+        integrality=integrality if any(integrality) else None,
+        callback=record_generation,
+    )
     best_row = min(evaluated, key=lambda r: r["penalised_objective"]) if evaluated else None
     _write(out, history, evaluated)
     found = best_row is not None and best_row["penalised_objective"] < INFEASIBLE_OFFSET
-    notes = [f"Differential evolution (scipy, seed {opt.seed}) over {', '.join(names)}; "
-             f"held: {', '.join(f'{k} = {v}' for k, v in held.items() if k in spec.choices)}. "
-             f"{len(evaluated)} evaluations in {len(history)} generations ({result.message}).",
-             (f"Best design: {', '.join(f'{n} = {best_row[n]:.5g}' for n in names)}, {opt.objective} = "
-              f"{best_row[opt.objective]:.5g} (feasible)." if found else "No design met the constraints.")]
+    notes = [
+        f"Differential evolution (scipy, seed {opt.seed}) over {', '.join(names)}; "
+        f"held: {', '.join(f'{k} = {v}' for k, v in held.items() if k in spec.choices)}. "
+        f"{len(evaluated)} evaluations in {len(history)} generations ({result.message}).",
+        (
+            f"Best design: {', '.join(f'{n} = {best_row[n]:.5g}' for n in names)}, {opt.objective} = "
+            f"{best_row[opt.objective]:.5g} (feasible)."
+            if found
+            else "No design met the constraints."
+        ),
+    ]
     return {"objective": opt.objective, "generations": history, "notes": notes, "best": best_row if found else None}
 
 
@@ -101,7 +132,9 @@ def _never_called(x):
 
 
 def _values(names: list[str], x) -> dict:
-    return {n: (int(round(float(v))) if VARIABLES[n].kind is int else float(v)) for n, v in zip(names, np.atleast_1d(x))}
+    return {
+        n: (int(round(float(v))) if VARIABLES[n].kind is int else float(v)) for n, v in zip(names, np.atleast_1d(x))
+    }
 
 
 def _write(out: Path, history: list[dict], evaluated: list[dict]) -> None:
@@ -110,5 +143,3 @@ def _write(out: Path, history: list[dict], evaluated: list[dict]) -> None:
     if evaluated:
         columns = list(dict.fromkeys(k for r in evaluated for k in r))
         write_csv(evaluated, columns, out / "optimisation_points.csv")
-
-

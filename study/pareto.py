@@ -18,7 +18,8 @@ def feasibility(row: dict, constraints: tuple[Constraint, ...]) -> tuple[bool, s
 def objective_matrix(rows: list[dict], objectives: tuple[Objective, ...]) -> np.ndarray:
     """(n_rows, n_objectives), every objective turned into one to minimise."""
     values = np.array([[float(r[o.metric]) for o in objectives] for r in rows], dtype=float).reshape(
-        len(rows), len(objectives))
+        len(rows), len(objectives)
+    )
     signs = np.array([1.0 if o.sense == "min" else -1.0 for o in objectives])
     return values * signs
 

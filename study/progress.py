@@ -54,8 +54,10 @@ class ProgressBar:
         width = 30
         frac = self.points_done / self.points if self.points else 1.0
         bar = "#" * int(width * frac) + "." * (width - int(width * frac))
-        return (f"[{bar}] {self.points_done}/{self.points} points, FEA {self.fea_done}/{self.fea_tasks}, "
-                f"elapsed {_clock(time.perf_counter() - self.start)}, left ~{_clock(self.eta_s())}")
+        return (
+            f"[{bar}] {self.points_done}/{self.points} points, FEA {self.fea_done}/{self.fea_tasks}, "
+            f"elapsed {_clock(time.perf_counter() - self.start)}, left ~{_clock(self.eta_s())}"
+        )
 
     def show(self, final: bool = False) -> None:
         if self.quiet:

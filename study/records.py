@@ -83,6 +83,14 @@ def chain_metrics(scenario, fea, station: str, lumped_mass_kg: float, f1_Hz: flo
 def record(point: dict, status: str, reason: str, metrics: dict, fea_warnings: tuple[str, ...] = ()) -> dict:
     """One row of the study table: the point's identity and inputs, status, reason, the FEA's
     cautions (e.g. slivers in the mesh), metrics."""
-    return {"point": point["index"], "point_id": point["point_id"], "geometry": point["geometry"],
-            **point["inputs"], "status": status, "reason": reason, "fea_warnings": "; ".join(fea_warnings),
-            **blank_metrics(), **metrics}
+    return {
+        "point": point["index"],
+        "point_id": point["point_id"],
+        "geometry": point["geometry"],
+        **point["inputs"],
+        "status": status,
+        "reason": reason,
+        "fea_warnings": "; ".join(fea_warnings),
+        **blank_metrics(),
+        **metrics,
+    }

@@ -51,7 +51,7 @@ def best_designs(spec: StudySpec, results: StudyResults) -> list[dict]:
     feasible ones when the study has no objectives)."""
     front = results.front if spec.objectives else results.feasible
     if not spec.objectives:
-        return front[:spec.report_best]
+        return front[: spec.report_best]
     costs = objective_matrix(front, spec.objectives)
     return [front[i] for i in pick_spread(costs, spec.report_best)]
 
@@ -63,8 +63,9 @@ def write_tables(results: StudyResults, out: Path) -> None:
 
 
 def varied_numeric(spec: StudySpec) -> list[str]:
-    return [n for n in spec.ranges] + [n for n, c in spec.choices.items()
-                                       if all(isinstance(v, (int, float)) for v in c.values)]
+    return [n for n in spec.ranges] + [
+        n for n, c in spec.choices.items() if all(isinstance(v, (int, float)) for v in c.values)
+    ]
 
 
 def summary_counts(results: StudyResults) -> dict:
@@ -73,6 +74,10 @@ def summary_counts(results: StudyResults) -> dict:
         if r["status"] != "ok":
             key = r["reason"].split(":")[0]
             reasons[key] = reasons.get(key, 0) + 1
-    return {"points": len(results.rows), "computed": sum(r["status"] == "ok" for r in results.rows),
-            "feasible": len(results.feasible), "pareto": len(results.front), "not_computed": reasons}
-
+    return {
+        "points": len(results.rows),
+        "computed": sum(r["status"] == "ok" for r in results.rows),
+        "feasible": len(results.feasible),
+        "pareto": len(results.front),
+        "not_computed": reasons,
+    }

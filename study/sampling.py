@@ -16,6 +16,7 @@ import numpy as np
 
 from geometry.dimensions import LinkDimensions
 from geometry.errors import GeometryError
+from study.samplers import SAMPLERS, SamplingSize
 from study.spec import StudySpec
 from study.variables import GEOMETRY_TARGETS, LINK, STEP, VARIABLES, link_dimensions
 
@@ -43,17 +44,8 @@ def range_samples(spec: StudySpec) -> list[dict]:
     lows = np.array([ranges[n].min for n in names])
     highs = np.array([ranges[n].max for n in names])
     s = spec.sampling
-    if s.method == "grid":
-        axes = [np.linspace(ranges[n].min, ranges[n].max, s.levels) for n in names]
-        unit_free = [dict(zip(names, combo)) for combo in itertools.product(*axes)]
-        return [_kinds(d) for d in unit_free]
-    from scipy.stats import qmc
-
-    engine = (qmc.LatinHypercube(d=len(names), seed=s.seed) if s.method == "lhs"
-              else qmc.Sobol(d=len(names), scramble=True, seed=s.seed))
-    unit = engine.random(s.points)
-    scaled = qmc.scale(unit, lows, highs)
-    return [_kinds(dict(zip(names, row))) for row in scaled]
+    values = SAMPLERS[s.method].values(lows, highs, SamplingSize(s.levels, s.points, s.seed))
+    return [_kinds(dict(zip(names, row))) for row in values]
 
 
 def _kinds(values: dict) -> dict:
@@ -115,8 +107,11 @@ def make_point(index: int, values: dict, settings: dict, parts: dict | None = No
     except GeometryError as e:
         link_fields.update({VARIABLES[n].field: v for n, v in geometry_values.items() if VARIABLES[n].target == LINK})
         infeasible = f"geometry: {e}"
-    inputs = {**link_fields, "rail_width_m": (link_fields["body_width_m"] - link_fields["recess_width_m"]) / 2,
-              **{n: v for n, v in values.items() if VARIABLES[n].target not in (*GEOMETRY_TARGETS, STEP)}}
+    inputs = {
+        **link_fields,
+        "rail_width_m": (link_fields["body_width_m"] - link_fields["recess_width_m"]) / 2,
+        **{n: v for n, v in values.items() if VARIABLES[n].target not in (*GEOMETRY_TARGETS, STEP)},
+    }
     if "rail_width_m" in geometry_values and infeasible is not None:
         inputs["rail_width_m"] = geometry_values["rail_width_m"]
     geometry = _digest({"link": geometry_values, "fea": fea_settings})

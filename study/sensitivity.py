@@ -29,6 +29,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from study.samplers import SAMPLERS
+
 #: Harmonics RBD-FAST sums: 4 had the smallest error on Ishigami at 32-256 points (6 and 10, the
 #: SALib default, were worse below 256 points: benchmarks/bench_sensitivity.py).
 HARMONICS = 4
@@ -43,9 +45,10 @@ MIN_TO_ESTIMATE = 4 * HARMONICS + 2
 #: Largest interval half-width at which indices are read as a ranking: inputs whose indices differ by
 #: more than twice this are told apart.
 MAX_HALF_WIDTH = 0.2
-METHODS = ("lhs", "sobol")
-ESTIMATOR = (f"first-order Sobol' indices: RBD-FAST (SALib, {HARMONICS} harmonics) for range variables, "
-             f"between-value variance for list variables; {CONF_LEVEL:.0%} bootstrap intervals")
+ESTIMATOR = (
+    f"first-order Sobol' indices: RBD-FAST (SALib, {HARMONICS} harmonics) for range variables, "
+    f"between-value variance for list variables; {CONF_LEVEL:.0%} bootstrap intervals"
+)
 
 
 @dataclass(frozen=True)
@@ -74,8 +77,9 @@ class MetricSensitivity:
         return [i for i in self.indices if i.first_order - i.half_width > 0]
 
 
-def first_order_indices(X: np.ndarray, range_names: list[str], Y: np.ndarray, list_labels: dict[str, list],
-                        seed: int) -> tuple[InputIndex, ...]:
+def first_order_indices(
+    X: np.ndarray, range_names: list[str], Y: np.ndarray, list_labels: dict[str, list], seed: int
+) -> tuple[InputIndex, ...]:
     """Indices of every input, largest first.
 
     X: (n, d) range samples; Y: (n, K) the metric at each range sample (rows) and list combination
@@ -83,10 +87,14 @@ def first_order_indices(X: np.ndarray, range_names: list[str], Y: np.ndarray, li
     """
     total = float(Y.var())
     if not total > 0:
-        return tuple(InputIndex(n, k, 0.0, 0.0) for n, k in
-                     [*((n, "range") for n in range_names), *((n, "list") for n in list_labels)])
-    out = [*_range_indices(X, range_names, Y, total, seed),
-           *(_list_index(name, labels, Y, total, seed) for name, labels in list_labels.items())]
+        return tuple(
+            InputIndex(n, k, 0.0, 0.0)
+            for n, k in [*((n, "range") for n in range_names), *((n, "list") for n in list_labels)]
+        )
+    out = [
+        *_range_indices(X, range_names, Y, total, seed),
+        *(_list_index(name, labels, Y, total, seed) for name, labels in list_labels.items()),
+    ]
     return tuple(sorted(out, key=lambda i: -i.first_order))
 
 
@@ -100,10 +108,19 @@ def _range_indices(X: np.ndarray, names: list[str], Y: np.ndarray, total: float,
     if not share > 0:
         return [InputIndex(n, "range", 0.0, 0.0) for n in names]
     problem = {"num_vars": len(names), "names": list(names), "bounds": [[0.0, 1.0]] * len(names)}
-    found = rbd_fast.analyze(problem, np.asarray(X, dtype=float), mean_over_lists, M=HARMONICS,
-                             num_resamples=RESAMPLES, conf_level=CONF_LEVEL, seed=seed)
-    return [InputIndex(n, "range", float(s) * share, float(c) * share)
-            for n, s, c in zip(names, found["S1"], found["S1_conf"])]
+    found = rbd_fast.analyze(
+        problem,
+        np.asarray(X, dtype=float),
+        mean_over_lists,
+        M=HARMONICS,
+        num_resamples=RESAMPLES,
+        conf_level=CONF_LEVEL,
+        seed=seed,
+    )
+    return [
+        InputIndex(n, "range", float(s) * share, float(c) * share)
+        for n, s, c in zip(names, found["S1"], found["S1_conf"])
+    ]
 
 
 def _between_values(labels: list, Y: np.ndarray, total: float) -> float:
@@ -130,19 +147,23 @@ def _list_index(name: str, labels: list, Y: np.ndarray, total: float, seed: int)
 def adequacy(samples: int, indices: tuple[InputIndex, ...]) -> tuple[bool, str]:
     """(adequate, why): enough range samples and intervals narrow enough to rank the inputs."""
     if samples < MIN_SAMPLES:
-        return False, (f"too few points: {samples} range samples, at least {MIN_SAMPLES} needed for a ranking "
-                       f"(raise [sampling] points)")
+        return False, (
+            f"too few points: {samples} range samples, at least {MIN_SAMPLES} needed for a ranking "
+            f"(raise [sampling] points)"
+        )
     widest = max((i.half_width for i in indices), default=0.0)
     if widest > MAX_HALF_WIDTH:
-        return False, (f"too few points: intervals up to +-{widest:.2f} (at most +-{MAX_HALF_WIDTH} to rank inputs) "
-                       f"with {samples} range samples (raise [sampling] points)")
+        return False, (
+            f"too few points: intervals up to +-{widest:.2f} (at most +-{MAX_HALF_WIDTH} to rank inputs) "
+            f"with {samples} range samples (raise [sampling] points)"
+        )
     return True, f"{samples} range samples; intervals at most +-{widest:.2f}"
 
 
 def study_sensitivity(spec, rows: list[dict], metrics: list[str]) -> list[MetricSensitivity] | None:
     """The indices of each metric over the study's varied inputs; None when the study was not
     sampled with Latin hypercube or Sobol' or has no range variable (nothing to estimate from)."""
-    if spec.sampling.method not in METHODS or not spec.ranges:
+    if not SAMPLERS[spec.sampling.method].space_filling or not spec.ranges:
         return None
     range_names = list(spec.ranges)
     combos = math.prod(len(c.values) for c in spec.choices.values())
@@ -156,12 +177,21 @@ def study_sensitivity(spec, rows: list[dict], metrics: list[str]) -> list[Metric
     X = np.full((samples, len(range_names)), np.nan)
     for point, r in by_point.items():
         X[point // combos] = [float(r[n]) for n in range_names]
-    return [_metric_sensitivity(m, X, range_names, by_point, combos, samples, labels, spec.sampling.seed)
-            for m in metrics]
+    return [
+        _metric_sensitivity(m, X, range_names, by_point, combos, samples, labels, spec.sampling.seed) for m in metrics
+    ]
 
 
-def _metric_sensitivity(metric: str, X: np.ndarray, range_names: list[str], by_point: dict, combos: int,
-                        samples: int, labels: dict, seed: int) -> MetricSensitivity:
+def _metric_sensitivity(
+    metric: str,
+    X: np.ndarray,
+    range_names: list[str],
+    by_point: dict,
+    combos: int,
+    samples: int,
+    labels: dict,
+    seed: int,
+) -> MetricSensitivity:
     Y = np.full((samples, combos), np.nan)
     for point, r in by_point.items():
         value = r.get(metric)
@@ -170,9 +200,15 @@ def _metric_sensitivity(metric: str, X: np.ndarray, range_names: list[str], by_p
     complete = np.all(np.isfinite(Y), axis=1)
     used = int(complete.sum())
     if used < MIN_TO_ESTIMATE or any(None in v for v in labels.values()):
-        return MetricSensitivity(metric, used, samples - used, (), False,
-                                 f"too few points: {metric} computed at {used} complete range samples, at least "
-                                 f"{MIN_TO_ESTIMATE} needed to estimate and {MIN_SAMPLES} to rank (raise [sampling] points)")
+        return MetricSensitivity(
+            metric,
+            used,
+            samples - used,
+            (),
+            False,
+            f"too few points: {metric} computed at {used} complete range samples, at least "
+            f"{MIN_TO_ESTIMATE} needed to estimate and {MIN_SAMPLES} to rank (raise [sampling] points)",
+        )
     indices = first_order_indices(X[complete], range_names, Y[complete], labels, seed)
     ok, why = adequacy(used, indices)
     return MetricSensitivity(metric, used, samples - used, indices, ok, why)
@@ -180,11 +216,26 @@ def _metric_sensitivity(metric: str, X: np.ndarray, range_names: list[str], by_p
 
 def as_rows(results: list[MetricSensitivity]) -> list[dict]:
     """The tidy table: one row per (metric, input)."""
-    return [{"metric": r.metric, **asdict(i), "samples": r.samples, "dropped": r.dropped, "adequate": r.adequate,
-             "adequacy": r.adequacy} for r in results for i in r.indices]
+    return [
+        {
+            "metric": r.metric,
+            **asdict(i),
+            "samples": r.samples,
+            "dropped": r.dropped,
+            "adequate": r.adequate,
+            "adequacy": r.adequacy,
+        }
+        for r in results
+        for i in r.indices
+    ]
 
 
 def as_json(results: list[MetricSensitivity]) -> dict:
-    return {"estimator": ESTIMATOR, "conf_level": CONF_LEVEL, "harmonics": HARMONICS,
-            "min_samples": MIN_SAMPLES, "max_half_width": MAX_HALF_WIDTH,
-            "metrics": [{**asdict(r), "indices": [asdict(i) for i in r.indices]} for r in results]}
+    return {
+        "estimator": ESTIMATOR,
+        "conf_level": CONF_LEVEL,
+        "harmonics": HARMONICS,
+        "min_samples": MIN_SAMPLES,
+        "max_half_width": MAX_HALF_WIDTH,
+        "metrics": [{**asdict(r), "indices": [asdict(i) for i in r.indices]} for r in results],
+    }

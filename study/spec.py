@@ -30,11 +30,10 @@ import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from settings import DEFAULT_MATERIALS, DEFAULT_STATION, LIMITS, RunConfig, cam_ids, known_cam_ids
-from settings import registries
+from settings import DEFAULT_MATERIALS, DEFAULT_STATION, LIMITS, RunConfig, cam_ids, known_cam_ids, registries
+from study.samplers import SAMPLERS, SamplingSize
 from study.variables import CAM, GEOMETRY_KEY, GEOMETRY_TARGETS, MATERIAL, STEP, VARIABLES
 
-SAMPLING_METHODS = ("grid", "lhs", "sobol")
 #: pipeline.py's part options, as keys of [fixed] (with a STEP geometry only)
 PART_OPTIONS = ("bores", "pitch", "bore_radius", "body", "hardware_material", "hardware_from_step")
 #: The first bytes of every STEP (ISO 10303-21) file.
@@ -107,7 +106,6 @@ class Constraint:
         if self.max is not None and value > self.max:
             return f"{self.metric} = {value:.4g} > {self.max:g}"
         return None
-
 
     def amount(self, value) -> float:
         """How far `value` is outside the constraint, relative to its bound (0 when it holds)."""
@@ -192,12 +190,15 @@ def parse_study(data: dict, base_dir: Path | None = None) -> StudySpec:
     if geometry is not None:
         table, parts = geometry
         (variables if table == "variables" else fixed)["geometry_file"] = (
-            Choices(tuple(parts)) if table == "variables" else next(iter(parts)))
+            Choices(tuple(parts)) if table == "variables" else next(iter(parts))
+        )
         _no_builtin_dimensions(variables, fixed)
     _check_part_options(options, bool(parts), materials)
     if options.get("hardware_from_step") and "hardware_mass_kg" in {*variables, *fixed}:
-        raise StudyError("fixed.hardware_from_step: the hardware mass comes from the STEP file's solids; expected "
-                         "no hardware_mass_kg in [variables] or [fixed] with it")
+        raise StudyError(
+            "fixed.hardware_from_step: the hardware mass comes from the STEP file's solids; expected "
+            "no hardware_mass_kg in [variables] or [fixed] with it"
+        )
     _check_tensioner(variables, fixed)
     _default_choices(variables, fixed)
     sampling = _sampling(_table(data, "sampling"), variables)
@@ -225,8 +226,10 @@ def _geometry(variables: dict, fixed: dict, base_dir: Path) -> tuple[str, dict] 
     the client (before any task is sent); None for the built-in link."""
     for table, where in ((variables, "variables"), (fixed, "fixed")):
         if "geometry_file" in table:  # the column's name; the file names the STEP file(s) `geometry`
-            raise StudyError(f"{where}.geometry_file: the study file's key is {GEOMETRY_KEY!r}; expected "
-                             f"{GEOMETRY_KEY} = \"link.step\"")
+            raise StudyError(
+                f"{where}.geometry_file: the study file's key is {GEOMETRY_KEY!r}; expected "
+                f'{GEOMETRY_KEY} = "link.step"'
+            )
     if GEOMETRY_KEY in variables and GEOMETRY_KEY in fixed:
         raise StudyError(f"fixed.{GEOMETRY_KEY}: also in [variables]; expected a name in one table only")
     if GEOMETRY_KEY in fixed:
@@ -238,8 +241,9 @@ def _geometry(variables: dict, fixed: dict, base_dir: Path) -> tuple[str, dict] 
         return None
     value, where = variables.pop(GEOMETRY_KEY), f"variables.{GEOMETRY_KEY}"
     if not isinstance(value, list) or not value or not all(isinstance(v, str) and v for v in value):
-        raise StudyError(f"{where}: expected a list of STEP file paths (CAD variants, relative to the study file), "
-                         f"got {value!r}")
+        raise StudyError(
+            f"{where}: expected a list of STEP file paths (CAD variants, relative to the study file), got {value!r}"
+        )
     parts: dict[str, PartFile] = {}
     for i, name in enumerate(value):
         part = read_step_file(name, base_dir, f"{where}[{i}]")
@@ -255,8 +259,10 @@ def read_step_file(name: str, base_dir: Path, key: str) -> PartFile:
     """The STEP file `name` (relative to the study file's folder), or a one-line StudyError."""
     path = (base_dir / name).resolve()
     if not path.exists():
-        raise StudyError(f"{key}: no such file {name!r} (looked in {base_dir}); expected a STEP file of one link, "
-                         "its path relative to the study file")
+        raise StudyError(
+            f"{key}: no such file {name!r} (looked in {base_dir}); expected a STEP file of one link, "
+            "its path relative to the study file"
+        )
     if path.is_dir():
         raise StudyError(f"{key}: {name!r} is a folder; expected a STEP file of one link")
     try:
@@ -264,8 +270,10 @@ def read_step_file(name: str, base_dir: Path, key: str) -> PartFile:
     except OSError as e:
         raise StudyError(f"{key}: cannot read {name!r} ({e.strerror or e}); expected a readable STEP file") from None
     if not data.lstrip().startswith(STEP_HEADER):
-        raise StudyError(f"{key}: {name!r} is not a STEP file (it does not begin with "
-                         f"{STEP_HEADER.decode()}); expected a STEP file of one link (.step, .stp)")
+        raise StudyError(
+            f"{key}: {name!r} is not a STEP file (it does not begin with "
+            f"{STEP_HEADER.decode()}); expected a STEP file of one link (.step, .stp)"
+        )
     return PartFile(name, path, hashlib.sha256(data).hexdigest(), data)
 
 
@@ -273,8 +281,10 @@ def _no_builtin_dimensions(variables: dict, fixed: dict) -> None:
     for table, where in ((variables, "variables"), (fixed, "fixed")):
         for name in table:
             if name in VARIABLES and VARIABLES[name].target in GEOMETRY_TARGETS:
-                raise StudyError(f"{where}.{name}: a dimension of the built-in link, and the study has a STEP "
-                                 f"{GEOMETRY_KEY}; expected one or the other (the file gives the link's shape)")
+                raise StudyError(
+                    f"{where}.{name}: a dimension of the built-in link, and the study has a STEP "
+                    f"{GEOMETRY_KEY}; expected one or the other (the file gives the link's shape)"
+                )
 
 
 def _check_part_options(options: dict, has_step: bool, materials: tuple[str, ...]) -> None:
@@ -283,8 +293,9 @@ def _check_part_options(options: dict, has_step: bool, materials: tuple[str, ...
         return
     key = f"fixed.{next(iter(options))}"
     if not has_step:
-        raise StudyError(f"{key}: a part option, only for a STEP {GEOMETRY_KEY}; expected {GEOMETRY_KEY} = "
-                         "\"link.step\" with it")
+        raise StudyError(
+            f'{key}: a part option, only for a STEP {GEOMETRY_KEY}; expected {GEOMETRY_KEY} = "link.step" with it'
+        )
     from geometry.errors import GeometryError
 
     for name in ("bores", "pitch", "bore_radius", "body"):
@@ -301,8 +312,10 @@ def _check_part_options(options: dict, has_step: bool, materials: tuple[str, ...
         names = [s.strip() for s in ids.split(",")] if isinstance(ids, str) else []
         unknown = [n for n in names if n not in materials]
         if not names or unknown:
-            raise StudyError(f"fixed.hardware_material: unknown material {(unknown or [ids])[0]!r}; expected one of "
-                             f"{', '.join(materials)} (or several, comma-separated, one per hardware solid)")
+            raise StudyError(
+                f"fixed.hardware_material: unknown material {(unknown or [ids])[0]!r}; expected one of "
+                f"{', '.join(materials)} (or several, comma-separated, one per hardware solid)"
+            )
     elif options.get("hardware_from_step"):
         raise StudyError("fixed.hardware_from_step: the hardware solids need a material; expected hardware_material")
 
@@ -313,7 +326,10 @@ def part_source(path: Path, options: dict):
 
     from geometry.options import link_source
 
-    given = {name: (None if name not in options else str(options[name])) for name in ("bores", "pitch", "bore_radius", "body")}
+    given = {
+        name: (None if name not in options else str(options[name]))
+        for name in ("bores", "pitch", "bore_radius", "body")
+    }
     return link_source(path, Namespace(**given))
 
 
@@ -323,8 +339,10 @@ def _check_tensioner(variables: dict, fixed: dict) -> None:
     if given and "tensioner_mass_kg" not in given:
         name = sorted(given)[0]
         where = "variables" if name in variables else "fixed"
-        raise StudyError(f"{where}.{name}: the tensioner needs its carriage mass; expected tensioner_mass_kg in "
-                         "[fixed] or [variables]")
+        raise StudyError(
+            f"{where}.{name}: the tensioner needs its carriage mass; expected tensioner_mass_kg in "
+            "[fixed] or [variables]"
+        )
 
 
 def _only(table: dict, allowed: tuple, prefix: str) -> None:
@@ -414,11 +432,16 @@ def _variable(name: str, value, materials) -> Range | Choices:
         low = _check_value(name, value["min"], f"{key}.min", materials)
         high = _check_value(name, value["max"], f"{key}.max", materials)
         if not low < high:
-            raise StudyError(f"{key}: empty range, min {value['min']!r} >= max {value['max']!r}; "
-                             f"expected min < max (or a list, or [fixed] for one value)")
+            raise StudyError(
+                f"{key}: empty range, min {value['min']!r} >= max {value['max']!r}; "
+                f"expected min < max (or a list, or [fixed] for one value)"
+            )
         return Range(float(low), float(high))
-    form = "a list of names" + (" or 'all'" if VARIABLES[name].target == CAM else "") if choice else \
-        "{min = A, max = B} or a list of values"
+    form = (
+        "a list of names" + (" or 'all'" if VARIABLES[name].target == CAM else "")
+        if choice
+        else "{min = A, max = B} or a list of values"
+    )
     raise StudyError(f"{key}: expected {form}, got {value!r}")
 
 
@@ -452,8 +475,9 @@ def _settings(table: dict) -> Settings:
     if "mesh_size_m" in table:
         values["mesh_size_m"] = _in_limits(table, "mesh_size_m")
     if "order" in table and table["order"] not in registries.ELEMENT_ORDERS:
-        raise StudyError(f"settings.order: expected one of {', '.join(map(str, registries.ELEMENT_ORDERS))}, "
-                         f"got {table['order']!r}")
+        raise StudyError(
+            f"settings.order: expected one of {', '.join(map(str, registries.ELEMENT_ORDERS))}, got {table['order']!r}"
+        )
     if "samples_per_degree" in table:
         _int(table["samples_per_degree"], "settings.samples_per_degree", int(LIMITS["samples_per_degree"].bounds.lower))
     methods = registries.solver_methods()
@@ -477,22 +501,27 @@ def _settings(table: dict) -> Settings:
 
 def _sampling(table: dict, variables: dict) -> Sampling:
     _only(table, ("method", "levels", "points", "seed"), "sampling.")
-    method = table.get("method", "grid")
-    if method not in SAMPLING_METHODS:
-        raise StudyError(f"sampling.method: expected one of {', '.join(SAMPLING_METHODS)}, got {method!r}")
-    levels = _int(table.get("levels", 3), "sampling.levels", 2)
-    points = _int(table.get("points", 8), "sampling.points", 1)
-    seed = _int(table.get("seed", 0), "sampling.seed", 0)
+    default = Sampling()
+    method = table.get("method", default.method)
+    if method not in SAMPLERS:
+        raise StudyError(f"sampling.method: expected one of {', '.join(SAMPLERS)}, got {method!r}")
+    sampler = SAMPLERS[method]
+    levels = _int(table.get("levels", default.levels), "sampling.levels", 2)
+    points = _int(table.get("points", default.points), "sampling.points", 1)
+    seed = _int(table.get("seed", default.seed), "sampling.seed", 0)
     has_range = any(isinstance(v, Range) for v in variables.values())
-    if method != "grid" and not has_range:
-        raise StudyError(f"sampling.method: {method} samples ranges, and [variables] has none; "
-                         "expected a {min, max} range or method = \"grid\"")
-    if method == "sobol" and points & (points - 1):
-        raise StudyError(f"sampling.points: Sobol sampling needs a power of 2 to stay balanced, got {points}")
-    if method != "grid" and "levels" in table:
-        raise StudyError(f"sampling.levels: only for method = \"grid\"; {method} takes points")
-    if method == "grid" and "points" in table:
-        raise StudyError("sampling.points: only for lhs and sobol; the grid takes levels per range")
+    if sampler.size_key == "points" and not has_range:
+        raise StudyError(
+            f"sampling.method: {method} samples ranges, and [variables] has none; "
+            'expected a {min, max} range or method = "grid"'
+        )
+    other_key = "levels" if sampler.size_key == "points" else "points"
+    if other_key in table:
+        takers = ", ".join(name for name, s in SAMPLERS.items() if s.size_key == other_key)
+        raise StudyError(f"sampling.{other_key}: only for {takers}; {method} takes {sampler.size_key}")
+    problem = sampler.check(SamplingSize(levels, points, seed))
+    if problem:
+        raise StudyError(problem)
     return Sampling(method, levels, points, seed)
 
 
@@ -517,7 +546,9 @@ def _objectives(table: dict, metrics: tuple[str, ...]) -> tuple[Objective, ...]:
             raise StudyError(f"objectives.{sense_key}: expected a list of metric names, got {names!r}")
         for name in names:
             if name not in metrics:
-                raise StudyError(f"objectives.{sense_key}: unknown metric {name!r}; expected one of {', '.join(metrics)}")
+                raise StudyError(
+                    f"objectives.{sense_key}: unknown metric {name!r}; expected one of {', '.join(metrics)}"
+                )
             out.append(Objective(name, sense))
     return tuple(out)
 
@@ -539,8 +570,15 @@ def _optimise(table, objectives, metrics, variables: dict) -> OptimiseSpec | Non
     held = {("geometry_file" if k == GEOMETRY_KEY else k): v for k, v in held.items()}
     for name, value in held.items():
         if not isinstance(variables.get(name), Choices) or value not in variables[name].values:
-            raise StudyError(f"optimise.held.{name}: expected a variable listed in [variables] and one of its "
-                             f"values, got {value!r}")
-    return OptimiseSpec(objective, sense, dict(held), _int(table.get("popsize", 5), "optimise.popsize", 2),
-                        _int(table.get("maxiter", 5), "optimise.maxiter", 1),
-                        _int(table.get("seed", 0), "optimise.seed", 0), tol)
+            raise StudyError(
+                f"optimise.held.{name}: expected a variable listed in [variables] and one of its values, got {value!r}"
+            )
+    return OptimiseSpec(
+        objective,
+        sense,
+        dict(held),
+        _int(table.get("popsize", 5), "optimise.popsize", 2),
+        _int(table.get("maxiter", 5), "optimise.maxiter", 1),
+        _int(table.get("seed", 0), "optimise.seed", 0),
+        tol,
+    )

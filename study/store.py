@@ -82,8 +82,7 @@ def write_table(rows: list[dict], columns: list[str], parquet_path: Path, csv_pa
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    table = pa.Table.from_pylist([{c: r.get(c) for c in columns} for r in rows],
-                                 schema=_schema(rows, columns))
+    table = pa.Table.from_pylist([{c: r.get(c) for c in columns} for r in rows], schema=_schema(rows, columns))
     with atomic_target(parquet_path) as tmp:
         pq.write_table(table, tmp)
     write_csv(rows, columns, csv_path)

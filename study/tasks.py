@@ -26,18 +26,34 @@ from study.worker_malloc import keep_large_arrays_on_heap
 def base_config(settings: Settings, cache_dir: Path | None = None) -> RunConfig:
     """The default run (RunConfig()) with the study's settings (quiet, no images)."""
     cfg = RunConfig()
-    return replace(cfg, quiet=True, images=False, mesh_size_m=settings.mesh_size_m, order=settings.order,
-                   samples_per_degree=settings.samples_per_degree, solver=settings.solver,
-                   settling_band_m=settings.settling_band_m, steady_state=settings.steady_state,
-                   cache_dir=cfg.cache_dir if cache_dir is None else cache_dir)
+    return replace(
+        cfg,
+        quiet=True,
+        images=False,
+        mesh_size_m=settings.mesh_size_m,
+        order=settings.order,
+        samples_per_degree=settings.samples_per_degree,
+        solver=settings.solver,
+        settling_band_m=settings.settling_band_m,
+        steady_state=settings.steady_state,
+        cache_dir=cfg.cache_dir if cache_dir is None else cache_dir,
+    )
 
 
 def point_config(settings: Settings, inputs: dict, cache_dir: Path | None = None) -> RunConfig:
     """The RunConfig of one design point."""
-    geometry_values = {n: v for n, v in inputs.items() if n in VARIABLES and VARIABLES[n].target in GEOMETRY_TARGETS
-                       and n != "rail_width_m"}
-    return replace(base_config(settings, cache_dir), link=link_dimensions(geometry_values), **run_fields(
-        {n: v for n, v in inputs.items() if n in VARIABLES and VARIABLES[n].target not in GEOMETRY_TARGETS}))
+    geometry_values = {
+        n: v
+        for n, v in inputs.items()
+        if n in VARIABLES and VARIABLES[n].target in GEOMETRY_TARGETS and n != "rail_width_m"
+    }
+    return replace(
+        base_config(settings, cache_dir),
+        link=link_dimensions(geometry_values),
+        **run_fields(
+            {n: v for n, v in inputs.items() if n in VARIABLES and VARIABLES[n].target not in GEOMETRY_TARGETS}
+        ),
+    )
 
 
 def _worker() -> str:
@@ -46,8 +62,7 @@ def _worker() -> str:
 
 def _timing(start: float, cpu_start: float) -> dict:
     """Wall seconds, CPU seconds of the worker process (CPU < wall: the task waited for a core)."""
-    return {"seconds": time.perf_counter() - start, "cpu_seconds": time.process_time() - cpu_start,
-            "worker": _worker()}
+    return {"seconds": time.perf_counter() - start, "cpu_seconds": time.process_time() - cpu_start, "worker": _worker()}
 
 
 def _one_thread():
@@ -84,9 +99,13 @@ def _on_part(cfg, part: dict | None, scratch: Path):
     path = folder / Path(part["name"]).name
     path.write_bytes(part["data"])
     options = part["options"]
-    cfg = replace(cfg, geometry=path, link_source=part_source(path, options),
-                  hardware_material=options.get("hardware_material"),
-                  hardware_from_step=bool(options.get("hardware_from_step", False)))
+    cfg = replace(
+        cfg,
+        geometry=path,
+        link_source=part_source(path, options),
+        hardware_material=options.get("hardware_material"),
+        hardware_from_step=bool(options.get("hardware_from_step", False)),
+    )
     return inspect_geometry(cfg, Progress(True))
 
 
@@ -104,8 +123,10 @@ def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings, part:
     reason, fea, hardware_mass_kg = None, None, None
     with tempfile.TemporaryDirectory(prefix="study-fea-") as scratch, _one_thread():
         try:
-            cfg = replace(point_config(settings, inputs, None if settings.fea_cache else Path(scratch)),
-                          materials=tuple(materials))
+            cfg = replace(
+                point_config(settings, inputs, None if settings.fea_cache else Path(scratch)),
+                materials=tuple(materials),
+            )
             with contextlib.redirect_stderr(io.StringIO()):  # the cautions travel in the records instead
                 cfg, resolved = _on_part(cfg, part, Path(scratch))
                 fea = run_fea(cfg, Progress(True), concurrent_levels=False, part=resolved)  # one task per core already
@@ -141,13 +162,16 @@ def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: S
             try:
                 if model not in frequencies:
                     frequencies[model] = float(lowest_natural_frequencies_Hz(model, 1)[0])
-                scenario = simulate_scenario(cfg, model, material, p["inputs"]["cam"], fea.pitch_m,
-                                             settings.samples_per_degree)
+                scenario = simulate_scenario(
+                    cfg, model, material, p["inputs"]["cam"], fea.pitch_m, settings.samples_per_degree
+                )
             except DynamicsError as e:
                 rows.append(record(p, "infeasible", f"chain: {e}", fea_metrics(fea), fea.warnings))
                 continue
-            metrics = {**fea_metrics(fea), **chain_metrics(scenario, fea, settings.station, model.link_mass_kg,
-                                                           frequencies[model])}
+            metrics = {
+                **fea_metrics(fea),
+                **chain_metrics(scenario, fea, settings.station, model.link_mass_kg, frequencies[model]),
+            }
             rows.append(record(p, "ok", "", metrics, fea.warnings))
     return {"rows": rows, **_timing(start, cpu_start)}
 

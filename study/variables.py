@@ -41,27 +41,30 @@ def _run(name: str, kind: type) -> Variable:
     return Variable(name, RUN, name, kind, LIMITS[name].bounds)
 
 
-VARIABLES: dict[str, Variable] = {v.name: v for v in [
-    *(Variable(f.name, LINK, f.name, float) for f in fields(LinkDimensions)),
-    Variable("rail_width_m", RAIL, "recess_width_m", float),
-    Variable("material", MATERIAL, "materials", str),
-    Variable("cam", CAM, "cams", str),
-    _run("rpm", float),
-    _run("preload_N", float),
-    _run("links", int),
-    _run("nest_mass_kg", float),
-    _run("hardware_mass_kg", float),
-    _run("friction", float),
-    _run("damping", float),
-    _run("pin_clearance_m", float),
-    # the idler tensioner, as pipeline.py's --tensioner-rate/-mass/-damping (the mass is needed with
-    # either of the others: dynamics.scene.tensioner_from)
-    _run("tensioner_rate_N_per_m", float),
-    _run("tensioner_mass_kg", float),
-    _run("tensioner_damping_N_s_per_m", float),
-    # `geometry` in the study file: its column is geometry_file (the table's `geometry` is the FEA group's id)
-    Variable("geometry_file", STEP, "geometry", str),
-]}
+VARIABLES: dict[str, Variable] = {
+    v.name: v
+    for v in [
+        *(Variable(f.name, LINK, f.name, float) for f in fields(LinkDimensions)),
+        Variable("rail_width_m", RAIL, "recess_width_m", float),
+        Variable("material", MATERIAL, "materials", str),
+        Variable("cam", CAM, "cams", str),
+        _run("rpm", float),
+        _run("preload_N", float),
+        _run("links", int),
+        _run("nest_mass_kg", float),
+        _run("hardware_mass_kg", float),
+        _run("friction", float),
+        _run("damping", float),
+        _run("pin_clearance_m", float),
+        # the idler tensioner, as pipeline.py's --tensioner-rate/-mass/-damping (the mass is needed with
+        # either of the others: dynamics.scene.tensioner_from)
+        _run("tensioner_rate_N_per_m", float),
+        _run("tensioner_mass_kg", float),
+        _run("tensioner_damping_N_s_per_m", float),
+        # `geometry` in the study file: its column is geometry_file (the table's `geometry` is the FEA group's id)
+        Variable("geometry_file", STEP, "geometry", str),
+    ]
+}
 
 #: The study file's key for the STEP file(s) of the link, and the variable it sets.
 GEOMETRY_KEY = "geometry"

@@ -17,8 +17,14 @@ import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-CHROMIUM_FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                  "--no-first-run", "--allow-file-access-from-files")
+CHROMIUM_FLAGS = (
+    "--headless",
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--no-first-run",
+    "--allow-file-access-from-files",
+)
 PROBE = """<!DOCTYPE html><html><body><pre id="result">pending</pre>
 <iframe id="page" src="{src}" width="1300" height="900"></iframe>
 <script>
@@ -57,8 +63,9 @@ def chromium() -> str:
 
 
 def _run(args: list[str], user_dir: str) -> str:
-    done = subprocess.run([chromium(), *CHROMIUM_FLAGS, f"--user-data-dir={user_dir}", *args],
-                          capture_output=True, text=True, timeout=120)
+    done = subprocess.run(
+        [chromium(), *CHROMIUM_FLAGS, f"--user-data-dir={user_dir}", *args], capture_output=True, text=True, timeout=120
+    )
     if done.returncode != 0:
         raise RuntimeError(f"chromium failed ({done.returncode}): {done.stderr.strip()[-500:]}")
     return done.stdout
@@ -81,6 +88,8 @@ def page_in_browser(page: Path) -> PageInBrowser:
 
 def screenshot(page: Path, png: Path, width: int = 1300, height: int = 2000) -> Path:
     with tempfile.TemporaryDirectory() as user_dir:
-        _run([f"--window-size={width},{height}", f"--screenshot={Path(png).resolve()}", Path(page).resolve().as_uri()],
-             user_dir)
+        _run(
+            [f"--window-size={width},{height}", f"--screenshot={Path(png).resolve()}", Path(page).resolve().as_uri()],
+            user_dir,
+        )
     return Path(png)

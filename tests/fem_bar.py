@@ -22,8 +22,10 @@ def bar_on_rollers(mesh: MeshTet, order: int, solver: str, length_m: float, widt
     end = mesh.facets_satisfying(lambda x: np.isclose(x[0], length_m))
     traction_Pa = LOAD_N / (width_m * height_m)
     f = problem.traction_load(basis, end, lambda x: np.array([traction_Pa + 0 * x[0], 0 * x[0], 0 * x[0]]))
-    rollers = np.concatenate([
-        problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x, c=c: np.isclose(x[c], 0.0)), [c])
-        for c in range(3)
-    ])
+    rollers = np.concatenate(
+        [
+            problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x, c=c: np.isclose(x[c], 0.0)), [c])
+            for c in range(3)
+        ]
+    )
     return K, f, problem.solve_displacement(K, f, rollers, basis.doflocs, solver=solver)

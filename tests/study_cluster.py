@@ -67,8 +67,14 @@ def write_study(folder: Path, report_best: int = 0, levels: int = 2) -> Path:
 
 def env(cache: Path) -> dict:
     """The project importable by every process, a private FEA cache, one BLAS thread."""
-    return {**os.environ, "PYTHONPATH": str(ROOT), "XDG_CACHE_HOME": str(cache), "OMP_NUM_THREADS": "1",
-            "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    return {
+        **os.environ,
+        "PYTHONPATH": str(ROOT),
+        "XDG_CACHE_HOME": str(cache),
+        "OMP_NUM_THREADS": "1",
+        "MKL_NUM_THREADS": "1",
+        "OPENBLAS_NUM_THREADS": "1",
+    }
 
 
 def free_port() -> int:
@@ -89,18 +95,44 @@ class ExternalCluster:
         self.env = env(cache)
         self.worker_cwd = worker_cwd
         self.address = f"tcp://127.0.0.1:{free_port()}"
-        self.scheduler = self._start([sys.executable, "-m", "dask", "scheduler", "--host", "127.0.0.1",
-                                      "--port", self.address.rsplit(":", 1)[1], "--no-dashboard"])
+        self.scheduler = self._start(
+            [
+                sys.executable,
+                "-m",
+                "dask",
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                self.address.rsplit(":", 1)[1],
+                "--no-dashboard",
+            ]
+        )
         self.workers = [self.start_worker() for _ in range(workers)]
         self.wait_for_workers(workers)
 
     def _start(self, command: list[str], cwd: Path = ROOT) -> subprocess.Popen:
-        return subprocess.Popen(command, cwd=cwd, env=self.env, stdout=subprocess.DEVNULL,
-                                stderr=subprocess.DEVNULL, start_new_session=True)
+        return subprocess.Popen(
+            command, cwd=cwd, env=self.env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True
+        )
 
     def start_worker(self) -> subprocess.Popen:
-        return self._start([sys.executable, "-m", "dask", "worker", self.address, "--nthreads", "1",
-                            "--no-nanny", "--no-dashboard", "--host", "127.0.0.1"], cwd=self.worker_cwd)
+        return self._start(
+            [
+                sys.executable,
+                "-m",
+                "dask",
+                "worker",
+                self.address,
+                "--nthreads",
+                "1",
+                "--no-nanny",
+                "--no-dashboard",
+                "--host",
+                "127.0.0.1",
+            ],
+            cwd=self.worker_cwd,
+        )
 
     def client(self):
         from distributed import Client

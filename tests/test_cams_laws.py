@@ -78,7 +78,7 @@ def test_v_a_j_are_the_derivatives_of_s(law_id):
     if joints.size:  # the stencil must not straddle a joint, where higher derivatives jump
         x = x[np.min(np.abs(x[:, None] - joints[None, :]), axis=1) > 3.5 * h]
     for k in range(3):
-        numeric = _central_difference(lambda y: law.svaj(y)[k], x, h)
+        numeric = _central_difference(lambda y: law.svaj(y)[k], x, h)  # noqa: B023 (called at once)
         exact = law.svaj(x)[k + 1]
         # Truncation: h^6 max|f^(7)| / 140 <= 1e-18 * (4 pi)^7 * 70 / 140 ~ 2.5e-11 for the fastest
         # harmonic (4 pi); rounding: ~eps * |f| / h ~ 1e-12 * 70. Both well under 1e-9.

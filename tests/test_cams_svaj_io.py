@@ -57,7 +57,13 @@ def test_linear_interpolation_and_dwells(tmp_path):
     s, v, a, j = cam.svaj(np.array([0.5 * DEG_S]))
     s0, v0, a0, j0 = p.svaj(np.array([0.0, DEG_S]))
     assert s[0] == pytest.approx(s0.mean()) and v[0] == pytest.approx(v0.mean()) and j[0] == pytest.approx(j0.mean())
-    assert cam.dwell_mask(np.array([10.0, 50.0, 100.0, 150.0, 300.0]) * DEG_S).tolist() == [False, True, False, True, True]
+    assert cam.dwell_mask(np.array([10.0, 50.0, 100.0, 150.0, 300.0]) * DEG_S).tolist() == [
+        False,
+        True,
+        False,
+        True,
+        True,
+    ]
     assert cam.dwell_intervals_s[-1][1] == np.inf
     s_late, v_late, _, _ = cam.svaj(np.array([1.0]))  # past the end of a one-shot table: at rest
     assert s_late[0] == pytest.approx(0.225) and v_late[0] == 0.0

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
+from dynamics.models.chain import ChainModel
 
 
 def test_field_note_frequencies_with_the_driven_link_held():

@@ -7,8 +7,8 @@ import scipy.sparse as sp
 
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain, Tensioner
-from dynamics.response.sweep import stiffness_matrix_sparse
 from dynamics.models.topology import ChainTopology, Span, ring_topology
+from dynamics.response.sweep import stiffness_matrix_sparse
 
 
 def _old_dense_stiffness(model: ChainModel) -> np.ndarray:
@@ -60,8 +60,14 @@ def test_chain_matrices_equal_the_old_builders(model):
 def test_the_carriage_topology_equals_the_clearance_chains_full_contact_matrices(model, tensioner):
     chain = ClearanceChain(model, 0.0, tensioner=tensioner)
     k_old, m_old = chain.full_contact_stiffness()
-    topo = ring_topology(model.n_links, model.link_mass_kg, model.stiffness_N_per_m, model.preload_N,
-                         model.drive_stiffness, carriage=(chain.idler_span, tensioner.rate_N_per_m, tensioner.mass_kg))
+    topo = ring_topology(
+        model.n_links,
+        model.link_mass_kg,
+        model.stiffness_N_per_m,
+        model.preload_N,
+        model.drive_stiffness,
+        carriage=(chain.idler_span, tensioner.rate_N_per_m, tensioner.mass_kg),
+    )
     np.testing.assert_array_equal(topo.stiffness_matrix(), k_old)
     np.testing.assert_array_equal(topo.mass_matrix(), m_old)
 

@@ -7,14 +7,14 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
+from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain, Tensioner, contact_state, span_energy_J, span_force_N
+from dynamics.models.system import SampledForce
 from dynamics.scene import Validity, choose_model, simulate_chain
-from dynamics.errors import DynamicsError, SolverDivergedError
-from dynamics.solvers.simulate import simulate
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import solve
-from dynamics.models.system import SampledForce
+from dynamics.solvers.simulate import simulate
 
 K, MASS, P = 9e7, 2.2, 2224.0
 
@@ -115,15 +115,24 @@ def _linear_problem(n=8, per_degree=2):
     chain = _chain(n=n)
     t = _times(per_degree=per_degree)
     _, v, a, _ = _cam().svaj(t)
-    ref = solve(chain.system(), SampledForce(t, chain.base_excitation_force(a)), t, x0=np.zeros(n),
-                v0=-v[0] * np.ones(n))
+    ref = solve(
+        chain.system(), SampledForce(t, chain.base_excitation_force(a)), t, x0=np.zeros(n), v0=-v[0] * np.ones(n)
+    )
     return chain, t, v, a, ref
 
 
 def _integrate_held(model, t, v, a, sub, **kw):
     tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
-    return verlet.integrate(model, np.interp(tf, t, v), np.interp(tf, t, a), tf[1] - tf[0],
-                            np.zeros(model.n_links), -v[0] * np.ones(model.n_links), out_every=sub, **kw)
+    return verlet.integrate(
+        model,
+        np.interp(tf, t, v),
+        np.interp(tf, t, a),
+        tf[1] - tf[0],
+        np.zeros(model.n_links),
+        -v[0] * np.ones(model.n_links),
+        out_every=sub,
+        **kw,
+    )
 
 
 def test_integrator_converges_to_the_linear_chain_at_second_order_for_zero_clearance():
@@ -178,8 +187,9 @@ def _short_run(model, predictor="euler", compiled=None):
     tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
     _, v, a, _ = _cam().svaj(tf)
     n = model.n_links
-    return verlet.integrate(model, v, a, tf[1], np.zeros(n), -v[0] * np.ones(n), out_every=sub, compiled=compiled,
-                            predictor=predictor)
+    return verlet.integrate(
+        model, v, a, tf[1], np.zeros(n), -v[0] * np.ones(n), out_every=sub, compiled=compiled, predictor=predictor
+    )
 
 
 @pytest.mark.parametrize("n_links", [6, 7])  # even and odd: one or two links on the mirror line
@@ -212,8 +222,7 @@ def test_numpy_path_equals_the_compiled_path_in_the_kelvin_voigt_impact_metrics(
 
 def _blocked(cmat: np.ndarray, w: np.ndarray) -> np.ndarray:
     blocks = verlet.reflection_blocks(cmat)
-    work = tuple(np.zeros(n) for n in (blocks[0].shape[1], blocks[1].shape[1], blocks[0].shape[0],
-                                       blocks[1].shape[0]))
+    work = tuple(np.zeros(n) for n in (blocks[0].shape[1], blocks[1].shape[1], blocks[0].shape[0], blocks[1].shape[0]))
     out = np.zeros(cmat.shape[0])
     verlet._mirror_product(blocks, work, w, out)
     return out
@@ -252,8 +261,14 @@ def test_the_friction_law_of_both_paths_is_tanh_to_the_last_bit_of_one_and_satur
     without computing it (|x| >= TANH_IS_ONE)."""
     import math
 
-    x = np.concatenate([np.linspace(-40, 40, 80001), np.geomspace(1e-300, 1e-3, 50), -np.geomspace(1e-300, 1e-3, 50),
-                        [0.0, verlet.TANH_IS_ONE, np.nextafter(verlet.TANH_IS_ONE, 0), 800.0, np.inf, -np.inf]])
+    x = np.concatenate(
+        [
+            np.linspace(-40, 40, 80001),
+            np.geomspace(1e-300, 1e-3, 50),
+            -np.geomspace(1e-300, 1e-3, 50),
+            [0.0, verlet.TANH_IS_ONE, np.nextafter(verlet.TANH_IS_ONE, 0), 800.0, np.inf, -np.inf],
+        ]
+    )
     exact = np.tanh(x)
     assert np.max(np.abs(verlet._tanh_array(x) - exact)) <= 2.3e-16
     saturated = np.abs(x) >= verlet.TANH_IS_ONE
@@ -271,8 +286,10 @@ def test_the_friction_law_of_both_paths_is_tanh_to_the_last_bit_of_one_and_satur
     power = verlet._friction_into(0.01, w, par, fr)
     # the tanh bound times F_c, and the two products' roundings (half an ulp of F_c each)
     np.testing.assert_allclose(fr, -fc * np.tanh((0.01 + w) * inv_vs), rtol=0, atol=2.3e-16 * fc + np.spacing(fc))
-    assert np.all(fr[np.abs((0.01 + w) * inv_vs) >= verlet.TANH_IS_ONE] == -fc * np.sign(0.01 + w)[
-        np.abs((0.01 + w) * inv_vs) >= verlet.TANH_IS_ONE])
+    assert np.all(
+        fr[np.abs((0.01 + w) * inv_vs) >= verlet.TANH_IS_ONE]
+        == -fc * np.sign(0.01 + w)[np.abs((0.01 + w) * inv_vs) >= verlet.TANH_IS_ONE]
+    )
     assert power == pytest.approx(np.sum(fc * np.tanh((0.01 + w) * inv_vs) * (0.01 + w)), rel=1e-12)
 
 
@@ -301,8 +318,10 @@ def test_ab2_predictor_linear_chain_diverges_just_above_its_limit_and_not_just_b
         h = factor * h_limit
         tf = h * np.arange(n + 1)
         _, v, a, _ = _cam().svaj(tf)
-        run = lambda: verlet.integrate(model, v, a, h, np.zeros(8), -v[0] * np.ones(8), out_every=n,  # noqa: E731
-                                       predictor="ab2")
+
+        def run(v=v, a=a, h=h):
+            return verlet.integrate(model, v, a, h, np.zeros(8), -v[0] * np.ones(8), out_every=n, predictor="ab2")
+
         if diverges:
             with pytest.raises(SolverDivergedError, match="diverged"):
                 run()
@@ -387,8 +406,9 @@ def test_the_default_run_takes_ab2_for_the_global_law_and_euler_for_kelvin_voigt
         assert verlet.default_predictor(model) == predictor
         _, s = simulate_chain(model, _cam(), t, steady_state=False)
         h_limit = verlet.stable_step_s(model, 1.0, predictor)
-        assert s.steps_per_output == verlet.substeps_for(model, t[1], verlet.default_safety(model, predictor),
-                                                          predictor)
+        assert s.steps_per_output == verlet.substeps_for(
+            model, t[1], verlet.default_safety(model, predictor), predictor
+        )
         assert (t[1] / s.steps_per_output) <= verlet.default_safety(model, predictor) * h_limit * (1 + 1e-12)
 
 
@@ -403,8 +423,9 @@ def _fake_period_map(flip_every: int):
         y_end = np.full(model.n_links, 1e-3 * (1 + phase))
         rows = np.vstack([np.asarray(y0, dtype=float), y_end])
         zeros = np.zeros_like(rows)
-        return verlet.Run(rows, zeros + 0.1, zeros, np.zeros(2), np.zeros(2), 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
-                          h, 1)
+        return verlet.Run(
+            rows, zeros + 0.1, zeros, np.zeros(2), np.zeros(2), 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, h, 1
+        )
 
     return integrate
 
@@ -424,8 +445,9 @@ def test_subharmonic_is_detected_and_named_and_chaos_is_not_called_a_steady_stat
         assert ss.period_cycles is None and ss.statement.startswith("NO periodic steady state")
 
 
-@pytest.mark.parametrize("method, options", [("rk45", {"rtol": 1e-7, "atol": 1e-12}),
-                                             ("central-difference", {"dt": None})])
+@pytest.mark.parametrize(
+    "method, options", [("rk45", {"rtol": 1e-7, "atol": 1e-12}), ("central-difference", {"dt": None})]
+)
 def test_the_common_solver_interface_solves_the_same_clearance_chain(method, options):
     """ClearanceChain.system(): the span law as a nonlinear force on the linear chain, solved by the
     existing methods (dynamics.solvers.solve), agrees with the fast integrator."""
@@ -436,8 +458,15 @@ def test_the_common_solver_interface_solves_the_same_clearance_chain(method, opt
     sub = 64
     if method == "central-difference":
         options = {"dt": (t[1] - t[0]) / sub}
-    r = solve(model.system(), SampledForce(t, chain.base_excitation_force(a)), t, method=method,
-              x0=np.zeros(8), v0=-v[0] * np.ones(8), **options)
+    r = solve(
+        model.system(),
+        SampledForce(t, chain.base_excitation_force(a)),
+        t,
+        method=method,
+        x0=np.zeros(8),
+        v0=-v[0] * np.ones(8),
+        **options,
+    )
     fast = _integrate_held(model, t, v, a, sub)
     assert fast.impacts > 5
     scale = np.max(np.abs(r.x))

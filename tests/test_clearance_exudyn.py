@@ -26,9 +26,9 @@ import pytest
 from benchmarks.exudyn_chain import exudyn_chain_response
 from dynamics.cams import CamProgram, Segment
 from dynamics.models.chain import ChainModel
-from verification.clearance_reference import HeldCam, reference_response
 from dynamics.response.metrics import rms, station_links
 from dynamics.solvers.simulate import SlackChainWarning, simulate
+from verification.clearance_reference import HeldCam, reference_response
 
 N = 20
 K = 9.27e7
@@ -41,8 +41,9 @@ CAM = CamProgram.indexing("modified-sine")
 RESTING = CamProgram((Segment("dwell", 360.0),), 180.0, periodic=True, name="at rest")
 HELD = HeldCam(CAM, T_WINDOW)  # the same input for all three codes
 STATIONS = [link - 1 for link in station_links(N).values()]
-CHAIN = dict(n_links=N, link_mass_kg=MASS, stiffness_N_per_m=K, drive_stiffness_N_per_m=K, preload_N=PRELOAD,
-             t_eval_s=T_WINDOW)
+CHAIN = dict(
+    n_links=N, link_mass_kg=MASS, stiffness_N_per_m=K, drive_stiffness_N_per_m=K, preload_N=PRELOAD, t_eval_s=T_WINDOW
+)
 
 
 def station_differences(ours, theirs) -> np.ndarray:
@@ -73,10 +74,14 @@ def test_exudyn_without_free_play_converges_to_the_exact_linear_solver():
         warnings.simplefilter("ignore", SlackChainWarning)
         lin = simulate(model, CAM, T_WINDOW, steady_state=False)  # the first-order hold HELD integrates
     held_z, held_v, _, _ = HELD.svaj(T_WINDOW)
-    lin_on_held = SimpleNamespace(x_m=lin.x_m - lin.z_m[:, None] + held_z[:, None],
-                                  v_m_s=lin.v_m_s - lin.zdot_m_s[:, None] + held_v[:, None], a_m_s2=lin.a_m_s2)
-    coarse, fine = (station_differences(exudyn_run(s, clearance_m=0.0, damping_law="kelvin-voigt"), lin_on_held)
-                    for s in (10, 20))
+    lin_on_held = SimpleNamespace(
+        x_m=lin.x_m - lin.z_m[:, None] + held_z[:, None],
+        v_m_s=lin.v_m_s - lin.zdot_m_s[:, None] + held_v[:, None],
+        a_m_s2=lin.a_m_s2,
+    )
+    coarse, fine = (
+        station_differences(exudyn_run(s, clearance_m=0.0, damping_law="kelvin-voigt"), lin_on_held) for s in (10, 20)
+    )
     assert np.all(fine < [5e-8, 1e-5, 7e-4])
     assert np.all(coarse > 3.0 * fine)  # second order
 

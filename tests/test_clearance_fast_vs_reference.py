@@ -10,12 +10,17 @@ import pytest
 from dynamics.cams import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain
-from verification.clearance_reference import reference_response
 from dynamics.response.metrics import link_metrics, station_metrics
 from dynamics.solvers import clearance_verlet as verlet
+from verification.clearance_reference import reference_response
 
-KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2",
-        "residual_vibration_m")
+KEYS = (
+    "rms_displacement_m",
+    "rms_velocity_m_s",
+    "rms_acceleration_m_s2",
+    "max_abs_acceleration_m_s2",
+    "residual_vibration_m",
+)
 
 
 def _cam():
@@ -26,11 +31,19 @@ def _reference(model: ClearanceChain, t):
     c = model.chain
     kv = model.span_damping == "kelvin-voigt"
     return reference_response(
-        n_links=c.n_links, link_mass_kg=c.link_mass_kg, stiffness_N_per_m=c.stiffness_N_per_m,
-        drive_stiffness_N_per_m=c.drive_stiffness, preload_N=c.preload_N, clearance_m=model.clearance_m,
-        cam=_cam(), t_eval_s=t, damping_matrix=None if kv else model.damping_matrix,
-        span_damping_beta_s=model.beta_s if kv else 0.0, friction_force_N=c.coulomb_force_N,
-        friction_velocity_scale_m_s=c.friction_velocity_scale_m_s)
+        n_links=c.n_links,
+        link_mass_kg=c.link_mass_kg,
+        stiffness_N_per_m=c.stiffness_N_per_m,
+        drive_stiffness_N_per_m=c.drive_stiffness,
+        preload_N=c.preload_N,
+        clearance_m=model.clearance_m,
+        cam=_cam(),
+        t_eval_s=t,
+        damping_matrix=None if kv else model.damping_matrix,
+        span_damping_beta_s=model.beta_s if kv else 0.0,
+        friction_force_N=c.coulomb_force_N,
+        friction_velocity_scale_m_s=c.friction_velocity_scale_m_s,
+    )
 
 
 def _fast(model: ClearanceChain, t, sub, predictor="euler"):
@@ -38,14 +51,21 @@ def _fast(model: ClearanceChain, t, sub, predictor="euler"):
     _, v, a, _ = _cam().svaj(t)
     tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
     n = model.n_links
-    return verlet.integrate(model, np.interp(tf, t, v), np.interp(tf, t, a), tf[1] - tf[0], np.zeros(n),
-                            -v[0] * np.ones(n), out_every=sub, predictor=predictor)
+    return verlet.integrate(
+        model,
+        np.interp(tf, t, v),
+        np.interp(tf, t, a),
+        tf[1] - tf[0],
+        np.zeros(n),
+        -v[0] * np.ones(n),
+        out_every=sub,
+        predictor=predictor,
+    )
 
 
 @pytest.mark.parametrize("law", ["global", "kelvin-voigt"])
 def test_fast_integrator_converges_to_the_reference_at_second_order(law):
-    chain = ChainModel(n_links=10, link_mass_kg=2.03, stiffness_N_per_m=9e7, preload_N=300.0,
-                       friction_coefficient=0.35)
+    chain = ChainModel(n_links=10, link_mass_kg=2.03, stiffness_N_per_m=9e7, preload_N=300.0, friction_coefficient=0.35)
     model = ClearanceChain(chain, 94e-6, span_damping=law)
     t = np.arange(91) / 2 / (6 * 180.0)  # 45 degrees, the index, at 2 samples per degree
     ref = _reference(model, t)
@@ -59,13 +79,13 @@ def test_fast_integrator_converges_to_the_reference_at_second_order(law):
 def test_ab2_predictor_converges_at_second_order_with_a_smaller_error_than_euler():
     """The global law with the Adams-Bashforth velocity predictor: same order, smaller error (in y on
     this case 0.47-0.58 of euler's; on the 85-link station metrics 0.2-0.5, README)."""
-    chain = ChainModel(n_links=10, link_mass_kg=2.03, stiffness_N_per_m=9e7, preload_N=300.0,
-                       friction_coefficient=0.35)
+    chain = ChainModel(n_links=10, link_mass_kg=2.03, stiffness_N_per_m=9e7, preload_N=300.0, friction_coefficient=0.35)
     model = ClearanceChain(chain, 94e-6)
     t = np.arange(91) / 2 / (6 * 180.0)
     ref = _reference(model, t)
-    errors = {p: [np.max(np.abs(_fast(model, t, sub, p).y - ref.y_m)) for sub in (16, 32, 64)]
-              for p in ("euler", "ab2")}
+    errors = {
+        p: [np.max(np.abs(_fast(model, t, sub, p).y - ref.y_m)) for sub in (16, 32, 64)] for p in ("euler", "ab2")
+    }
     ab2 = np.array(errors["ab2"])
     orders = np.log2(ab2[:-1] / ab2[1:])
     assert np.all(orders > 1.7) and np.all(ab2 < 0.7 * np.array(errors["euler"])), (errors, orders)

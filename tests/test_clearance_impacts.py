@@ -33,8 +33,9 @@ SPEED_REL = 0.5 * (math.pi / STEPS_PER_IMPACT) ** 2
 
 
 def _ring(span_damping="global", beta=None):
-    chain = ChainModel(n_links=N, link_mass_kg=M, stiffness_N_per_m=K, damping_ratio=0.0, preload_N=0.0,
-                       friction_coefficient=0.0)
+    chain = ChainModel(
+        n_links=N, link_mass_kg=M, stiffness_N_per_m=K, damping_ratio=0.0, preload_N=0.0, friction_coefficient=0.0
+    )
     return ClearanceChain(chain, GAP, span_damping=span_damping, kv_beta_s=beta, tensioner=Tensioner(0.0, 1.0))
 
 

@@ -8,9 +8,9 @@ limit is in tests/test_clearance_chain.py. Cases: 10 links, the first
 import numpy as np
 import pytest
 
-from verification.clearance_stability import event_case, method_case, small_case
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.solvers import clearance_verlet as verlet
+from verification.clearance_stability import event_case, method_case, small_case
 
 
 def test_reference_within_its_event_budget_agrees_and_one_change_over_is_refused():
@@ -22,7 +22,7 @@ def test_reference_within_its_event_budget_agrees_and_one_change_over_is_refused
     fast = case.fast(verlet.stable_step_s(case.model, safety=1.0) / 32)
     # fast integrator's error at h_max/32 is second order, ~1e-6 of the peak here (measured 2e-6)
     assert np.max(np.abs(inside.y_m - fast.y)) <= 2e-5 * np.max(np.abs(fast.y))
-    refusal = r"more than %d contact changes \(max_events\).*clearance_verlet" % (changes - 1)
+    refusal = rf"more than {changes - 1} contact changes \(max_events\).*clearance_verlet"
     with pytest.raises(DynamicsError, match=refusal) as err:
         case.reference(1e-8, max_events=changes - 1)
     assert "\n" not in str(err.value)

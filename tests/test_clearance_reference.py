@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram, Segment
-from dynamics.models.chain import ChainModel
-from verification.clearance_reference import HeldCam, idler_span_index, reference_response
 from dynamics.errors import DynamicsError, SolverFailedError
+from dynamics.models.chain import ChainModel
 from dynamics.solvers.simulate import SlackChainWarning, simulate
+from verification.clearance_reference import HeldCam, idler_span_index, reference_response
 
 K = 9.27e7  # N/m, the default link's axial stiffness (order of)
 MASS = 2.03  # kg per link
@@ -30,8 +30,16 @@ RESTING = CamProgram((Segment("dwell", 360.0),), 180.0, periodic=True, name="at 
 
 
 def chain(n=20, **overrides):
-    args = dict(n_links=n, link_mass_kg=MASS, stiffness_N_per_m=K, drive_stiffness_N_per_m=K, preload_N=PRELOAD,
-                clearance_m=GAP, cam=CAM, t_eval_s=T_WINDOW)
+    args = dict(
+        n_links=n,
+        link_mass_kg=MASS,
+        stiffness_N_per_m=K,
+        drive_stiffness_N_per_m=K,
+        preload_N=PRELOAD,
+        clearance_m=GAP,
+        cam=CAM,
+        t_eval_s=T_WINDOW,
+    )
     args.update(overrides)
     return reference_response(**args)
 
@@ -48,18 +56,23 @@ def linear(model):
 
 
 def rel_errors(ref, lin):
-    return [float(np.abs(a - b).max() / np.abs(b).max())
-            for a, b in zip((ref.y_m, ref.ydot_m_s, ref.yddot_m_s2), relative(lin))]
+    return [
+        float(np.abs(a - b).max() / np.abs(b).max())
+        for a, b in zip((ref.y_m, ref.ydot_m_s, ref.yddot_m_s2), relative(lin))
+    ]
 
 
 # (i) no free play: today's linear chain ------------------------------------------------------------
+
 
 def test_no_clearance_is_the_exact_linear_solver_to_the_tolerance():
     model = ChainModel(20, MASS, K, preload_N=PRELOAD)
     lin = linear(model)
     assert lin.min_tension_N < 0  # the linear chain pushes here: the case is not trivially in contact
-    errs = {rtol: rel_errors(chain(clearance_m=0.0, damping_matrix=model.damping_matrix(), rtol=rtol), lin)
-            for rtol in (1e-8, 1e-10)}
+    errs = {
+        rtol: rel_errors(chain(clearance_m=0.0, damping_matrix=model.damping_matrix(), rtol=rtol), lin)
+        for rtol in (1e-8, 1e-10)
+    }
     y, v, a = errs[1e-10]
     assert y < 10 * 1e-10 and v < 500 * 1e-10 and a < 8000 * 1e-10
     # the difference is the reference's own integration error: it shrinks with the tolerance
@@ -116,8 +129,9 @@ def test_held_cam_integrates_its_sampled_acceleration_exactly():
     mid = 0.5 * (T_WINDOW[:-1] + T_WINDOW[1:])
     np.testing.assert_allclose(held.svaj(mid)[2], 0.5 * (a[:-1] + a[1:]), rtol=0, atol=1e-12 * np.abs(a).max())
     # velocity is the integral of the held acceleration (trapezoid rule is exact for it)
-    np.testing.assert_allclose(hv[1:], v[0] + np.cumsum(0.5 * (a[:-1] + a[1:]) * np.diff(T_WINDOW)), rtol=1e-12,
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        hv[1:], v[0] + np.cumsum(0.5 * (a[:-1] + a[1:]) * np.diff(T_WINDOW)), rtol=1e-12, atol=1e-12
+    )
     z, zd = held.z_and_zdot(float(mid[7]))
     assert z == pytest.approx(held.svaj(mid[7:8])[0][0], rel=1e-15) and zd == pytest.approx(held.svaj(mid[7:8])[1][0])
 
@@ -136,9 +150,18 @@ def two_masses(beta=0.0, t_end=2e-3):
     2-link loop has stiffness 0, the drive 0: nothing else acts), starting mid-play, closing at V."""
     share = np.array([M1, -M0]) / (M0 + M1)  # zero momentum
     return reference_response(
-        n_links=2, link_mass_kg=[M0, M1], stiffness_N_per_m=[K_C, 0.0], drive_stiffness_N_per_m=0.0, preload_N=0.0,
-        clearance_m=[GAP, np.inf], cam=RESTING, t_eval_s=np.linspace(0.0, t_end, 401),
-        span_damping_beta_s=beta, y0=[0.0, -GAP / 2], ydot0=V_APPROACH * share)
+        n_links=2,
+        link_mass_kg=[M0, M1],
+        stiffness_N_per_m=[K_C, 0.0],
+        drive_stiffness_N_per_m=0.0,
+        preload_N=0.0,
+        clearance_m=[GAP, np.inf],
+        cam=RESTING,
+        t_eval_s=np.linspace(0.0, t_end, 401),
+        span_damping_beta_s=beta,
+        y0=[0.0, -GAP / 2],
+        ydot0=V_APPROACH * share,
+    )
 
 
 def test_single_span_impact_lasts_pi_over_omega_and_rebounds_at_the_approach_speed():
@@ -146,7 +169,7 @@ def test_single_span_impact_lasts_pi_over_omega_and_rebounds_at_the_approach_spe
     times = r.contact_change_times_s
     assert r.n_contact_changes >= 6
     flight, contact = GAP / V_APPROACH, np.pi / OMEGA_C
-    expected = GAP / 2 / V_APPROACH + np.cumsum([0.0] + [contact, flight] * ((times.size - 1) // 2 + 1))[:times.size]
+    expected = GAP / 2 / V_APPROACH + np.cumsum([0.0] + [contact, flight] * ((times.size - 1) // 2 + 1))[: times.size]
     np.testing.assert_allclose(times, expected, rtol=1e-9)
     e_dot = r.ydot_m_s[:, 1] - r.ydot_m_s[:, 0]
     free = r.contact_mode[:, 0] == 0
@@ -184,14 +207,25 @@ def test_kelvin_voigt_impact_has_the_closed_form_restitution_and_duration():
 FRICTION = 0.35 * MASS * 9.80665
 
 
-@pytest.mark.parametrize("case", ["no free play, modal damping, friction", "free play, modal damping, friction",
-                                  "free play, Kelvin-Voigt, tensioner"])
+@pytest.mark.parametrize(
+    "case",
+    [
+        "no free play, modal damping, friction",
+        "free play, modal damping, friction",
+        "free play, Kelvin-Voigt, tensioner",
+    ],
+)
 def test_cam_work_is_dissipation_plus_change_of_stored_energy(case):
     model = ChainModel(20, MASS, K, preload_N=PRELOAD)
     t = T_WINDOW[:91]  # one index and its dwell
     if case.startswith("no free play"):
-        r = chain(clearance_m=0.0, damping_matrix=model.damping_matrix(), friction_force_N=FRICTION, t_eval_s=t,
-                  cam_input="held")
+        r = chain(
+            clearance_m=0.0,
+            damping_matrix=model.damping_matrix(),
+            friction_force_N=FRICTION,
+            t_eval_s=t,
+            cam_input="held",
+        )
     elif "modal" in case:
         r = chain(damping_matrix=model.damping_matrix(), friction_force_N=FRICTION, t_eval_s=t, cam_input="held")
         assert r.n_contact_changes > 0
@@ -207,9 +241,16 @@ def test_cam_work_is_dissipation_plus_change_of_stored_energy(case):
 
 # (iv) the idler tensioner --------------------------------------------------------------------------
 
+
 def test_tensioner_rests_at_u_zero_in_the_preloaded_static_state():
-    r = chain(n=10, cam=RESTING, y0=np.zeros(10), ydot0=np.zeros(10), tensioner=(2e6, 5.0, 100.0),
-              t_eval_s=np.linspace(0.0, 0.05, 51))
+    r = chain(
+        n=10,
+        cam=RESTING,
+        y0=np.zeros(10),
+        ydot0=np.zeros(10),
+        tensioner=(2e6, 5.0, 100.0),
+        t_eval_s=np.linspace(0.0, 0.05, 51),
+    )
     assert np.all(r.tensioner_u_m == 0.0) and np.all(r.y_m == 0.0)
     assert np.all(r.tension_N == PRELOAD) and r.n_contact_changes == 0
 
@@ -228,6 +269,7 @@ def test_stiff_tensioner_is_the_rigid_idler():
 
 # (v) a chain that can only pull --------------------------------------------------------------------
 
+
 def test_chain_without_end_stops_never_pushes():
     model = ChainModel(20, MASS, K, preload_N=PRELOAD)
     assert linear(model).min_tension_N < -PRELOAD  # the linear chain pushes here
@@ -240,15 +282,19 @@ def test_chain_without_end_stops_never_pushes():
 
 # input checks --------------------------------------------------------------------------------------
 
-@pytest.mark.parametrize("override, name", [
-    (dict(clearance_m=-1e-4), "clearance_m"),
-    (dict(link_mass_kg=[1.0, 2.0]), "link_mass_kg"),
-    (dict(tensioner=(1e6, 0.0, 0.0)), "tensioner"),
-    (dict(cam_input="spline"), "cam_input"),
-    (dict(damping_matrix=np.eye(3)), "damping_matrix"),
-    (dict(t_eval_s=[0.0, 0.0]), "t_eval_s"),
-    (dict(method="Euler"), "method"),
-])
+
+@pytest.mark.parametrize(
+    "override, name",
+    [
+        (dict(clearance_m=-1e-4), "clearance_m"),
+        (dict(link_mass_kg=[1.0, 2.0]), "link_mass_kg"),
+        (dict(tensioner=(1e6, 0.0, 0.0)), "tensioner"),
+        (dict(cam_input="spline"), "cam_input"),
+        (dict(damping_matrix=np.eye(3)), "damping_matrix"),
+        (dict(t_eval_s=[0.0, 0.0]), "t_eval_s"),
+        (dict(method="Euler"), "method"),
+    ],
+)
 def test_bad_input_names_the_input(override, name):
     with pytest.raises(DynamicsError, match=name):
         chain(**override)
@@ -260,6 +306,7 @@ def test_too_many_contact_changes_stop_the_run_with_a_reason():
 
 
 # the default scene's length --------------------------------------------------------------------------
+
 
 @pytest.mark.slow
 def test_85_links_with_free_play_and_friction_balance_energy():

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from fem.cli import main as fem_main
 import pipeline as pipeline_module
+from fem.cli import main as fem_main
 from geometry.sample_parts import write_part
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -27,13 +27,19 @@ def parts(tmp_path_factory):
 
 
 def fem(*args):
-    return subprocess.run([sys.executable, "-m", "fem", *map(str, args)], cwd=ROOT, capture_output=True, text=True,
-                          timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "fem", *map(str, args)], cwd=ROOT, capture_output=True, text=True, timeout=600
+    )
 
 
 def pipeline(*args):
-    return subprocess.run([sys.executable, str(ROOT / "pipeline.py"), *map(str, args)], cwd=ROOT, capture_output=True,
-                          text=True, timeout=600)
+    return subprocess.run(
+        [sys.executable, str(ROOT / "pipeline.py"), *map(str, args)],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
 
 
 @pytest.mark.slow
@@ -104,9 +110,30 @@ def test_fem_refusal_from_the_shell(parts):
 def test_pipeline_takes_the_hardware_mass_from_an_assembly(parts, tmp_path):
     path, _, volumes = parts["assembly"]
     out = tmp_path / "out"
-    r = pipeline("--geometry", path, "--hardware-material", "steel-1018", "--hardware-from-step", "--mesh-size", "8",
-                 "--order", "1", "--links", "12", "--samples-per-degree", "2", "--materials", "al6061-t6",
-                 "--cams", "modified-sine", "--no-images", "--out", out, "--cache-dir", tmp_path / "cache")
+    r = pipeline(
+        "--geometry",
+        path,
+        "--hardware-material",
+        "steel-1018",
+        "--hardware-from-step",
+        "--mesh-size",
+        "8",
+        "--order",
+        "1",
+        "--links",
+        "12",
+        "--samples-per-degree",
+        "2",
+        "--materials",
+        "al6061-t6",
+        "--cams",
+        "modified-sine",
+        "--no-images",
+        "--out",
+        out,
+        "--cache-dir",
+        tmp_path / "cache",
+    )
     assert r.returncode == 0, r.stderr
     assert "pin bores" in r.stderr and "hardware in the STEP file: 4 solids" in r.stderr
     summary = json.loads((out / "summary.json").read_text())
@@ -127,7 +154,9 @@ def test_pipeline_refusals_are_one_line_exit_2_and_leave_out_untouched(parts, tm
     out.mkdir()
     (out / "summary.json").write_text('{"earlier": true}')
     geometry = [] if part is None else ["--geometry", str(parts[part][0])]
-    assert pipeline_module.main([*geometry, *args, "--out", str(out), "--cache-dir", str(tmp_path / "cache"), "-q"]) == 2
+    assert (
+        pipeline_module.main([*geometry, *args, "--out", str(out), "--cache-dir", str(tmp_path / "cache"), "-q"]) == 2
+    )
     err = capsys.readouterr().err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and named in lines[0] and "Traceback" not in err, err
@@ -137,9 +166,23 @@ def test_pipeline_refusals_are_one_line_exit_2_and_leave_out_untouched(parts, tm
 @pytest.mark.slow
 def test_pipeline_runs_the_link_with_nest_screw_holes(parts, tmp_path):
     out = tmp_path / "out"
-    r = pipeline("--geometry", parts["nest_holes"][0], "--links", "12", "--samples-per-degree",
-                 "2", "--materials", "al6061-t6", "--cams", "modified-sine", "--no-images", "--out", out,
-                 "--cache-dir", tmp_path / "cache")
+    r = pipeline(
+        "--geometry",
+        parts["nest_holes"][0],
+        "--links",
+        "12",
+        "--samples-per-degree",
+        "2",
+        "--materials",
+        "al6061-t6",
+        "--cams",
+        "modified-sine",
+        "--no-images",
+        "--out",
+        out,
+        "--cache-dir",
+        tmp_path / "cache",
+    )
     assert r.returncode == 0, r.stderr
     assert "pitch 101.600 mm" in r.stderr
     summary = json.loads((out / "summary.json").read_text())

@@ -58,8 +58,25 @@ def test_pipeline_refuses_a_bad_signed_value_naming_bores(plate, tmp_path, capsy
 
 
 def test_fem_reads_negative_bore_coordinates_after_a_space(plate):
-    r = subprocess.run([sys.executable, "-m", "fem", str(plate), "--json", "--mesh-size", "8", "--order", "1",
-                        "--bores", SIGNED_BORES], cwd=ROOT, capture_output=True, text=True, timeout=600)
+    r = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "fem",
+            str(plate),
+            "--json",
+            "--mesh-size",
+            "8",
+            "--order",
+            "1",
+            "--bores",
+            SIGNED_BORES,
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr
     # the given points as the tool prints them back (mm; -0 reads 0)
     assert json.loads(r.stdout)["part"]["pin_bores"]["rule"] == "given by --bores 0,-10,-3:70,10,20"

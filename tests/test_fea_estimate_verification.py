@@ -34,7 +34,9 @@ def test_bar(order):
     length, width, height = 3.0, 1.0, 0.5
     ks, dofs = [], []
     for n in (2, 4):
-        mesh = MeshTet.init_tensor(np.linspace(0, length, 3 * n + 1), np.linspace(0, width, n + 1), np.linspace(0, height, n + 1))
+        mesh = MeshTet.init_tensor(
+            np.linspace(0, length, 3 * n + 1), np.linspace(0, width, n + 1), np.linspace(0, height, n + 1)
+        )
         K, f, u = bar_on_rollers(mesh, order, "pardiso", length, width, height)
         ks.append(LOAD_N**2 / (f @ u))
         dofs.append(len(u))
@@ -47,18 +49,24 @@ def lame_work(n: int) -> tuple[float, int]:
     mesh = cylinder_mesh(n, curved=True)
     basis = problem.scalar_basis(mesh, 2)
     K = elasticity_matrix(basis, LAM, MU)
-    inner = mesh.facets_satisfying(lambda x: np.hypot(x[0], x[1]) < A_IN + 0.25 * (2.0 - A_IN) / n, boundaries_only=True)
+    inner = mesh.facets_satisfying(
+        lambda x: np.hypot(x[0], x[1]) < A_IN + 0.25 * (2.0 - A_IN) / n, boundaries_only=True
+    )
 
     def pressure(x):
         r = np.hypot(x[0], x[1])
         return PRESSURE * np.array([x[0] / r, x[1] / r, 0 * r])
 
     f = problem.traction_load(basis, inner, pressure)
-    supports = np.concatenate([
-        problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x: np.isclose(x[1], 0.0)), [1]),
-        problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x: np.isclose(x[0], 0.0, atol=1e-12)), [0]),
-        problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x: np.isclose(x[2], 0.0) | np.isclose(x[2], HEIGHT)), [2]),
-    ])
+    supports = np.concatenate(
+        [
+            problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x: np.isclose(x[1], 0.0)), [1]),
+            problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x: np.isclose(x[0], 0.0, atol=1e-12)), [0]),
+            problem.fixed_vector_dofs(
+                basis, mesh.facets_satisfying(lambda x: np.isclose(x[2], 0.0) | np.isclose(x[2], HEIGHT)), [2]
+            ),
+        ]
+    )
     u = problem.solve_displacement(K, f, supports, basis.doflocs)
     return float(f @ u), len(u)
 

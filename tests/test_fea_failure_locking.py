@@ -46,13 +46,19 @@ def compliance_error(n: int, order: int, nu: float) -> float:
     lam, mu = E_PA * nu / ((1 + nu) * (1 - 2 * nu)), E_PA / (2 * (1 + nu))
     K = elasticity_matrix(basis, lam, mu)
     # Facet centroids of straight facets on r = a sag inside it: any boundary facet this close is on it.
-    inner = mesh.facets_satisfying(lambda x: np.hypot(x[0], x[1]) < A_IN_M + 0.25 * (B_OUT_M - A_IN_M) / n, boundaries_only=True)
-    f = problem.traction_load(basis, inner, lambda x: PRESSURE_PA * np.array([x[0], x[1], 0 * x[0]]) / np.hypot(x[0], x[1]))
+    inner = mesh.facets_satisfying(
+        lambda x: np.hypot(x[0], x[1]) < A_IN_M + 0.25 * (B_OUT_M - A_IN_M) / n, boundaries_only=True
+    )
+    f = problem.traction_load(
+        basis, inner, lambda x: PRESSURE_PA * np.array([x[0], x[1], 0 * x[0]]) / np.hypot(x[0], x[1])
+    )
     supports = np.concatenate(
         [
             problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x: np.isclose(x[1], 0.0)), [1]),
             problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x: np.isclose(x[0], 0.0, atol=1e-12)), [0]),
-            problem.fixed_vector_dofs(basis, mesh.facets_satisfying(lambda x: np.isclose(x[2], 0.0) | np.isclose(x[2], HEIGHT_M)), [2]),
+            problem.fixed_vector_dofs(
+                basis, mesh.facets_satisfying(lambda x: np.isclose(x[2], 0.0) | np.isclose(x[2], HEIGHT_M)), [2]
+            ),
         ]
     )
     u = problem.solve_displacement(K, f, supports, basis.doflocs, solver="pardiso")

@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from fem_bar import E_PA, LOAD_N, bar_on_rollers
 from skfem import MeshTet
 
 import geometry
 from fem.errors import FemError
-from fem_bar import E_PA, LOAD_N, bar_on_rollers
 from fem.quality import (
     DEGENERATE_QUALITY,
     POOR_QUALITY_THRESHOLD,
@@ -86,7 +86,11 @@ def test_a_flattened_tet_is_found_and_named_in_the_warning():
     assert quality.worst < 0.07 and 1 <= quality.below_threshold <= 4  # measured: 0.049, 2 tets
     assert radius_ratios(mesh.p, mesh.t)[tet] < POOR_QUALITY_THRESHOLD
     message = quality_warning(quality)
-    assert message is not None and f"below {POOR_QUALITY_THRESHOLD:g}" in message and f"{quality.below_threshold} of 144" in message
+    assert (
+        message is not None
+        and f"below {POOR_QUALITY_THRESHOLD:g}" in message
+        and f"{quality.below_threshold} of 144" in message
+    )
     require_valid(quality)  # poor but not degenerate: a warning, not an error
 
 
@@ -105,7 +109,9 @@ def test_flat_tet_is_an_error_that_names_the_threshold():
     quality = mesh_quality(mesh.p, mesh.t)
     # The vertex lands on a plane of the structured mesh: its tet and one neighbour go flat.
     assert quality.degenerate >= 1 and quality.worst < DEGENERATE_QUALITY
-    with pytest.raises(FemError, match=rf"{quality.degenerate} of 144 tetrahedra are flat \(radius ratio below {DEGENERATE_QUALITY:g}"):
+    with pytest.raises(
+        FemError, match=rf"{quality.degenerate} of 144 tetrahedra are flat \(radius ratio below {DEGENERATE_QUALITY:g}"
+    ):
         require_valid(quality)
 
 

@@ -39,8 +39,9 @@ def roller_chain_plate(path):
 
 
 def scaled_link(path, scale: float):
-    dims = dataclasses.replace(DEFAULT_LINK, **{f.name: getattr(DEFAULT_LINK, f.name) * scale
-                                                for f in dataclasses.fields(DEFAULT_LINK)})
+    dims = dataclasses.replace(
+        DEFAULT_LINK, **{f.name: getattr(DEFAULT_LINK, f.name) * scale for f in dataclasses.fields(DEFAULT_LINK)}
+    )
     return write_step(dims, path, unit="mm")
 
 
@@ -100,7 +101,9 @@ def test_a_small_hole_is_refined_locally_and_an_assembly_is_scaled_by_its_body(t
     assert (pitch, bore, hole) == pytest.approx((0.1016, 0.00635, 0.0015), rel=1e-6)  # the 3 mm grease hole
     # The sizes come from the pitch and the pin bores (0.52 x 6.35 mm); the grease hole gets its own
     # finer elements from a size field (geometry.meshing.small_hole_fields), not the whole part.
-    assert default_mesh_sizes(tmp_path / "nest.step") == pytest.approx((0.52 * 0.00635 * 4 / 3, 0.52 * 0.00635), rel=1e-6)
+    assert default_mesh_sizes(tmp_path / "nest.step") == pytest.approx(
+        (0.52 * 0.00635 * 4 / 3, 0.52 * 0.00635), rel=1e-6
+    )
     write_part("assembly", tmp_path / "assembly.step")  # body, pins and bushings: the body's pair counts
     assert part_scale(LinkSource(tmp_path / "assembly.step"))[:2] == part_scale(tmp_path / "assembly.step")[:2]
     assert part_scale(tmp_path / "assembly.step")[0] > 0

@@ -32,8 +32,9 @@ def coarse_and_tighter():
     solved: dict = {}
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(fem.adaptive, "analyse_link", counted)
-        both = stiffnesses_to_tolerance(None, [ALUMINIUM, TITANIUM], 0.05, start_mesh_size_m=START_M,
-                                        progress=lines_loose.append, solved=solved)
+        both = stiffnesses_to_tolerance(
+            None, [ALUMINIUM, TITANIUM], 0.05, start_mesh_size_m=START_M, progress=lines_loose.append, solved=solved
+        )
         tighter = stiffness_to_tolerance(None, ALUMINIUM, 0.02, start_mesh_size_m=START_M)
         SOLVES.append(-1)  # marks where the run sharing the loose run's levels starts
         reused = stiffnesses_to_tolerance(None, [ALUMINIUM], 0.02, start_mesh_size_m=START_M, solved=solved)

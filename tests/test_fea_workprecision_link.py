@@ -61,7 +61,9 @@ def test_p1_is_far_worse_than_p2_for_the_same_dofs(chart, measured):
     p1 = measured.curves["P1 (linear tets)"][-1]
     p2 = measured.curves["P2 curved tets (default)"][0]
     assert p1.dofs < p2.dofs
-    assert chart.relative_error(p1.stiffness_N_per_m, measured.reference) > 4 * chart.relative_error(p2.stiffness_N_per_m, measured.reference)
+    assert chart.relative_error(p1.stiffness_N_per_m, measured.reference) > 4 * chart.relative_error(
+        p2.stiffness_N_per_m, measured.reference
+    )
 
 
 def test_adaptive_run_is_within_its_estimate(chart, measured):
@@ -81,7 +83,9 @@ def test_fit_exponent_recovers_a_power_law(chart):
 
 
 def test_charts_are_written(chart, measured, tmp_path):
-    lines = chart.plot_work_precision(measured, tmp_path / "wp.png") + chart.plot_cost_growth(measured, tmp_path / "cost.png")
+    lines = chart.plot_work_precision(measured, tmp_path / "wp.png") + chart.plot_cost_growth(
+        measured, tmp_path / "cost.png"
+    )
     assert (tmp_path / "wp.png").stat().st_size > 10_000 and (tmp_path / "cost.png").stat().st_size > 10_000
     assert any(line.startswith("reference k =") for line in lines)
     assert sum("cost growth" in line for line in lines) == 4  # total, mesh, assembly, solve

@@ -92,8 +92,15 @@ def test_json_report_and_image_on_a_coarse_default_link(tmp_path):
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)  # stdout holds the JSON object only (no CAD-kernel banners)
     for key in (
-        "stiffness_N_per_m", "stiffness_rel_error_estimate", "volume_m3", "mass_kg", "pitch_m",
-        "bore_radius_m", "peak_von_mises_Pa_per_N", "dofs", "timing_s",
+        "stiffness_N_per_m",
+        "stiffness_rel_error_estimate",
+        "volume_m3",
+        "mass_kg",
+        "pitch_m",
+        "bore_radius_m",
+        "peak_von_mises_Pa_per_N",
+        "dofs",
+        "timing_s",
     ):
         assert key in report
     assert report["mass_kg"] == pytest.approx(4510.0 * report["volume_m3"], rel=1e-12)
@@ -114,7 +121,17 @@ def test_text_report_names_the_quantities_and_units(tmp_path):
     materials.write_text("[soft]\nyoungs_modulus_Pa = 1e9\npoisson_ratio = 0.3\ndensity_kg_per_m3 = 1000\n")
     result = run_cli("--mesh-size", "12", "--materials-file", materials, "--material", "soft", "--order", "1")
     assert result.returncode == 0, result.stderr
-    for label in ("pitch", "bore radius", "volume", "mass", "N/m", "estimated discretisation error", "MPa per kN", "DOFs", "timing"):
+    for label in (
+        "pitch",
+        "bore radius",
+        "volume",
+        "mass",
+        "N/m",
+        "estimated discretisation error",
+        "MPa per kN",
+        "DOFs",
+        "timing",
+    ):
         assert label in result.stdout
 
 

@@ -16,8 +16,9 @@ COARSE_SIZES_M = (0.012, 0.009)  # the default link, coarse: a few seconds per s
 
 
 def _study(concurrent: bool, progress=None):
-    return stiffness_studies(None, [ALUMINIUM, TITANIUM], mesh_sizes_m=COARSE_SIZES_M, concurrent_levels=concurrent,
-                             progress=progress)
+    return stiffness_studies(
+        None, [ALUMINIUM, TITANIUM], mesh_sizes_m=COARSE_SIZES_M, concurrent_levels=concurrent, progress=progress
+    )
 
 
 def test_concurrent_levels_give_the_sequential_answer_in_level_order():
@@ -31,8 +32,12 @@ def test_concurrent_levels_give_the_sequential_answer_in_level_order():
         assert a.stiffness_N_per_m == pytest.approx(b.stiffness_N_per_m, rel=1e-10)
         assert a.stiffness_rel_error_estimate == pytest.approx(b.stiffness_rel_error_estimate, rel=1e-6)
         assert a.finest.mesh_size_m == COARSE_SIZES_M[-1]
-    assert [line.split(",")[0] for line in lines] == ["FEA level 1/2", "FEA level 1/2", "FEA level 2/2",
-                                                       "FEA level 2/2"]
+    assert [line.split(",")[0] for line in lines] == [
+        "FEA level 1/2",
+        "FEA level 1/2",
+        "FEA level 2/2",
+        "FEA level 2/2",
+    ]
     first = together[ALUMINIUM.name].timing_s
     assert 0 < first["wall"] and "wall" not in together[TITANIUM.name].timing_s
 

@@ -4,12 +4,12 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from fem_bar import E_PA, LAM, LOAD_N, MU, NU, bar_on_rollers
 from skfem import Basis, ElementTetP1, ElementTetP2, ElementVector, Functional, MeshTet, MeshTet2
 from skfem.models.elasticity import linear_elasticity
 
 from fem import problem
 from fem.assembly import elasticity_matrix, elasticity_parts, rigid_body_modes
-from fem_bar import E_PA, LAM, LOAD_N, MU, NU, bar_on_rollers
 
 
 def box(nx=4, ny=2, nz=2, length=3.0, width=1.0, height=0.5):
@@ -35,8 +35,9 @@ def test_assembly_on_curved_cells_equals_stock_vector_assembly():
     assert not mesh.affine
     basis = problem.scalar_basis(mesh, 2)
     fast = elasticity_matrix(basis, LAM, MU)
-    stock = linear_elasticity(LAM, MU).assemble(Basis(mesh, ElementVector(ElementTetP2()),
-                                                      intorder=problem.CURVED_INTORDER))
+    stock = linear_elasticity(LAM, MU).assemble(
+        Basis(mesh, ElementVector(ElementTetP2()), intorder=problem.CURVED_INTORDER)
+    )
     assert abs(fast - stock).max() <= 1e-12 * abs(stock).max()
 
 
@@ -79,9 +80,7 @@ def test_patch_test_reproduces_linear_field_on_distorted_mesh(order):
     exact = (G @ basis.doflocs + offset[:, None]).T.ravel()
     boundary = problem.fixed_vector_dofs(basis, mesh.boundary_facets())
     K = elasticity_matrix(basis, LAM, MU)
-    u = problem.solve_displacement(
-        K, np.zeros(K.shape[0]), boundary, basis.doflocs, fixed_values_m=exact[boundary]
-    )
+    u = problem.solve_displacement(K, np.zeros(K.shape[0]), boundary, basis.doflocs, fixed_values_m=exact[boundary])
     assert np.max(np.abs(u - exact)) <= 1e-12 * np.max(np.abs(exact))
     grads = problem.displacement_gradients(basis, u, basis.elem.doflocs.T)
     vm = problem.von_mises_Pa(grads, LAM, MU)
@@ -132,7 +131,9 @@ def exact_gradient(x):
 def cylinder_mesh(n, curved):
     """Quarter ring from a box in (r, theta, z); curved = isoparametric P2 geometry (exact circles)."""
     m = MeshTet.init_tensor(
-        np.linspace(A_IN, B_OUT, n + 1), np.linspace(0, np.pi / 2, 2 * n + 1), np.linspace(0, HEIGHT, max(2, n // 2) + 1)
+        np.linspace(A_IN, B_OUT, n + 1),
+        np.linspace(0, np.pi / 2, 2 * n + 1),
+        np.linspace(0, HEIGHT, max(2, n // 2) + 1),
     )
 
     def polar(q):
@@ -149,7 +150,9 @@ def solve_cylinder(n, order, curved):
     basis = problem.scalar_basis(mesh, order)
     K = elasticity_matrix(basis, LAM, MU)
     # facet centroids of straight facets on r = a sag inside it; any boundary facet this close is on it
-    inner = mesh.facets_satisfying(lambda x: np.hypot(x[0], x[1]) < A_IN + 0.25 * (B_OUT - A_IN) / n, boundaries_only=True)
+    inner = mesh.facets_satisfying(
+        lambda x: np.hypot(x[0], x[1]) < A_IN + 0.25 * (B_OUT - A_IN) / n, boundaries_only=True
+    )
 
     def pressure(x):
         r = np.hypot(x[0], x[1])

@@ -4,11 +4,10 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-
-from fem import FemError, analyse_link, get_material
-from fem import problem
-from fem.link import bearing_traction, skfem_mesh
 from fem_plate import plate_link
+
+from fem import FemError, analyse_link, get_material, problem
+from fem.link import bearing_traction, skfem_mesh
 
 ALUMINIUM = get_material("al6061-t6")
 
@@ -105,7 +104,9 @@ def test_p1_on_the_quadratic_mesh_ignores_mid_edge_nodes(plate_quadratic, plate)
 def test_solvers_agree_with_pardiso(plate, solver):
     # AMG-CG stops at a 1e-10 relative residual: k (a quadratic functional) to ~1e-9.
     reference = analyse_link(plate, ALUMINIUM, order=1, solver="pardiso").stiffness_N_per_m
-    assert analyse_link(plate, ALUMINIUM, order=1, solver=solver).stiffness_N_per_m == pytest.approx(reference, rel=1e-8)
+    assert analyse_link(plate, ALUMINIUM, order=1, solver=solver).stiffness_N_per_m == pytest.approx(
+        reference, rel=1e-8
+    )
 
 
 def test_bad_inputs_are_fem_errors(plate):
@@ -128,7 +129,12 @@ def test_bad_inputs_are_fem_errors(plate):
 
 @pytest.mark.parametrize(
     "sizes, fragment",
-    [((0.004, 0.006), "decrease"), ((0.006,), "2 or 3"), ((0.008, -0.004), "positive"), ((0.01, 0.008, 0.006, 0.004), "2 or 3")],
+    [
+        ((0.004, 0.006), "decrease"),
+        ((0.006,), "2 or 3"),
+        ((0.008, -0.004), "positive"),
+        ((0.01, 0.008, 0.006, 0.004), "2 or 3"),
+    ],
 )
 def test_study_rejects_bad_mesh_sizes_before_meshing(sizes, fragment):
     from fem import stiffness_study

@@ -41,7 +41,9 @@ def test_curved_cells_hold_the_cad_volume_once_they_resolve_the_fillets():
     from fem.link import skfem_mesh
 
     link = load_link(None, mesh_size_m=0.0045, order=2, bore_refinement=0.7)
-    volumes = [float(np.sum(Basis(skfem_mesh(link, 2, curved=c)[0], ElementTetP2(), intorder=2).dx)) for c in (True, False)]
+    volumes = [
+        float(np.sum(Basis(skfem_mesh(link, 2, curved=c)[0], ElementTetP2(), intorder=2).dx)) for c in (True, False)
+    ]
     assert volumes[0] == pytest.approx(link.cad_volume_m3, rel=5e-4)
     assert abs(volumes[0] / link.cad_volume_m3 - 1) < 0.5 * abs(volumes[1] / link.cad_volume_m3 - 1)
 
@@ -88,7 +90,10 @@ def test_default_study_meets_the_one_percent_target_and_the_reports_figures():
 def split_bores(tmp_path_factory):
     d = tmp_path_factory.mktemp("steps")
     features = LinkFeatures(split_bores=True)
-    return {unit: solve(write_step(DEFAULT_LINK, d / f"link_{unit}.step", unit=unit, features=features)) for unit in ("mm", "m")}
+    return {
+        unit: solve(write_step(DEFAULT_LINK, d / f"link_{unit}.step", unit=unit, features=features))
+        for unit in ("mm", "m")
+    }
 
 
 def test_same_part_in_mm_and_m_with_split_bores_gives_same_k_and_mass(split_bores, default):

@@ -8,7 +8,12 @@ def test_builtin_materials_have_the_issue_values():
     materials = load_materials()
     assert materials["al6061-t6"] == Material("al6061-t6", 68.9e9, 0.33, 2700.0, 276e6, "Aluminium 6061-T6")
     ti = materials["ti-grade2"]
-    assert (ti.youngs_modulus_Pa, ti.poisson_ratio, ti.density_kg_per_m3, ti.yield_strength_Pa) == (105e9, 0.37, 4510.0, 275e6)
+    assert (ti.youngs_modulus_Pa, ti.poisson_ratio, ti.density_kg_per_m3, ti.yield_strength_Pa) == (
+        105e9,
+        0.37,
+        4510.0,
+        275e6,
+    )
     assert any(key.startswith("steel") for key in materials)
 
 
@@ -21,7 +26,9 @@ def test_lame_parameters():
 
 def test_user_file_adds_and_overrides(tmp_path):
     path = tmp_path / "mine.toml"
-    path.write_text('[pa12]\ndescription = "Nylon"\nyoungs_modulus_Pa = 1.7e9\npoisson_ratio = 0.4\ndensity_kg_per_m3 = 1010\n')
+    path.write_text(
+        '[pa12]\ndescription = "Nylon"\nyoungs_modulus_Pa = 1.7e9\npoisson_ratio = 0.4\ndensity_kg_per_m3 = 1010\n'
+    )
     materials = load_materials(path)
     assert materials["pa12"].youngs_modulus_Pa == 1.7e9
     assert materials["pa12"].yield_strength_Pa is None

@@ -30,9 +30,11 @@ def test_reused_solutions_equal_full_solves(plate, solver):
         assert shared.stiffness_N_per_m == pytest.approx(alone.stiffness_N_per_m, rel=1e-8)
         assert shared.stiffness_from_energy_N_per_m == pytest.approx(alone.stiffness_N_per_m, rel=1e-8)
         assert shared.peak_von_mises_away_from_clamp_Pa_per_N == pytest.approx(
-            alone.peak_von_mises_away_from_clamp_Pa_per_N, rel=1e-5)
+            alone.peak_von_mises_away_from_clamp_Pa_per_N, rel=1e-5
+        )
     assert together[ALUMINIUM.name].stiffness_N_per_m == pytest.approx(
-        analyse_link(plate, ALUMINIUM, solver=solver).stiffness_N_per_m, rel=1e-12)
+        analyse_link(plate, ALUMINIUM, solver=solver).stiffness_N_per_m, rel=1e-12
+    )
 
 
 def test_same_poisson_ratio_is_an_exact_scaling(plate):
@@ -54,6 +56,7 @@ def test_second_material_of_the_default_study_against_its_own_full_study():
     # The check: within a tenth of the estimate (measured: to ~1e-9).
     together = stiffness_studies(None, [ALUMINIUM, TITANIUM])[TITANIUM.name]
     alone = stiffness_study(None, TITANIUM)
-    assert together.stiffness_N_per_m == pytest.approx(alone.stiffness_N_per_m,
-                                                       rel=0.1 * alone.stiffness_rel_error_estimate)
+    assert together.stiffness_N_per_m == pytest.approx(
+        alone.stiffness_N_per_m, rel=0.1 * alone.stiffness_rel_error_estimate
+    )
     assert together.stiffness_rel_error_estimate < 0.01

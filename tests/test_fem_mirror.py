@@ -71,7 +71,9 @@ def test_symmetry_is_recognised_and_a_one_sided_hole_breaks_it():
         assert not is_mirror_symmetric([cut[0][1]], plane)
     with gmsh_model("two-sided"):
         link = add_link(DEFAULT_LINK)
-        holes = _hole(0.0, 0.03, 0.002, DEFAULT_LINK.body_height_m) + _hole(0.0, -0.03, 0.002, DEFAULT_LINK.body_height_m)
+        holes = _hole(0.0, 0.03, 0.002, DEFAULT_LINK.body_height_m) + _hole(
+            0.0, -0.03, 0.002, DEFAULT_LINK.body_height_m
+        )
         cut, _ = gmsh.model.occ.cut([(3, link)], holes)
         gmsh.model.occ.synchronize()
         assert is_mirror_symmetric([cut[0][1]], plane)
@@ -96,10 +98,15 @@ def half_and_whole() -> tuple[LinkMesh, LinkMesh]:
     half = geometry.load_link(None, mesh_size_m=COARSE_M, order=2, bore_refinement=0.7, mirror=True)
     points, tets10, image = half.mirror_plane.whole(half.points_m, half.tets10)
     whole = dataclasses.replace(
-        half, points_m=points, tets=tets10[:4].copy(), tets10=tets10,
+        half,
+        points_m=points,
+        tets=tets10[:4].copy(),
+        tets10=tets10,
         fixed_bore_facets=np.hstack([half.fixed_bore_facets, image[half.fixed_bore_facets]]),
         loaded_bore_facets=np.hstack([half.loaded_bore_facets, image[half.loaded_bore_facets]]),
-        mirror_plane=None, mirror_facets=None)
+        mirror_plane=None,
+        mirror_facets=None,
+    )
     return half, whole
 
 
@@ -126,7 +133,9 @@ def test_half_solution_equals_the_whole_link_on_the_mirrored_mesh(half_and_whole
     assert h.mesh_volume_m3 == pytest.approx(w.mesh_volume_m3, rel=1e-12)
     assert h.mass_kg == w.mass_kg
     assert h.peak_von_mises_Pa_per_N == pytest.approx(w.peak_von_mises_Pa_per_N, rel=1e-8)
-    assert h.peak_von_mises_away_from_clamp_Pa_per_N == pytest.approx(w.peak_von_mises_away_from_clamp_Pa_per_N, rel=1e-8)
+    assert h.peak_von_mises_away_from_clamp_Pa_per_N == pytest.approx(
+        w.peak_von_mises_away_from_clamp_Pa_per_N, rel=1e-8
+    )
     assert w.dofs == h.whole_link_dofs < 2 * h.dofs  # the plane's nodes are shared
 
     # the half pictured whole: every node's displacement, stress and clamp mask are the whole solve's
@@ -135,7 +144,9 @@ def test_half_solution_equals_the_whole_link_on_the_mirrored_mesh(half_and_whole
     assert distance.max() < 1e-12 and len(set(nearest)) == fields.points_m.shape[1] == w.basis.N
     scale = np.abs(w.displacement_m).max()
     assert np.abs(fields.displacement_m - w.displacement_m[:, nearest]).max() < 1e-8 * scale
-    assert fields.von_mises_Pa == pytest.approx(w.von_mises_at_dofs_Pa[nearest], rel=1e-7, abs=1e-7 * w.von_mises_at_dofs_Pa.max())
+    assert fields.von_mises_Pa == pytest.approx(
+        w.von_mises_at_dofs_Pa[nearest], rel=1e-7, abs=1e-7 * w.von_mises_at_dofs_Pa.max()
+    )
     away_half = cKDTree(w.basis.doflocs.T).query(h.basis.doflocs.T)[1]
     assert np.array_equal(h.away_from_clamp_at_dofs, w.away_from_clamp_at_dofs[away_half])
 
@@ -148,8 +159,9 @@ def test_the_default_levels_half_mesh_has_no_poor_tets():
 
 
 def _cli(*args: str) -> dict:
-    out = subprocess.run([sys.executable, "-m", "fem", "--json", *args], cwd=ROOT, capture_output=True,
-                         text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-m", "fem", "--json", *args], cwd=ROOT, capture_output=True, text=True, check=True
+    )
     return json.loads(out.stdout)
 
 

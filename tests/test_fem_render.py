@@ -3,10 +3,10 @@
 import matplotlib.image
 import numpy as np
 import pytest
+from fem_plate import plate_link
 
 from fem import FemError, analyse_link, get_material, render_deformed
 from fem.render import nice_factor
-from fem_plate import plate_link
 
 
 @pytest.fixture(scope="module", params=[1, 2], ids=["P1", "P2-curved"])

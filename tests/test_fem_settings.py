@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from fem import FemError, FeaSettings, get_material, stiffness_study
+from fem import FeaSettings, FemError, get_material, stiffness_study
 from fem.settings import DEFAULT_BORE_REFINEMENT, LEVEL_RATIO, levels_for_finest
 
 ALUMINIUM = get_material("al6061-t6")
@@ -14,9 +14,17 @@ COARSE_LEVELS_M = (0.012, 0.009)
 
 def test_the_defaults_are_the_studies_defaults():
     s = FeaSettings()
-    assert (s.mesh_sizes_m, s.order, s.curved, s.mirror_symmetry, s.load_N, s.solver, s.bore_refinement,
-            s.concurrent_levels, s.stress_tolerance) == (None, 2, True, True, 1000.0, "auto", DEFAULT_BORE_REFINEMENT,
-                                                         True, 0.05)
+    assert (
+        s.mesh_sizes_m,
+        s.order,
+        s.curved,
+        s.mirror_symmetry,
+        s.load_N,
+        s.solver,
+        s.bore_refinement,
+        s.concurrent_levels,
+        s.stress_tolerance,
+    ) == (None, 2, True, True, 1000.0, "auto", DEFAULT_BORE_REFINEMENT, True, 0.05)
     assert s.mesh_order == 2 and FeaSettings(curved=False).mesh_order == 1 and FeaSettings(order=1).mesh_order == 1
 
 
@@ -27,14 +35,17 @@ def test_with_finest_adds_the_coarser_level():
     assert FeaSettings.with_finest(0.0045).mesh_sizes_m == levels_for_finest(0.0045)
 
 
-@pytest.mark.parametrize("fields, message", [
-    ({"order": 3}, "element order must be 1 or 2"),
-    ({"solver": "cholesky"}, "unknown solver 'cholesky'"),
-    ({"mesh_sizes_m": (0.004, 0.006)}, "sizes must decrease"),
-    ({"mesh_sizes_m": (0.006,)}, "expected 2 or 3 sizes"),
-    ({"load_N": 0.0}, "load_N must be a positive number"),
-    ({"stress_tolerance": 1.5}, r"tolerance=1.5: expected a relative change in \(0, 1\)"),
-])
+@pytest.mark.parametrize(
+    "fields, message",
+    [
+        ({"order": 3}, "element order must be 1 or 2"),
+        ({"solver": "cholesky"}, "unknown solver 'cholesky'"),
+        ({"mesh_sizes_m": (0.004, 0.006)}, "sizes must decrease"),
+        ({"mesh_sizes_m": (0.006,)}, "expected 2 or 3 sizes"),
+        ({"load_N": 0.0}, "load_N must be a positive number"),
+        ({"stress_tolerance": 1.5}, r"tolerance=1.5: expected a relative change in \(0, 1\)"),
+    ],
+)
 def test_bad_settings_are_refused_on_construction(fields, message):
     with pytest.raises(FemError, match=message):
         FeaSettings(**fields)

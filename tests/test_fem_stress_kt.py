@@ -77,11 +77,16 @@ def peak_stress_ratio(hole_size_m: float, far_size_m: float) -> float:
     x = mesh.p[:, mesh.facets].mean(axis=1)
     boundary = mesh.boundary_facets()
     tol = 1e-9
-    on = {name: boundary[np.abs(x[axis, boundary] - value) < tol]
-          for name, axis, value in (("x0", 0, 0.0), ("y0", 1, 0.0), ("z0", 2, 0.0), ("end", 0, LENGTH_M))}
-    fixed = np.concatenate([problem.fixed_vector_dofs(basis, on[name], components=(c,))
-                            for name, c in (("x0", 0), ("y0", 1), ("z0", 2))])
-    f = problem.traction_load(basis, on["end"], lambda p: np.stack([np.full(p.shape[1:], STRESS_PA), 0 * p[0], 0 * p[0]]))
+    on = {
+        name: boundary[np.abs(x[axis, boundary] - value) < tol]
+        for name, axis, value in (("x0", 0, 0.0), ("y0", 1, 0.0), ("z0", 2, 0.0), ("end", 0, LENGTH_M))
+    }
+    fixed = np.concatenate(
+        [problem.fixed_vector_dofs(basis, on[name], components=(c,)) for name, c in (("x0", 0), ("y0", 1), ("z0", 2))]
+    )
+    f = problem.traction_load(
+        basis, on["end"], lambda p: np.stack([np.full(p.shape[1:], STRESS_PA), 0 * p[0], 0 * p[0]])
+    )
     u = problem.solve_displacement(elasticity_matrix(basis, lam, mu), f, fixed, problem.dof_locations(basis))
     local = basis.elem.doflocs.T
     vm = problem.von_mises_Pa(problem.displacement_gradients(basis, u, local), lam, mu)

@@ -3,12 +3,11 @@
 import numpy as np
 import pytest
 
-from dynamics.models.chain import ChainModel
+import pipeline
 from dynamics.errors import DynamicsError
+from dynamics.models.chain import ChainModel
 from dynamics.response.fidelity import choose_samples_per_degree, metric_values, relative_change, stiffness_sensitivity
 from dynamics.response.metrics import StationMetrics
-
-import pipeline
 from stages.chain import chain_model, simulate_scenario
 from stages.fea import MaterialFea
 
@@ -41,12 +40,30 @@ def test_tolerance_outside_zero_one_is_refused():
 def test_stiffness_sensitivity_of_the_chain_metrics_is_measured_not_assumed():
     # A real scenario: metrics move when k moves by 1 %, and not at all when it does not move.
     cfg = pipeline.parse_cli(["--links", "12", "--friction", "0", "--cams", "modified-sine"])
-    fea = MaterialFea("al6061-t6", 9e7, 0.01, 0.373, 1.38e-4, 0.1125, 0.0095, 1e5, 1e5, 1e5, 0.0, "test", 276e6, 1000,
-                               0.005, {}, [], False, None)
+    fea = MaterialFea(
+        "al6061-t6",
+        9e7,
+        0.01,
+        0.373,
+        1.38e-4,
+        0.1125,
+        0.0095,
+        1e5,
+        1e5,
+        1e5,
+        0.0,
+        "test",
+        276e6,
+        1000,
+        0.005,
+        {},
+        [],
+        False,
+        None,
+    )
 
     def stations_with_k(k):
-        return simulate_scenario(cfg, chain_model(cfg, fea, k), "al6061-t6", "modified-sine",
-                                          0.1125, 2).stations
+        return simulate_scenario(cfg, chain_model(cfg, fea, k), "al6061-t6", "modified-sine", 0.1125, 2).stations
 
     reference = stations_with_k(9e7)
     moved = stiffness_sensitivity(stations_with_k, 9e7, 0.01, reference)

@@ -61,7 +61,9 @@ def test_concave_fillets_and_coaxial_lug_ends_are_not_bores(tmp_path):
     # The recess's four vertical inner corners become concave quarter cylinders; the lug ends are
     # convex half cylinders on the bores' axes. Neither may count as a bore. (Built on the
     # sharp-cornered variant: the default link has its own fillets since #13.)
-    sharp = dataclasses.replace(DEFAULT_LINK, lug_fillet_radius_m=0.0, pocket_corner_radius_m=0.0, pocket_floor_radius_m=0.0)
+    sharp = dataclasses.replace(
+        DEFAULT_LINK, lug_fillet_radius_m=0.0, pocket_corner_radius_m=0.0, pocket_floor_radius_m=0.0
+    )
     with gmsh_model("filleted"):
         volume = add_link(sharp)
         h = DEFAULT_LINK.body_height_m

@@ -79,20 +79,25 @@ def _cad_volume(dims):
 )
 def test_fillets_closed_form_volume_matches_the_cad(radii):
     lug, corner, floor = radii
-    dims = dataclasses.replace(DEFAULT_LINK, lug_fillet_radius_m=lug, pocket_corner_radius_m=corner,
-                               pocket_floor_radius_m=floor)
+    dims = dataclasses.replace(
+        DEFAULT_LINK, lug_fillet_radius_m=lug, pocket_corner_radius_m=corner, pocket_floor_radius_m=floor
+    )
     assert _cad_volume(dims) == pytest.approx(nominal_volume_m3(dims), rel=1e-9)
 
 
 def test_without_fillets_the_volume_is_the_sharp_links_formula():
     # The new model reduces exactly to the old one: box + lug tongues and half discs - bores - recess prism.
-    d = dataclasses.replace(DEFAULT_LINK, lug_fillet_radius_m=0.0, pocket_corner_radius_m=0.0, pocket_floor_radius_m=0.0)
+    d = dataclasses.replace(
+        DEFAULT_LINK, lug_fillet_radius_m=0.0, pocket_corner_radius_m=0.0, pocket_floor_radius_m=0.0
+    )
     import math
 
-    sharp = (d.body_length_m * d.body_width_m * d.body_height_m
-             + 2 * ((d.pitch_m - d.body_length_m) * d.lug_radius_m + math.pi * d.lug_radius_m**2 / 2) * d.body_height_m
-             - 2 * math.pi * d.bore_radius_m**2 * d.body_height_m
-             - d.recess_length_m * d.recess_width_m * (d.body_height_m - d.web_thickness_m))
+    sharp = (
+        d.body_length_m * d.body_width_m * d.body_height_m
+        + 2 * ((d.pitch_m - d.body_length_m) * d.lug_radius_m + math.pi * d.lug_radius_m**2 / 2) * d.body_height_m
+        - 2 * math.pi * d.bore_radius_m**2 * d.body_height_m
+        - d.recess_length_m * d.recess_width_m * (d.body_height_m - d.web_thickness_m)
+    )
     assert nominal_volume_m3(d) == pytest.approx(sharp, rel=1e-14)
 
 

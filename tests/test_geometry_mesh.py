@@ -40,7 +40,9 @@ def test_quadratic_node_order_is_meshio_tetra10(link2):
     m = link2
     edges = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]
     for k, (a, b) in enumerate(edges):
-        offset = np.linalg.norm(m.points_m[:, m.tets10[4 + k]] - (m.points_m[:, m.tets10[a]] + m.points_m[:, m.tets10[b]]) / 2, axis=0)
+        offset = np.linalg.norm(
+            m.points_m[:, m.tets10[4 + k]] - (m.points_m[:, m.tets10[a]] + m.points_m[:, m.tets10[b]]) / 2, axis=0
+        )
         assert np.median(offset) < 1e-12
         assert offset.max() < 0.1 * SIZE  # curved edges move by a sagitta, never by an edge length
 
@@ -48,7 +50,10 @@ def test_quadratic_node_order_is_meshio_tetra10(link2):
 def test_facets_lie_on_the_bores(link2):
     for _, bore, facets in _bores(link2):
         # Mesh vertices on a CAD face are on it to gmsh's geometric tolerance (~1e-9 relative).
-        assert np.abs(_distance_to_axis(link2.points_m[:, np.unique(facets)], bore) - bore.radius_m).max() < 1e-7 * bore.radius_m
+        assert (
+            np.abs(_distance_to_axis(link2.points_m[:, np.unique(facets)], bore) - bore.radius_m).max()
+            < 1e-7 * bore.radius_m
+        )
         along = (link2.points_m[:, np.unique(facets)].T - bore.center_m) @ bore.axis
         assert np.abs(along).max() <= bore.length_m / 2 + 1e-9
 
@@ -87,7 +92,9 @@ def test_quadratic_nodes_on_the_bores_lie_on_the_cylinder(link2):
     m = link2
     edges = [(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)]
     for _, bore, facets in _bores(m):
-        facet_edges = {tuple(sorted(e)) for tri in facets.T for e in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[0], tri[2]))}
+        facet_edges = {
+            tuple(sorted(e)) for tri in facets.T for e in ((tri[0], tri[1]), (tri[1], tri[2]), (tri[0], tri[2]))
+        }
         mids = {
             int(m.tets10[4 + k, t])
             for t in range(m.tets.shape[1])
@@ -105,7 +112,10 @@ def test_quadratic_nodes_on_the_bores_lie_on_the_cylinder(link2):
 def test_bores_are_refined():
     coarse = load_link(mesh_size_m=SIZE, bore_refinement=1.0)
     fine = load_link(mesh_size_m=SIZE, bore_refinement=0.4)
-    for a, b in ((coarse.fixed_bore_facets, fine.fixed_bore_facets), (coarse.loaded_bore_facets, fine.loaded_bore_facets)):
+    for a, b in (
+        (coarse.fixed_bore_facets, fine.fixed_bore_facets),
+        (coarse.loaded_bore_facets, fine.loaded_bore_facets),
+    ):
         # Triangle count scales as 1/size^2: 0.4 -> 6x more; allow the mesher a factor 2 slack.
         assert b.shape[1] > 3 * a.shape[1]
 

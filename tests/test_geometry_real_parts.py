@@ -49,7 +49,9 @@ def test_the_pin_bores_are_chosen_and_the_body_volume_is_the_cads(parts, name):
 
 
 def test_nest_screw_holes_and_the_grease_hole_are_ignored_with_reasons(parts):
-    reasons = [(round(h.hole.bore.radius_m / MM, 3), h.reason) for h in inspect_part(parts["nest_holes"][0]).pins.ignored]
+    reasons = [
+        (round(h.hole.bore.radius_m / MM, 3), h.reason) for h in inspect_part(parts["nest_holes"][0]).pins.ignored
+    ]
     assert sorted(reasons) == sorted(
         [(1.5, "not parallel to the pins")]
         + [(1.65, "smaller than the pin bores")] * 2
@@ -59,9 +61,11 @@ def test_nest_screw_holes_and_the_grease_hole_are_ignored_with_reasons(parts):
 
 def test_the_printed_choice_names_the_pair_the_rule_and_each_ignored_hole(parts):
     lines = inspect_part(parts["nest_holes"][0]).lines()
-    assert lines[0] == ("pin bores       fixed at (0.00, 0.00, 8.00) mm, loaded at (101.60, 0.00, 8.00) mm, radius 6.350 mm, "
-                        "pitch 101.600 mm (equal parallel bores at the part's ends, the largest such, farthest apart; the ends of "
-                        "its length: along (1,0,0), 139.6 mm)")
+    assert lines[0] == (
+        "pin bores       fixed at (0.00, 0.00, 8.00) mm, loaded at (101.60, 0.00, 8.00) mm, radius 6.350 mm, "
+        "pitch 101.600 mm (equal parallel bores at the part's ends, the largest such, farthest apart; the ends of "
+        "its length: along (1,0,0), 139.6 mm)"
+    )
     assert "  ignored hole  r 2.100 mm at (32.80, -9.00, 8.00) mm: smaller than the pin bores" in lines
     assert len(lines) == 8
 
@@ -97,7 +101,10 @@ def test_assembly_hardware_is_measured_and_not_meshed(parts):
 
 def _mesh_volume(link) -> float:
     p = link.points_m[:, link.tets]
-    return float(np.abs(np.einsum("ij,ij->j", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0], axis=0))).sum() / 6)
+    return float(
+        np.abs(np.einsum("ij,ij->j", p[:, 1] - p[:, 0], np.cross(p[:, 2] - p[:, 0], p[:, 3] - p[:, 0], axis=0))).sum()
+        / 6
+    )
 
 
 def test_two_solids_with_equally_good_pairs_need_body(tmp_path):

@@ -98,14 +98,18 @@ def test_step_with_two_solids(tmp_path):
 
     # Two solids, neither with pin bores: no link body among them (assemblies: test_geometry_real_parts).
     path = _write(tmp_path / "two.step", two)
-    with pytest.raises(GeometryError, match="two.step: none of its 2 solids holds a pair of equal parallel pin bores.*--body N"):
+    with pytest.raises(
+        GeometryError, match="two.step: none of its 2 solids holds a pair of equal parallel pin bores.*--body N"
+    ):
         load_link(path)
 
 
 @pytest.mark.parametrize("n_holes", [0, 1])
 def test_part_without_two_bores(tmp_path, n_holes):
     path = _write(tmp_path / f"holes{n_holes}.step", lambda: _box_with_holes(n_holes))
-    with pytest.raises(GeometryError, match="no pair of equal parallel full-round bores.*expected two pin bores.*--bores"):
+    with pytest.raises(
+        GeometryError, match="no pair of equal parallel full-round bores.*expected two pin bores.*--bores"
+    ):
         load_link(path)
 
 

@@ -5,14 +5,14 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
+from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain, Tensioner
-from dynamics.errors import DynamicsError
 from dynamics.models.machine import MachineOnWheels
-from dynamics.solvers.machine_ivp import integrate_cycle
-from dynamics.solvers import solve
 from dynamics.models.system import SampledForce
 from dynamics.models.wheels import Wheel
+from dynamics.solvers import solve
+from dynamics.solvers.machine_ivp import integrate_cycle
 
 P = 0.1125
 # the default scene: aluminium link from `python -m fem` (built-in link, al6061-t6), its body mass plus
@@ -29,8 +29,9 @@ def _exact(system, load, cam, t, q0=None, v0=None):
     zdd = cam.svaj(t)[2]
     force = SampledForce(t, -np.outer(zdd, load))
     n = load.size
-    return solve(system, force, t, method="exact", x0=np.zeros(n) if q0 is None else q0,
-                 v0=np.zeros(n) if v0 is None else v0)
+    return solve(
+        system, force, t, method="exact", x0=np.zeros(n) if q0 is None else q0, v0=np.zeros(n) if v0 is None else v0
+    )
 
 
 def test_drive_link_is_todays_chain():
@@ -47,8 +48,12 @@ def test_drive_link_is_todays_chain():
 def test_a_one_link_sprocket_with_the_equivalent_drive_is_todays_driven_link(n, kd, zeta):
     chain = ChainModel(n, 2.03, 9.3e7, drive_stiffness_N_per_m=kd, damping_ratio=zeta)
     wheel = Wheel(12, P, 1)
-    machine = MachineOnWheels(chain, sprocket=wheel, polygonal=False,
-                              drive_torsional_stiffness_N_m_per_rad=chain.drive_stiffness * wheel.feed_radius_m**2)
+    machine = MachineOnWheels(
+        chain,
+        sprocket=wheel,
+        polygonal=False,
+        drive_torsional_stiffness_N_m_per_rad=chain.drive_stiffness * wheel.feed_radius_m**2,
+    )
     today, ours = chain.system(), machine.system()
     scale = chain.stiffness_N_per_m
     np.testing.assert_allclose(ours.stiffness, today.stiffness, rtol=0, atol=1e-12 * scale)
@@ -64,11 +69,13 @@ def test_a_one_link_sprocket_with_the_equivalent_drive_is_todays_driven_link(n, 
 @pytest.mark.parametrize("n", [5, 16, 85])
 def test_an_infinitely_stiff_drive_on_one_seated_link_holds_link_1_to_the_cam(n):
     chain = ChainModel(n, 2.03, 9.3e7)
-    machine = MachineOnWheels(chain, sprocket=Wheel(12, P, 1), drive_torsional_stiffness_N_m_per_rad=np.inf,
-                              polygonal=False)
+    machine = MachineOnWheels(
+        chain, sprocket=Wheel(12, P, 1), drive_torsional_stiffness_N_m_per_rad=np.inf, polygonal=False
+    )
     np.testing.assert_array_equal(machine.stiffness_matrix(), chain.stiffness_matrix()[1:, 1:])
-    np.testing.assert_allclose(machine.natural_frequencies_Hz(), chain.natural_frequencies_Hz(driven_link_held=True),
-                               rtol=1e-12)
+    np.testing.assert_allclose(
+        machine.natural_frequencies_Hz(), chain.natural_frequencies_Hz(driven_link_held=True), rtol=1e-12
+    )
     assert machine.topology.link_dof()[0] == -1  # link 1 is nobody's DOF: it moves with the cam
 
 
@@ -90,8 +97,13 @@ def test_todays_idler_point_with_its_carriage_is_the_clearance_chains(tensioner)
     np.testing.assert_array_equal(machine.mass_matrix(), m_old)
     # the same idler point behind a one-link sprocket with the equivalent drive
     wheel = Wheel(12, P, 1)
-    wheels = MachineOnWheels(chain, sprocket=wheel, tensioner=tensioner, polygonal=False,
-                             drive_torsional_stiffness_N_m_per_rad=chain.drive_stiffness * wheel.feed_radius_m**2)
+    wheels = MachineOnWheels(
+        chain,
+        sprocket=wheel,
+        tensioner=tensioner,
+        polygonal=False,
+        drive_torsional_stiffness_N_m_per_rad=chain.drive_stiffness * wheel.feed_radius_m**2,
+    )
     np.testing.assert_allclose(wheels.stiffness_matrix(), k_old, rtol=0, atol=1e-12 * 9.3e7)
 
 
@@ -99,8 +111,13 @@ def test_the_integrator_agrees_with_the_exact_solver_on_the_linear_model():
     """Same ODE (the cam's acceleration held linearly between the samples, as the exact solver takes
     it): the difference is DOP853's global error at rtol 1e-11, about 1e-9 of the peak."""
     chain = ChainModel(12, 2.03, 2e7)
-    machine = MachineOnWheels(chain, sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3), idler=Wheel(12, P, 2),
-                              tensioner=Tensioner(2e5, 8.0, 200.0), polygonal=False)
+    machine = MachineOnWheels(
+        chain,
+        sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3),
+        idler=Wheel(12, P, 2),
+        tensioner=Tensioner(2e5, 8.0, 200.0),
+        polygonal=False,
+    )
     cam = _cam()
     t = np.linspace(0.0, cam.cycle_s, 361)
     zdd = cam.svaj(t)[2]
@@ -117,11 +134,21 @@ def _polygon_gap(z: int) -> float:
     s, _, a, _ = cam.svaj(t)
     runs = []
     for polygonal in (False, True):
-        machine = MachineOnWheels(chain, sprocket=Wheel(z, P, 2, inertia_kg_m2=0.05), idler=Wheel(z, P, 2),
-                                  polygonal=polygonal)
+        machine = MachineOnWheels(
+            chain, sprocket=Wheel(z, P, 2, inertia_kg_m2=0.05), idler=Wheel(z, P, 2), polygonal=polygonal
+        )
         n = machine.topology.n_dof
-        runs.append(integrate_cycle(machine, lambda x: np.interp(x, t, a), lambda x: np.interp(x, t, s), t,
-                                    np.zeros(n), np.zeros(n), rtol=1e-10).q_m)
+        runs.append(
+            integrate_cycle(
+                machine,
+                lambda x: np.interp(x, t, a),
+                lambda x: np.interp(x, t, s),
+                t,
+                np.zeros(n),
+                np.zeros(n),
+                rtol=1e-10,
+            ).q_m
+        )
     return float(np.max(np.abs(runs[1] - runs[0])) / np.max(np.abs(runs[0])))
 
 
@@ -139,21 +166,26 @@ def test_the_issues_frequency_figure_on_the_default_scene():
     """Issue #22: holding the six links seated on the sprocket to the cam moves the first natural
     frequency of the default scene (85 aluminium links) from 38.1 Hz to 42.4 Hz."""
     chain = ChainModel(85, M_AL, K_AL)
-    held = MachineOnWheels(chain, sprocket=Wheel(12, P, 6), drive_torsional_stiffness_N_m_per_rad=np.inf,
-                           polygonal=False)
+    held = MachineOnWheels(
+        chain, sprocket=Wheel(12, P, 6), drive_torsional_stiffness_N_m_per_rad=np.inf, polygonal=False
+    )
     assert MachineOnWheels(chain, drive="link").natural_frequencies_Hz()[0] == pytest.approx(38.1, abs=0.05)
     assert held.natural_frequencies_Hz()[0] == pytest.approx(42.4, abs=0.05)
     # closed form: 79 free links between two ends held to the cam, a fixed-fixed string of 80 spans
     assert held.natural_frequencies_Hz()[0] == pytest.approx(
-        2 * np.sqrt(K_AL / M_AL) * np.sin(np.pi / (2 * 80)) / (2 * np.pi), rel=1e-12)
+        2 * np.sqrt(K_AL / M_AL) * np.sin(np.pi / (2 * 80)) / (2 * np.pi), rel=1e-12
+    )
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(drive="belt"), "drive"),
-    (dict(drive="wheels"), "sprocket"),
-    (dict(drive="wheels", sprocket=Wheel(12, P, 6), drive_torsional_stiffness_N_m_per_rad=-1.0), "drive_torsional"),
-    (dict(drive="wheels", sprocket=Wheel(12, P, 6, tooth_phase=0.5)), "tooth_phase"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(drive="belt"), "drive"),
+        (dict(drive="wheels"), "sprocket"),
+        (dict(drive="wheels", sprocket=Wheel(12, P, 6), drive_torsional_stiffness_N_m_per_rad=-1.0), "drive_torsional"),
+        (dict(drive="wheels", sprocket=Wheel(12, P, 6, tooth_phase=0.5)), "tooth_phase"),
+    ],
+)
 def test_bad_machines_are_refused(kwargs, match):
     with pytest.raises(DynamicsError, match=match):
         MachineOnWheels(ChainModel(20, 2.0, 1e8), **kwargs)
@@ -162,10 +194,14 @@ def test_bad_machines_are_refused(kwargs, match):
 def _steady_machines():
     chain = ChainModel(16, 2.03, 9.3e7)
     return [
-        MachineOnWheels(chain, sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3), idler=Wheel(12, P, 2, inertia_kg_m2=0.1),
-                        tensioner=Tensioner(2e5, 8.0, 200.0), polygonal=False),
-        MachineOnWheels(chain, sprocket=Wheel(12, P, 3), drive_torsional_stiffness_N_m_per_rad=np.inf,
-                        polygonal=False),
+        MachineOnWheels(
+            chain,
+            sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3),
+            idler=Wheel(12, P, 2, inertia_kg_m2=0.1),
+            tensioner=Tensioner(2e5, 8.0, 200.0),
+            polygonal=False,
+        ),
+        MachineOnWheels(chain, sprocket=Wheel(12, P, 3), drive_torsional_stiffness_N_m_per_rad=np.inf, polygonal=False),
     ]
 
 
@@ -217,9 +253,10 @@ def test_the_issues_residual_vibration_figure_on_the_default_scene():
     chain = ChainModel(85, M_AL, K_AL)
     cam = _cam()
     out = []
-    for machine in (MachineOnWheels(chain, drive="link"),
-                    MachineOnWheels(chain, sprocket=Wheel(12, P, 6), drive_torsional_stiffness_N_m_per_rad=np.inf,
-                                    polygonal=False)):
+    for machine in (
+        MachineOnWheels(chain, drive="link"),
+        MachineOnWheels(chain, sprocket=Wheel(12, P, 6), drive_torsional_stiffness_N_m_per_rad=np.inf, polygonal=False),
+    ):
         r = labelled_periodic_state(machine, cam, 360)
         out.append(link_residual_and_peak(machine, r, cam.dwell_mask(r.t_s), 63))
     (today, peak_today), (seated, peak_seated) = out
@@ -234,9 +271,14 @@ def test_the_polygonal_forces_derive_from_the_span_energy(held):
     V = sum (P e + k e^2 / 2) - 2 P u_carriage + ground springs, the wheel-end stretches carrying the
     feed's departure d(a): the model is a Lagrangian system (checked by central differences)."""
     chain = ChainModel(14, 2.03, 9.3e7, preload_N=2224.0)
-    machine = MachineOnWheels(chain, sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3), idler=Wheel(12, P, 2),
-                              tensioner=Tensioner(2e5, 8.0), polygonal=True,
-                              drive_torsional_stiffness_N_m_per_rad=np.inf if held else 3e6)
+    machine = MachineOnWheels(
+        chain,
+        sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3),
+        idler=Wheel(12, P, 2),
+        tensioner=Tensioner(2e5, 8.0),
+        polygonal=True,
+        drive_torsional_stiffness_N_m_per_rad=np.inf if held else 3e6,
+    )
     topo = machine.topology
     b = topo.incidence().toarray()
     angles = np.array([0.21, 0.37])  # the wheels' nominal angles since the dwell (rad)
@@ -249,8 +291,11 @@ def test_the_polygonal_forces_derive_from_the_span_energy(held):
             e[ends.behind_span] += d
             e[ends.ahead_span] -= d
         ground = sum(0.5 * kg * q[dof] ** 2 for dof, kg in topo.ground)
-        return float(np.sum(chain.preload_N * e + 0.5 * chain.stiffness_N_per_m * e**2)) + ground \
+        return (
+            float(np.sum(chain.preload_N * e + 0.5 * chain.stiffness_N_per_m * e**2))
+            + ground
             - 2 * chain.preload_N * q[-1]
+        )
 
     rng = np.random.default_rng(3)
     q = 1e-4 * rng.standard_normal(topo.n_dof)
@@ -272,8 +317,13 @@ def test_energy_balance_of_the_polygonal_machine_over_an_index():
     from scipy.integrate import simpson
 
     chain = ChainModel(14, 2.03, 2e7, preload_N=2224.0)
-    machine = MachineOnWheels(chain, sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3), idler=Wheel(12, P, 2),
-                              tensioner=Tensioner(2e5, 8.0, 150.0), drive_torsional_stiffness_N_m_per_rad=2e6)
+    machine = MachineOnWheels(
+        chain,
+        sprocket=Wheel(12, P, 3, inertia_kg_m2=0.3),
+        idler=Wheel(12, P, 2),
+        tensioner=Tensioner(2e5, 8.0, 150.0),
+        drive_torsional_stiffness_N_m_per_rad=2e6,
+    )
     cam = _cam()
     topo = machine.topology
     b = topo.incidence().toarray()
@@ -293,13 +343,17 @@ def test_energy_balance_of_the_polygonal_machine_over_an_index():
             e[ends.behind_span] += d
             e[ends.ahead_span] -= d
         ground = sum(0.5 * kg * q[dof] ** 2 for dof, kg in topo.ground)
-        return float(np.sum(chain.preload_N * e + 0.5 * chain.stiffness_N_per_m * e**2)) + ground \
+        return (
+            float(np.sum(chain.preload_N * e + 0.5 * chain.stiffness_N_per_m * e**2))
+            + ground
             - 2 * chain.preload_N * q[-1]
+        )
 
     t = np.linspace(0.0, cam.cycle_s, 20001)
     n = topo.n_dof
-    run = integrate_cycle(machine, lambda s: float(cam.svaj(np.array([s]))[2][0]), lift, t, np.zeros(n), np.zeros(n),
-                          rtol=1e-12)
+    run = integrate_cycle(
+        machine, lambda s: float(cam.svaj(np.array([s]))[2][0]), lift, t, np.zeros(n), np.zeros(n), rtol=1e-12
+    )
     zd = cam.svaj(t)[1]
     total, power, loss = np.empty(t.size), np.empty(t.size), np.empty(t.size)
     h = 1e-7
@@ -323,5 +377,9 @@ def test_stations_are_places_on_the_machine():
     assert machine.groups[0] == tuple(range(6)) and machine.groups[machine.idler_place] == tuple(range(42, 48))
     # without an idler wheel the idler end is today's idler span's link (43, 1-based)
     assert MachineOnWheels(chain, sprocket=Wheel(12, P, 6)).stations()["idler-end"] == 42
-    assert MachineOnWheels(chain, drive="link").stations() == {"drive-end": 0, "tight-side": 63, "idler-end": 42,
-                                                               "slack-side": 20}
+    assert MachineOnWheels(chain, drive="link").stations() == {
+        "drive-end": 0,
+        "tight-side": 63,
+        "idler-end": 42,
+        "slack-side": 20,
+    }

@@ -8,8 +8,10 @@ and nothing more.
 
 import numpy as np
 import pytest
+from test_solvers_exact import sdof_foh_closed_form
 
 from dynamics.models.chain import ChainModel
+from dynamics.models.system import SampledForce, SecondOrderSystem
 from dynamics.solvers import solve
 from dynamics.solvers.exact import _van_loan
 from dynamics.solvers.expm_stack import expm_stack
@@ -21,9 +23,6 @@ from dynamics.solvers.mode_scan import (
     propagate_modes,
     propagate_modes_stepwise,
 )
-from dynamics.models.system import SampledForce, SecondOrderSystem
-
-from test_solvers_exact import sdof_foh_closed_form
 
 H = 1e-3
 # rigid, undamped, light, critically damped and overdamped modes (omega^2, damping coefficient)
@@ -88,8 +87,13 @@ def test_exact_solver_on_a_uniform_grid_matches_the_closed_form():
     t = np.arange(401) * 1e-4
     f = np.random.default_rng(3).normal(0.0, 1e3, t.size)
     x, v = sdof_foh_closed_form(m, c, k, t, f, x0=1e-6, v0=-2e-3)
-    r = solve(SecondOrderSystem(np.array([[m]]), np.array([[c]]), np.array([[k]])), SampledForce(t, f[:, None]), t,
-              x0=[1e-6], v0=[-2e-3])
+    r = solve(
+        SecondOrderSystem(np.array([[m]]), np.array([[c]]), np.array([[k]])),
+        SampledForce(t, f[:, None]),
+        t,
+        x0=[1e-6],
+        v0=[-2e-3],
+    )
     # the closed form's own rounding: cos/sin of w h and the particular solution, ~1e-13 relative
     assert np.abs(r.x[:, 0] - x).max() <= 1e-11 * np.abs(x).max()
     assert np.abs(r.v[:, 0] - v).max() <= 1e-11 * np.abs(v).max()
@@ -149,7 +153,6 @@ def test_mode_steps_equal_the_textbook_4x4_van_loan():
             aug = np.zeros((4, 4))
             aug[0, 1], aug[1, 0], aug[1, 1], aug[1, 2], aug[2, 3] = h, -w2 * h, -c * h, h, 1.0
             ex = expm(aug)
-            for got, want in ((steps.e[i], ex[:2, :2]), (steps.g0[i], ex[:2, 2] - ex[:2, 3]),
-                              (steps.g1[i], ex[:2, 3])):
+            for got, want in ((steps.e[i], ex[:2, :2]), (steps.g0[i], ex[:2, 2] - ex[:2, 3]), (steps.g1[i], ex[:2, 3])):
                 for row in (0, 1):  # q and q' rows have different units: compare each on its own
                     assert np.abs(got[row] - want[row]).max() <= 1e-12 * np.abs(want[row]).max()

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from dynamics.response.metrics import rms
 from dynamics.models.mqp2012 import CAMS, REPORT_TABLE1_DYNACAM, dynacam_omega_rad_s, dynacam_table
+from dynamics.response.metrics import rms
 
 
 def _printed(value: float, kind: str) -> str:

@@ -15,8 +15,8 @@ from dynamics.models.mqp2012 import (
     run_quirks_fixed,
     script_matrices,
 )
-from dynamics.solvers import solve
 from dynamics.models.system import SampledForce, SecondOrderSystem
+from dynamics.solvers import solve
 
 
 def test_modal_damping_matrix_is_symmetric_with_zeta_on_every_mode():
@@ -47,8 +47,14 @@ def test_relative_coordinates_match_the_absolute_formulation():
     # The replica keeps Dynacam's rounded cam speed in z' and z'' (a 2.4e-5 relative
     # inconsistency with z, far below the tolerance).
     n = 24
-    fixed = run_quirks_fixed("ti-grade2", fixes=("modal-damping", "si-units"), n_links=n, friction=0.0,
-                             cams=("cycloidal",), samples_per_degree=10)
+    fixed = run_quirks_fixed(
+        "ti-grade2",
+        fixes=("modal-damping", "si-units"),
+        n_links=n,
+        friction=0.0,
+        cams=("cycloidal",),
+        samples_per_degree=10,
+    )
     r = fixed.cams["cycloidal"]
     k, m = MATERIALS["ti-grade2"]
     M, K, _, _, _ = script_matrices(n, k, m)

@@ -4,7 +4,14 @@ import numpy as np
 import pytest
 
 from dynamics.errors import DynamicsError
-from dynamics.models.mqp2012 import MATERIALS, preload_links, preload_vector, replica_system, run_mqp2012, script_matrices
+from dynamics.models.mqp2012 import (
+    MATERIALS,
+    preload_links,
+    preload_vector,
+    replica_system,
+    run_mqp2012,
+    script_matrices,
+)
 
 
 def test_stiffness_matrix_layout():

@@ -25,8 +25,20 @@ from fem import cli as fem_cli
 from geometry import DEFAULT_LINK, EXAMPLE_STEP, resolve_part
 
 # Coarse on purpose: two FEA levels at 13 and 10 mm, stress levels, a short chain.
-FAST = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "-q", "--no-images",
-        "--materials", "al6061-t6", "--cams", "modified-sine"]
+FAST = [
+    "--mesh-size",
+    "10",
+    "--links",
+    "12",
+    "--samples-per-degree",
+    "2",
+    "-q",
+    "--no-images",
+    "--materials",
+    "al6061-t6",
+    "--cams",
+    "modified-sine",
+]
 
 
 @pytest.fixture
@@ -103,7 +115,10 @@ def test_python_m_fem_resolves_the_part_once(tmp_path, calls, capsys):
 
 def test_the_fingerprint_is_the_content_hash_the_fea_cache_was_keyed_by():
     """Cache keys are unchanged: the STEP file's sha256, or that of the default link's repr."""
-    assert resolve_part(EXAMPLE_STEP, symmetry=False).fingerprint == hashlib.sha256(Path(EXAMPLE_STEP).read_bytes()).hexdigest()
+    assert (
+        resolve_part(EXAMPLE_STEP, symmetry=False).fingerprint
+        == hashlib.sha256(Path(EXAMPLE_STEP).read_bytes()).hexdigest()
+    )
     assert resolve_part(None, symmetry=False).fingerprint == hashlib.sha256(repr(DEFAULT_LINK).encode()).hexdigest()
 
 

@@ -10,11 +10,34 @@ import pytest
 
 import pipeline
 
-FAST = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "-q", "--no-images",
-        "--materials", "al6061-t6", "--cams", "poly-4567"]
-CONTACT_KEYS = ("model", "model_reason", "contact_lost", "free_play_time_fraction", "impacts_per_cycle",
-                "impact_force_spike_N", "impact_closing_speed_max_m_s", "impact_energy_per_cycle_J",
-                "impact_dissipated_per_cycle_J", "preload_for_full_contact_N", "peak_tension_N", "min_tension_N")
+FAST = [
+    "--mesh-size",
+    "10",
+    "--links",
+    "12",
+    "--samples-per-degree",
+    "2",
+    "-q",
+    "--no-images",
+    "--materials",
+    "al6061-t6",
+    "--cams",
+    "poly-4567",
+]
+CONTACT_KEYS = (
+    "model",
+    "model_reason",
+    "contact_lost",
+    "free_play_time_fraction",
+    "impacts_per_cycle",
+    "impact_force_spike_N",
+    "impact_closing_speed_max_m_s",
+    "impact_energy_per_cycle_J",
+    "impact_dissipated_per_cycle_J",
+    "preload_for_full_contact_N",
+    "peak_tension_N",
+    "min_tension_N",
+)
 
 
 @pytest.fixture(scope="module")
@@ -60,23 +83,27 @@ def test_a_chain_that_can_only_pull_and_a_tensioner(tmp_path, cache_dir):
     pull_only = _scenario(_run(tmp_path, cache_dir, "--pin-clearance", "inf"))
     assert pull_only["model"] == "clearance" and pull_only["min_tension_N"] >= 0.0
     assert pull_only["impact_force_spike_N"] > 0 and pull_only["impact_closing_speed_max_m_s"] > 0
-    tensioned = _scenario(_run(tmp_path, cache_dir, "--tensioner-rate", "2e5", "--tensioner-mass", "5",
-                               "--tensioner-damping", "200"))
+    tensioned = _scenario(
+        _run(tmp_path, cache_dir, "--tensioner-rate", "2e5", "--tensioner-mass", "5", "--tensioner-damping", "200")
+    )
     assert tensioned["model"] == "clearance" and "tensioner" in tensioned["model_reason"]
 
 
-@pytest.mark.parametrize("args, named", [
-    (["--pin-clearance", "-0.1"], "--pin-clearance"),
-    (["--pin-clearance", "loose"], "--pin-clearance"),
-    (["--rayleigh", "3"], "--rayleigh"),
-    (["--rayleigh", "a:b"], "--rayleigh"),
-    (["--rayleigh=-1:1e-5"], "--rayleigh"),
-    (["--rayleigh", "1:1e-5", "--span-damping", "kelvin-voigt"], "--rayleigh"),
-    (["--tensioner-mass", "0"], "--tensioner-mass"),
-    (["--tensioner-rate", "-5", "--tensioner-mass", "5"], "--tensioner-rate"),
-    (["--tensioner-rate", "1e5"], "--tensioner-mass"),
-    (["--tensioner-damping", "-1", "--tensioner-mass", "5"], "--tensioner-damping"),
-])
+@pytest.mark.parametrize(
+    "args, named",
+    [
+        (["--pin-clearance", "-0.1"], "--pin-clearance"),
+        (["--pin-clearance", "loose"], "--pin-clearance"),
+        (["--rayleigh", "3"], "--rayleigh"),
+        (["--rayleigh", "a:b"], "--rayleigh"),
+        (["--rayleigh=-1:1e-5"], "--rayleigh"),
+        (["--rayleigh", "1:1e-5", "--span-damping", "kelvin-voigt"], "--rayleigh"),
+        (["--tensioner-mass", "0"], "--tensioner-mass"),
+        (["--tensioner-rate", "-5", "--tensioner-mass", "5"], "--tensioner-rate"),
+        (["--tensioner-rate", "1e5"], "--tensioner-mass"),
+        (["--tensioner-damping", "-1", "--tensioner-mass", "5"], "--tensioner-damping"),
+    ],
+)
 def test_bad_chain_model_values_are_one_line_exit_2(args, named, tmp_path, capsys):
     assert pipeline.main([*args, "--out", str(tmp_path / "never")]) == 2
     lines = capsys.readouterr().err.strip().splitlines()

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import matplotlib.image
 import pytest
+from browser import page_in_browser, screenshot
 
 import pipeline
-from browser import page_in_browser, screenshot
 from geometry import EXAMPLE_STEP
 from settings import cam_ids
 
@@ -20,8 +20,15 @@ ROOT = Path(__file__).resolve().parents[1]
 # Coarse on purpose: 3 FEA levels ending at 10 mm and a short chain keep one run to seconds.
 COARSE = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "-q"]
 STATIONS = ("drive-end", "tight-side", "idler-end", "slack-side")
-STATION_KEYS = ("link", "rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2",
-                "max_abs_acceleration_m_s2", "max_deviation_m", "residual_vibration_m")
+STATION_KEYS = (
+    "link",
+    "rms_displacement_m",
+    "rms_velocity_m_s",
+    "rms_acceleration_m_s2",
+    "max_abs_acceleration_m_s2",
+    "max_deviation_m",
+    "residual_vibration_m",
+)
 PER_LINK_KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2")
 
 
@@ -70,7 +77,11 @@ def test_summary_has_the_documented_keys_in_si(default_run):
 def test_stations_follow_matlab_rounding(default_run):
     stations = _summary(default_run)["materials"]["al6061-t6"]["cams"]["modified-sine"]["stations"]
     assert {k: v["link"] for k, v in stations.items()} == {
-        "drive-end": 1, "tight-side": 9, "idler-end": 6, "slack-side": 3}
+        "drive-end": 1,
+        "tight-side": 9,
+        "idler-end": 6,
+        "slack-side": 3,
+    }
 
 
 def test_titanium_link_is_stiffer_and_heavier(default_run):
@@ -92,9 +103,21 @@ class _Collector(HTMLParser):
 
 def test_outputs_tables_plots_and_a_self_contained_report(default_run):
     names = {p.name for p in default_run.iterdir()}
-    for expected in ("summary.json", "report.html", "rms_table.csv", "rms_table.md", "max_acceleration_table.csv",
-                     "ranking.csv", "ranking.md", "stations.csv", "tension.csv", "residual_vibration.png",
-                     "al6061-t6_deformed.png", "ti-grade2_deformed.png", "al6061-t6_tension.png"):
+    for expected in (
+        "summary.json",
+        "report.html",
+        "rms_table.csv",
+        "rms_table.md",
+        "max_acceleration_table.csv",
+        "ranking.csv",
+        "ranking.md",
+        "stations.csv",
+        "tension.csv",
+        "residual_vibration.png",
+        "al6061-t6_deformed.png",
+        "ti-grade2_deformed.png",
+        "al6061-t6_tension.png",
+    ):
         assert expected in names
     assert not [n for n in names if n.startswith(".staging")]
     page = _Collector()
@@ -121,8 +144,12 @@ def test_report_opens_in_a_real_browser_with_every_picture_drawn(default_run, tm
 
 def test_second_run_with_another_cam_and_speed_reuses_the_fea(default_run, cache_dir, tmp_path):
     out = tmp_path / "again"
-    assert pipeline.main([*COARSE, "--out", str(out), "--cache-dir", str(cache_dir), "--cams", "cycloidal",
-                          "--rpm", "120"]) == 0
+    assert (
+        pipeline.main(
+            [*COARSE, "--out", str(out), "--cache-dir", str(cache_dir), "--cams", "cycloidal", "--rpm", "120"]
+        )
+        == 0
+    )
     s = _summary(out)
     first = _summary(default_run)
     for name, m in s["materials"].items():
@@ -136,8 +163,25 @@ def test_second_run_with_another_cam_and_speed_reuses_the_fea(default_run, cache
 
 def test_another_geometry_file_changes_the_results(default_run, cache_dir, tmp_path):
     out = tmp_path / "example"
-    assert pipeline.main([*COARSE, "--no-images", "--materials", "al6061-t6", "--cams", "modified-sine",
-                          "--geometry", str(EXAMPLE_STEP), "--out", str(out), "--cache-dir", str(cache_dir)]) == 0
+    assert (
+        pipeline.main(
+            [
+                *COARSE,
+                "--no-images",
+                "--materials",
+                "al6061-t6",
+                "--cams",
+                "modified-sine",
+                "--geometry",
+                str(EXAMPLE_STEP),
+                "--out",
+                str(out),
+                "--cache-dir",
+                str(cache_dir),
+            ]
+        )
+        == 0
+    )
     s, first = _summary(out), _summary(default_run)
     assert s["geometry"]["source"] == str(EXAMPLE_STEP)
     assert s["materials"]["al6061-t6"]["fea_from_cache"] is False
@@ -150,8 +194,9 @@ def test_another_geometry_file_changes_the_results(default_run, cache_dir, tmp_p
 
 def test_preset_mqp2012_runs_for_a_short_chain_and_stays_si(tmp_path):
     out = tmp_path / "replica"
-    assert pipeline.main(["--preset", "mqp2012", "--links", "24", "--cams", "modified-sine", "-q",
-                          "--out", str(out)]) == 0
+    assert (
+        pipeline.main(["--preset", "mqp2012", "--links", "24", "--cams", "modified-sine", "-q", "--out", str(out)]) == 0
+    )
     s = _summary(out)
     ms = s["materials"]["al6061-t6"]["cams"]["modified-sine"]
     # Report-scale numbers in SI: ~0.16 m RMS displacement, not ~160 (mm).
@@ -161,8 +206,9 @@ def test_preset_mqp2012_runs_for_a_short_chain_and_stays_si(tmp_path):
 
 
 def _cli(*args, cwd=ROOT) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(ROOT / "pipeline.py"), *args], capture_output=True, text=True,
-                          cwd=cwd, timeout=600)
+    return subprocess.run(
+        [sys.executable, str(ROOT / "pipeline.py"), *args], capture_output=True, text=True, cwd=cwd, timeout=600
+    )
 
 
 @pytest.fixture
@@ -242,8 +288,27 @@ def test_help_explains_units():
 
 def test_tolerance_picks_the_resolution_and_reports_an_estimate_within_it(cache_dir, tmp_path):
     out = tmp_path / "tol"
-    assert pipeline.main(["--links", "12", "--cams", "modified-sine", "--materials", "al6061-t6", "--no-images",
-                          "-q", "--tolerance", "0.2", "--out", str(out), "--cache-dir", str(cache_dir)]) == 0
+    assert (
+        pipeline.main(
+            [
+                "--links",
+                "12",
+                "--cams",
+                "modified-sine",
+                "--materials",
+                "al6061-t6",
+                "--no-images",
+                "-q",
+                "--tolerance",
+                "0.2",
+                "--out",
+                str(out),
+                "--cache-dir",
+                str(cache_dir),
+            ]
+        )
+        == 0
+    )
     s = _summary(out)
     fidelity = s["fidelity"]
     assert fidelity["tolerance"] == 0.2
@@ -255,8 +320,25 @@ def test_tolerance_picks_the_resolution_and_reports_an_estimate_within_it(cache_
 
 def test_rpm_sweep_writes_curves_with_critical_speeds(cache_dir, tmp_path):
     out = tmp_path / "sweep"
-    assert pipeline.main([*COARSE, "--no-images", "--materials", "al6061-t6", "--cams", "modified-sine,poly-345",
-                          "--rpm-sweep", "60:240:10", "--out", str(out), "--cache-dir", str(cache_dir)]) == 0
+    assert (
+        pipeline.main(
+            [
+                *COARSE,
+                "--no-images",
+                "--materials",
+                "al6061-t6",
+                "--cams",
+                "modified-sine,poly-345",
+                "--rpm-sweep",
+                "60:240:10",
+                "--out",
+                str(out),
+                "--cache-dir",
+                str(cache_dir),
+            ]
+        )
+        == 0
+    )
     sweep = _summary(out)["rpm_sweep"]["al6061-t6"]
     assert sweep["rpm"][0] == 60 and sweep["rpm"][-1] == 240 and len(sweep["rpm"]) == 19
     assert set(sweep["cams"]) == {"modified-sine", "poly-345"}
@@ -267,14 +349,33 @@ def test_rpm_sweep_writes_curves_with_critical_speeds(cache_dir, tmp_path):
 
 def test_a_locking_prone_material_with_p1_is_warned_about_in_one_line(tmp_path):
     rubbery = tmp_path / "materials.toml"
-    rubbery.write_text('[nearly-incompressible]\nyoungs_modulus_Pa = 70e9\npoisson_ratio = 0.49\n'
-                       'density_kg_per_m3 = 2700.0\nyield_strength_Pa = 200e6\n')
+    rubbery.write_text(
+        "[nearly-incompressible]\nyoungs_modulus_Pa = 70e9\npoisson_ratio = 0.49\n"
+        "density_kg_per_m3 = 2700.0\nyield_strength_Pa = 200e6\n"
+    )
     out = tmp_path / "p1"
     # 4.5 mm (P1: cheap): at the 10 mm used before, the elements of the filleted link are thicker
     # than its 2.5 mm rails and a few are slivers, which now warns too, rightly.
-    r = _cli("--materials-file", str(rubbery), "--materials", "nearly-incompressible", "--order", "1",
-             "--mesh-size", "4.5", "--links", "12", "--cams", "modified-sine", "--no-images", "-q",
-             "--out", str(out), "--cache-dir", str(tmp_path / "cache"))
+    r = _cli(
+        "--materials-file",
+        str(rubbery),
+        "--materials",
+        "nearly-incompressible",
+        "--order",
+        "1",
+        "--mesh-size",
+        "4.5",
+        "--links",
+        "12",
+        "--cams",
+        "modified-sine",
+        "--no-images",
+        "-q",
+        "--out",
+        str(out),
+        "--cache-dir",
+        str(tmp_path / "cache"),
+    )
     assert r.returncode == 0, r.stderr
     warning_lines = [line for line in r.stderr.splitlines() if "warning" in line]
     assert len(warning_lines) == 1 and "P1" in warning_lines[0] and "Traceback" not in r.stderr
@@ -283,8 +384,12 @@ def test_a_locking_prone_material_with_p1_is_warned_about_in_one_line(tmp_path):
 
 def test_a_one_station_question_keeps_one_link_and_gives_the_same_numbers(default_run, cache_dir, tmp_path):
     out = tmp_path / "station"
-    assert pipeline.main([*COARSE, "--no-images", "--station", "idler-end", "--out", str(out),
-                          "--cache-dir", str(cache_dir)]) == 0
+    assert (
+        pipeline.main(
+            [*COARSE, "--no-images", "--station", "idler-end", "--out", str(out), "--cache-dir", str(cache_dir)]
+        )
+        == 0
+    )
     one, full = _summary(out), _summary(default_run)
     assert one["stations"] == {"idler-end": 6} and one["ranking"]["station"] == "idler-end"
     for material, data in one["materials"].items():
@@ -295,14 +400,28 @@ def test_a_one_station_question_keeps_one_link_and_gives_the_same_numbers(defaul
             everyone = full["materials"][material]["cams"][cam]["stations"]["idler-end"]
             for key, value in everyone.items():
                 # Same solver, same grid: only the stored columns differ, so the numbers agree to rounding.
-                assert mine[key] == (value if value is None or isinstance(value, int) else pytest.approx(value, rel=1e-9))
+                assert mine[key] == (
+                    value if value is None or isinstance(value, int) else pytest.approx(value, rel=1e-9)
+                )
     assert not list(out.glob("*three_links.png"))
 
 
 def test_a_long_chain_is_solved_in_its_lowest_modes(cache_dir, tmp_path):
     out = tmp_path / "long"
-    r = _cli(*COARSE, "--no-images", "--links", "1200", "--materials", "al6061-t6", "--cams", "modified-sine",
-             "--out", str(out), "--cache-dir", str(cache_dir))
+    r = _cli(
+        *COARSE,
+        "--no-images",
+        "--links",
+        "1200",
+        "--materials",
+        "al6061-t6",
+        "--cams",
+        "modified-sine",
+        "--out",
+        str(out),
+        "--cache-dir",
+        str(cache_dir),
+    )
     assert r.returncode == 0, r.stderr
     m = _summary(out)["materials"]["al6061-t6"]
     assert len(m["natural_frequencies_Hz"]) == 10 and m["natural_frequencies_Hz"][0] > 0

@@ -35,10 +35,21 @@ def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
 
 def test_no_second_pass_when_k_is_good_enough(monkeypatch):
     calls = []
-    monkeypatch.setattr(tolerance, "run_fea", lambda cfg, progress, tol, levels, part=None: calls.append(tol) or
-                        {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=tol)})
-    monkeypatch.setattr(tolerance, "run_dynamics", lambda cfg, fea, progress: (
-        {}, {("al6061-t6", "modified-sine"): SimpleNamespace(rel_error_estimate={"stiffness": 0.5 * 0.01})}))
+    monkeypatch.setattr(
+        tolerance,
+        "run_fea",
+        lambda cfg, progress, tol, levels, part=None: (
+            calls.append(tol) or {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=tol)}
+        ),
+    )
+    monkeypatch.setattr(
+        tolerance,
+        "run_dynamics",
+        lambda cfg, fea, progress: (
+            {},
+            {("al6061-t6", "modified-sine"): SimpleNamespace(rel_error_estimate={"stiffness": 0.5 * 0.01})},
+        ),
+    )
     cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q"])
     tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
     assert calls == [pytest.approx(0.01)]

@@ -17,8 +17,8 @@ import pytest
 from dynamics.cams import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain
-from dynamics.response.metrics import station_links
 from dynamics.models.reduced_damping import DEFAULT_DAMPING_TOLERANCE, reduced_damping
+from dynamics.response.metrics import station_links
 from dynamics.solvers import clearance_verlet as verlet
 
 
@@ -61,8 +61,9 @@ def _window(model, sub=8, compiled=None):
     tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
     _, v, a, _ = cam.svaj(tf)
     n = model.n_links
-    return verlet.integrate(model, v, a, tf[1] - tf[0], np.zeros(n), -v[0] * np.ones(n), out_every=sub,
-                            compiled=compiled)
+    return verlet.integrate(
+        model, v, a, tf[1] - tf[0], np.zeros(n), -v[0] * np.ones(n), out_every=sub, compiled=compiled
+    )
 
 
 @pytest.mark.parametrize("compiled", [None, False])

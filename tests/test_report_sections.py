@@ -11,8 +11,20 @@ import pipeline
 from dynamics.scene import ChainModelKind, Validity
 from reporting import html, sections
 
-COARSE = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "--no-images", "-q",
-          "--materials", "al6061-t6", "--cams", "modified-sine,cycloidal"]
+COARSE = [
+    "--mesh-size",
+    "10",
+    "--links",
+    "12",
+    "--samples-per-degree",
+    "2",
+    "--no-images",
+    "-q",
+    "--materials",
+    "al6061-t6",
+    "--cams",
+    "modified-sine,cycloidal",
+]
 
 
 @pytest.fixture
@@ -44,13 +56,15 @@ def test_section_names_are_unique_and_before_must_exist(registry):
 
 
 def _results(validity: Validity, reason: str):
-    contact = SimpleNamespace(model=ChainModelKind.LINEAR, reason=reason, validity=validity,
-                              linear_min_tension_N=-500.0, steady_state=None)
+    contact = SimpleNamespace(
+        model=ChainModelKind.LINEAR, reason=reason, validity=validity, linear_min_tension_N=-500.0, steady_state=None
+    )
     return SimpleNamespace(scenarios={("al6061-t6", "modified-sine"): SimpleNamespace(contact=contact)})
 
 
-@pytest.mark.parametrize("validity, warned", [(Validity.VALID, False),
-                                              (Validity.NOT_VALID_WHERE_TENSION_NEGATIVE, True)])
+@pytest.mark.parametrize(
+    "validity, warned", [(Validity.VALID, False), (Validity.NOT_VALID_WHERE_TENSION_NEGATIVE, True)]
+)
 def test_the_model_paragraph_is_a_warning_by_the_validity_field(validity, warned):
     # the same words either way: the style follows the data
     text = sections._model_paragraphs(_results(validity, "a reason that says nothing of validity"))

@@ -13,8 +13,16 @@ import pytest
 
 import pipeline
 from dynamics.cams import MotionLaw, laws, register_law
-from settings import LIMITS, RunConfig, SettingsError, cam_ids, check_run_config, extra_cam_ids, known_cam_ids
-from settings import registries
+from settings import (
+    LIMITS,
+    RunConfig,
+    SettingsError,
+    cam_ids,
+    check_run_config,
+    extra_cam_ids,
+    known_cam_ids,
+    registries,
+)
 from study.spec import Settings, parse_study
 from study.tasks import base_config
 from study.variables import RUN, VARIABLES
@@ -31,8 +39,26 @@ def test_the_defaults_are_read_from_the_models_that_own_them():
     from geometry.dimensions import DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG
 
     d = RunConfig()
-    assert (d.pin_clearance_m, d.hardware_mass_kg, d.nest_mass_kg) == (DEFAULT_PIN_CLEARANCE_M,
-                                                                      DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG)
+    assert (d.pin_clearance_m, d.hardware_mass_kg, d.nest_mass_kg) == (
+        DEFAULT_PIN_CLEARANCE_M,
+        DEFAULT_HARDWARE_MASS_KG,
+        NEST_MASS_KG,
+    )
+
+
+def test_the_memory_budget_reaches_the_fea_settings_and_its_cache_key():
+    from fem.budget import DEFAULT_MAX_MEMORY_GB
+    from fem.materials import get_material
+    from stages.fea import fea_cache_settings, fea_settings
+
+    assert RunConfig().max_memory_gb == DEFAULT_MAX_MEMORY_GB
+    cfg = pipeline.parse_cli(["--max-memory", "3"])
+    settings = fea_settings(cfg)
+    assert cfg.max_memory_gb == settings.max_memory_gb == 3.0
+    material = get_material("al6061-t6")
+    assert fea_cache_settings(cfg, settings, material, None) != fea_cache_settings(
+        RunConfig(), fea_settings(RunConfig()), material, None
+    )
 
 
 def test_help_shows_the_run_config_defaults_in_the_options_units():
@@ -78,8 +104,12 @@ def test_every_default_passes_its_check_and_nan_does_not(name):
 def _poly_345(x):
     """The 3-4-5 polynomial written out here, independently of dynamics.cams.laws."""
     x = np.asarray(x, dtype=float)
-    return (10 * x**3 - 15 * x**4 + 6 * x**5, 30 * x**2 - 60 * x**3 + 30 * x**4, 60 * x - 180 * x**2 + 120 * x**3,
-            60 - 360 * x + 360 * x**2)
+    return (
+        10 * x**3 - 15 * x**4 + 6 * x**5,
+        30 * x**2 - 60 * x**3 + 30 * x**4,
+        60 * x - 180 * x**2 + 120 * x**3,
+        60 - 360 * x + 360 * x**2,
+    )
 
 
 @pytest.fixture
@@ -100,8 +130,22 @@ def test_one_registration_puts_a_cam_law_in_all_and_in_studies(test_law):
 
 def test_a_registered_cam_law_runs_through_the_command_line(test_law, tmp_path):
     out, cache = tmp_path / "out", tmp_path / "cache"
-    assert pipeline.main([*COARSE, "--materials", "al6061-t6", "--cams", f"{test_law},poly-345",
-                          "--out", str(out), "--cache-dir", str(cache)]) == 0
+    assert (
+        pipeline.main(
+            [
+                *COARSE,
+                "--materials",
+                "al6061-t6",
+                "--cams",
+                f"{test_law},poly-345",
+                "--out",
+                str(out),
+                "--cache-dir",
+                str(cache),
+            ]
+        )
+        == 0
+    )
     summary = json.loads((out / "summary.json").read_text())
     assert list(summary["cams"]) == [test_law, "poly-345"]
     ours = summary["materials"]["al6061-t6"]["cams"][test_law]["stations"]

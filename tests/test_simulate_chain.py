@@ -5,8 +5,8 @@ import warnings
 import numpy as np
 import pytest
 
-from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
+from dynamics.models.chain import ChainModel
 from dynamics.solvers.simulate import SlackChainWarning, simulate
 
 DEG_180RPM_S = (1 / 3) / 360  # one cam degree at 180 rpm
@@ -142,12 +142,15 @@ def test_stiff_chain_follows_the_quasi_static_closed_form():
     assert np.max(np.abs(y - quasi_static)) < 0.03 * np.max(np.abs(quasi_static))
 
 
-@pytest.mark.parametrize("method, opts, rel_tol", [
-    ("report-rk45", {}, 1e-6),  # MaxStep 0.1 h keeps Dormand-Prince far below rtol (measured 2e-8)
-    ("modal", {}, 1e-10),  # all modes: exact
-    ("modal", {"n_modes": 8}, 5e-3),  # relative coordinates: half the modes, 1e-3 (measured)
-    ("radau", {"rtol": 1e-7, "atol": 1e-11}, 1e-6),  # tolerance-bounded (measured 3e-8)
-])
+@pytest.mark.parametrize(
+    "method, opts, rel_tol",
+    [
+        ("report-rk45", {}, 1e-6),  # MaxStep 0.1 h keeps Dormand-Prince far below rtol (measured 2e-8)
+        ("modal", {}, 1e-10),  # all modes: exact
+        ("modal", {"n_modes": 8}, 5e-3),  # relative coordinates: half the modes, 1e-3 (measured)
+        ("radau", {"rtol": 1e-7, "atol": 1e-11}, 1e-6),  # tolerance-bounded (measured 3e-8)
+    ],
+)
 def test_other_methods_through_simulate_agree_with_exact(method, opts, rel_tol):
     """Errors relative to the largest deflection from the cam (0.45 mm here)."""
     model = ChainModel(16, 2.03, 9.27e7)

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from dynamics.errors import DynamicsError, SolverFailedError
+from dynamics.models.system import SampledForce, SecondOrderSystem
 from dynamics.solvers import solve
 from dynamics.solvers.steady_state import periodic_initial_state
-from dynamics.models.system import SampledForce, SecondOrderSystem
 
 
 def sdof(nonlinear=None):
@@ -50,5 +50,6 @@ def test_non_convergence_is_reported():
     friction = lambda x, v: -2.0 * np.tanh(v / 1e-2)
     t = np.linspace(0, 2 * np.pi / 7.0, 401)
     with pytest.raises(SolverFailedError, match="steady state"):
-        periodic_initial_state(sdof(friction), SampledForce(t, 20 * np.cos(7.0 * t)[:, None]), max_iterations=1,
-                               tol=1e-15)
+        periodic_initial_state(
+            sdof(friction), SampledForce(t, 20 * np.cos(7.0 * t)[:, None]), max_iterations=1, tol=1e-15
+        )

@@ -12,6 +12,7 @@ def test_least_recently_used_entry_goes_first_and_none_is_kept():
         def run():
             calls.append(value)
             return value
+
         return run
 
     assert cache.cached(("none",), compute(None)) is None

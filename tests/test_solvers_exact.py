@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from dynamics.errors import DynamicsError, SolverDivergedError
+from dynamics.models.system import SampledForce, SecondOrderSystem
 from dynamics.solvers import METHODS, cache, solve, solve_with_diagnostics
 from dynamics.solvers.exact import foh_matrices
-from dynamics.models.system import SampledForce, SecondOrderSystem
 
 
 def sdof_foh_closed_form(m, c, k, t, f, x0=0.0, v0=0.0):
@@ -168,8 +168,19 @@ def test_bad_inputs_raise_dynamics_error():
 
 
 def test_registry_describes_every_method():
-    assert {"exact", "modal", "newmark", "hht", "central-difference", "rk45", "dop853", "radau", "bdf",
-            "lsoda", "report-rk45"} <= set(METHODS)
+    assert {
+        "exact",
+        "modal",
+        "newmark",
+        "hht",
+        "central-difference",
+        "rk45",
+        "dop853",
+        "radau",
+        "bdf",
+        "lsoda",
+        "report-rk45",
+    } <= set(METHODS)
     for name, info in METHODS.items():
         assert info.id == name and info.description
     assert METHODS["exact"].handles_nonlinear_force
@@ -196,8 +207,17 @@ def test_every_method_accepts_exactly_its_listed_options():
     sys = SecondOrderSystem(np.eye(1), 0.1 * np.eye(1), np.eye(1))
     t = np.linspace(0, 1, 11)
     f = SampledForce(t, np.zeros((11, 1)))
-    values = {"substeps": 2, "n_modes": 1, "dt": 0.05, "alpha": -0.1, "rtol": 1e-6, "atol": 1e-9,
-              "max_step": 0.5, "max_step_fraction": 0.2, "nip": 2}
+    values = {
+        "substeps": 2,
+        "n_modes": 1,
+        "dt": 0.05,
+        "alpha": -0.1,
+        "rtol": 1e-6,
+        "atol": 1e-9,
+        "max_step": 0.5,
+        "max_step_fraction": 0.2,
+        "nip": 2,
+    }
     for name, info in METHODS.items():
         opts = {k: values[k] for k in info.options}
         assert solve(sys, f, t, method=name, x0=[1.0], **opts).x.shape == (11, 1)
@@ -258,7 +278,6 @@ def test_the_report_models_complex_modes_are_too_ill_conditioned_to_step_in():
     assert np.linalg.cond(vectors) > 1e10
 
 
-
 def _textbook_van_loan(system, h):
     """Van Loan's augmented exponential as written (all force columns, no scaling)."""
     from scipy.linalg import expm
@@ -293,7 +312,7 @@ def test_van_loan_over_the_force_dofs_equals_the_textbook_one():
         phi, g0, g1 = _van_loan(system, h, inputs)
         for got, want in ((phi, phi_ref), (g0, g0_ref[:, inputs]), (g1, g1_ref[:, inputs])):
             for rows in (slice(0, n), slice(n, 2 * n)):
-                for cols in ((slice(0, n), slice(n, 2 * n)) if got.shape[1] == 2 * n else (slice(None),)):
+                for cols in (slice(0, n), slice(n, 2 * n)) if got.shape[1] == 2 * n else (slice(None),):
                     block = want[rows, cols]
                     assert np.abs(got[rows, cols] - block).max() <= 1e-13 * np.abs(block).max()
 

@@ -4,13 +4,12 @@ each with the error its theory predicts."""
 import numpy as np
 import pytest
 from scipy.linalg import eigh
+from test_solvers_exact import ring
 
 from dynamics.errors import DynamicsError, SolverDivergedError
+from dynamics.models.system import SampledForce, SecondOrderSystem
 from dynamics.solvers import solve, solve_with_diagnostics
 from dynamics.solvers.central_difference import stability_limit
-from dynamics.models.system import SampledForce, SecondOrderSystem
-
-from test_solvers_exact import ring
 
 CASES = [(2, 1e5, 0.02), (8, 1e8, 0.13), (20, 1e10, 0.05)]
 
@@ -140,7 +139,9 @@ def test_modal_truncation_stalls_in_absolute_coordinates():
 
 
 def test_modal_refuses_non_classical_damping():
-    sys = SecondOrderSystem(np.diag([1.0, 2.0]), np.array([[1.0, 0.0], [0.0, 0.0]]), np.array([[2.0, -1.0], [-1.0, 1.0]]))
+    sys = SecondOrderSystem(
+        np.diag([1.0, 2.0]), np.array([[1.0, 0.0], [0.0, 0.0]]), np.array([[2.0, -1.0], [-1.0, 1.0]])
+    )
     t = np.linspace(0, 1, 5)
     with pytest.raises(DynamicsError, match="classical damping"):
         solve(sys, SampledForce(t, np.zeros((5, 2))), t, method="modal")
@@ -173,15 +174,18 @@ def test_central_difference_reports_its_limit_in_diagnostics():
     assert diag["stability_limit"] == pytest.approx(stability_limit(sys))
 
 
-@pytest.mark.parametrize("method, opts, rel_tol", [
-    ("rk45", {}, 1e-6),  # rtol 1e-8, tolerance-bounded (measured 2e-8)
-    ("dop853", {}, 1e-6),
-    ("radau", {}, 1e-6),
-    ("bdf", {}, 1e-6),  # measured 8e-8
-    ("lsoda", {}, 1e-6),
-    ("report-rk45", {}, 1e-8),  # MaxStep 0.1 h: w h = 0.02 per step (measured 1e-10)
-    ("central-difference", {"dt": 1e-4}, 5e-6),  # second order: measured 1.6e-6, 4.1e-7 at half dt
-])
+@pytest.mark.parametrize(
+    "method, opts, rel_tol",
+    [
+        ("rk45", {}, 1e-6),  # rtol 1e-8, tolerance-bounded (measured 2e-8)
+        ("dop853", {}, 1e-6),
+        ("radau", {}, 1e-6),
+        ("bdf", {}, 1e-6),  # measured 8e-8
+        ("lsoda", {}, 1e-6),
+        ("report-rk45", {}, 1e-8),  # MaxStep 0.1 h: w h = 0.02 per step (measured 1e-10)
+        ("central-difference", {"dt": 1e-4}, 5e-6),  # second order: measured 1.6e-6, 4.1e-7 at half dt
+    ],
+)
 def test_nonlinear_force_methods_agree_on_a_duffing_oscillator(method, opts, rel_tol):
     """Hardening spring g = -4e4 x^3 with damping under a step force. Reference: the exact method's
     second-order splitting at 128 and 64 sub-steps, Richardson-extrapolated (changes by 8e-11 of

@@ -5,9 +5,9 @@ import pytest
 from scipy.linalg import eigh
 
 from dynamics.errors import DynamicsError
+from dynamics.models.system import SampledForce, SecondOrderSystem
 from dynamics.solvers import solve, solve_with_diagnostics
 from dynamics.solvers.report_rk45 import _ode45
-from dynamics.models.system import SampledForce, SecondOrderSystem
 
 
 def driven_ring(n, k, m, zeta):
@@ -79,8 +79,10 @@ def test_tighter_tolerance_reduces_the_error():
     t = np.linspace(0, 0.5, 21)  # long output steps: the tolerance, not MaxStep, limits the step
     f = SampledForce(t, np.outer(np.sin(20 * t), [1e3, 0, 0, 0]))
     ref = solve(sys, f, t, method="exact")
-    errs = [np.max(np.abs(solve(sys, f, t, method="report-rk45", rtol=r, max_step_fraction=1.0).x - ref.x))
-            for r in (1e-3, 1e-6)]
+    errs = [
+        np.max(np.abs(solve(sys, f, t, method="report-rk45", rtol=r, max_step_fraction=1.0).x - ref.x))
+        for r in (1e-3, 1e-6)
+    ]
     assert errs[1] < 1e-2 * errs[0]
 
 

@@ -7,31 +7,31 @@ import numpy as np
 import pytest
 
 from dynamics.cams.program import CamProgram
-from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError, SolverDivergedError
-from dynamics.solvers.simulate import SlackChainWarning, simulate
+from dynamics.models.chain import ChainModel
+from dynamics.response.sweep import cam_cycle_samples, chain_modes, modal_periodic_response
 from dynamics.solvers import solve
+from dynamics.solvers.simulate import SlackChainWarning, simulate
 from verification.stability import (
     central_difference_limit_s,
     central_difference_spectral_radius,
     classify,
     stability_map,
 )
-from dynamics.response.sweep import cam_cycle_samples, chain_modes, modal_periodic_response
 from verification.workprecision import chain_problem, reference_response
 
 
 def run(problem, method, **opts):
-    return solve(problem.system, problem.force, problem.t_eval_s, method=method, x0=problem.x0, v0=problem.v0,
-                 **opts).x
+    return solve(problem.system, problem.force, problem.t_eval_s, method=method, x0=problem.x0, v0=problem.v0, **opts).x
 
 
 def on_step_grid(problem, step):
     """Outputs every `step` s over the problem's span, so the solver's step is exactly `step` (it splits
     each output interval into whole steps, which would otherwise shrink a step just above the limit)."""
     t = np.arange(0.0, problem.t_eval_s[-1], step)
-    return lambda method, **opts: solve(problem.system, problem.force, t, method=method, x0=problem.x0,
-                                        v0=problem.v0, **opts).x
+    return lambda method, **opts: (
+        solve(problem.system, problem.force, t, method=method, x0=problem.x0, v0=problem.v0, **opts).x
+    )
 
 
 @pytest.mark.parametrize("stiffness", [1e6, 9e7, 1e10])

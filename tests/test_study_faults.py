@@ -11,7 +11,6 @@ import time
 
 import pyarrow.parquet as pq
 import pytest
-
 from study_cluster import ROOT, ExternalCluster, study_command, write_study
 
 LEVELS = 4  # 4 web thicknesses x 2 bores (one infeasible) x 2 cams x 2 speeds
@@ -29,8 +28,15 @@ def cluster(tmp_path):
 
 
 def _start_study(cluster, study, out) -> subprocess.Popen:
-    return subprocess.Popen(study_command(study, out, "--scheduler", cluster.address), cwd=ROOT, env=cluster.env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    return subprocess.Popen(
+        study_command(study, out, "--scheduler", cluster.address),
+        cwd=ROOT,
+        env=cluster.env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
 
 
 def _wait(condition, timeout_s: float, what: str) -> None:
@@ -103,8 +109,14 @@ def test_client_killed_then_resumed(cluster, tmp_path):
             proc.wait()
     before = {p.name: p.read_bytes() for p in points.glob("*.json")}
     assert INFEASIBLE < len(before) < POINTS, "the client should die mid-study"
-    result = subprocess.run(study_command(study, out, "--scheduler", cluster.address, "--resume"), cwd=ROOT,
-                            env=cluster.env, capture_output=True, text=True, timeout=600)
+    result = subprocess.run(
+        study_command(study, out, "--scheduler", cluster.address, "--resume"),
+        cwd=ROOT,
+        env=cluster.env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert result.returncode == 0, result.stderr
     _check_complete(out)
     assert {p.name: p.read_bytes() for p in points.glob("*.json") if p.name in before} == before

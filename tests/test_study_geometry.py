@@ -14,13 +14,13 @@ import gmsh
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
+from study_cluster import COARSE, ROOT, ExternalCluster, env, study_command
 
 from geometry import DEFAULT_LINK, write_step
 from geometry.session import gmsh_model
 from geometry.step_io import write_model_step
 from study.cli import main
 from study.spec import StudyError, parse_study
-from study_cluster import COARSE, ROOT, ExternalCluster, env, study_command
 
 VARIANTS = """
 [study]
@@ -62,8 +62,9 @@ def variants(tmp_path_factory):
     write_step(replace(DEFAULT_LINK, web_thickness_m=0.009), folder / "cad" / "thick.step")
     _one_hole_plate(folder / "cad" / "plate.step")
     study = folder / "variants.toml"
-    study.write_text(VARIANTS.format(geometry='["cad/thin.step", "cad/thick.step", "cad/plate.step"]',
-                                     coarse=_coarse()))
+    study.write_text(
+        VARIANTS.format(geometry='["cad/thin.step", "cad/thick.step", "cad/plate.step"]', coarse=_coarse())
+    )
     return study
 
 
@@ -86,7 +87,9 @@ def _rows(out) -> list[dict]:
 def test_variants_two_feasible_sets_and_one_refusal(local_variants):
     rows = _rows(local_variants)
     assert [r["geometry_file"] for r in rows] == ["cad/thin.step", "cad/thick.step", "cad/plate.step"] * 2
-    by_file = {f: [r for r in rows if r["geometry_file"] == f] for f in ("cad/thin.step", "cad/thick.step", "cad/plate.step")}
+    by_file = {
+        f: [r for r in rows if r["geometry_file"] == f] for f in ("cad/thin.step", "cad/thick.step", "cad/plate.step")
+    }
     for name in ("cad/thin.step", "cad/thick.step"):
         assert all(r["status"] == "ok" and r["stiffness_N_per_m"] > 1e7 for r in by_file[name])
         assert len({r["geometry"] for r in by_file[name]}) == 1  # one FEA group per file
@@ -96,7 +99,9 @@ def test_variants_two_feasible_sets_and_one_refusal(local_variants):
     refused = by_file["cad/plate.step"]
     assert all(r["status"] == "infeasible" and not r["feasible"] and np.isnan(r["stiffness_N_per_m"]) for r in refused)
     reason = refused[0]["reason"]
-    assert reason.startswith("geometry: cad/plate.step: no pair of equal parallel full-round bores") and "\n" not in reason
+    assert (
+        reason.startswith("geometry: cad/plate.step: no pair of equal parallel full-round bores") and "\n" not in reason
+    )
     assert "/tmp" not in reason and "study-fea" not in reason  # the study's file, not the worker's copy
     assert "cad/plate.step" in (local_variants / "index.html").read_text()
 
@@ -159,14 +164,25 @@ def step_folder(tmp_path):
     return tmp_path
 
 
-@pytest.mark.parametrize("geometry, table, message", [
-    ('"missing.step"', "fixed", "fixed.geometry: no such file 'missing.step'"),
-    ('"cad"', "fixed", "fixed.geometry: 'cad' is a folder; expected a STEP file"),
-    ('"notes.step"', "fixed", "fixed.geometry: 'notes.step' is not a STEP file"),
-    ('["link.step", "./link.step"]', "variables", "variables.geometry: 'link.step' and './link.step' are the same file"),
-    ('["link.step", "copy.step"]', "variables", "variables.geometry: 'link.step' and 'copy.step' are files with the same contents"),
-    ('["link.step", "missing.step"]', "variables", "variables.geometry[1]: no such file 'missing.step'"),
-])
+@pytest.mark.parametrize(
+    "geometry, table, message",
+    [
+        ('"missing.step"', "fixed", "fixed.geometry: no such file 'missing.step'"),
+        ('"cad"', "fixed", "fixed.geometry: 'cad' is a folder; expected a STEP file"),
+        ('"notes.step"', "fixed", "fixed.geometry: 'notes.step' is not a STEP file"),
+        (
+            '["link.step", "./link.step"]',
+            "variables",
+            "variables.geometry: 'link.step' and './link.step' are the same file",
+        ),
+        (
+            '["link.step", "copy.step"]',
+            "variables",
+            "variables.geometry: 'link.step' and 'copy.step' are files with the same contents",
+        ),
+        ('["link.step", "missing.step"]', "variables", "variables.geometry[1]: no such file 'missing.step'"),
+    ],
+)
 def test_bad_geometry_is_refused_before_anything_is_written(step_folder, capsys, geometry, table, message):
     (step_folder / "copy.step").write_bytes((step_folder / "link.step").read_bytes())
     text = (FIXED if table == "fixed" else VARIANTS).format(geometry=geometry, extra="", coarse=_coarse())
@@ -182,8 +198,14 @@ def test_bad_geometry_is_refused_before_anything_is_written(step_folder, capsys,
 def test_bad_study_file_exits_2_from_the_command_line(step_folder):
     study = step_folder / "bad.toml"
     study.write_text(FIXED.format(geometry='"cad"', extra=""))
-    result = subprocess.run(study_command(study, step_folder / "out"), cwd=ROOT, env=env(step_folder / "cache"),
-                            capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        study_command(study, step_folder / "out"),
+        cwd=ROOT,
+        env=env(step_folder / "cache"),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 2 and result.stderr.count("\n") == 1 and "is a folder" in result.stderr
     assert not (step_folder / "out").exists()
 
@@ -197,15 +219,20 @@ def test_paths_are_relative_to_the_study_file(step_folder, monkeypatch):
     assert spec.fixed["geometry_file"] == "link.step" and spec.parts["link.step"].path == step_folder / "link.step"
 
 
-@pytest.mark.parametrize("extra, message", [
-    ("web_thickness_m = 0.006", "fixed.web_thickness_m: a dimension of the built-in link"),
-    ('bores = "0,0,8"', "--bores '0,0,8'"),
-    ('pitch = "-3"', "--pitch '-3': expected a positive length in mm"),
-    ('hardware_material = "unobtainium"', "fixed.hardware_material: unknown material 'unobtainium'"),
-    ("hardware_from_step = true", "fixed.hardware_from_step: the hardware solids need a material"),
-    ('hardware_material = "al6061-t6"\nhardware_from_step = true\nhardware_mass_kg = 0.5',
-     "fixed.hardware_from_step: the hardware mass comes from the STEP file's solids"),
-])
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ("web_thickness_m = 0.006", "fixed.web_thickness_m: a dimension of the built-in link"),
+        ('bores = "0,0,8"', "--bores '0,0,8'"),
+        ('pitch = "-3"', "--pitch '-3': expected a positive length in mm"),
+        ('hardware_material = "unobtainium"', "fixed.hardware_material: unknown material 'unobtainium'"),
+        ("hardware_from_step = true", "fixed.hardware_from_step: the hardware solids need a material"),
+        (
+            'hardware_material = "al6061-t6"\nhardware_from_step = true\nhardware_mass_kg = 0.5',
+            "fixed.hardware_from_step: the hardware mass comes from the STEP file's solids",
+        ),
+    ],
+)
 def test_part_options_are_checked_as_on_the_command_line(step_folder, extra, message):
     data = tomllib.loads(FIXED.format(geometry='"link.step"', extra=extra))
     with pytest.raises(StudyError, match=re.escape(message)):
@@ -232,11 +259,13 @@ def test_part_options_go_into_the_fea_identity(step_folder):
 
 # --- the machine: the idler tensioner as study variables -----------------------------------------
 
+
 def test_tensioner_variables_reach_the_run_config():
     from study.sampling import design_points
     from study.tasks import base_config, point_config
 
-    spec = parse_study(tomllib.loads("""
+    spec = parse_study(
+        tomllib.loads("""
 [variables]
 tensioner_rate_N_per_m = [2.0e5, 8.0e5]
 [fixed]
@@ -244,7 +273,8 @@ tensioner_mass_kg = 4.0
 tensioner_damping_N_s_per_m = 150.0
 cam = "modified-sine"
 material = "al6061-t6"
-"""))
+""")
+    )
     points = design_points(spec, base_config(spec.settings))
     assert [p.inputs["tensioner_rate_N_per_m"] for p in points] == [2.0e5, 8.0e5]
     cfg = point_config(spec.settings, points[1].inputs)
@@ -260,13 +290,20 @@ def test_builtin_study_without_a_tensioner_has_no_tensioner_columns():
     assert not any(k.startswith("tensioner_") for k in point.inputs)
 
 
-@pytest.mark.parametrize("text, message", [
-    ("[variables]\ntensioner_rate_N_per_m = {min = 1e5, max = 2e5}",
-     "variables.tensioner_rate_N_per_m: the tensioner needs its carriage mass"),
-    ("[fixed]\ntensioner_mass_kg = 0.0", r"fixed.tensioner_mass_kg: expected a value > 0, got 0.0"),
-    ("[fixed]\ntensioner_mass_kg = 2.0\ntensioner_damping_N_s_per_m = -1.0",
-     r"fixed.tensioner_damping_N_s_per_m: expected a value >= 0, got -1.0"),
-])
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (
+            "[variables]\ntensioner_rate_N_per_m = {min = 1e5, max = 2e5}",
+            "variables.tensioner_rate_N_per_m: the tensioner needs its carriage mass",
+        ),
+        ("[fixed]\ntensioner_mass_kg = 0.0", r"fixed.tensioner_mass_kg: expected a value > 0, got 0.0"),
+        (
+            "[fixed]\ntensioner_mass_kg = 2.0\ntensioner_damping_N_s_per_m = -1.0",
+            r"fixed.tensioner_damping_N_s_per_m: expected a value >= 0, got -1.0",
+        ),
+    ],
+)
 def test_tensioner_checks(text, message):
     with pytest.raises(StudyError, match=message):
         parse_study(tomllib.loads(text))

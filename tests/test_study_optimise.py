@@ -7,10 +7,10 @@ import csv
 import subprocess
 
 import pytest
+from study_cluster import COARSE, ROOT, env, study_command
 
 from study.optimise import INFEASIBLE_OFFSET, penalised
 from study.spec import parse_study
-from study_cluster import COARSE, ROOT, env, study_command
 
 STUDY_TEMPLATE = """
 [study]
@@ -56,8 +56,14 @@ def test_optimiser_finds_the_thin_web(tmp_path):
     study = tmp_path / "opt.toml"
     study.write_text(STUDY)
     out = tmp_path / "out"
-    result = subprocess.run(study_command(study, out, "--workers", "2", "--optimise"), cwd=ROOT,
-                            env=env(tmp_path / "cache"), capture_output=True, text=True, timeout=900)
+    result = subprocess.run(
+        study_command(study, out, "--workers", "2", "--optimise"),
+        cwd=ROOT,
+        env=env(tmp_path / "cache"),
+        capture_output=True,
+        text=True,
+        timeout=900,
+    )
     assert result.returncode == 0, result.stderr
     history = list(csv.DictReader((out / "optimisation_history.csv").open()))
     best = [float(h["best_objective"]) for h in history]

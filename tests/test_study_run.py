@@ -10,7 +10,6 @@ import subprocess
 import numpy as np
 import pyarrow.parquet as pq
 import pytest
-
 from study_cluster import ROOT, ExternalCluster, env, study_command, write_study
 
 POINTS = 2 * 2 * 2 * 2  # web levels x bores x cams x speeds
@@ -40,10 +39,13 @@ def _dominates(a, b) -> bool:
 
 def _same_rows(a: list[dict], b: list[dict]) -> bool:
     """Equal value for value (NaN equal to NaN: a point not computed is NaN in both)."""
+
     def same(x, y):
         return x == y or (isinstance(x, float) and isinstance(y, float) and np.isnan(x) and np.isnan(y))
-    return len(a) == len(b) and all(ra.keys() == rb.keys() and all(same(ra[k], rb[k]) for k in ra)
-                                    for ra, rb in zip(a, b))
+
+    return len(a) == len(b) and all(
+        ra.keys() == rb.keys() and all(same(ra[k], rb[k]) for k in ra) for ra, rb in zip(a, b)
+    )
 
 
 def test_every_point_once_with_inputs_and_metrics(local_run):

@@ -18,8 +18,8 @@ from study.spec import parse_study
 # Analysis: The Primer, section 4.5): V = a^2/8 + b pi^4/5 + b^2 pi^8/18 + 1/2,
 # S1 = (1/2)(1 + b pi^4/5)^2 / V, S2 = (a^2/8) / V, S3 = 0.
 A, B = 7.0, 0.1
-V = A ** 2 / 8 + B * math.pi ** 4 / 5 + B ** 2 * math.pi ** 8 / 18 + 0.5
-ISHIGAMI = {"x1": 0.5 * (1 + B * math.pi ** 4 / 5) ** 2 / V, "x2": A ** 2 / 8 / V, "x3": 0.0}
+V = A**2 / 8 + B * math.pi**4 / 5 + B**2 * math.pi**8 / 18 + 0.5
+ISHIGAMI = {"x1": 0.5 * (1 + B * math.pi**4 / 5) ** 2 / V, "x2": A**2 / 8 / V, "x3": 0.0}
 
 
 def ishigami(x: np.ndarray) -> np.ndarray:
@@ -75,8 +75,9 @@ def test_additive_model_with_a_list_variable():
 
 def test_constant_metric_has_zero_indices():
     X = _sample("lhs", 64, 0)
-    assert all(i.first_order == 0 for i in first_order_indices(X, ["x1", "x2", "x3"], np.ones((64, 2)),
-                                                               {"c": [1, 2]}, 0))
+    assert all(
+        i.first_order == 0 for i in first_order_indices(X, ["x1", "x2", "x3"], np.ones((64, 2)), {"c": [1, 2]}, 0)
+    )
 
 
 STUDY = """
@@ -177,8 +178,14 @@ def real_studies(tmp_path_factory):
         coarse = COARSE.replace("[fixed]\n", '[fixed]\ncam = "modified-sine"\n').replace('method = "grid"', "")
         study.write_text(REAL_STUDY.format(coarse=coarse, seed=seed))
         out = folder / f"out{seed}"
-        result = subprocess.run(study_command(study, out, "--workers", "2"), cwd=ROOT, env=env(folder / "cache"),
-                                capture_output=True, text=True, timeout=900)
+        result = subprocess.run(
+            study_command(study, out, "--workers", "2"),
+            cwd=ROOT,
+            env=env(folder / "cache"),
+            capture_output=True,
+            text=True,
+            timeout=900,
+        )
         assert result.returncode == 0, result.stderr
         outs.append(out)
     return outs
@@ -187,8 +194,9 @@ def real_studies(tmp_path_factory):
 def test_real_study_ranking_is_stable_across_seeds(real_studies):
     import json
 
-    found = [{m["metric"]: m for m in json.loads((out / "sensitivity.json").read_text())["metrics"]}
-             for out in real_studies]
+    found = [
+        {m["metric"]: m for m in json.loads((out / "sensitivity.json").read_text())["metrics"]} for out in real_studies
+    ]
     for metric in ("residual_vibration_m", "peak_tension_N"):
         first, second = found[0][metric], found[1][metric]
         assert first["samples"] == second["samples"] == 64 and first["dropped"] == 0

@@ -8,29 +8,34 @@ import sys
 
 import numpy as np
 import pytest
+from study_cluster import ROOT, small_study
 
 from study.cli import main
 from study.pareto import pareto_mask
 from study.sampling import design_points
 from study.spec import StudyError, parse_study
 from study.tasks import base_config
-from study_cluster import ROOT, small_study
 
 GOOD = small_study()
 
 BAD = {
     "unknown variable": (GOOD.replace("rpm = [150.0, 180.0]", "wing_span_m = [1.0, 2.0]"), "variables.wing_span_m"),
-    "empty range": (GOOD.replace("min = 0.004, max = 0.009", "min = 0.009, max = 0.004"),
-                    "variables.web_thickness_m: empty range"),
+    "empty range": (
+        GOOD.replace("min = 0.004, max = 0.009", "min = 0.009, max = 0.004"),
+        "variables.web_thickness_m: empty range",
+    ),
     "empty list": (GOOD.replace("rpm = [150.0, 180.0]", "rpm = []"), "variables.rpm: empty list"),
     "bad sampling": (GOOD.replace('method = "grid"', 'method = "random"'), "sampling.method"),
-    "sobol not a power of 2": (GOOD.replace('method = "grid"\nlevels = 2', 'method = "sobol"\npoints = 6'),
-                               "sampling.points"),
-    "unknown material": (GOOD.replace('material = "al6061-t6"', 'material = "unobtainium"'),
-                         "fixed.material: unknown material 'unobtainium'"),
+    "sobol not a power of 2": (
+        GOOD.replace('method = "grid"\nlevels = 2', 'method = "sobol"\npoints = 6'),
+        "sampling.points",
+    ),
+    "unknown material": (
+        GOOD.replace('material = "al6061-t6"', 'material = "unobtainium"'),
+        "fixed.material: unknown material 'unobtainium'",
+    ),
     "unknown cam": (GOOD.replace('"poly-345"', '"square-wave"'), "variables.cam[1]: unknown cam law 'square-wave'"),
-    "unknown metric": (GOOD.replace('metric = "yield_safety_factor"', 'metric = "happiness"'),
-                       "constraints[0].metric"),
+    "unknown metric": (GOOD.replace('metric = "yield_safety_factor"', 'metric = "happiness"'), "constraints[0].metric"),
     "negative speed": (GOOD.replace("rpm = [150.0, 180.0]", "rpm = [-150.0]"), "variables.rpm[0]"),
     "not TOML": ("[variables\n", "not a valid TOML file"),
 }
@@ -52,8 +57,13 @@ def test_bad_study_file(case, tmp_path, capsys):
 def test_bad_file_through_the_command_line(tmp_path):
     study = tmp_path / "bad.toml"
     study.write_text(BAD["unknown variable"][0])
-    result = subprocess.run([sys.executable, "-m", "study", str(study), "--out", str(tmp_path / "out")], cwd=ROOT,
-                            capture_output=True, text=True, timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-m", "study", str(study), "--out", str(tmp_path / "out")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and "variables.wing_span_m: unknown variable" in result.stderr
     assert not (tmp_path / "out").exists()
@@ -112,8 +122,12 @@ def test_web_thicker_than_body_is_infeasible():
 
 def _brute_force(costs: np.ndarray) -> np.ndarray:
     n = len(costs)
-    return np.array([not any(np.all(costs[j] <= costs[i]) and np.any(costs[j] < costs[i])
-                             for j in range(n) if j != i) for i in range(n)])
+    return np.array(
+        [
+            not any(np.all(costs[j] <= costs[i]) and np.any(costs[j] < costs[i]) for j in range(n) if j != i)
+            for i in range(n)
+        ]
+    )
 
 
 @pytest.mark.parametrize("seed", range(5))

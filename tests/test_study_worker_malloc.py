@@ -36,8 +36,9 @@ print(libc.mallinfo2().hblks - before)
 
 def _mapped_blocks_for_an_8_MiB_array(fix: bool) -> int:
     env = {**os.environ, "PYTHONPATH": str(ROOT), "MALLOC_TRIM_THRESHOLD_": "65536"}
-    out = subprocess.run([sys.executable, "-c", MAPPED_BLOCKS.format(fix=fix)], env=env, capture_output=True,
-                         text=True, check=True)
+    out = subprocess.run(
+        [sys.executable, "-c", MAPPED_BLOCKS.format(fix=fix)], env=env, capture_output=True, text=True, check=True
+    )
     return int(out.stdout.split()[-1])
 
 

@@ -7,10 +7,9 @@ import pytest
 from scipy.linalg import eigh
 
 from dynamics.cams.program import CamProgram
-from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
+from dynamics.models.chain import ChainModel
 from dynamics.response.metrics import station_links
-from dynamics.solvers.simulate import SlackChainWarning, simulate
 from dynamics.response.sweep import (
     cam_cycle_samples,
     chain_modes,
@@ -20,6 +19,7 @@ from dynamics.response.sweep import (
     rpm_sweep,
     stiffness_matrix_sparse,
 )
+from dynamics.solvers.simulate import SlackChainWarning, simulate
 from reporting.plots import plot_rpm_sweep
 
 LAWS = ("modified-sine", "cycloidal")

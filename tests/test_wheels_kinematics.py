@@ -73,8 +73,9 @@ def test_the_feed_departure_vanishes_as_z_grows():
         wheel = Wheel(z, P, 1)
         a = np.linspace(0.0, wheel.tooth_angle_rad, 20001)
         dep = np.max(np.abs(wheel.strand_end_m(a) - wheel.feed_radius_m * a))
-        np.testing.assert_allclose(wheel.feed_departure_m(a), wheel.strand_end_m(a) - wheel.feed_radius_m * a,
-                                   atol=1e-15)
+        np.testing.assert_allclose(
+            wheel.feed_departure_m(a), wheel.strand_end_m(a) - wheel.feed_radius_m * a, atol=1e-15
+        )
         scaled.append(dep * z**2 / P)
     limit = np.pi**2 / (18 * np.sqrt(3))
     assert abs(scaled[-1] - limit) < 0.25 * abs(scaled[0] - limit) + 1e-12  # O(z^-2) approach
@@ -93,12 +94,15 @@ def test_steel_disc_inertia():
     assert steel_disc_inertia_kg_m2(0.2, 0.025) == pytest.approx(0.5 * 7850 * np.pi * 0.2**2 * 0.025 * 0.2**2)
 
 
-@pytest.mark.parametrize("kwargs, match", [
-    (dict(teeth=2, pitch_m=P, wrap_links=1), "teeth"),
-    (dict(teeth=12, pitch_m=-1.0, wrap_links=1), "pitch_m"),
-    (dict(teeth=12, pitch_m=P, wrap_links=12), "wrap_links"),
-    (dict(teeth=12, pitch_m=P, wrap_links=6, tooth_phase=1.0), "tooth_phase"),
-])
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(teeth=2, pitch_m=P, wrap_links=1), "teeth"),
+        (dict(teeth=12, pitch_m=-1.0, wrap_links=1), "pitch_m"),
+        (dict(teeth=12, pitch_m=P, wrap_links=12), "wrap_links"),
+        (dict(teeth=12, pitch_m=P, wrap_links=6, tooth_phase=1.0), "tooth_phase"),
+    ],
+)
 def test_bad_wheels_are_refused(kwargs, match):
     with pytest.raises(DynamicsError, match=match):
         Wheel(**kwargs)

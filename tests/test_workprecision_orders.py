@@ -35,8 +35,7 @@ def errors(problem, ref, method, name, values):
 def test_reference_agrees_with_modal_superposition(problem, ref):
     # two exact formulations of the same discretised problem (matrix exponential vs eigenmodes):
     # rounding only, ~1e-14 relative measured
-    x_modal = solve(problem.system, problem.force, problem.t_eval_s, method="modal", x0=problem.x0,
-                    v0=problem.v0).x
+    x_modal = solve(problem.system, problem.force, problem.t_eval_s, method="modal", x0=problem.x0, v0=problem.v0).x
     assert np.max(np.abs(x_modal - ref)) <= 1e-11 * np.max(np.abs(ref))
 
 

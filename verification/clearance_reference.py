@@ -112,8 +112,12 @@ class HeldCam:
         i = np.clip(np.searchsorted(self.t_s, t, side="right") - 1, 0, len(self._piece_list) - 1)
         t0, s0, v0, a0, j = (self._pieces[i, c] for c in range(5))
         tau = t - t0
-        return (s0 + v0 * tau + a0 * tau**2 / 2 + j * tau**3 / 6, v0 + a0 * tau + j * tau**2 / 2, a0 + j * tau,
-                j + 0.0 * tau)
+        return (
+            s0 + v0 * tau + a0 * tau**2 / 2 + j * tau**3 / 6,
+            v0 + a0 * tau + j * tau**2 / 2,
+            a0 + j * tau,
+            j + 0.0 * tau,
+        )
 
     def z_and_zdot(self, t: float) -> tuple[float, float]:
         """Displacement and velocity at one time, without numpy overhead (for per-step callbacks)."""
@@ -154,8 +158,9 @@ class ReferenceResponse:
     def energy_balance_residual_J(self) -> np.ndarray:
         """cam work - (dissipated + change of stored energy): zero to the integration tolerance with
         cam_input "held" or "exact"; with "sampled", up to the sampled input's inconsistency."""
-        return self.cam_work_J - (self.damper_dissipation_J + self.friction_dissipation_J
-                                  + self.stored_energy_J - self.stored_energy_J[0])
+        return self.cam_work_J - (
+            self.damper_dissipation_J + self.friction_dissipation_J + self.stored_energy_J - self.stored_energy_J[0]
+        )
 
 
 def idler_span_index(n_links: int) -> int:
@@ -205,9 +210,20 @@ def reference_response(
     atol: on displacements in metres (default rtol x ATOL_LENGTH_SCALE_M, 10 um); velocities get
     atol times the chain's highest frequency bound. max_events: contact changes allowed before the
     run stops with a one-line error (chatter; `MAX_EVENTS` by default)."""
-    model = _Model.build(n_links, link_mass_kg, stiffness_N_per_m, drive_stiffness_N_per_m, preload_N, clearance_m,
-                         damping_matrix, span_damping_beta_s, friction_force_N, friction_velocity_scale_m_s,
-                         tensioner, idler_span)
+    model = _Model.build(
+        n_links,
+        link_mass_kg,
+        stiffness_N_per_m,
+        drive_stiffness_N_per_m,
+        preload_N,
+        clearance_m,
+        damping_matrix,
+        span_damping_beta_s,
+        friction_force_N,
+        friction_velocity_scale_m_s,
+        tensioner,
+        idler_span,
+    )
     t = np.asarray(t_eval_s, dtype=float)
     if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0.0):
         raise DynamicsError("t_eval_s: expected at least two strictly increasing finite times")
@@ -282,8 +298,23 @@ class _Model:
         idler = idler_span_index(n) if idler is None else int(idler)
         if not 0 <= idler < n:
             raise DynamicsError(f"idler_span: expected a span index in 0..{n - 1}, got {idler!r}")
-        return _Model(n, mass, k, float(kd), float(preload), gap, damping, float(beta), coulomb, float(v_scale),
-                      tensioner is not None, k_t, m_t, c_t, idler)
+        return _Model(
+            n,
+            mass,
+            k,
+            float(kd),
+            float(preload),
+            gap,
+            damping,
+            float(beta),
+            coulomb,
+            float(v_scale),
+            tensioner is not None,
+            k_t,
+            m_t,
+            c_t,
+            idler,
+        )
 
     @property
     def pull_edge(self) -> np.ndarray:
@@ -352,7 +383,7 @@ class _Integrator:
         self.method, self.rtol, self.max_step, self.max_events = method, rtol, max_step, max_events
         n = model.n
         self.nxt = np.r_[1:n, 0]
-        self.prv = np.r_[n - 1, 0:n - 1]
+        self.prv = np.r_[n - 1, 0 : n - 1]
         self.pull = model.pull_edge
         self.push = self.pull - model.gap
         self.switch_idx = np.flatnonzero(model.switchable)
@@ -383,7 +414,7 @@ class _Integrator:
 
     def stretch(self, s: np.ndarray):
         n = self.model.n
-        y, yd = s[:n], s[n:2 * n]
+        y, yd = s[:n], s[n : 2 * n]
         e = y[self.nxt] - y
         ed = yd[self.nxt] - yd
         if self.model.has_tensioner:
@@ -394,8 +425,11 @@ class _Integrator:
     def set_modes(self, modes: np.ndarray) -> None:
         m = self.model
         self.modes = modes
-        self.t_offset = np.where(modes == PULLING, m.preload, np.where(modes == PUSHING, m.preload + m.k * np.where(
-            np.isfinite(m.gap), m.gap, 0.0), 0.0))
+        self.t_offset = np.where(
+            modes == PULLING,
+            m.preload,
+            np.where(modes == PUSHING, m.preload + m.k * np.where(np.isfinite(m.gap), m.gap, 0.0), 0.0),
+        )
         self.t_slope = np.where(modes == FREE, 0.0, m.k)
         sw = self.switch_idx
         self.lower = np.where(modes[sw] == PULLING, self.pull[sw], np.where(modes[sw] == FREE, self.push[sw], -np.inf))
@@ -413,7 +447,7 @@ class _Integrator:
         n = m.n
         self.nfev += 1
         zd, zdd = self.cam_rates(t)
-        y, yd = s[:n], s[n:2 * n]
+        y, yd = s[:n], s[n : 2 * n]
         e, ed = self.stretch(s)
         tension = self.t_offset + self.t_slope * e
         dissipation = 0.0
@@ -447,7 +481,7 @@ class _Integrator:
     def rhs(self, t: float, s: np.ndarray) -> np.ndarray:
         n = self.model.n
         _, _, ydd, udd, rates = self.forces(t, s)
-        parts = [s[n:2 * n], ydd]
+        parts = [s[n : 2 * n], ydd]
         if udd is not None:
             parts.append([s[2 * n + 1], udd])
         parts.append(rates)
@@ -466,7 +500,7 @@ class _Integrator:
         m = self.model
         n = m.n
         e, _ = self.stretch(s)
-        v_abs = zd + s[n:2 * n]
+        v_abs = zd + s[n : 2 * n]
         energy = 0.5 * float(m.mass @ v_abs**2) + float(m.span_energy_J(e).sum()) + 0.5 * m.kd * s[0] ** 2
         if m.has_tensioner:
             u, ud = s[2 * n], s[2 * n + 1]
@@ -502,6 +536,7 @@ class _Integrator:
         n = m.n
         e0, ed0 = self.stretch(state)
         self.set_modes(self.classify(e0, ed0))
+
         def edge(t_s: float, s: np.ndarray) -> float:
             return self.distance_to_edge(t_s, s)
 
@@ -532,8 +567,17 @@ class _Integrator:
                 if t_end - t_now <= 4 * _EPS * max(abs(t_end), 1.0):
                     break
                 first = None if step is None else min(step, t_end - t_now)
-                sol = solve_ivp(self.rhs, (t_now, t_end), state, method=self.method, rtol=self.rtol, atol=self.atol,
-                                max_step=self.max_step, events=events, first_step=first)
+                sol = solve_ivp(
+                    self.rhs,
+                    (t_now, t_end),
+                    state,
+                    method=self.method,
+                    rtol=self.rtol,
+                    atol=self.atol,
+                    max_step=self.max_step,
+                    events=events,
+                    first_step=first,
+                )
                 if sol.status < 0:
                     raise SolverFailedError(f"clearance reference ({self.method}): {sol.message} at t = {t_now:.9g} s")
                 if sol.t.size >= 3:
@@ -547,13 +591,14 @@ class _Integrator:
                             f"clearance reference: more than {self.max_events} contact changes (max_events) by "
                             f"t = {t_now:.9g} s, each one a restart of solve_ivp (contacts chattering?): raise "
                             "max_events, or use the fast integrator dynamics.solvers.clearance_verlet, whose cost "
-                            "does not grow with contact changes")
+                            "does not grow with contact changes"
+                        )
                     continue
                 state = sol.y[:, -1]
                 break
             record(i + 1, state)
 
-        y, yd = out[:, :n], out[:, n:2 * n]
+        y, yd = out[:, :n], out[:, n : 2 * n]
         stored = np.array([self.stored_energy(out[i], zd_out[i]) for i in range(t.size)])
         return ReferenceResponse(
             t_s=t,

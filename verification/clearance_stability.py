@@ -43,12 +43,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from dynamics.cams import CamProgram
+from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedError
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain
-from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedError
+from dynamics.models.system import SampledForce
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import solve
-from dynamics.models.system import SampledForce
 
 OUTCOMES = ("accurate", "inaccurate", "diverged", "failed")
 STEP_FACTORS = (0.5, 0.9, 0.99, 1.01, 1.1, 1.5, 2.0)
@@ -79,14 +79,22 @@ def _final(model: ClearanceChain, h: float, duration: float, predictor: str = "e
     return run.y[-1]
 
 
-def step_case(stiffness_N_per_m: float, clearance_m: float, factor: float, *, n_links: int = 10,
-              accuracy: float = 1e-2, n_limit_steps: int = 4000,
-              predictor: str = verlet.DEFAULT_PREDICTOR) -> StepCase:
+def step_case(
+    stiffness_N_per_m: float,
+    clearance_m: float,
+    factor: float,
+    *,
+    n_links: int = 10,
+    accuracy: float = 1e-2,
+    n_limit_steps: int = 4000,
+    predictor: str = verlet.DEFAULT_PREDICTOR,
+) -> StepCase:
     """One case of the map: n_limit_steps steps at the limit's length (about one index cycle at 1e8 N/m),
     with the given velocity predictor (the limit is that predictor's own); the reference is the same
     predictor at h_max / 64."""
-    chain = ChainModel(n_links=n_links, link_mass_kg=2.0, stiffness_N_per_m=stiffness_N_per_m,
-                       friction_coefficient=0.35)
+    chain = ChainModel(
+        n_links=n_links, link_mass_kg=2.0, stiffness_N_per_m=stiffness_N_per_m, friction_coefficient=0.35
+    )
     model = ClearanceChain(chain, clearance_m)
     h_max = verlet.stable_step_s(model, safety=1.0, predictor=predictor)
     # the same window for every predictor (the euler limit's steps): the final state's sensitivity
@@ -98,12 +106,17 @@ def step_case(stiffness_N_per_m: float, clearance_m: float, factor: float, *, n_
     except SolverDivergedError:
         return StepCase(stiffness_N_per_m, clearance_m, factor, factor * h_max, "diverged", np.nan)
     rel = float(np.max(np.abs(y - ref)) / np.max(np.abs(ref)))
-    return StepCase(stiffness_N_per_m, clearance_m, factor, factor * h_max,
-                    "accurate" if rel <= accuracy else "inaccurate", rel)
+    return StepCase(
+        stiffness_N_per_m, clearance_m, factor, factor * h_max, "accurate" if rel <= accuracy else "inaccurate", rel
+    )
 
 
-def step_map(stiffnesses=STIFFNESSES_N_PER_M, clearances=CLEARANCES_M, factors=STEP_FACTORS,
-             predictor: str = verlet.DEFAULT_PREDICTOR) -> list[StepCase]:
+def step_map(
+    stiffnesses=STIFFNESSES_N_PER_M,
+    clearances=CLEARANCES_M,
+    factors=STEP_FACTORS,
+    predictor: str = verlet.DEFAULT_PREDICTOR,
+) -> list[StepCase]:
     """The map for one velocity predictor: by default the default run's (the global law's default)."""
     return [step_case(k, g, f, predictor=predictor) for k in stiffnesses for g in clearances for f in factors]
 
@@ -130,10 +143,19 @@ def work_precision(n_links: int = 20, substeps=(4, 8, 16, 32, 64), rtols=(1e-6, 
 
     def reference(rtol):
         return reference_response(
-            n_links=n_links, link_mass_kg=c.link_mass_kg, stiffness_N_per_m=c.stiffness_N_per_m,
-            drive_stiffness_N_per_m=c.drive_stiffness, preload_N=c.preload_N, clearance_m=model.clearance_m,
-            cam=cam, t_eval_s=t, damping_matrix=model.damping_matrix, friction_force_N=c.coulomb_force_N,
-            friction_velocity_scale_m_s=c.friction_velocity_scale_m_s, rtol=rtol)
+            n_links=n_links,
+            link_mass_kg=c.link_mass_kg,
+            stiffness_N_per_m=c.stiffness_N_per_m,
+            drive_stiffness_N_per_m=c.drive_stiffness,
+            preload_N=c.preload_N,
+            clearance_m=model.clearance_m,
+            cam=cam,
+            t_eval_s=t,
+            damping_matrix=model.damping_matrix,
+            friction_force_N=c.coulomb_force_N,
+            friction_velocity_scale_m_s=c.friction_velocity_scale_m_s,
+            rtol=rtol,
+        )
 
     ref = reference(1e-10)
     sx, sa = np.max(np.abs(ref.y_m)), np.max(np.abs(ref.yddot_m_s2))
@@ -143,17 +165,30 @@ def work_precision(n_links: int = 20, substeps=(4, 8, 16, 32, 64), rtols=(1e-6, 
         zd, zdd = np.interp(tf, t, v), np.interp(tf, t, a)
         verlet.integrate(model, zd, zdd, tf[1] - tf[0], np.zeros(n_links), -v[0] * np.ones(n_links), out_every=sub)
         start = time.perf_counter()
-        run = verlet.integrate(model, zd, zdd, tf[1] - tf[0], np.zeros(n_links), -v[0] * np.ones(n_links),
-                               out_every=sub)
+        run = verlet.integrate(
+            model, zd, zdd, tf[1] - tf[0], np.zeros(n_links), -v[0] * np.ones(n_links), out_every=sub
+        )
         wall = time.perf_counter() - start
-        points.append(WorkPoint(f"fast, {sub} steps/sample", wall, float(np.max(np.abs(run.y - ref.y_m)) / sx),
-                                float(np.max(np.abs(run.a - ref.yddot_m_s2)) / sa)))
+        points.append(
+            WorkPoint(
+                f"fast, {sub} steps/sample",
+                wall,
+                float(np.max(np.abs(run.y - ref.y_m)) / sx),
+                float(np.max(np.abs(run.a - ref.yddot_m_s2)) / sa),
+            )
+        )
     for rtol in rtols:
         start = time.perf_counter()
         loose = reference(rtol)
         wall = time.perf_counter() - start
-        points.append(WorkPoint(f"reference, rtol {rtol:g}", wall, float(np.max(np.abs(loose.y_m - ref.y_m)) / sx),
-                                float(np.max(np.abs(loose.yddot_m_s2 - ref.yddot_m_s2)) / sa)))
+        points.append(
+            WorkPoint(
+                f"reference, rtol {rtol:g}",
+                wall,
+                float(np.max(np.abs(loose.y_m - ref.y_m)) / sx),
+                float(np.max(np.abs(loose.yddot_m_s2 - ref.yddot_m_s2)) / sa),
+            )
+        )
     return points
 
 
@@ -181,8 +216,15 @@ class SmallCase:
         sub = max(int(np.ceil((self.t[1] - self.t[0]) / step_s)), 1)
         tf = np.linspace(self.t[0], self.t[-1], sub * (self.t.size - 1) + 1)
         n = self.model.n_links
-        return verlet.integrate(self.model, np.interp(tf, self.t, self.v), np.interp(tf, self.t, self.a),
-                                tf[1] - tf[0], np.zeros(n), -self.v[0] * np.ones(n), out_every=sub)
+        return verlet.integrate(
+            self.model,
+            np.interp(tf, self.t, self.v),
+            np.interp(tf, self.t, self.a),
+            tf[1] - tf[0],
+            np.zeros(n),
+            -self.v[0] * np.ones(n),
+            out_every=sub,
+        )
 
     def reference(self, rtol: float, max_events: int | None = None, atol: float | None = None):
         from verification.clearance_reference import MAX_EVENTS, reference_response
@@ -190,25 +232,47 @@ class SmallCase:
         c = self.model.chain
         kelvin_voigt = self.model.span_damping == "kelvin-voigt"
         return reference_response(
-            n_links=c.n_links, link_mass_kg=c.link_mass_kg, stiffness_N_per_m=c.stiffness_N_per_m,
-            drive_stiffness_N_per_m=c.drive_stiffness, preload_N=c.preload_N, clearance_m=self.model.clearance_m,
-            cam=_cam(), t_eval_s=self.t, damping_matrix=None if kelvin_voigt else self.model.damping_matrix,
+            n_links=c.n_links,
+            link_mass_kg=c.link_mass_kg,
+            stiffness_N_per_m=c.stiffness_N_per_m,
+            drive_stiffness_N_per_m=c.drive_stiffness,
+            preload_N=c.preload_N,
+            clearance_m=self.model.clearance_m,
+            cam=_cam(),
+            t_eval_s=self.t,
+            damping_matrix=None if kelvin_voigt else self.model.damping_matrix,
             span_damping_beta_s=self.model.beta_s if kelvin_voigt else 0.0,
-            friction_force_N=c.coulomb_force_N, friction_velocity_scale_m_s=c.friction_velocity_scale_m_s,
-            rtol=rtol, atol=atol, max_events=MAX_EVENTS if max_events is None else max_events)
+            friction_force_N=c.coulomb_force_N,
+            friction_velocity_scale_m_s=c.friction_velocity_scale_m_s,
+            rtol=rtol,
+            atol=atol,
+            max_events=MAX_EVENTS if max_events is None else max_events,
+        )
 
     def common(self, method: str, **options):
         """ClearanceChain.system() by dynamics.solvers.solve (friction must be 0: see the module doc)."""
         c, n = self.model.chain, self.model.n_links
         force = SampledForce(self.t, c.base_excitation_force(self.a))
-        return solve(self.model.system(), force, self.t, method=method, x0=np.zeros(n),
-                     v0=-self.v[0] * np.ones(n), **options)
+        return solve(
+            self.model.system(), force, self.t, method=method, x0=np.zeros(n), v0=-self.v[0] * np.ones(n), **options
+        )
 
 
-def small_case(stiffness_N_per_m: float, clearance_m: float, *, n_links: int = 10, degrees: float = EVENT_DEGREES,
-               friction_coefficient: float = 0.35, span_damping: str = "global") -> SmallCase:
-    chain = ChainModel(n_links=n_links, link_mass_kg=2.0, stiffness_N_per_m=stiffness_N_per_m,
-                       friction_coefficient=friction_coefficient)
+def small_case(
+    stiffness_N_per_m: float,
+    clearance_m: float,
+    *,
+    n_links: int = 10,
+    degrees: float = EVENT_DEGREES,
+    friction_coefficient: float = 0.35,
+    span_damping: str = "global",
+) -> SmallCase:
+    chain = ChainModel(
+        n_links=n_links,
+        link_mass_kg=2.0,
+        stiffness_N_per_m=stiffness_N_per_m,
+        friction_coefficient=friction_coefficient,
+    )
     t = np.arange(int(round(4 * degrees)) + 1) / 4 / (6 * 180.0)
     _, v, a, _ = _cam().svaj(t)
     return SmallCase(ClearanceChain(chain, clearance_m, span_damping=span_damping), t, v, a)
@@ -231,25 +295,43 @@ def _relative(y, ref) -> float:
     return float(np.max(np.abs(y - ref)) / np.max(np.abs(ref)))
 
 
-def event_case(stiffness_N_per_m: float, clearance_m: float, *, max_events: int = EVENT_BUDGET,
-               rtol: float = 1e-8, accuracy: float = 1e-3, degrees: float = EVENT_DEGREES,
-               span_damping: str = "global") -> EventCase:
+def event_case(
+    stiffness_N_per_m: float,
+    clearance_m: float,
+    *,
+    max_events: int = EVENT_BUDGET,
+    rtol: float = 1e-8,
+    accuracy: float = 1e-3,
+    degrees: float = EVENT_DEGREES,
+    span_damping: str = "global",
+) -> EventCase:
     case = small_case(stiffness_N_per_m, clearance_m, degrees=degrees, span_damping=span_damping)
     converged = case.fast(verlet.stable_step_s(case.model, safety=1.0) / 32).y
     start = time.perf_counter()
     try:
         ref = case.reference(rtol, max_events)
     except (SolverFailedError, DynamicsError) as e:
-        return EventCase(stiffness_N_per_m, clearance_m, rtol, "failed", max_events, 0, time.perf_counter() - start,
-                         np.nan, str(e))
+        return EventCase(
+            stiffness_N_per_m, clearance_m, rtol, "failed", max_events, 0, time.perf_counter() - start, np.nan, str(e)
+        )
     wall = time.perf_counter() - start
     rel = _relative(ref.y_m, converged)
-    return EventCase(stiffness_N_per_m, clearance_m, rtol, "accurate" if rel <= accuracy else "inaccurate",
-                     ref.n_contact_changes, ref.n_function_evaluations, wall, rel, "")
+    return EventCase(
+        stiffness_N_per_m,
+        clearance_m,
+        rtol,
+        "accurate" if rel <= accuracy else "inaccurate",
+        ref.n_contact_changes,
+        ref.n_function_evaluations,
+        wall,
+        rel,
+        "",
+    )
 
 
-def event_map(stiffnesses=EVENT_STIFFNESSES_N_PER_M, clearances=EVENT_CLEARANCES_M, rtols=EVENT_RTOLS,
-              **kw) -> list[EventCase]:
+def event_map(
+    stiffnesses=EVENT_STIFFNESSES_N_PER_M, clearances=EVENT_CLEARANCES_M, rtols=EVENT_RTOLS, **kw
+) -> list[EventCase]:
     return [event_case(k, g, rtol=r, **kw) for r in rtols for k in stiffnesses for g in clearances]
 
 
@@ -293,8 +375,15 @@ def method_run(case: SmallCase, method: str, setting: float):
     return case.common(method, rtol=setting, atol=setting * 1e-5), setting
 
 
-def method_case(method: str, stiffness_N_per_m: float, setting: float, *, clearance_m: float = 94e-6,
-                accuracy: float = 1e-2, degrees: float = EVENT_DEGREES) -> MethodCase:
+def method_case(
+    method: str,
+    stiffness_N_per_m: float,
+    setting: float,
+    *,
+    clearance_m: float = 94e-6,
+    accuracy: float = 1e-2,
+    degrees: float = EVENT_DEGREES,
+) -> MethodCase:
     case = small_case(stiffness_N_per_m, clearance_m, degrees=degrees, friction_coefficient=0.0)
     converged = case.fast(verlet.stable_step_s(case.model, safety=1.0) / 64).y
     used = _steps_per_output(case, setting)[1] if method in FIXED_STEP else setting
@@ -327,8 +416,9 @@ def method_map(stiffnesses=METHOD_STIFFNESSES_N_PER_M, settings=METHOD_SETTINGS)
     return cases
 
 
-def method_work_precision(stiffness_N_per_m: float = 9.0092e7, clearance_m: float = 94e-6,
-                          degrees: float = 90.0) -> list[WorkPoint]:
+def method_work_precision(
+    stiffness_N_per_m: float = 9.0092e7, clearance_m: float = 94e-6, degrees: float = 90.0
+) -> list[WorkPoint]:
     """Every method that solves the nonlinear chain, step or tolerance swept, against the reference at
     rtol 1e-10 (10 links, friction 0, `degrees` of an index from rest)."""
     case = small_case(stiffness_N_per_m, clearance_m, degrees=degrees, friction_coefficient=0.0)
@@ -345,25 +435,29 @@ def method_work_precision(stiffness_N_per_m: float = 9.0092e7, clearance_m: floa
             y, a = run()
             walls.append(time.perf_counter() - start)
         wall = min(walls)
-        return WorkPoint(label, wall, float(np.max(np.abs(y - ref.y_m)) / sx),
-                         float(np.max(np.abs(a - ref.yddot_m_s2)) / sa))
+        return WorkPoint(
+            label, wall, float(np.max(np.abs(y - ref.y_m)) / sx), float(np.max(np.abs(a - ref.yddot_m_s2)) / sa)
+        )
 
     def fast(f):
         def run():
             r = case.fast(h_max * f)
             return r.y, r.a
+
         return run
 
     def common(method, setting):
         def run():
             r = method_run(case, method, setting)[0]
             return r.x, r.a
+
         return run
 
     def reference(rtol):
         def run():
             r = case.reference(rtol)
             return r.y_m, r.yddot_m_s2
+
         return run
 
     points = [timed(f"fast, h = {f:g} h_max", fast(f)) for f in (0.5, 0.25, 0.125, 0.0625)]

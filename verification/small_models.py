@@ -22,8 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from dynamics.errors import DynamicsError
-from dynamics.solvers import solve
 from dynamics.models.system import Response, SampledForce, SecondOrderSystem
+from dynamics.solvers import solve
 
 
 @dataclass(frozen=True)

@@ -27,14 +27,25 @@ from dataclasses import dataclass
 import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedError
-from dynamics.solvers import solve
 from dynamics.solvers import cache as solver_cache
+from dynamics.solvers import solve
 from dynamics.solvers._common import max_frequency
 from verification.workprecision import IVP_METHODS, LinearChainProblem, chain_problem, options_for, reference_response
 
 OUTCOMES = ("accurate", "inaccurate", "diverged", "failed")
-MAP_METHODS = ("central-difference", "newmark", "hht", "rk45", "dop853", "radau", "bdf", "lsoda", "report-rk45",
-               "exact", "modal")
+MAP_METHODS = (
+    "central-difference",
+    "newmark",
+    "hht",
+    "rk45",
+    "dop853",
+    "radau",
+    "bdf",
+    "lsoda",
+    "report-rk45",
+    "exact",
+    "modal",
+)
 STIFFNESSES_N_PER_M = (1e6, 1e7, 1e8, 1e9, 1e10)
 
 
@@ -83,8 +94,14 @@ def map_settings(method: str, problem: LinearChainProblem, quick: bool = False) 
     raise DynamicsError(f"method: got {method!r}; expected one of {', '.join(MAP_METHODS)}")
 
 
-def classify(problem: LinearChainProblem, method: str, parameter_name: str, parameter: float,
-             reference_x: np.ndarray, accuracy: float = 1e-2) -> StabilityCase:
+def classify(
+    problem: LinearChainProblem,
+    method: str,
+    parameter_name: str,
+    parameter: float,
+    reference_x: np.ndarray,
+    accuracy: float = 1e-2,
+) -> StabilityCase:
     """Run one case and sort it into an outcome (see the module doc)."""
     if not (0.0 < accuracy < 1.0):
         raise DynamicsError(f"accuracy: got {accuracy!r}; expected a relative error in (0, 1)")
@@ -94,8 +111,9 @@ def classify(problem: LinearChainProblem, method: str, parameter_name: str, para
     solver_cache.clear()
     start = time.perf_counter()
     try:
-        x = solve(problem.system, problem.force, problem.t_eval_s, method=method, x0=problem.x0, v0=problem.v0,
-                  **opts).x
+        x = solve(
+            problem.system, problem.force, problem.t_eval_s, method=method, x0=problem.x0, v0=problem.v0, **opts
+        ).x
     except SolverDivergedError as exc:
         return StabilityCase(*common, "diverged", np.nan, time.perf_counter() - start, omega_max, str(exc))
     except SolverFailedError as exc:

@@ -26,12 +26,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from dynamics.cams.program import CamProgram
-from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedError
+from dynamics.models.chain import ChainModel
+from dynamics.models.system import SampledForce, SecondOrderSystem
 from dynamics.solvers import METHODS, solve
 from dynamics.solvers import cache as solver_cache
 from dynamics.solvers._common import max_frequency
-from dynamics.models.system import SampledForce, SecondOrderSystem
 
 IVP_METHODS = ("rk45", "dop853", "radau", "bdf", "lsoda")
 FIXED_STEP_METHODS = ("newmark", "hht", "central-difference")
@@ -92,8 +92,15 @@ def chain_problem(
 
 def reference_response(problem: LinearChainProblem) -> np.ndarray:
     """Displacements (relative to the cam) at the output times, exact to rounding (see module doc)."""
-    return solve(problem.system, problem.force, problem.t_eval_s, method="exact", x0=problem.x0, v0=problem.v0,
-                 substeps=REFERENCE_SUBSTEPS).x
+    return solve(
+        problem.system,
+        problem.force,
+        problem.t_eval_s,
+        method="exact",
+        x0=problem.x0,
+        v0=problem.v0,
+        substeps=REFERENCE_SUBSTEPS,
+    ).x
 
 
 def force_sampling_error(problem: LinearChainProblem, refinement: int = 16) -> float:
@@ -154,13 +161,20 @@ def timed_solve(problem: LinearChainProblem, method: str, **options) -> tuple[np
     """(relative displacements, wall time in s) of one cold solve (exact's cache cleared first)."""
     solver_cache.clear()  # count the one-off matrix exponential: one scenario, not amortised
     start = time.perf_counter()
-    resp = solve(problem.system, problem.force, problem.t_eval_s, method=method, x0=problem.x0, v0=problem.v0,
-                 **options)
+    resp = solve(
+        problem.system, problem.force, problem.t_eval_s, method=method, x0=problem.x0, v0=problem.v0, **options
+    )
     return resp.x, time.perf_counter() - start
 
 
-def measure(problem: LinearChainProblem, method: str, reference_x: np.ndarray, parameter_name: str = "",
-            parameter: float = np.nan, repeats: int = 1) -> Measurement:
+def measure(
+    problem: LinearChainProblem,
+    method: str,
+    reference_x: np.ndarray,
+    parameter_name: str = "",
+    parameter: float = np.nan,
+    repeats: int = 1,
+) -> Measurement:
     """Error against `reference_x` and best-of-`repeats` wall time of one method at one setting."""
     opts = options_for(method, parameter_name, parameter)
     best = np.inf
@@ -175,8 +189,9 @@ def measure(problem: LinearChainProblem, method: str, reference_x: np.ndarray, p
     return Measurement(method, parameter_name, parameter, best, float(np.max(np.abs(x - reference_x))), "ok")
 
 
-def work_precision(problem: LinearChainProblem, methods=ALL_METHODS, *, quick: bool = False,
-                   repeats: int = 1) -> list[Measurement]:
+def work_precision(
+    problem: LinearChainProblem, methods=ALL_METHODS, *, quick: bool = False, repeats: int = 1
+) -> list[Measurement]:
     """Every method over its settings (`settings`) on one problem."""
     for method in methods:
         if method not in METHODS:

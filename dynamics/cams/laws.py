@@ -16,8 +16,8 @@ Laws are looked up by id in a registry (`get_law`, `law_ids`); `register_law` ad
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 

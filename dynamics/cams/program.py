@@ -80,12 +80,21 @@ class CamProgram:
     # Constructors ---------------------------------------------------------------------------------
 
     @classmethod
-    def indexing(cls, law_id: str, *, pitch_m: float = 0.1125, index_deg: float = 45.0, dwell_deg: float = 45.0,
-                 rpm: float = 180.0) -> CamProgram:
+    def indexing(
+        cls,
+        law_id: str,
+        *,
+        pitch_m: float = 0.1125,
+        index_deg: float = 45.0,
+        dwell_deg: float = 45.0,
+        rpm: float = 180.0,
+    ) -> CamProgram:
         """Continuous indexing: one rise of `pitch_m` over `index_deg`, a dwell of `dwell_deg`, repeated."""
         return cls(
             (Segment("rise", index_deg, pitch_m, law_id), Segment("dwell", dwell_deg)),
-            rpm, periodic=True, name=f"indexing {law_id}",
+            rpm,
+            periodic=True,
+            name=f"indexing {law_id}",
         )
 
     # The duck type the simulators consume -----------------------------------------------------------
@@ -179,7 +188,7 @@ class CamProgram:
     def _check_joints(self) -> None:
         """s and v must agree on both sides of every joint (and across the cycle end if periodic)."""
         ends = []
-        for i, segment in enumerate(self.segments):
+        for segment in self.segments:
             if segment.kind == "dwell":
                 ends.append(((0.0, 0.0), (0.0, 0.0)))
                 continue

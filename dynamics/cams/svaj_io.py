@@ -45,8 +45,19 @@ def _unit_scale(units: str) -> float:
 class TabulatedCam:
     """A cam given by samples; see the module docstring for the interpolation."""
 
-    def __init__(self, angle_deg, s_m, v_m_s, a_m_s2, j_m_s3=None, *, rpm: float, periodic: bool = False,
-                 interpolation: str = "hermite", name: str = ""):
+    def __init__(
+        self,
+        angle_deg,
+        s_m,
+        v_m_s,
+        a_m_s2,
+        j_m_s3=None,
+        *,
+        rpm: float,
+        periodic: bool = False,
+        interpolation: str = "hermite",
+        name: str = "",
+    ):
         angle = np.asarray(angle_deg, dtype=float)
         cols = [np.asarray(c, dtype=float) for c in (s_m, v_m_s, a_m_s2)]
         if angle.ndim != 1 or angle.size < 2:
@@ -57,7 +68,9 @@ class TabulatedCam:
             raise DynamicsError("svaj columns: got non-finite values; expected finite numbers")
         if np.any(np.diff(angle) <= 0):
             i = int(np.argmax(np.diff(angle) <= 0))
-            raise DynamicsError(f"angle_deg: row {i + 2} ({angle[i + 1]!r}) does not increase; expected strictly increasing angles")
+            raise DynamicsError(
+                f"angle_deg: row {i + 2} ({angle[i + 1]!r}) does not increase; expected strictly increasing angles"
+            )
         if not (np.isfinite(rpm) and rpm > 0):
             raise DynamicsError(f"rpm: got {rpm!r}; expected the table's cam speed > 0 rev/min")
         if interpolation not in INTERPOLATIONS:
@@ -72,10 +85,16 @@ class TabulatedCam:
         self._t = (angle - angle[0]) / (6.0 * self.rpm)
         v_peak = float(np.max(np.abs(self.v_m_s))) or 1.0
         a_peak = float(np.max(np.abs(self.a_m_s2))) or 1.0
-        self._at_rest = (np.abs(self.v_m_s) <= _REST_FRACTION * v_peak) & (np.abs(self.a_m_s2) <= _REST_FRACTION * a_peak)
-        if self.periodic and (abs(self.v_m_s[-1] - self.v_m_s[0]) > _REST_FRACTION * v_peak
-                              or abs(self.a_m_s2[-1] - self.a_m_s2[0]) > _REST_FRACTION * a_peak):
-            raise DynamicsError("periodic table: v and a at the last row differ from the first; expected a table covering whole cycles")
+        self._at_rest = (np.abs(self.v_m_s) <= _REST_FRACTION * v_peak) & (
+            np.abs(self.a_m_s2) <= _REST_FRACTION * a_peak
+        )
+        if self.periodic and (
+            abs(self.v_m_s[-1] - self.v_m_s[0]) > _REST_FRACTION * v_peak
+            or abs(self.a_m_s2[-1] - self.a_m_s2[0]) > _REST_FRACTION * a_peak
+        ):
+            raise DynamicsError(
+                "periodic table: v and a at the last row differ from the first; expected a table covering whole cycles"
+            )
 
     @property
     def duration_s(self) -> float:
@@ -93,16 +112,27 @@ class TabulatedCam:
         """The same cam turned at another speed: v scales with rpm, a with rpm^2, j with rpm^3."""
         r = rpm / self.rpm
         j = None if self.j_m_s3 is None else self.j_m_s3 * r**3
-        return TabulatedCam(self.angle_deg, self.s_m, self.v_m_s * r, self.a_m_s2 * r**2, j, rpm=rpm,
-                            periodic=self.periodic, interpolation=self.interpolation, name=self.name)
+        return TabulatedCam(
+            self.angle_deg,
+            self.s_m,
+            self.v_m_s * r,
+            self.a_m_s2 * r**2,
+            j,
+            rpm=rpm,
+            periodic=self.periodic,
+            interpolation=self.interpolation,
+            name=self.name,
+        )
 
     def svaj(self, t_s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Displacement (m), velocity (m/s), acceleration (m/s^2), jerk (m/s^3) at times t_s (s)."""
         t, offset = self._reduce(t_s)
         beyond = t > self._t[-1]
         if np.any(beyond) and not self._at_rest[-1]:
-            raise DynamicsError(f"t_s: got {float(np.max(t_s))!r} s past the table's end ({self.duration_s:.6g} s), "
-                                "which is not at rest; expected times within the table")
+            raise DynamicsError(
+                f"t_s: got {float(np.max(t_s))!r} s past the table's end ({self.duration_s:.6g} s), "
+                "which is not at rest; expected times within the table"
+            )
         tc = np.minimum(t, self._t[-1])
         i = np.clip(np.searchsorted(self._t, tc, side="right") - 1, 0, len(self._t) - 2)
         h = self._t[i + 1] - self._t[i]
@@ -183,12 +213,18 @@ def _parse_rows(lines: list[str], header_lines: int | None, path: Path) -> tuple
         except ValueError:
             if header_lines is None and not rows:
                 continue  # still in the header
-            raise DynamicsError(f"{path}: line {number}: {line.strip()[:60]!r} is not numeric; "
-                                "expected whitespace-separated angle, s, v, a[, j]") from None
+            raise DynamicsError(
+                f"{path}: line {number}: {line.strip()[:60]!r} is not numeric; "
+                "expected whitespace-separated angle, s, v, a[, j]"
+            ) from None
         if len(values) not in (4, 5):
-            raise DynamicsError(f"{path}: line {number}: got {len(values)} columns; expected 4 or 5 (angle, s, v, a[, j])")
+            raise DynamicsError(
+                f"{path}: line {number}: got {len(values)} columns; expected 4 or 5 (angle, s, v, a[, j])"
+            )
         if rows and len(values) != len(rows[0]):
-            raise DynamicsError(f"{path}: line {number}: got {len(values)} columns; expected {len(rows[0])} like line {first_line}")
+            raise DynamicsError(
+                f"{path}: line {number}: got {len(values)} columns; expected {len(rows[0])} like line {first_line}"
+            )
         if not rows:
             first_line = number
         rows.append(values)
@@ -197,8 +233,15 @@ def _parse_rows(lines: list[str], header_lines: int | None, path: Path) -> tuple
     return np.array(rows), first_line
 
 
-def read_svaj_table(path, *, units: str = "mm", rpm: float = 180.0, periodic: bool = False,
-                    header_lines: int | None = None, interpolation: str = "hermite") -> TabulatedCam:
+def read_svaj_table(
+    path,
+    *,
+    units: str = "mm",
+    rpm: float = 180.0,
+    periodic: bool = False,
+    header_lines: int | None = None,
+    interpolation: str = "hermite",
+) -> TabulatedCam:
     """Read a Dynacam-style SVAJ table; lengths in `units` ("mm" or "m"), velocities per second at `rpm`.
 
     `header_lines=None` skips leading non-numeric lines; give a number (the report used 6) to skip
@@ -209,21 +252,35 @@ def read_svaj_table(path, *, units: str = "mm", rpm: float = 180.0, periodic: bo
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as exc:
-        raise DynamicsError(f"{path}: cannot read the SVAJ table ({exc.__class__.__name__}); expected a readable text file") from None
+        raise DynamicsError(
+            f"{path}: cannot read the SVAJ table ({exc.__class__.__name__}); expected a readable text file"
+        ) from None
     data, first_line = _parse_rows(text.splitlines(), header_lines, path)
     bad = np.flatnonzero(np.diff(data[:, 0]) <= 0)
     if bad.size:
-        raise DynamicsError(f"{path}: line {first_line + int(bad[0]) + 1}: angle {float(data[bad[0] + 1, 0])!r} does not increase; "
-                            "expected strictly increasing angles (deg)")
+        raise DynamicsError(
+            f"{path}: line {first_line + int(bad[0]) + 1}: angle {float(data[bad[0] + 1, 0])!r} does not increase; "
+            "expected strictly increasing angles (deg)"
+        )
     if not np.all(np.isfinite(data)):
         raise DynamicsError(f"{path}: non-finite values; expected finite numbers")
     j = data[:, 4] * scale if data.shape[1] == 5 else None
-    return TabulatedCam(data[:, 0], data[:, 1] * scale, data[:, 2] * scale, data[:, 3] * scale, j, rpm=rpm,
-                        periodic=periodic, interpolation=interpolation, name=path.stem)
+    return TabulatedCam(
+        data[:, 0],
+        data[:, 1] * scale,
+        data[:, 2] * scale,
+        data[:, 3] * scale,
+        j,
+        rpm=rpm,
+        periodic=periodic,
+        interpolation=interpolation,
+        name=path.stem,
+    )
 
 
-def write_svaj_table(program, path, *, units: str = "mm", step_deg: float = 1.0, stop_deg: float | None = None,
-                     title: str | None = None) -> Path:
+def write_svaj_table(
+    program, path, *, units: str = "mm", step_deg: float = 1.0, stop_deg: float | None = None, title: str | None = None
+) -> Path:
     """Write `program` (anything with `svaj`, `rpm`, `duration_s`) sampled every `step_deg` from 0 to
     `stop_deg` inclusive (default: one cycle or the whole program), with 6 header lines."""
     scale = _unit_scale(units)
@@ -245,8 +302,10 @@ def write_svaj_table(program, path, *, units: str = "mm", step_deg: float = 1.0,
         "",
         "angle_deg s v a j",
     ]
-    body = "\n".join(f"{t:.6f} {x:.15g} {y:.15g} {z:.15g} {w:.15g}"
-                     for t, x, y, z, w in zip(angle, s / scale, v / scale, a / scale, j / scale))
+    body = "\n".join(
+        f"{t:.6f} {x:.15g} {y:.15g} {z:.15g} {w:.15g}"
+        for t, x, y, z, w in zip(angle, s / scale, v / scale, a / scale, j / scale)
+    )
     path = Path(path)
     path.write_text("\n".join(header) + "\n" + body + "\n")
     return path

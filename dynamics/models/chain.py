@@ -87,8 +87,9 @@ class ChainModel:
 
     def topology(self) -> ChainTopology:
         """The ring (dynamics.models.topology): N links, N spans, the drive spring on link 1."""
-        return ring_topology(self.n_links, self.link_mass_kg, self.stiffness_N_per_m, self.preload_N,
-                             self.drive_stiffness)
+        return ring_topology(
+            self.n_links, self.link_mass_kg, self.stiffness_N_per_m, self.preload_N, self.drive_stiffness
+        )
 
     def mass_matrix(self) -> np.ndarray:
         return self.topology().mass_matrix()

@@ -42,12 +42,12 @@ from functools import lru_cache
 
 import numpy as np
 
-from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
-from dynamics.response.metrics import matlab_round
+from dynamics.models.chain import ChainModel
 from dynamics.models.reduction import DENSE_LINK_LIMIT
-from dynamics.solvers._common import serial_blas
 from dynamics.models.system import SecondOrderSystem
+from dynamics.response.metrics import matlab_round
+from dynamics.solvers._common import serial_blas
 
 SPAN_DAMPING_LAWS = ("global", "kelvin-voigt")
 
@@ -72,7 +72,8 @@ class Tensioner:
             raise DynamicsError(f"tensioner mass_kg: expected a finite mass > 0, got {self.mass_kg!r}")
         if not (np.isfinite(self.damping_N_s_per_m) and self.damping_N_s_per_m >= 0):
             raise DynamicsError(
-                f"tensioner damping_N_s_per_m: expected a finite value >= 0, got {self.damping_N_s_per_m!r}")
+                f"tensioner damping_N_s_per_m: expected a finite value >= 0, got {self.damping_N_s_per_m!r}"
+            )
 
 
 @dataclass(frozen=True)
@@ -93,8 +94,9 @@ class ClearanceChain:
         if not (self.clearance_m >= 0 and not np.isnan(self.clearance_m)):
             raise DynamicsError(f"clearance_m: expected a free play >= 0 m (inf allowed), got {self.clearance_m!r}")
         if self.span_damping not in SPAN_DAMPING_LAWS:
-            raise DynamicsError(f"span_damping: expected one of {', '.join(SPAN_DAMPING_LAWS)}, "
-                                f"got {self.span_damping!r}")
+            raise DynamicsError(
+                f"span_damping: expected one of {', '.join(SPAN_DAMPING_LAWS)}, got {self.span_damping!r}"
+            )
         if self.kv_beta_s is not None and not (np.isfinite(self.kv_beta_s) and self.kv_beta_s >= 0):
             raise DynamicsError(f"kv_beta_s: expected a finite value >= 0, got {self.kv_beta_s!r}")
         if self.damping_tolerance is not None and not (0 < self.damping_tolerance < 1):
@@ -188,11 +190,17 @@ class ClearanceChain:
         the global damping law without a tensioner maps onto that form (the Kelvin-Voigt dashpot
         switches with contact, the carriage is one more degree of freedom)."""
         if self.span_damping != "global" or self.tensioner is not None:
-            raise DynamicsError("system(): only the global damping law without a tensioner has the "
-                                "M, C, K + g(x) form; use dynamics.solvers.clearance_verlet")
+            raise DynamicsError(
+                "system(): only the global damping law without a tensioner has the "
+                "M, C, K + g(x) form; use dynamics.solvers.clearance_verlet"
+            )
         c = self.chain
-        return SecondOrderSystem(c.mass_matrix(), self.damping_matrix, c.stiffness_matrix(),
-                                 nonlinear_force=SpanLawCorrection(c.preload_N, c.stiffness_N_per_m, self.clearance_m))
+        return SecondOrderSystem(
+            c.mass_matrix(),
+            self.damping_matrix,
+            c.stiffness_matrix(),
+            nonlinear_force=SpanLawCorrection(c.preload_N, c.stiffness_N_per_m, self.clearance_m),
+        )
 
     # --- the span law and its energy -------------------------------------------------------------
 

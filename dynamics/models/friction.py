@@ -24,7 +24,9 @@ class CamFrameFriction:
     absolute velocity is z'(t) + y'. z' is looked up at the table times (the solver's grid nodes)
     and linear in between (sub-steps, adaptive methods)."""
 
-    def __init__(self, coulomb_force_N: float, velocity_scale_m_s: float, t_table_s: np.ndarray, zdot_table_m_s: np.ndarray):
+    def __init__(
+        self, coulomb_force_N: float, velocity_scale_m_s: float, t_table_s: np.ndarray, zdot_table_m_s: np.ndarray
+    ):
         self.coulomb_force_N = float(coulomb_force_N)
         self.inv_scale = 1.0 / float(velocity_scale_m_s)
         self.t_table = np.asarray(t_table_s, dtype=float)

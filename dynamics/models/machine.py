@@ -50,13 +50,13 @@ from functools import cached_property
 import numpy as np
 from scipy.linalg import eigh
 
+from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import Tensioner
-from dynamics.errors import DynamicsError
-from dynamics.response.metrics import matlab_round
 from dynamics.models.system import SecondOrderSystem
 from dynamics.models.topology import ChainTopology, Span
 from dynamics.models.wheels import Wheel
+from dynamics.response.metrics import matlab_round
 
 DRIVES = ("link", "wheels")
 
@@ -87,24 +87,31 @@ class MachineOnWheels:
         if self.drive not in DRIVES:
             raise DynamicsError(f"drive: expected one of {', '.join(DRIVES)}, got {self.drive!r} (option --drive)")
         if self.chain.friction_coefficient > 0.0:
-            raise DynamicsError(f"friction_coefficient: got {self.chain.friction_coefficient!r}; the machine on "
-                                "its wheels is the linear chain (friction 0) this far")
+            raise DynamicsError(
+                f"friction_coefficient: got {self.chain.friction_coefficient!r}; the machine on "
+                "its wheels is the linear chain (friction 0) this far"
+            )
         if self.drive == "link":
             return
         if self.sprocket is None or self.sprocket.wrap_links < 1:
-            raise DynamicsError("sprocket: expected a Wheel with wrap_links >= 1 for drive='wheels' "
-                                "(option --sprocket-wrap-links)")
+            raise DynamicsError(
+                "sprocket: expected a Wheel with wrap_links >= 1 for drive='wheels' (option --sprocket-wrap-links)"
+            )
         k_theta = self.drive_torsional_stiffness_N_m_per_rad
         if k_theta is not None and not (k_theta > 0 and not np.isnan(k_theta)):
-            raise DynamicsError(f"drive_torsional_stiffness_N_m_per_rad: expected > 0 (inf allowed), got {k_theta!r} "
-                                "(option --drive-stiffness)")
+            raise DynamicsError(
+                f"drive_torsional_stiffness_N_m_per_rad: expected > 0 (inf allowed), got {k_theta!r} "
+                "(option --drive-stiffness)"
+            )
         wrap = self.sprocket.wrap_links + (0 if self.idler is None else self.idler.wrap_links)
         if self.chain.n_links - wrap < 2:
             raise DynamicsError(f"wrap links: {wrap} seated of {self.chain.n_links}; expected at least two free links")
         for wheel in (self.sprocket, self.idler):
             if wheel is not None and (self.polygonal and wheel.tooth_phase != 0.0):
-                raise DynamicsError(f"tooth_phase: got {wheel.tooth_phase!r}; the polygonal model changes seats "
-                                    "at the dwell only (phase 0) this far")
+                raise DynamicsError(
+                    f"tooth_phase: got {wheel.tooth_phase!r}; the polygonal model changes seats "
+                    "at the dwell only (phase 0) this far"
+                )
 
     # --- layout ----------------------------------------------------------------------------------
 
@@ -162,8 +169,12 @@ class MachineOnWheels:
         tight_start = w_d + n_slack + (0 if idler is None else len(g[idler]))
         tight = list(range(tight_start, self.n_links))
         idler_links = g[idler] if idler is not None else (int(matlab_round(self.n_links / 2)) - 1,)
-        return {"drive-end": (w_d - 1) // 2, "tight-side": tight[(len(tight) - 1) // 2],
-                "idler-end": idler_links[(len(idler_links) - 1) // 2], "slack-side": slack[(len(slack) - 1) // 2]}
+        return {
+            "drive-end": (w_d - 1) // 2,
+            "tight-side": tight[(len(tight) - 1) // 2],
+            "idler-end": idler_links[(len(idler_links) - 1) // 2],
+            "slack-side": slack[(len(slack) - 1) // 2],
+        }
 
     # --- topology and matrices -------------------------------------------------------------------
 
@@ -205,8 +216,15 @@ class MachineOnWheels:
             ground.append((dof_of_place[0], self.drive_stiffness_N_m_per_rad / self.sprocket.feed_radius_m**2))
         if carriage is not None:
             ground.append((carriage, self.tensioner.rate_N_per_m))
-        return ChainTopology(tuple(masses), tuple(links), tuple(spans), c.stiffness_N_per_m, c.preload_N,
-                             tuple(ground), places[0] if held else ())
+        return ChainTopology(
+            tuple(masses),
+            tuple(links),
+            tuple(spans),
+            c.stiffness_N_per_m,
+            c.preload_N,
+            tuple(ground),
+            places[0] if held else (),
+        )
 
     def _group_mass(self, wheel: Wheel | None, n_seated: int) -> float:
         m = self.chain.link_mass_kg
@@ -222,8 +240,14 @@ class MachineOnWheels:
         from dynamics.models.topology import ring_topology
 
         c, t = self.chain, self.tensioner
-        return ring_topology(c.n_links, c.link_mass_kg, c.stiffness_N_per_m, c.preload_N, c.drive_stiffness,
-                             carriage=(self._idler_span_link(), t.rate_N_per_m, t.mass_kg))
+        return ring_topology(
+            c.n_links,
+            c.link_mass_kg,
+            c.stiffness_N_per_m,
+            c.preload_N,
+            c.drive_stiffness,
+            carriage=(self._idler_span_link(), t.rate_N_per_m, t.mass_kg),
+        )
 
     @cached_property
     def wheel_ends(self) -> tuple[WheelEnds, ...]:
@@ -290,7 +314,7 @@ class MachineOnWheels:
         out = np.zeros(q.shape[:-1] + (self.n_links,))
         for dof, carried in enumerate(self.topology.links):
             if carried:
-                out[..., list(carried)] = q[..., dof:dof + 1]
+                out[..., list(carried)] = q[..., dof : dof + 1]
         return out
 
     def stored_energy_J(self, q: np.ndarray, v: np.ndarray, zdot_m_s: float, angles_rad) -> float:

@@ -69,8 +69,8 @@ import scipy.linalg
 from dynamics.cams.laws import get_law
 from dynamics.cams.program import mqp2012_program
 from dynamics.errors import DynamicsError
-from dynamics.response.metrics import matlab_round, residual_vibration, rms
 from dynamics.models.system import SampledForce, SecondOrderSystem
+from dynamics.response.metrics import matlab_round, residual_vibration, rms
 
 MATERIALS = {  # stiffness N/m, lumped mass kg (as in the script's comments)
     "al6061-t6": (92696969.7, 2.03),
@@ -108,10 +108,20 @@ REPORT_TABLE1 = {
     },
 }
 REPORT_TABLE2 = {  # max |acceleration|, mm/s^2
-    "al6061-t6": {"modified-sine": 944040.0, "modified-trapezoid": 1478200.0, "poly-345": 1332500.0,
-                  "poly-4567": 2384900.0, "cycloidal": 1741900.0},
-    "ti-grade2": {"modified-sine": 918580.0, "modified-trapezoid": 738320.0, "poly-345": 728790.0,
-                  "poly-4567": 1150500.0, "cycloidal": 817740.0},
+    "al6061-t6": {
+        "modified-sine": 944040.0,
+        "modified-trapezoid": 1478200.0,
+        "poly-345": 1332500.0,
+        "poly-4567": 2384900.0,
+        "cycloidal": 1741900.0,
+    },
+    "ti-grade2": {
+        "modified-sine": 918580.0,
+        "modified-trapezoid": 738320.0,
+        "poly-345": 728790.0,
+        "poly-4567": 1150500.0,
+        "cycloidal": 817740.0,
+    },
 }
 
 
@@ -336,8 +346,15 @@ def _check_inputs(material, n_links, rpm, friction, cams):
         get_law(cam)  # any registered law can be tabulated as Dynacam would have; the report had CAMS
 
 
-def run_mqp2012(material: str = "al6061-t6", *, n_links: int = 85, rpm: float = 180.0, friction: float = 0.35,
-                cams: tuple[str, ...] = CAMS, method: str = "report-rk45") -> ReplicaResult:
+def run_mqp2012(
+    material: str = "al6061-t6",
+    *,
+    n_links: int = 85,
+    rpm: float = 180.0,
+    friction: float = 0.35,
+    cams: tuple[str, ...] = CAMS,
+    method: str = "report-rk45",
+) -> ReplicaResult:
     """Run the report's script for one material; `method` other than "report-rk45" swaps the
     integrator only (every quirk of the model and the metrics stays)."""
     _check_inputs(material, n_links, rpm, friction, cams)
@@ -354,15 +371,34 @@ def run_mqp2012(material: str = "al6061-t6", *, n_links: int = 85, rpm: float = 
         table = dynacam_table(cam, rpm)
         forces = np.tile(preload, (t.size, 1))
         forces[:, 0] = c[0] * table.v_mm_s + stiffness * table.s_mm
-        response = solve(system, SampledForce(t, forces), t, method=method,
-                         x0=np.zeros(n_links), v0=np.zeros(n_links))
+        response = solve(system, SampledForce(t, forces), t, method=method, x0=np.zeros(n_links), v0=np.zeros(n_links))
         acc = (inv_m @ (-C @ response.v.T - K @ response.x.T + forces.T)).T
         acc[0] = 0.0
-        results[cam] = CamReplica(cam, t, table.s_mm, table.v_mm_s, table.a_mm_s2, response.x, response.v, acc,
-                                  int(matlab_round(3 * n_links / 4)), mqp2012_program(cam, rpm).dwell_mask(t))
+        results[cam] = CamReplica(
+            cam,
+            t,
+            table.s_mm,
+            table.v_mm_s,
+            table.a_mm_s2,
+            response.x,
+            response.v,
+            acc,
+            int(matlab_round(3 * n_links / 4)),
+            mqp2012_program(cam, rpm).dwell_mask(t),
+        )
     w = np.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True))
-    return ReplicaResult(material, n_links, float(rpm), float(friction), stiffness, mass, ZETA, w,
-                         growth_rate_1_s(material, n_links), results)
+    return ReplicaResult(
+        material,
+        n_links,
+        float(rpm),
+        float(friction),
+        stiffness,
+        mass,
+        ZETA,
+        w,
+        growth_rate_1_s(material, n_links),
+        results,
+    )
 
 
 FIXES = ("si-units", "modal-damping")
@@ -374,9 +410,16 @@ def modal_damping_matrix(M: np.ndarray, K: np.ndarray, zeta: float) -> np.ndarra
     return M @ phi @ np.diag(2.0 * zeta * np.sqrt(lam)) @ phi.T @ M
 
 
-def run_quirks_fixed(material: str = "al6061-t6", *, fixes: tuple[str, ...] = FIXES, n_links: int = 85,
-                     rpm: float = 180.0, friction: float = 0.35, cams: tuple[str, ...] = CAMS,
-                     samples_per_degree: int = 10) -> ReplicaResult:
+def run_quirks_fixed(
+    material: str = "al6061-t6",
+    *,
+    fixes: tuple[str, ...] = FIXES,
+    n_links: int = 85,
+    rpm: float = 180.0,
+    friction: float = 0.35,
+    cams: tuple[str, ...] = CAMS,
+    samples_per_degree: int = 10,
+) -> ReplicaResult:
     """The replica with some of the script's quirks fixed, to show what each one costs.
 
     - "si-units": the cam input in metres, so the 2224 N preload and the friction act at their real
@@ -433,17 +476,45 @@ def run_quirks_fixed(material: str = "al6061-t6", *, fixes: tuple[str, ...] = FI
         else:
             forces[:, 0] += c[0] * zdot + stiffness * z
         timed = {"time_dependent_force": friction_force} if friction > 0 else {}
-        response = solve(SecondOrderSystem(M, C, K), SampledForce(t, forces), t, method="exact",
-                         x0=x_start, v0=np.zeros(n_links), **timed)
+        response = solve(
+            SecondOrderSystem(M, C, K),
+            SampledForce(t, forces),
+            t,
+            method="exact",
+            x0=x_start,
+            v0=np.zeros(n_links),
+            **timed,
+        )
         x, vel, acc = response.x, response.v, response.a
         if relative:
             x, vel, acc = x + z[:, None], vel + zdot[:, None], acc + zddot[:, None]
         to_mm = 1.0 / length
-        results[cam] = CamReplica(cam, t[every], z[every] * to_mm, zdot[every] * to_mm, zddot[every] * to_mm,
-                                  x[every] * to_mm, vel[every] * to_mm, acc[every] * to_mm,
-                                  int(matlab_round(3 * n_links / 4)), program.dwell_mask(t[every]))
-    lam = scipy.linalg.eigvals(np.block([[np.zeros((n_links, n_links)), np.eye(n_links)],
-                                         [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]]))
+        results[cam] = CamReplica(
+            cam,
+            t[every],
+            z[every] * to_mm,
+            zdot[every] * to_mm,
+            zddot[every] * to_mm,
+            x[every] * to_mm,
+            vel[every] * to_mm,
+            acc[every] * to_mm,
+            int(matlab_round(3 * n_links / 4)),
+            program.dwell_mask(t[every]),
+        )
+    lam = scipy.linalg.eigvals(
+        np.block([[np.zeros((n_links, n_links)), np.eye(n_links)], [-np.linalg.solve(M, K), -np.linalg.solve(M, C)]])
+    )
     w = np.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True))
-    return ReplicaResult(material, n_links, float(rpm), float(friction), stiffness, mass, ZETA, w,
-                         float(np.max(lam.real)), results, tuple(fixes))
+    return ReplicaResult(
+        material,
+        n_links,
+        float(rpm),
+        float(friction),
+        stiffness,
+        mass,
+        ZETA,
+        w,
+        float(np.max(lam.real)),
+        results,
+        tuple(fixes),
+    )

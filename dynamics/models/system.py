@@ -7,9 +7,9 @@ model uses consistently; the default chain model uses SI.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
-from typing import Callable
 
 import numpy as np
 

@@ -63,8 +63,9 @@ class ChainTopology:
                 raise DynamicsError(f"spans: got {s!r}; expected DOF indices in 0..{n - 1}")
         for dof, stiffness in self.ground:
             if not (0 <= dof < n and np.isfinite(stiffness) and stiffness >= 0):
-                raise DynamicsError(f"ground: got ({dof!r}, {stiffness!r}); expected a DOF in 0..{n - 1} "
-                                    "and a stiffness >= 0")
+                raise DynamicsError(
+                    f"ground: got ({dof!r}, {stiffness!r}); expected a DOF in 0..{n - 1} and a stiffness >= 0"
+                )
 
     @property
     def n_dof(self) -> int:
@@ -114,8 +115,14 @@ class ChainTopology:
         return out
 
 
-def ring_topology(n_links: int, link_mass_kg: float, stiffness_N_per_m: float, preload_N: float,
-                  drive_stiffness_N_per_m: float, carriage: tuple[int, float, float] | None = None) -> ChainTopology:
+def ring_topology(
+    n_links: int,
+    link_mass_kg: float,
+    stiffness_N_per_m: float,
+    preload_N: float,
+    drive_stiffness_N_per_m: float,
+    carriage: tuple[int, float, float] | None = None,
+) -> ChainTopology:
     """Today's chain: N free links in a loop, span j from link j to link j + 1 (the last closes the
     loop), the drive spring on link 0. `carriage` = (span, rate N/m, mass kg) adds the idler carriage
     as DOF N inside that span (gain 2), tied to the frame by its spring."""
@@ -129,5 +136,6 @@ def ring_topology(n_links: int, link_mass_kg: float, stiffness_N_per_m: float, p
         masses.append(float(mass))
         links.append(())
         ground.append((n_links, float(rate)))
-    return ChainTopology(tuple(masses), tuple(links), tuple(spans), float(stiffness_N_per_m), float(preload_N),
-                         tuple(ground))
+    return ChainTopology(
+        tuple(masses), tuple(links), tuple(spans), float(stiffness_N_per_m), float(preload_N), tuple(ground)
+    )

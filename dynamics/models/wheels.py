@@ -51,8 +51,10 @@ class Wheel:
         if not (np.isfinite(self.pitch_m) and self.pitch_m > 0):
             raise DynamicsError(f"pitch_m: expected a positive pitch in metres, got {self.pitch_m!r}")
         if not (isinstance(self.wrap_links, (int, np.integer)) and 0 <= self.wrap_links < self.teeth):
-            raise DynamicsError(f"wrap_links: expected an integer in 0..{self.teeth - 1} (fewer than the teeth), "
-                                f"got {self.wrap_links!r} (option --sprocket-wrap-links)")
+            raise DynamicsError(
+                f"wrap_links: expected an integer in 0..{self.teeth - 1} (fewer than the teeth), "
+                f"got {self.wrap_links!r} (option --sprocket-wrap-links)"
+            )
         if not (np.isfinite(self.inertia_kg_m2) and self.inertia_kg_m2 >= 0):
             raise DynamicsError(f"inertia_kg_m2: expected a finite value >= 0, got {self.inertia_kg_m2!r}")
         if not (np.isfinite(self.tooth_phase) and 0.0 <= self.tooth_phase < 1.0):

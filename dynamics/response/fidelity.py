@@ -10,8 +10,8 @@ with k perturbed by its FEA error estimate.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, fields
-from typing import Callable, Mapping
 
 import numpy as np
 

@@ -9,8 +9,8 @@ from zero), as the report's script indexed them.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, fields
-from typing import Mapping
 
 import numpy as np
 
@@ -31,8 +31,7 @@ def station_links(n_links: int) -> dict[str, int]:
         raise DynamicsError(f"n_links: got {n_links!r}; expected an integer >= 1")
     fractions = {"drive-end": None, "tight-side": 0.75, "idler-end": 0.5, "slack-side": 0.25}
     return {
-        name: 1 if f is None else int(min(n_links, max(1, matlab_round(f * n_links))))
-        for name, f in fractions.items()
+        name: 1 if f is None else int(min(n_links, max(1, matlab_round(f * n_links)))) for name, f in fractions.items()
     }
 
 
@@ -157,7 +156,9 @@ def settling_times(t_s, x_m, z_m, dwell_mask, band_m: float) -> Settling:
     z = np.asarray(z_m, dtype=float)
     mask = np.asarray(dwell_mask, dtype=bool)
     if x.ndim != 2 or t.shape != (x.shape[0],) or z.shape != t.shape or mask.shape != t.shape:
-        raise DynamicsError("settling_times: expected t_s, z_m, dwell_mask of shape (n_times,) and x_m (n_times, n_links)")
+        raise DynamicsError(
+            "settling_times: expected t_s, z_m, dwell_mask of shape (n_times,) and x_m (n_times, n_links)"
+        )
     if not (np.isfinite(band_m) and band_m > 0):
         raise DynamicsError(f"band_m: got {band_m!r}; expected a band > 0 in metres")
     runs = _runs(mask)
@@ -165,7 +166,7 @@ def settling_times(t_s, x_m, z_m, dwell_mask, band_m: float) -> Settling:
         raise DynamicsError("dwell_mask: no sample lies in a dwell; expected at least one dwell")
     out = np.full((len(runs), x.shape[1]), np.nan)
     for r, (first, last) in enumerate(runs):
-        dev = np.abs(x[first:last + 1] - z[first:last + 1, None])
+        dev = np.abs(x[first : last + 1] - z[first : last + 1, None])
         outside = dev > band_m
         for link in range(x.shape[1]):
             idx = np.flatnonzero(outside[:, link])

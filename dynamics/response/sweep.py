@@ -41,8 +41,8 @@ from scipy.sparse.linalg import eigsh
 
 from dynamics.cams.laws import get_law
 from dynamics.cams.program import CamProgram
-from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
+from dynamics.models.chain import ChainModel
 from dynamics.response.metrics import STATIONS, station_links
 
 # Above this many links, a truncated mode set of at most N/10 modes comes from sparse shift-invert
@@ -148,9 +148,7 @@ def _phi12(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.where(small, phi1_s, phi1_l), np.where(small, phi2_s, phi2_l)
 
 
-def modal_periodic_response(
-    modes: ChainModes, zddot_m_s2: np.ndarray, step_s, links
-) -> tuple[np.ndarray, np.ndarray]:
+def modal_periodic_response(modes: ChainModes, zddot_m_s2: np.ndarray, step_s, links) -> tuple[np.ndarray, np.ndarray]:
     """Periodic steady state at the given links under the cam acceleration samples.
 
     zddot_m_s2: (..., n) cam acceleration at n equally spaced samples of one period (the sample at
@@ -204,7 +202,10 @@ class CriticalSpeed:
 
 
 def critical_speeds_rpm(
-    natural_frequencies_Hz, cycles_per_rev: float, rpm_range: tuple[float, float], max_harmonic: int = 10,
+    natural_frequencies_Hz,
+    cycles_per_rev: float,
+    rpm_range: tuple[float, float],
+    max_harmonic: int = 10,
     modes: tuple[int, ...] | None = None,
 ) -> tuple[CriticalSpeed, ...]:
     """rpm_jk = 60 f_j / (k cycles_per_rev) for harmonics k = 1..max_harmonic and the given 1-based
@@ -322,8 +323,12 @@ def rpm_sweep(
         raise DynamicsError(f"modes: computed for {modes.n_links} links; expected {model.n_links}")
 
     ref_rpm = 60.0  # samples sit at the same cam angles at every speed: z'' scales with rpm^2, h with 1/rpm
-    samples = [cam_cycle_samples(cam, samples_per_cycle, pitch_m=pitch_m, index_deg=index_deg, dwell_deg=dwell_deg,
-                                 rpm=ref_rpm) for cam in cam_ids]
+    samples = [
+        cam_cycle_samples(
+            cam, samples_per_cycle, pitch_m=pitch_m, index_deg=index_deg, dwell_deg=dwell_deg, rpm=ref_rpm
+        )
+        for cam in cam_ids
+    ]
     t_ref, _, program = samples[0]  # every cam shares the index/dwell layout, so the grid and dwells
     zdd = [a for _, a, _ in samples]
     dwell = program.dwell_mask(t_ref)

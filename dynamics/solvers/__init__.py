@@ -20,16 +20,16 @@ with the cam needs the cam's velocity at time t (see dynamics.solvers.simulate).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Callable
 
 import numpy as np
 
 from dynamics.errors import DynamicsError
+from dynamics.models.system import Response, SampledForce, SecondOrderSystem
 from dynamics.solvers import central_difference, exact, ivp, modal, newmark, report_rk45
 from dynamics.solvers._common import accelerations, make_problem, serial_blas
-from dynamics.models.system import Response, SampledForce, SecondOrderSystem
 
 
 @dataclass(frozen=True)
@@ -68,20 +68,29 @@ METHODS: MappingProxyType = MappingProxyType(
                 False,
                 modal,
             ),
-            _method("newmark", "Newmark average acceleration, fixed step dt (implicit, linear)", False, newmark,
-                    newmark.solve_newmark, newmark.NEWMARK_OPTIONS),
-            _method("hht", "HHT-alpha, fixed step dt, alpha in [-1/3, 0] (implicit, linear)", False, newmark,
-                    newmark.solve_hht, newmark.HHT_OPTIONS),
+            _method(
+                "newmark",
+                "Newmark average acceleration, fixed step dt (implicit, linear)",
+                False,
+                newmark,
+                newmark.solve_newmark,
+                newmark.NEWMARK_OPTIONS,
+            ),
+            _method(
+                "hht",
+                "HHT-alpha, fixed step dt, alpha in [-1/3, 0] (implicit, linear)",
+                False,
+                newmark,
+                newmark.solve_hht,
+                newmark.HHT_OPTIONS,
+            ),
             _method(
                 "central-difference",
                 "explicit central difference, fixed step dt; refused above the stability limit 2/omega_max",
                 True,
                 central_difference,
             ),
-            *(
-                _method(name, f"scipy solve_ivp {label}", True, ivp, _ivp(name))
-                for name, label in ivp.LABELS.items()
-            ),
+            *(_method(name, f"scipy solve_ivp {label}", True, ivp, _ivp(name)) for name, label in ivp.LABELS.items()),
             _method(
                 "report-rk45",
                 "the 2012 report's scheme: MATLAB ode45 (Dormand-Prince) restarted every output step, "

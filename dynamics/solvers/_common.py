@@ -7,14 +7,14 @@ the force and the times.
 from __future__ import annotations
 
 import contextlib
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError
-from dynamics.solvers.cache import cached
 from dynamics.models.system import SampledForce, SecondOrderSystem
+from dynamics.solvers.cache import cached
 
 # (t, x, v) -> force (n,). The contract's nonlinear force g(x, v) is wrapped into this form so that
 # a force that also depends on time (friction seen from a moving frame) can share the same code.

@@ -8,7 +8,8 @@ computes each derived matrix once. Least recently used entries go first.
 from __future__ import annotations
 
 from collections import OrderedDict
-from typing import Callable, TypeVar
+from collections.abc import Callable
+from typing import TypeVar
 
 SIZE = 32
 

@@ -82,8 +82,11 @@ PREDICTORS = {"euler": 0.0, "ab2": 0.5}
 # converged answer on the default scene instead of 2.7e-2 (the scenes and figures:
 # benchmarks/bench_accuracy.py; at 0.33, 8 steps, 2.2e-3). The Kelvin-Voigt law keeps euler.
 DEFAULT_PREDICTOR = "ab2"
-DEFAULT_SAFETIES = {("global", "euler"): DEFAULT_SAFETY, ("global", "ab2"): 0.31,
-                    ("kelvin-voigt", "euler"): DEFAULT_SAFETY}
+DEFAULT_SAFETIES = {
+    ("global", "euler"): DEFAULT_SAFETY,
+    ("global", "ab2"): 0.31,
+    ("kelvin-voigt", "euler"): DEFAULT_SAFETY,
+}
 # Above this argument tanh rounds to 1 in double precision (1 - tanh x ~ 2 exp(-2x) falls below half an
 # ulp of 1, 2^-54, from x = 55 ln 2 / 2 = 19.06), so the friction law takes +-F_c there without computing
 # it: the links sliding faster than 19 velocity scales (95 mm/s by default) through the indexing motion.
@@ -101,8 +104,20 @@ FASTMATH = {"reassoc", "contract", "arcp", "nsz"}
 
 def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
     """Accelerations, span forces and contact of one state; also the cam force and the powers."""
-    m, k, kd, preload, kg, beta, fc, inv_vs, mt, kt, ct, f0 = (par[0], par[1], par[2], par[3], par[4], par[5],
-                                                                par[6], par[7], par[8], par[9], par[10], par[11])
+    m, k, kd, preload, kg, beta, fc, inv_vs, mt, kt, ct, f0 = (
+        par[0],
+        par[1],
+        par[2],
+        par[3],
+        par[4],
+        par[5],
+        par[6],
+        par[7],
+        par[8],
+        par[9],
+        par[10],
+        par[11],
+    )
     s, tens, kv = ipar[0], ipar[1], ipar[2]
     n = y.shape[0]
     p_damp = 0.0
@@ -158,8 +173,30 @@ def _tanh_array(x):
     return np.copysign((1.0 - q) / (1.0 + q), x)
 
 
-def _run(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat, track_energy,
-         out_y, out_w, out_a, out_u, out_ud, stats, energy, speeds):
+def _run(
+    y,
+    w,
+    u,
+    ud,
+    zd,
+    zdd,
+    h,
+    theta,
+    out_every,
+    record_from,
+    par,
+    ipar,
+    cmat,
+    track_energy,
+    out_y,
+    out_w,
+    out_a,
+    out_u,
+    out_ud,
+    stats,
+    energy,
+    speeds,
+):
     """Steps over the nodes of zd/zdd (len n_steps + 1); writes outputs every `out_every` steps
     (out_* have n_steps // out_every + 1 rows), statistics from step `record_from` on, the closing
     speeds of the recorded impacts into `speeds` (`_impacts_array`)."""
@@ -171,8 +208,9 @@ def _run(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat
     powers = np.array([pc, pd, pf])
     free = ~contact
     phase = np.zeros(y.shape[0], dtype=np.bool_)
-    row = _keep(-1, h, 0, y, w, a, u, ud, powers, powers, False, True, out_y, out_w, out_a, out_u, out_ud, energy,
-                stats, np.inf)
+    row = _keep(
+        -1, h, 0, y, w, a, u, ud, powers, powers, False, True, out_y, out_w, out_a, out_u, out_ud, energy, stats, np.inf
+    )
     if record_from == 0:
         _record(t_el, contact, phase, stats, False, free)
     for i in range(n_steps):
@@ -188,15 +226,56 @@ def _run(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat
         ud = uh + 0.5 * h * au
         on_output = (i + 1) % out_every == 0
         if track_energy or on_output:
-            a_out, au_out, t_el, contact, pc2, pd2, pf2 = _accel(y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar,
-                                                                 cmat)
-            row = _keep(i, h, row, y, w, a_out, u, ud, np.array([pc2, pd2, pf2]), powers, track_energy, on_output,
-                        out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
+            a_out, au_out, t_el, contact, pc2, pd2, pf2 = _accel(y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar, cmat)
+            row = _keep(
+                i,
+                h,
+                row,
+                y,
+                w,
+                a_out,
+                u,
+                ud,
+                np.array([pc2, pd2, pf2]),
+                powers,
+                track_energy,
+                on_output,
+                out_y,
+                out_w,
+                out_a,
+                out_u,
+                out_ud,
+                energy,
+                stats,
+                bound,
+            )
             if row < 0:
                 return
-        _impacts_array(h, y, w, a, y - h * wh, wh - 0.5 * h * a_prev, a_prev, u, ud, au, u - h * uh,
-                       uh - 0.5 * h * au_prev, au_prev, par, ipar, t_el, contact, free, phase, clocks, stats, speeds,
-                       i + 1 >= record_from)
+        _impacts_array(
+            h,
+            y,
+            w,
+            a,
+            y - h * wh,
+            wh - 0.5 * h * a_prev,
+            a_prev,
+            u,
+            ud,
+            au,
+            u - h * uh,
+            uh - 0.5 * h * au_prev,
+            au_prev,
+            par,
+            ipar,
+            t_el,
+            contact,
+            free,
+            phase,
+            clocks,
+            stats,
+            speeds,
+            i + 1 >= record_from,
+        )
         new_impacts = contact & free
         phase = (phase | new_impacts) & contact
         free = ~contact
@@ -204,8 +283,28 @@ def _run(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, cmat
             _record(t_el, contact, phase, stats, True, new_impacts)
 
 
-def _keep(i, h, row, y, w, a_out, u, ud, p_new, powers, track_energy, on_output, out_y, out_w, out_a, out_u, out_ud,
-          energy, stats, bound):
+def _keep(
+    i,
+    h,
+    row,
+    y,
+    w,
+    a_out,
+    u,
+    ud,
+    p_new,
+    powers,
+    track_energy,
+    on_output,
+    out_y,
+    out_w,
+    out_a,
+    out_u,
+    out_ud,
+    energy,
+    stats,
+    bound,
+):
     """After step i: add the step's energy terms (trapezoidal in the powers) and store an output row.
     Returns the next row, or -1 when |y| passed `bound` (divergence; the step is noted in stats)."""
     if track_energy:
@@ -438,8 +537,30 @@ def _net_acceleration(t_el, cw, fr, m, zdd, a):
         prev = t
 
 
-def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar, blocks, track_energy,
-               out_y, out_w, out_a, out_u, out_ud, stats, energy, speeds):
+def _run_loops(
+    y,
+    w,
+    u,
+    ud,
+    zd,
+    zdd,
+    h,
+    theta,
+    out_every,
+    record_from,
+    par,
+    ipar,
+    blocks,
+    track_energy,
+    out_y,
+    out_w,
+    out_a,
+    out_u,
+    out_ud,
+    stats,
+    energy,
+    speeds,
+):
     """`_run` as loops over preallocated arrays, compiled with numba; same steps, same outputs. The
     damping matrix comes as `reflection_blocks`."""
     n_steps = zd.shape[0] - 1
@@ -458,8 +579,14 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
     free = np.empty(n, dtype=np.bool_)
     phase = np.zeros(n, dtype=np.bool_)
     clocks = np.zeros((2, n))
-    work = (np.zeros(blocks[0].shape[1]), np.zeros(blocks[1].shape[1]), np.zeros(blocks[0].shape[0]),
-            np.zeros(blocks[1].shape[0]), np.zeros(n), np.zeros((n, blocks[3].shape[0])))
+    work = (
+        np.zeros(blocks[0].shape[1]),
+        np.zeros(blocks[1].shape[1]),
+        np.zeros(blocks[0].shape[0]),
+        np.zeros(blocks[1].shape[0]),
+        np.zeros(n),
+        np.zeros((n, blocks[3].shape[0])),
+    )
     au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, blocks, work, cw, fr, a, t_el, contact)
     a_prev = a.copy()  # the first step's predictor is w + h a whatever theta
     au_prev = au
@@ -468,8 +595,9 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
     for j in range(n):
         free[j] = not contact[j]
     _record_step(t_el, contact, phase, free, stats, record_from == 0)
-    row = _keep(-1, h, 0, y, w, a, u, ud, powers, powers, False, True, out_y, out_w, out_a, out_u, out_ud, energy,
-                stats, np.inf)
+    row = _keep(
+        -1, h, 0, y, w, a, u, ud, powers, powers, False, True, out_y, out_w, out_a, out_u, out_ud, energy, stats, np.inf
+    )
     hh = 0.5 * h
     for i in range(n_steps):
         for j in range(n):
@@ -492,16 +620,58 @@ def _run_loops(y, w, u, ud, zd, zdd, h, theta, out_every, record_from, par, ipar
             w[j] = wh[j] + hh * a[j]
         au, _ = _carriage(u, up, t_el[ipar[0]] + dash_s, par, ipar)
         ud = uh + hh * au
-        _impacts_loop(h, y, w, a, wh, a_prev, u, ud, au, uh, au_prev, par, ipar, t_el, contact, free, phase, clocks,
-                      stats, speeds, i + 1 >= record_from)
+        _impacts_loop(
+            h,
+            y,
+            w,
+            a,
+            wh,
+            a_prev,
+            u,
+            ud,
+            au,
+            uh,
+            au_prev,
+            par,
+            ipar,
+            t_el,
+            contact,
+            free,
+            phase,
+            clocks,
+            stats,
+            speeds,
+            i + 1 >= record_from,
+        )
         _record_step(t_el, contact, phase, free, stats, i + 1 >= record_from)
         on_output = (i + 1) % out_every == 0
         if track_energy or on_output:
-            _, pc2, pd2, pf2 = _accel_into(y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar, blocks, work, cw, fr, a_out,
-                                           t_el, contact)
+            _, pc2, pd2, pf2 = _accel_into(
+                y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar, blocks, work, cw, fr, a_out, t_el, contact
+            )
             p_new[0], p_new[1], p_new[2] = pc2, pd2, pf2
-            row = _keep(i, h, row, y, w, a_out, u, ud, p_new, powers, track_energy, on_output,
-                        out_y, out_w, out_a, out_u, out_ud, energy, stats, bound)
+            row = _keep(
+                i,
+                h,
+                row,
+                y,
+                w,
+                a_out,
+                u,
+                ud,
+                p_new,
+                powers,
+                track_energy,
+                on_output,
+                out_y,
+                out_w,
+                out_a,
+                out_u,
+                out_ud,
+                energy,
+                stats,
+                bound,
+            )
             if row < 0:
                 return
 
@@ -521,8 +691,29 @@ def _crossing(d_old, d_new, threshold):
     return min(max((d_old - threshold) / span, 0.0), 1.0)
 
 
-def _impacts_loop(h, y, w, a, wh, a_prev, u, ud, au, uh, au_prev, par, ipar, t_el, contact, free, phase, clocks,
-                  stats, speeds, recording):
+def _impacts_loop(
+    h,
+    y,
+    w,
+    a,
+    wh,
+    a_prev,
+    u,
+    ud,
+    au,
+    uh,
+    au_prev,
+    par,
+    ipar,
+    t_el,
+    contact,
+    free,
+    phase,
+    clocks,
+    stats,
+    speeds,
+    recording,
+):
     """The impacts of one step, before `_record_step` moves the flags on (`free` and `phase` are the
     previous step's). An impact is a span entering contact from free play; at it the closing speed
     |e'| and the kinetic energy of the approach 1/2 m_eff e'^2 are taken at the crossing (the crossing
@@ -594,8 +785,31 @@ def _impacts_loop(h, y, w, a, wh, a_prev, u, ud, au, uh, au_prev, par, ipar, t_e
             clocks[1, j] = 0.0
 
 
-def _impacts_array(h, y, w, a, y_old, w_old, a_old, u, ud, au, u_old, ud_old, au_old, par, ipar, t_el, contact, free,
-                   phase, clocks, stats, speeds, recording):
+def _impacts_array(
+    h,
+    y,
+    w,
+    a,
+    y_old,
+    w_old,
+    a_old,
+    u,
+    ud,
+    au,
+    u_old,
+    ud_old,
+    au_old,
+    par,
+    ipar,
+    t_el,
+    contact,
+    free,
+    phase,
+    clocks,
+    stats,
+    speeds,
+    recording,
+):
     """`_impacts_loop` in numpy, for the numpy path (the previous state given whole); same results."""
     m, k, preload, kg, beta = par[0], par[1], par[3], par[4], par[5]
     s, tens, kv = ipar[0], ipar[1], ipar[2]
@@ -681,9 +895,23 @@ def _record_step(t_el, contact, phase, free, stats, recording):
 
 if numba is not None:
     # helpers inlined into the step loop (numba IR inlining: no call, and the loop fuses their work)
-    for _name in ("_rows_times", "_mirror_product", "_sqrt_product", "_span_law_into", "_span", "_damping_into", "_friction_into",
-                  "_tanh", "_carriage", "_accel_into", "_net_acceleration", "_record_step", "_impact_duration_s",
-                  "_crossing", "_impacts_loop"):
+    for _name in (
+        "_rows_times",
+        "_mirror_product",
+        "_sqrt_product",
+        "_span_law_into",
+        "_span",
+        "_damping_into",
+        "_friction_into",
+        "_tanh",
+        "_carriage",
+        "_accel_into",
+        "_net_acceleration",
+        "_record_step",
+        "_impact_duration_s",
+        "_crossing",
+        "_impacts_loop",
+    ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _keep = numba.njit(cache=True)(_keep)
     _run_compiled = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
@@ -748,17 +976,32 @@ class Run:
     impact_dissipated_J: float = 0.0  # Kelvin-Voigt dashpots' work in contacts begun by impacts (0: global law)
 
 
-def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 0.0, ud0: float = 0.0,
-              out_every: int = 1, record_from: int = 0, track_energy: bool = False,
-              compiled: bool | None = None, predictor: str = "euler") -> Run:
+def integrate(
+    model,
+    zd_nodes,
+    zdd_nodes,
+    step_s: float,
+    y0,
+    w0,
+    *,
+    u0: float = 0.0,
+    ud0: float = 0.0,
+    out_every: int = 1,
+    record_from: int = 0,
+    track_energy: bool = False,
+    compiled: bool | None = None,
+    predictor: str = "euler",
+) -> Run:
     """Step the clearance chain `model` (dynamics.models.clearance.ClearanceChain) over the nodes at which
     the cam's velocity and acceleration are given (uniform step `step_s`, len n_steps + 1), from
     (y0, w0, u0, ud0). `compiled`: None = numba when installed, False = the numpy path. `predictor`:
     the velocity at which the damping and friction forces are taken (PREDICTORS)."""
     theta = PREDICTORS[_predictor(predictor)]
     if theta and model.span_damping != "global":
-        raise DynamicsError(f"predictor: {predictor!r} is for the global damping law (the Kelvin-Voigt dashpot "
-                            f"jumps at impacts); use predictor='euler'")
+        raise DynamicsError(
+            f"predictor: {predictor!r} is for the global damping law (the Kelvin-Voigt dashpot "
+            f"jumps at impacts); use predictor='euler'"
+        )
     zd = np.ascontiguousarray(zd_nodes, dtype=float)
     zdd = np.ascontiguousarray(zdd_nodes, dtype=float)
     n_steps = zd.size - 1
@@ -770,8 +1013,13 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
     n = c.n_links
     y0 = np.array(y0, dtype=float).reshape(n)
     w0 = np.array(w0, dtype=float).reshape(n)
-    scale = max(np.max(np.abs(y0)), np.max(np.abs(zd)) * step_s * n_steps,
-                np.max(np.abs(zdd)) * (step_s * n_steps) ** 2, c.preload_N / c.stiffness_N_per_m, 1e-9)
+    scale = max(
+        np.max(np.abs(y0)),
+        np.max(np.abs(zd)) * step_s * n_steps,
+        np.max(np.abs(zdd)) * (step_s * n_steps) ** 2,
+        c.preload_N / c.stiffness_N_per_m,
+        1e-9,
+    )
     par, ipar, cmat = packed_parameters(model, 1e6 * scale)
     m_out = n_steps // out_every + 1
     out = [np.zeros((m_out, n)) for _ in range(3)] + [np.zeros(m_out), np.zeros(m_out)]
@@ -784,21 +1032,51 @@ def integrate(model, zd_nodes, zdd_nodes, step_s: float, y0, w0, *, u0: float = 
         raise DynamicsError("integrate: compiled=True but numba is not installed")
     runner, damping = (_run_compiled, _damping_blocks(model, cmat)) if use_numba else (_run, cmat)
     with np.errstate(over="ignore", invalid="ignore"):
-        runner(y0, w0, float(u0), float(ud0), zd, zdd, float(step_s), theta, int(out_every), int(record_from), par,
-               ipar, damping, bool(track_energy), *out, stats, energy, speeds)
+        runner(
+            y0,
+            w0,
+            float(u0),
+            float(ud0),
+            zd,
+            zdd,
+            float(step_s),
+            theta,
+            int(out_every),
+            int(record_from),
+            par,
+            ipar,
+            damping,
+            bool(track_energy),
+            *out,
+            stats,
+            energy,
+            speeds,
+        )
     if stats[6] or not np.all(np.isfinite(out[0])):
         where = stats[6] if stats[6] else "?"
         raise SolverDivergedError(
             f"clearance-verlet: solution diverged at step {where} (step {step_s:.3g} s); reduce the step "
-            f"below the stability limit of the contact frequency")
+            f"below the stability limit of the contact frequency"
+        )
     recorded = max(stats[2], 1.0)
-    return Run(*out, impacts=int(stats[0]), free_play_fraction=float(stats[1] / recorded),
-               peak_tension_N=float(stats[3]), min_tension_N=float(stats[4]),
-               peak_force_in_impact_contact_N=float(stats[5]), impact_force_spike_N=float(stats[7]),
-               impact_speeds_m_s=speeds[: int(stats[11])].copy(), impact_max_speed_m_s=float(stats[10]),
-               impact_kinetic_energy_J=float(stats[8]), impact_dissipated_J=float(stats[9]),
-               cam_work_J=float(energy[0]), dissipated_damping_J=float(energy[1]),
-               dissipated_friction_J=float(energy[2]), step_s=float(step_s), n_steps=int(n_steps))
+    return Run(
+        *out,
+        impacts=int(stats[0]),
+        free_play_fraction=float(stats[1] / recorded),
+        peak_tension_N=float(stats[3]),
+        min_tension_N=float(stats[4]),
+        peak_force_in_impact_contact_N=float(stats[5]),
+        impact_force_spike_N=float(stats[7]),
+        impact_speeds_m_s=speeds[: int(stats[11])].copy(),
+        impact_max_speed_m_s=float(stats[10]),
+        impact_kinetic_energy_J=float(stats[8]),
+        impact_dissipated_J=float(stats[9]),
+        cam_work_J=float(energy[0]),
+        dissipated_damping_J=float(energy[1]),
+        dissipated_friction_J=float(energy[2]),
+        step_s=float(step_s),
+        n_steps=int(n_steps),
+    )
 
 
 def packed_parameters(model, bound: float = np.inf):
@@ -806,11 +1084,23 @@ def packed_parameters(model, bound: float = np.inf):
     `bound` is the |y| above which a run counts as diverged."""
     c, t = model.chain, model.tensioner
     kv = model.span_damping == "kelvin-voigt"
-    par = np.array([c.link_mass_kg, c.stiffness_N_per_m, c.drive_stiffness, c.preload_N,
-                    c.stiffness_N_per_m * model.clearance_m, model.beta_s, c.coulomb_force_N,
-                    1.0 / c.friction_velocity_scale_m_s,
-                    t.mass_kg if t else 1.0, t.rate_N_per_m if t else 0.0, t.damping_N_s_per_m if t else 0.0,
-                    2.0 * c.preload_N, bound])
+    par = np.array(
+        [
+            c.link_mass_kg,
+            c.stiffness_N_per_m,
+            c.drive_stiffness,
+            c.preload_N,
+            c.stiffness_N_per_m * model.clearance_m,
+            model.beta_s,
+            c.coulomb_force_N,
+            1.0 / c.friction_velocity_scale_m_s,
+            t.mass_kg if t else 1.0,
+            t.rate_N_per_m if t else 0.0,
+            t.damping_N_s_per_m if t else 0.0,
+            2.0 * c.preload_N,
+            bound,
+        ]
+    )
     reduced = not kv and model.damping_is_reduced
     ipar = np.array([model.idler_span, int(t is not None), int(kv), int(reduced)], dtype=np.int64)
     cmat = np.zeros((1, 1)) if kv else model.damping_operator
@@ -830,8 +1120,12 @@ def _damping_blocks(model, cmat):
     if model.damping_is_reduced:
         coefficients, weights, factors, sm = cmat.packed()
         # the compiled product's layout: factors (3, N, p); sm's third column its scratch
-        return dummy + (coefficients, weights, np.ascontiguousarray(factors.transpose(1, 2, 0)),
-                        np.ascontiguousarray(np.column_stack([sm, np.zeros(sm.shape[0])])))
+        return dummy + (
+            coefficients,
+            weights,
+            np.ascontiguousarray(factors.transpose(1, 2, 0)),
+            np.ascontiguousarray(np.column_stack([sm, np.zeros(sm.shape[0])])),
+        )
     return cache.cached(("reflection-blocks", model.chain), lambda: reflection_blocks(cmat)) + empty
 
 

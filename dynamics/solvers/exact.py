@@ -36,11 +36,18 @@ import numpy as np
 from scipy.linalg import eigh, expm
 
 from dynamics.errors import DynamicsError
-from dynamics.solvers import mode_scan
-from dynamics.solvers._common import (Problem, check_finite, divergence_bounds, force_at, frequency_bound,
-                                      is_diagonal, state_matrices)
-from dynamics.solvers.cache import cached
 from dynamics.models.system import SecondOrderSystem
+from dynamics.solvers import mode_scan
+from dynamics.solvers._common import (
+    Problem,
+    check_finite,
+    divergence_bounds,
+    force_at,
+    frequency_bound,
+    is_diagonal,
+    state_matrices,
+)
+from dynamics.solvers.cache import cached
 
 OPTIONS = {
     "substeps": "int >= 1 (default 1): equal sub-intervals per output interval (nonlinear force)",
@@ -61,6 +68,7 @@ def _step_key(h: float) -> float:
 def foh_matrices(system: SecondOrderSystem, h: float, inputs: tuple[int, ...] | None = None):
     """(Phi, G0, G1) with y_k+1 = Phi y_k + G0 f_k + G1 f_k+1 over a step h; cached. With `inputs`
     (DOF indices) G0 and G1 keep only those DOFs' columns: y_k+1 = Phi y_k + G0 f_k[inputs] + ..."""
+
     def compute():
         modes = system_modes(system)
         if modes is None:

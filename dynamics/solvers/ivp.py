@@ -64,8 +64,14 @@ def solve(
     bounds = divergence_bounds(problem)
     if not sol.success or sol.y.shape[1] != t.size:
         last = sol.y[:, -1] if sol.y.size else np.full(2 * n, np.nan)
-        check_finite(name, np.array([sol.t[-1] if sol.t.size else t[0]]), last[None, :n], last[None, n:], bounds,
-                     f"rtol {rtol:g}, atol {atol:g}")
+        check_finite(
+            name,
+            np.array([sol.t[-1] if sol.t.size else t[0]]),
+            last[None, :n],
+            last[None, n:],
+            bounds,
+            f"rtol {rtol:g}, atol {atol:g}",
+        )
         raise SolverFailedError(f"{name}: solve_ivp stopped at t = {sol.t[-1]:.6g}: {sol.message}")
     y = sol.y.T
     check_finite(name, t, y[:, :n], y[:, n:], bounds, f"rtol {rtol:g}, atol {atol:g}")

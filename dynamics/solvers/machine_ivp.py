@@ -35,8 +35,19 @@ class MachineResponse:
     n_rhs: int
 
 
-def integrate_cycle(machine: MachineOnWheels, zddot, z, t_eval_s, q0, v0, *, t_dwell_s: float | None = None,
-                    rtol: float = 1e-11, scale_m: float = 1e-3, scale_m_s: float = 1.0) -> MachineResponse:
+def integrate_cycle(
+    machine: MachineOnWheels,
+    zddot,
+    z,
+    t_eval_s,
+    q0,
+    v0,
+    *,
+    t_dwell_s: float | None = None,
+    rtol: float = 1e-11,
+    scale_m: float = 1e-3,
+    scale_m_s: float = 1.0,
+) -> MachineResponse:
     """Integrate from t_eval_s[0] with state (q0, v0) to t_eval_s[-1]; `zddot(t)`, `z(t)`: the cam's
     acceleration and lift (callables of a float time)."""
     t = np.asarray(t_eval_s, dtype=float)

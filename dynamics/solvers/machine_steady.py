@@ -41,11 +41,11 @@ from scipy.linalg import lu_factor, lu_solve
 
 from dynamics.errors import DynamicsError, SolverFailedError
 from dynamics.models.machine import MachineOnWheels
-from dynamics.solvers.machine_ivp import integrate_cycle
+from dynamics.models.system import SampledForce
 from dynamics.solvers import solve
 from dynamics.solvers.exact import propagate
+from dynamics.solvers.machine_ivp import integrate_cycle
 from dynamics.solvers.steady_state import monodromy
-from dynamics.models.system import SampledForce
 
 
 @dataclass(frozen=True)
@@ -93,8 +93,7 @@ def _places(machine: MachineOnWheels) -> _Places:
         source[n - 1] = n - 1  # the carriage keeps its state
     wheels = []
     for place in sorted(group_places):
-        wheels.append((dof_of_place[place], dof_of_place[(place - 1) % n_places],
-                       dof_of_place[(place + 1) % n_places]))
+        wheels.append((dof_of_place[place], dof_of_place[(place - 1) % n_places], dof_of_place[(place + 1) % n_places]))
     return _Places(source, tuple(wheels))
 
 
@@ -151,8 +150,15 @@ def cycle_grid(cam, samples_per_cycle: int) -> tuple[np.ndarray, np.ndarray, np.
     return t, np.asarray(s, dtype=float), np.asarray(a, dtype=float)
 
 
-def periodic_state(machine: MachineOnWheels, cam, samples_per_cycle: int = 360, *, relabel: bool = True,
-                   tol: float = 1e-7, max_iterations: int = 20) -> CycleResponse:
+def periodic_state(
+    machine: MachineOnWheels,
+    cam,
+    samples_per_cycle: int = 360,
+    *,
+    relabel: bool = True,
+    tol: float = 1e-7,
+    max_iterations: int = 20,
+) -> CycleResponse:
     """The steady state of continuous indexing over one index cycle (relabelled by default, see the
     module docstring); the cam's acceleration is held linearly between the samples. `tol` bounds the
     period residual of the polygonal model's Newton shooting relative to the state's scale: the
@@ -183,8 +189,14 @@ def _run(machine, x0, t, s, a):
     if machine.polygonal:
         r = integrate_cycle(machine, lambda x: np.interp(x, t, a), lambda x: np.interp(x, t, s), t, x0[:n], x0[n:])
         return r.q_m, r.v_m_s
-    resp = solve(machine.system(), SampledForce(t, -np.outer(a, machine.inertial_load())), t, method="exact",
-                 x0=x0[:n], v0=x0[n:])
+    resp = solve(
+        machine.system(),
+        SampledForce(t, -np.outer(a, machine.inertial_load())),
+        t,
+        method="exact",
+        x0=x0[:n],
+        v0=x0[n:],
+    )
     return resp.x, resp.v
 
 
@@ -198,8 +210,9 @@ def _end_state(machine, x0, t, s, a, relabel):
 
 def _newton(machine, lu, x0, t, s, a, relabel, tol, max_iterations):
     n = x0.size // 2
-    scale = np.concatenate([np.full(n, max(np.max(np.abs(x0[:n])), 1e-300)),
-                            np.full(n, max(np.max(np.abs(x0[n:])), 1e-300))])
+    scale = np.concatenate(
+        [np.full(n, max(np.max(np.abs(x0[:n])), 1e-300)), np.full(n, max(np.max(np.abs(x0[n:])), 1e-300))]
+    )
     for _ in range(max_iterations):
         residual = _end_state(machine, x0, t, s, a, relabel) - x0
         if np.max(np.abs(residual) / scale) <= tol:
@@ -209,7 +222,6 @@ def _newton(machine, lu, x0, t, s, a, relabel, tol, max_iterations):
 
 
 def _cycle(machine, x0, t, s, a, relabel) -> CycleResponse:
-    n = x0.size // 2
     q, v = _run(machine, x0, t, s, a)
     m = np.diag(machine.mass_matrix())
     acc = -(q @ machine.stiffness_matrix().T + v @ machine.damping_matrix().T) - np.outer(a, machine.inertial_load())
@@ -221,13 +233,15 @@ def _cycle(machine, x0, t, s, a, relabel) -> CycleResponse:
     if relabel:
         q_new, v_new, speeds, impacts = transfer(machine, q[-1], v[-1])
         end = np.array([w.tooth_angle_rad for w in (e.wheel for e in machine.wheel_ends)])
-        change = (machine.stored_energy_J(q_new, v_new, 0.0, np.zeros(end.size))
-                  - machine.stored_energy_J(q[-1], v[-1], 0.0, end))
+        change = machine.stored_energy_J(q_new, v_new, 0.0, np.zeros(end.size)) - machine.stored_energy_J(
+            q[-1], v[-1], 0.0, end
+        )
     return CycleResponse(t, q, v, acc, a, speeds, impacts, change)
 
 
-def link_residual_and_peak(machine: MachineOnWheels, cycle: CycleResponse, dwell_mask: np.ndarray,
-                           link: int) -> tuple[float, float]:
+def link_residual_and_peak(
+    machine: MachineOnWheels, cycle: CycleResponse, dwell_mask: np.ndarray, link: int
+) -> tuple[float, float]:
     """At 0-based `link` (the link at that place at the start of the index): residual vibration,
     max |x - z| over the dwell samples, and peak |absolute acceleration| over the cycle. A link held
     to the cam has neither vibration nor acceleration beyond the cam's."""

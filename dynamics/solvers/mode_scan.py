@@ -36,7 +36,7 @@ class ModeSteps:
     g0: np.ndarray  # (r, 2)
     g1: np.ndarray  # (r, 2)
 
-    def lowest(self, r: int) -> "ModeSteps":
+    def lowest(self, r: int) -> ModeSteps:
         return ModeSteps(self.e[:r], self.g0[:r], self.g1[:r])
 
 
@@ -82,7 +82,7 @@ class BlockKernel:
     def length(self) -> int:
         return self.matrix.shape[1] // 2
 
-    def lowest(self, r: int) -> "BlockKernel":
+    def lowest(self, r: int) -> BlockKernel:
         return BlockKernel(self.matrix[:r])
 
 

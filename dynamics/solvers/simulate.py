@@ -28,14 +28,14 @@ from functools import lru_cache
 
 import numpy as np
 
-from dynamics.models.chain import ChainModel
 from dynamics.errors import DynamicsError
+from dynamics.models.chain import ChainModel
 from dynamics.models.friction import CamFrameFriction
 from dynamics.models.reduction import ProjectedForce, modal_basis
+from dynamics.models.system import Response, SampledForce, SecondOrderSystem
 from dynamics.solvers import METHODS, solve_with_diagnostics
 from dynamics.solvers._common import serial_blas
 from dynamics.solvers.steady_state import periodic_initial_state
-from dynamics.models.system import Response, SampledForce, SecondOrderSystem
 
 DEFAULT_METHOD = "exact"
 
@@ -117,8 +117,7 @@ def _simulate(model, cam, t_eval_s, method, steady_state, links, n_modes, option
     opts = dict(options)
     if friction:
         friction_force = CamFrameFriction(model.coulomb_force_N, model.friction_velocity_scale_m_s, t_table, zdot_table)
-        opts["time_dependent_force"] = (friction_force if basis is None
-                                        else ProjectedForce(friction_force, basis.shapes))
+        opts["time_dependent_force"] = friction_force if basis is None else ProjectedForce(friction_force, basis.shapes)
         if method == "exact":
             h = float(np.max(np.diff(t)))
             needed = int(np.ceil(h * model.friction_slope_per_s()))
@@ -136,8 +135,9 @@ def _simulate(model, cam, t_eval_s, method, steady_state, links, n_modes, option
         yd0 = -v[0] * (np.ones(model.n_links) if basis is None else basis.participation)
     resp, solver_info = solve_with_diagnostics(system, force, t, method=method, x0=y0, v0=yd0, **opts)
     if basis is not None:
-        resp = Response(resp.t_s, resp.x @ basis.shapes.T, resp.v @ basis.shapes.T, resp.a @ basis.shapes.T,
-                        resp.method)
+        resp = Response(
+            resp.t_s, resp.x @ basis.shapes.T, resp.v @ basis.shapes.T, resp.a @ basis.shapes.T, resp.method
+        )
 
     tension = model.tension_N(resp.x)
     min_tension = float(tension.min())

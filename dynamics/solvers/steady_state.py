@@ -26,12 +26,11 @@ import numpy as np
 from scipy.linalg import lu_factor, lu_solve
 
 from dynamics.errors import DynamicsError, SolverFailedError
+from dynamics.models.system import SampledForce, SecondOrderSystem
 from dynamics.solvers import solve_with_diagnostics
 from dynamics.solvers._common import _combined_force, serial_blas
 from dynamics.solvers.cache import cached
 from dynamics.solvers.exact import _steps, foh_matrices, propagate
-from dynamics.models.system import SampledForce, SecondOrderSystem
-
 
 
 def monodromy(system: SecondOrderSystem, grid: np.ndarray) -> np.ndarray:
