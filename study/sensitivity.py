@@ -45,6 +45,9 @@ MIN_TO_ESTIMATE = 4 * HARMONICS + 2
 #: Largest interval half-width at which indices are read as a ranking: inputs whose indices differ by
 #: more than twice this are told apart.
 MAX_HALF_WIDTH = 0.2
+#: The range variables' share of the variance below which it is rounding, not an effect (a metric
+#: the list variables alone set: its mean over them varies in the last digits only).
+SHARE_TOLERANCE = 1e-12
 ESTIMATOR = (
     f"first-order Sobol' indices: RBD-FAST (SALib, {HARMONICS} harmonics) for range variables, "
     f"between-value variance for list variables; {CONF_LEVEL:.0%} bootstrap intervals"
@@ -105,7 +108,7 @@ def _range_indices(X: np.ndarray, names: list[str], Y: np.ndarray, total: float,
 
     mean_over_lists = Y.mean(axis=1)
     share = float(mean_over_lists.var()) / total
-    if not share > 0:
+    if not share > SHARE_TOLERANCE:  # RBD-FAST on rounding noise would divide 0 by 0
         return [InputIndex(n, "range", 0.0, 0.0) for n in names]
     problem = {"num_vars": len(names), "names": list(names), "bounds": [[0.0, 1.0]] * len(names)}
     found = rbd_fast.analyze(
