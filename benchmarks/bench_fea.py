@@ -74,7 +74,7 @@ def _prepared(link):
     from fem import problem
 
     sk_mesh, index = link_module.skfem_mesh(link, order=2, curved=False)
-    basis, fixed, unit = link_module._discretise(link, sk_mesh, index, 2)
+    basis, fixed, unit, _ = link_module._discretise(link, sk_mesh, index, 2)  # whole link: no mirror DOFs
     resultant = float(link.load_direction @ problem.as_components(unit).sum(axis=1))
     f = unit * (LOAD_N / resultant)
     return sk_mesh, basis, fixed, f, problem.fixed_vector_dofs(basis, fixed)

@@ -28,7 +28,7 @@ SETTINGS = {"MKL defaults": {}, "PARDISO_IPARM": solvers.PARDISO_IPARM}
 def _condensed_system(size_mm: float) -> tuple[sp.csr_matrix, np.ndarray]:
     link = load_link(None, mesh_size_m=size_mm * 1e-3, order=2, bore_refinement=DEFAULT_BORE_REFINEMENT)
     mesh, index = skfem_mesh(link, 2)
-    basis, fixed, f = _discretise(link, mesh, index, 2)
+    basis, fixed, f, _ = _discretise(link, mesh, index, 2)  # a whole link: no mirror-plane DOFs
     K = elasticity_matrix(basis, *get_material("al6061-t6").lame_Pa)
     free = np.setdiff1d(np.arange(K.shape[0]), problem.fixed_vector_dofs(basis, fixed))
     return K[free][:, free].tocsr(), f[free]
