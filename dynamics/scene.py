@@ -34,6 +34,7 @@ import numpy as np
 
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance import ClearanceChain, Tensioner
+from dynamics.models.layout import LINK_DRIVE, MachineLayout
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
 from dynamics.solvers.simulate import ChainResponse, SlackChainWarning, simulate
@@ -78,6 +79,7 @@ class Scene:
     model: str  # one of MODEL_CHOICES
     steady_state: bool  # periodic steady state (False: from rest)
     solver: str  # the linear chain's method (dynamics.solvers.METHODS)
+    layout: MachineLayout = LINK_DRIVE  # how the chain is driven and carried (dynamics.models.layout)
 
 
 @dataclass(frozen=True)
@@ -410,6 +412,8 @@ def simulate_scene(
     scene: Scene, chain, cam, t_eval_s, *, links=None, n_modes=None
 ) -> tuple[ChainResponse, ContactSummary]:
     """What the orchestrators call: the scene's model (auto, linear or clearance) for one cam."""
+    if scene.layout.on_wheels:
+        raise DynamicsError("drive: the machine on its wheels is not wired into the run yet; use --drive link")
     return simulate_chain(
         scene_model(scene, chain),
         cam,
