@@ -19,11 +19,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError
-from dynamics.solvers.clearance_verlet import FASTMATH, PREDICTORS, SPEED_CAPACITY, stable_omega_h
+from dynamics.solvers.clearance_verlet import (
+    FASTMATH,
+    PREDICTORS,
+    SPEED_CAPACITY,
+    TANH_IS_ONE,
+    _rows_times,
+    _tanh,
+    stable_omega_h,
+)
 
 try:
     import numba
@@ -91,18 +100,21 @@ def _accel_into(
             dof = int(wheel_float[wi, 3])
             if dof >= 0:
                 f[dof] -= span_float[j, 1] * wsl[wi] * t
-    if not kv:
+    if not kv:  # C v, four rows at a time on the padded C (clearance_verlet._rows_times)
+        vp, cv_out = work[4], work[5]
         for i in range(n):
-            s = 0.0
-            for m in range(n):
-                s += cmat[i, m] * v[m]
-            f[i] -= s
+            vp[i] = v[i]
+        _rows_times(cmat, vp, cv_out)
+        for i in range(n):
+            f[i] -= cv_out[i]
+    if fc > 0.0:
+        for i in range(n):
+            if dof_float[i, 4] > 0.0:
+                x = (zd + v[i]) * inv_vs
+                th = 1.0 if x > TANH_IS_ONE else (-1.0 if x < -TANH_IS_ONE else _tanh(x))
+                f[i] -= fc * dof_float[i, 4] * th
     for i in range(n):
-        x = (zd + v[i]) * inv_vs
-        fr = 0.0
-        if dof_float[i, 4] > 0.0:
-            fr = -fc * dof_float[i, 4] * math.tanh(x)
-        f[i] += fr - dof_float[i, 2] * q[i] - dof_float[i, 3] * v[i]
+        f[i] -= dof_float[i, 2] * q[i] + dof_float[i, 3] * v[i]
         a[i] = f[i] * dof_float[i, 0] - dof_float[i, 1] * zdd
 
 
@@ -146,7 +158,7 @@ def _run_loops(
     free = np.empty(ns, dtype=np.bool_)
     clock = np.full(ns, np.inf)
     nw = max(wheel_float.shape[0], 1)
-    work = (np.zeros(nw), np.zeros(nw), np.zeros(nw), np.zeros(n))
+    work = (np.zeros(nw), np.zeros(nw), np.zeros(nw), np.zeros(n), np.zeros(cmat.shape[1]), np.zeros(cmat.shape[0]))
     window = math.pi * math.sqrt(0.5 * par[7] / par[0])
     _accel_into(
         q,
@@ -342,7 +354,7 @@ def integrate(
             arr.dof_float,
             arr.wheel_float,
             arr.par,
-            arr.cmat if arr.cmat.size else np.zeros((1, 1)),
+            arr.cmat,
             1e6 * scale,
             *out,
             stats,
@@ -369,7 +381,12 @@ def integrate(
 
 def stable_step_s(model, safety: float, predictor: str) -> float:
     omega = model.max_frequency_rad_s
-    return safety * stable_omega_h(model.damping_ratio_at(omega), predictor) / omega
+    return safety * _stable_omega_h(model.damping_ratio_at(omega), predictor) / omega
+
+
+@lru_cache(maxsize=64)
+def _stable_omega_h(zeta: float, predictor: str) -> float:
+    return stable_omega_h(zeta, predictor)
 
 
 def substeps_for(model, output_step_s: float, safety: float, predictor: str) -> int:
@@ -408,7 +425,7 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
     """The state at the start of an index with x0 = T(P(x0)) (dynamics.solvers.machine_steady), by
     stepping cycle after cycle with the seat change between them until the start state changes by
     less than `tol` (relative to the largest |q| and |q'| over the cycle). Returns (q0, v0, cycles,
-    residual, found)."""
+    residual, found, the last cycle's MachineRun)."""
     zr, zd, zdd = cycle_nodes(cam, step_s, n_steps)
     every = max(n_steps // 90, 1)
     while n_steps % every:
@@ -422,5 +439,5 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
         residual = max(float(np.max(np.abs(q1 - q0))) / sq, float(np.max(np.abs(v1 - v0))) / sv)
         q0, v0 = q1, v1
         if residual <= tol:
-            return q0, v0, cycle, residual, True
-    return q0, v0, max_cycles, residual, False
+            return q0, v0, cycle, residual, True, run
+    return q0, v0, max_cycles, residual, False, run
