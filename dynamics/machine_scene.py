@@ -41,6 +41,11 @@ from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import machine_verlet as mv
 from dynamics.solvers.simulate import ChainResponse
 
+# The linear machine's steady state is found to this tolerance before the model is chosen: enough for
+# the choice and the preload for full contact (its minimum tension to about this fraction), not
+# for the answer (see simulate_machine)
+CHOICE_TOL = 1e-3
+
 
 def machine_model(scene, chain) -> ClearanceMachine:
     """The clearance machine of a scene (its layout, tensioner, free play, damping law) on one
@@ -79,19 +84,27 @@ def simulate_machine(
     n_dof = model.topology.n_dof
     start = (np.zeros(n_dof), np.zeros(n_dof))
     lin_sub = mv.substeps_for(linear, h_out, lin_safety, lin_pred)
+    # the linear machine first to CHOICE_TOL: its minimum tension decides the model (and gives the
+    # preload for full contact) and its state starts the clearance machine's steady state, which
+    # is then iterated to `tol`; only when the linear machine is the answer is it iterated on to `tol`
+    # and its window stepped
+    lin_tol = max(tol, CHOICE_TOL)
     lin_state, lin_ss, lin_last = _start_state(
-        linear, cam, h_out, per_cycle, lin_sub, start, steady_state, tol, max_cycles, lin_pred
+        linear, cam, h_out, per_cycle, lin_sub, start, steady_state, lin_tol, max_cycles, lin_pred
     )
     lin = None
     if lin_last is not None and lin_ss.found:
-        # in the steady state every index cycle is the last one stepped (to tol): its minimum
-        # tension is the window's, so the linear window is only stepped when it is the answer
+        # in the steady state every index cycle is the last one stepped (to lin_tol): its minimum
+        # tension is the window's
         lin_min = lin_last.min_tension_N
     else:
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred)
         lin_min = lin.min_tension_N
     chosen = choose_model(model, choice, lin_min)
     if chosen.model == ChainModelKind.LINEAR and lin is None:
+        lin_state, lin_ss, _ = _start_state(
+            linear, cam, h_out, per_cycle, lin_sub, lin_state, steady_state, tol, max_cycles, lin_pred
+        )
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred)
         lin_min = lin.min_tension_N
         chosen = choose_model(model, choice, lin_min)

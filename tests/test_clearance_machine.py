@@ -122,7 +122,7 @@ def test_the_relabelled_steady_state_repeats_after_one_index(tensioner):
     n = 180 * sub
     h = cam.cycle_s / n
     zeros = np.zeros(model.topology.n_dof)
-    q0, v0, _, _, found = mv.relabelled_periodic_state(
+    q0, v0, _, _, found, _ = mv.relabelled_periodic_state(
         model, cam, h, n, zeros, zeros, tol=1e-9, max_cycles=60, predictor="ab2"
     )
     assert found
