@@ -105,7 +105,7 @@ def simulate_machine(
         lin_state, lin_ss, _ = _start_state(
             linear, cam, h_out, per_cycle, lin_sub, lin_state, steady_state, tol, max_cycles, lin_pred
         )
-        lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred)
+        lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred, _found(lin_ss))
         lin_min = lin.min_tension_N
         chosen = choose_model(model, choice, lin_min)
     needed = max(model.chain.preload_N - lin_min, 0.0)
@@ -116,7 +116,7 @@ def simulate_machine(
         saf = verlet.default_safety(model, pred) if safety is None else safety
         sub = mv.substeps_for(model, h_out, saf, pred)
         state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, lin_state, steady_state, tol, max_cycles, pred)
-        run = _window(model, cam, t, per_cycle, sub, state, pred)
+        run = _window(model, cam, t, per_cycle, sub, state, pred, _found(ss))
     summary = _summary(model, chosen, run, lin_min, needed, ss, sub, t, period)
     return _response(model, cam, t, run, links, sub, ss), summary
 
@@ -139,6 +139,10 @@ class _Window:
         self.impact_speeds_m_s = np.concatenate([r.impact_speeds_m_s for r in runs])
 
 
+def _found(ss) -> bool:
+    return ss is not None and ss.found
+
+
 def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor):
     if not steady_state:
         return state, None, None
@@ -158,9 +162,11 @@ def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, ma
     return (q0, v0), SteadyState(False, None, cycles, residual, text), last
 
 
-def _window(model, cam, t, per_cycle, sub, state, predictor) -> _Window:
+def _window(model, cam, t, per_cycle, sub, state, predictor, periodic=False) -> _Window:
     """Index cycle after index cycle over the output samples, the seat change between cycles; a
-    sample at a cycle's start is the state after the seat change."""
+    sample at a cycle's start is the state after the seat change. `periodic`: the state is the
+    relabelled steady state (x0 = T(P(x0)) to its tolerance), so every cycle is the first one in
+    the frame of places and is stepped once."""
     h = (t[1] - t[0]) / sub
     zr, zd, zdd = mv.cycle_nodes(cam, h, per_cycle * sub)
     q0, v0 = state
@@ -168,7 +174,10 @@ def _window(model, cam, t, per_cycle, sub, state, predictor) -> _Window:
     seating = None
     remaining = t.size
     while remaining > 0:
-        run = mv.integrate(model, zr, zd, zdd, h, q0, v0, out_every=sub, predictor=predictor)
+        if periodic and runs:
+            run = runs[0]
+        else:
+            run = mv.integrate(model, zr, zd, zdd, h, q0, v0, out_every=sub, predictor=predictor)
         runs.append(run)
         take = min(per_cycle, remaining)
         for rows, out in ((rows_q, run.q), (rows_v, run.v), (rows_a, run.a), (rows_t, run.tension_N)):
