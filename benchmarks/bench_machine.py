@@ -85,6 +85,19 @@ def _window_run(model, cam, t, sub):
     return seconds, _station_metrics(model, cam, t, np.concatenate(ys), np.concatenate(vs), np.concatenate(accs))
 
 
+def _ring_window_s(cam, t, sub) -> float:
+    from dynamics.models.clearance import ClearanceChain
+    from dynamics.solvers import clearance_verlet
+
+    ring = ClearanceChain(_chain("al6061-t6"), DEFAULT_PIN_CLEARANCE_M)
+    tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
+    _, zd, zdd, _ = cam.svaj(tf)
+    zeros = np.zeros(N_LINKS)
+    start = time.perf_counter()
+    clearance_verlet.integrate(ring, zd, zdd, tf[1] - tf[0], zeros, zeros, out_every=sub, predictor="ab2")
+    return time.perf_counter() - start
+
+
 def _window_table(quick: bool) -> list[str]:
     from dynamics.models.clearance_machine import ClearanceMachine
 
@@ -115,6 +128,11 @@ def _window_table(quick: bool) -> list[str]:
             errors[sub] = float(np.max(np.abs(metrics - ref).reshape(4, 5) / scale))
     for sub in subs:
         lines.append(f"| {sub} | {1e3 * statistics.median(times[sub]):.1f} ms | {errors[sub]:.1e} |")
+    ring_s = [_ring_window_s(cam, t, 2 * default) for _ in range(repeats)]
+    lines.append(
+        f"Yardstick, same run: today's 85-link ring (single-link drive, same chain) over the same window "
+        f"at {2 * default} steps/sample: {1e3 * statistics.median(ring_s):.1f} ms"
+    )
     met = errors[default] <= 1e-3 and statistics.median(times[default]) <= TARGET_WINDOW_S
     lines.append(
         f"Target (1e-3 within {1e3 * TARGET_WINDOW_S:.0f} ms at the default step): **{'met' if met else 'NOT met'}**"
