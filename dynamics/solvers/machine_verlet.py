@@ -59,13 +59,22 @@ def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
 def _accel_into(
     q, v, z_rel, zd, zdd, span_int, span_float, dof_float, wheel_float, par, cmat, work, t_el, ed, contact, a
 ):
-    """a = M^-1 (forces) - r z'' of one state; span forces t_el, their rates ed and contact flags."""
+    """a = M^-1 (forces) - r z'' of one state; span forces t_el, their rates ed and contact flags;
+    into work[6] the powers (cam, damping, friction) of the absolute-frame energy balance:
+
+        d/dt [1/2 sum M (q' + r z')^2 + sum span energy + 1/2 sum k_g q^2 - f0 . q]
+            = z' (sum over the DOFs that move with the cam of their force without friction
+                  + sum over the wheel-end spans of T s dd/du)           (the cam's power)
+              - (C q' . q' or the dashpots' T_d e' + c_g q'^2)           (damping)
+              - (-F_friction . (q' + z'))                                (friction)"""
     k, preload, kg, beta_k, kv, fc, inv_vs = par[0], par[1], par[2], par[3], par[4] > 0.5, par[5], par[6]
     n = q.shape[0]
-    wd, wsl, wdt, f = work[0], work[1], work[2], work[3]
+    wd, wsl, wdt, f, powers = work[0], work[1], work[2], work[3], work[6]
     _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt)
     for i in range(n):
         f[i] = dof_float[i, 5]
+    p_damp = 0.0
+    p_poly = 0.0
     for j in range(span_int.shape[0]):
         b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
         e = 0.0
@@ -90,6 +99,7 @@ def _accel_into(
         contact[j] = on
         if kv and on:
             t += beta_k * de
+            p_damp += beta_k * de * de
         if fw >= 0:
             f[fw] -= t
         if b >= 0:
@@ -97,6 +107,7 @@ def _accel_into(
         if c >= 0:
             f[c] -= span_float[j, 0] * t
         if wi >= 0:
+            p_poly += span_float[j, 1] * wsl[wi] * t
             dof = int(wheel_float[wi, 3])
             if dof >= 0:
                 f[dof] -= span_float[j, 1] * wsl[wi] * t
@@ -107,15 +118,26 @@ def _accel_into(
         _rows_times(cmat, vp, cv_out)
         for i in range(n):
             f[i] -= cv_out[i]
+            p_damp += v[i] * cv_out[i]
+    cam = 0.0
+    for i in range(n):
+        f[i] -= dof_float[i, 2] * q[i] + dof_float[i, 3] * v[i]
+        p_damp += dof_float[i, 3] * v[i] * v[i]
+        cam += dof_float[i, 1] * f[i]
+    p_fric = 0.0
     if fc > 0.0:
         for i in range(n):
             if dof_float[i, 4] > 0.0:
                 x = (zd + v[i]) * inv_vs
                 th = 1.0 if x > TANH_IS_ONE else (-1.0 if x < -TANH_IS_ONE else _tanh(x))
-                f[i] -= fc * dof_float[i, 4] * th
+                fr = fc * dof_float[i, 4] * th
+                f[i] -= fr
+                p_fric += fr * (v[i] + dof_float[i, 1] * zd)
     for i in range(n):
-        f[i] -= dof_float[i, 2] * q[i] + dof_float[i, 3] * v[i]
         a[i] = f[i] * dof_float[i, 0] - dof_float[i, 1] * zdd
+    powers[0] = zd * (cam + p_poly)
+    powers[1] = p_damp
+    powers[2] = p_fric
 
 
 def _run_loops(
@@ -141,7 +163,12 @@ def _run_loops(
     out_t,
     stats,
     speeds,
+    track_energy,
+    energy,
 ):
+    """The step loop (module docstring); `energy` (cam work, damping and friction dissipation)
+    integrated trapezoidally in the powers at the steps' states when `track_energy` (one more force
+    evaluation per step)."""
     n_steps = zd.shape[0] - 1
     n = q.shape[0]
     ns = span_int.shape[0]
@@ -158,7 +185,15 @@ def _run_loops(
     free = np.empty(ns, dtype=np.bool_)
     clock = np.full(ns, np.inf)
     nw = max(wheel_float.shape[0], 1)
-    work = (np.zeros(nw), np.zeros(nw), np.zeros(nw), np.zeros(n), np.zeros(cmat.shape[1]), np.zeros(cmat.shape[0]))
+    work = (
+        np.zeros(nw),
+        np.zeros(nw),
+        np.zeros(nw),
+        np.zeros(n),
+        np.zeros(cmat.shape[1]),
+        np.zeros(cmat.shape[0]),
+        np.zeros(3),
+    )
     window = math.pi * math.sqrt(0.5 * par[7] / par[0])
     _accel_into(
         q,
@@ -178,6 +213,7 @@ def _run_loops(
         contact,
         a,
     )
+    p_prev = work[6].copy()
     for j in range(n):
         a_prev[j] = a[j]
     for j in range(ns):
@@ -238,7 +274,8 @@ def _run_loops(
             free[j] = not contact[j]
         if recording:
             _record(t_el, contact, stats)
-        if (i + 1) % out_every == 0:
+        on_output = (i + 1) % out_every == 0
+        if track_energy or on_output:
             _accel_into(
                 q,
                 v,
@@ -257,6 +294,11 @@ def _run_loops(
                 contact,
                 a_out,
             )
+            if track_energy:
+                for m in range(3):
+                    energy[m] += hh * (p_prev[m] + work[6][m])
+                    p_prev[m] = work[6][m]
+        if on_output:
             out_q[row] = q
             out_v[row] = v
             out_a[row] = a_out
@@ -303,6 +345,9 @@ class MachineRun:
     impact_max_speed_m_s: float
     impact_speeds_m_s: np.ndarray
     step_s: float
+    cam_work_J: float = 0.0  # the energy terms, when integrate(track_energy=True)
+    dissipated_damping_J: float = 0.0
+    dissipated_friction_J: float = 0.0
 
 
 def integrate(
@@ -317,6 +362,7 @@ def integrate(
     out_every: int = 1,
     record_from: int = 0,
     predictor: str = "euler",
+    track_energy: bool = False,
 ) -> MachineRun:
     """Step the clearance machine `model` over the cam's nodes (lift since the dwell, velocity,
     acceleration; uniform step, n_steps + 1 nodes) from (q0, v0)."""
@@ -338,6 +384,7 @@ def integrate(
     stats = np.zeros(N_STATS)
     stats[3], stats[4] = -np.inf, np.inf
     speeds = np.zeros(SPEED_CAPACITY)
+    energy = np.zeros(3)
     with np.errstate(over="ignore", invalid="ignore"):
         _run(
             q0,
@@ -359,6 +406,8 @@ def integrate(
             *out,
             stats,
             speeds,
+            bool(track_energy),
+            energy,
         )
     if stats[5] or not np.all(np.isfinite(out[0])):
         raise SolverDivergedError(
@@ -376,6 +425,9 @@ def integrate(
         impact_max_speed_m_s=float(stats[8]),
         impact_speeds_m_s=speeds[: int(stats[9])].copy(),
         step_s=float(step_s),
+        cam_work_J=float(energy[0]),
+        dissipated_damping_J=float(energy[1]),
+        dissipated_friction_J=float(energy[2]),
     )
 
 
