@@ -33,6 +33,7 @@ import numpy as np
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M, SPAN_DAMPING_LAWS, span_energy_J, span_force_N
 from dynamics.models.machine import MachineOnWheels
+from dynamics.models.reduction import DENSE_LINK_LIMIT
 from dynamics.solvers import cache
 from dynamics.solvers._common import serial_blas
 from dynamics.solvers.clearance_verlet import _padded
@@ -65,6 +66,13 @@ class ClearanceMachine:
     def __post_init__(self) -> None:
         if not (self.clearance_m >= 0 and not np.isnan(self.clearance_m)):
             raise DynamicsError(f"clearance_m: expected a free play >= 0 m (inf allowed), got {self.clearance_m!r}")
+        if self.machine.n_links > DENSE_LINK_LIMIT:
+            # the machine's damping is its dense modal C (no O(N) form on wheels yet), and the
+            # linear machine that chooses the model always takes it
+            raise DynamicsError(
+                f"links: the machine on its wheels takes at most {DENSE_LINK_LIMIT} links, got "
+                f"{self.machine.n_links} (use --drive link for longer chains)"
+            )
         if self.span_damping not in SPAN_DAMPING_LAWS:
             raise DynamicsError(
                 f"span_damping: expected one of {', '.join(SPAN_DAMPING_LAWS)}, got {self.span_damping!r}"
