@@ -154,6 +154,20 @@ def test_the_scene_on_wheels_reports_places_seating_and_its_model():
     half = (t.size - 1) // 2
     y = rest.x_m - rest.z_m[:, None]
     assert np.max(np.abs(y[half:] - y[: half + 1])) > 1e-3 * np.max(np.abs(y))
+    # its statistics are those of the window's two index cycles, stepped here by hand
+    model = ClearanceMachine.of(chain, layout, None, 94e-6)
+    sub = mv.substeps_for(model, t[1], 0.31, "ab2")
+    h = t[1] / sub
+    nodes = mv.cycle_nodes(cam, h, half * sub)
+    q = v = np.zeros(model.topology.n_dof)
+    impacts = 0
+    for _ in range(2):
+        run = mv.integrate(model, *nodes, h, q, v, out_every=sub, predictor="ab2")
+        impacts += run.impacts
+        q, v, _ = mv.seat_change(model, run.q[-1], run.v[-1], float(nodes[0][-1]))
+    assert rest_summary.impacts_per_cycle == impacts / 2
+    # the last sample is the next index's start, after the seat change (x = z + y rounds at 1e-16 m)
+    np.testing.assert_allclose(rest.x_m[-1] - rest.z_m[-1], model.machine.link_displacements(q), rtol=0, atol=1e-15)
     # a layout with a sprocket held to the cam: its seated links move with the cam
     held, _ = simulate_scene(_scene(_wheels(stiffness=np.inf)), chain, cam, t)
     np.testing.assert_array_equal(held.x_m[:, :6], np.repeat(held.z_m[:, None], 6, axis=1))
