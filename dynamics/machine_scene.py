@@ -22,8 +22,6 @@ a sprocket held to the cam, the strand-end tensions' difference plus the seated 
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from dynamics.errors import DynamicsError
@@ -136,6 +134,7 @@ class _Window:
         self.min_tension_N = min(r.min_tension_N for r in runs)
         self.impact_force_spike_N = max(r.impact_force_spike_N for r in runs)
         self.impact_kinetic_energy_J = sum(r.impact_kinetic_energy_J for r in runs)
+        self.impact_dissipated_J = sum(r.impact_dissipated_J for r in runs)
         self.impact_max_speed_m_s = max(r.impact_max_speed_m_s for r in runs)
         self.impact_speeds_m_s = np.concatenate([r.impact_speeds_m_s for r in runs])
 
@@ -281,9 +280,7 @@ def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, 
         float(p90),
         run.impact_force_spike_N,
         float(run.impact_kinetic_energy_J / cycles),
-        # the global law's contact is lossless (as for the single-link drive); the Kelvin-Voigt
-        # dashpots' share in the impact contacts is not measured on the machine yet
-        0.0 if model.span_damping == "global" else math.nan,
+        float(run.impact_dissipated_J / cycles),
     )
     return ContactSummary(
         *chosen,
