@@ -240,3 +240,14 @@ def test_energy_balance_across_seat_changes(law):
     assert impacts > 50
     assert residuals[1] < residuals[0] / 10
     assert residuals[1] < (1e-6 if law == "global" else 2e-5)
+
+
+def test_the_machine_has_no_mirror_symmetry_for_the_damping_product():
+    """Why the machine's step takes the plain C q' product: the ring's C commutes with the loop's
+    reflection (clearance_verlet.reflection_blocks splits it), the machine's does not (the tight
+    strand is a link longer than the slack one, the sprocket is driven, the idler wheel is not)."""
+    chain = ChainModel(85, M, K)
+    ring = ClearanceMachine.of(chain, MachineLayout(), None, 94e-6)
+    machine = ClearanceMachine.of(chain, _wheels(), None, 94e-6)
+    assert cv.reflection_blocks(ring.damping_matrix)[1].shape[0] > 0
+    assert cv.reflection_blocks(machine.damping_matrix)[1].shape[0] == 0
