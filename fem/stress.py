@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import FemError, FemWarning
+from .heap import release_free_memory
 from .link import MIN_CURVED_JACOBIAN_RATIO, LinkSolution, analyse_link_materials, skfem_mesh
 from .materials import Material
 from .quality import QUALITY_WARNING_PREFIX
@@ -174,6 +175,7 @@ def stress_study(
         with warnings.catch_warnings(record=True) as caught:  # re-issued for the finest level only
             warnings.simplefilter("always", FemWarning)
             current = solve(link)
+        release_free_memory()  # the previous level's arrays
         for n in names:
             levels[n].append((local, current[n].dofs, current[n].peak_von_mises_away_from_clamp_Pa_per_N))
         seconds.append(time.perf_counter() - start)
