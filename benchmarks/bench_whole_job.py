@@ -17,11 +17,17 @@ medians over `--repeats` runs:
   figure workers, forked: their shared copy-on-write pages are counted in both, so the sum
   overstates the memory used); the whole run's peak from the OS (`ru_maxrss` of `wait4`, the
   largest single process of the run).
+
+With `--study-point`, also the FEA of one design point of `python -m study` at the default
+settings, as a study's worker runs it (`stages.fea.run_fea` with the levels one after the other, no
+images, an empty cache; both materials, stiffness and stress study), in a fresh process per tree,
+with its k and converged stress.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import re
 import statistics
@@ -129,6 +135,52 @@ def _rss(process: psutil.Process) -> int:
         return 0
 
 
+STUDY_POINT = """
+import dataclasses, json, resource, sys, tempfile, time
+from pathlib import Path
+from settings import RunConfig
+from stages.fea import run_fea
+from stages.progress import Progress
+with tempfile.TemporaryDirectory() as tmp:
+    cfg = dataclasses.replace(RunConfig(), images=False, cache_dir=Path(tmp))
+    start = time.perf_counter()
+    fea = run_fea(cfg, Progress(True), concurrent_levels=False)
+    wall = time.perf_counter() - start
+print(json.dumps({"wall_s": wall, "maxrss": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
+                  "k": {m: f.stiffness_N_per_m for m, f in fea.items()},
+                  "k_estimate": {m: f.stiffness_rel_error_estimate for m, f in fea.items()},
+                  "stress": {m: f.peak_von_mises_converged_Pa_per_N for m, f in fea.items()},
+                  "stress_estimate": {m: f.peak_von_mises_converged_rel_change for m, f in fea.items()}}))
+"""
+
+
+def study_point(tree: Path) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    out = subprocess.run(
+        [sys.executable, "-c", STUDY_POINT], cwd=tree, env=env, capture_output=True, text=True, check=True
+    )
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def study_point_lines(points: dict[str, list[dict]]) -> list[str]:
+    lines = [
+        "| tree | study point FEA wall (s), median (runs) | peak MB | material: k (estimate), converged stress MPa/kN (estimate) |"
+    ]
+    lines.append("|---|---|---|---|")
+    for name, runs in points.items():
+        walls = ", ".join(f"{r['wall_s']:.1f}" for r in runs)
+        last = runs[-1]
+        answers = "; ".join(
+            f"{m}: {last['k'][m]:.5g} N/m ({100 * last['k_estimate'][m]:.2g} %), "
+            f"{last['stress'][m] / 1e3:.4g} ({100 * last['stress_estimate'][m]:.2g} %)"
+            for m in last["k"]
+        )
+        wall = statistics.median(r["wall_s"] for r in runs)
+        peak = statistics.median(r["maxrss"] for r in runs) / 1e6
+        lines.append(f"| {name} | **{wall:.2f}** ({walls}) | {peak:.0f} | {answers} |")
+    return lines
+
+
 def _median(runs: list[Run], get) -> float:
     return statistics.median(get(r) for r in runs)
 
@@ -158,6 +210,7 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--old-tree", type=Path, help="another checkout to time beside this one")
+    parser.add_argument("--study-point", action="store_true", help="also time one study point's FEA")
     parser.add_argument("pipeline_options", nargs="*", help="passed to pipeline.py (after --)")
     args = parser.parse_args(argv)
     trees = {"new": ROOT} | ({"old": args.old_tree.resolve()} if args.old_tree else {})
@@ -171,6 +224,13 @@ def main(argv=None) -> int:
             print(f"run {repeat + 1} {name}: {run.total_s:.1f} s, {run.maxrss / 1e6:.0f} MB", flush=True)
     print(f"medians of {args.repeats} runs from an empty FEA cache, trees alternating; cores: {os.cpu_count()}")
     print("\n".join(report(results)))
+    if args.study_point:
+        points: dict[str, list[dict]] = {name: [] for name in trees}
+        for repeat in range(args.repeats):
+            for name, tree in trees.items() if repeat % 2 == 0 else reversed(trees.items()):
+                points[name].append(study_point(tree))
+                print(f"study point {repeat + 1} {name}: {points[name][-1]['wall_s']:.1f} s", flush=True)
+        print("\n".join(study_point_lines(points)))
     return 0
 
 
