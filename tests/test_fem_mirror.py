@@ -239,3 +239,16 @@ def test_the_stress_study_on_the_half_agrees_with_the_whole_link_within_the_esti
     assert half.converged and whole.converged
     bound = half.rel_change + whole.rel_change
     assert half.peak_Pa_per_N == pytest.approx(whole.peak_Pa_per_N, rel=bound)
+
+
+def test_poor_tets_are_found_near_a_point_only():
+    from types import SimpleNamespace
+
+    from fem.stress import _poor_tets_near
+
+    regular = np.array([[1, 1, 1], [1, -1, -1], [-1, 1, -1], [-1, -1, 1]], dtype=float).T
+    flat = np.array([[10, 0, 0], [11, 0, 0], [10, 1, 0], [11, 1, 0.01]], dtype=float).T  # radius ratio ~0.01
+    link = SimpleNamespace(points_m=np.hstack([regular, flat]), tets=np.array([[0, 1, 2, 3], [4, 5, 6, 7]]).T)
+    assert _poor_tets_near(link, np.array([10.5, 0.5, 0.0]), 0.1)
+    assert not _poor_tets_near(link, np.array([0.0, 0.0, 0.0]), 5.0)
+    assert not _poor_tets_near(SimpleNamespace(points_m=regular, tets=np.array([[0, 1, 2, 3]]).T), np.zeros(3), 1e3)
