@@ -50,6 +50,8 @@ MIN_CURVED_JACOBIAN_RATIO = 0.5
 # `closest_to_cad` keeps whichever of the two gives the volume nearer the CAD's (measured,
 # docs/incoming-wildcad.md).
 MIN_CURVED_JACOBIAN_RATIO_AWAY = 0.02
+# The Jacobian ratios away from the bore facets `closest_to_cad` chooses between (the k studies').
+VOLUME_AWAY_RATIOS = (MIN_CURVED_JACOBIAN_RATIO, MIN_CURVED_JACOBIAN_RATIO_AWAY)
 # Straightening a cell moves edges it shares with its neighbours, which can distort them in turn:
 # repeat until none is left (the robot-arm link at 1.95 mm needed 5 rounds).
 STRAIGHTENING_ROUNDS = 20
@@ -138,11 +140,14 @@ def check_mesh_and_materials(
             warnings.warn(message, FemWarning, stacklevel=3)
 
 
-def skfem_mesh(link: LinkMesh, order: int, curved: bool = True) -> tuple[MeshTet1, np.ndarray]:
+def skfem_mesh(
+    link: LinkMesh, order: int, curved: bool = True, away_ratios: Sequence[float] = VOLUME_AWAY_RATIOS
+) -> tuple[MeshTet1, np.ndarray]:
     """scikit-fem mesh of the link and the map from LinkMesh point index to mesh vertex index.
 
     Vertices are renumbered to those used by `tets` in increasing order, which is also how
     scikit-fem renumbers a quadratic mesh; unused points (edge nodes of tets10) map to -1.
+    `away_ratios`: the straightening candidates of `closest_to_cad`.
     """
     used = np.unique(link.tets)
     index = np.full(link.points_m.shape[1], -1, dtype=np.int64)
@@ -155,7 +160,9 @@ def skfem_mesh(link: LinkMesh, order: int, curved: bool = True) -> tuple[MeshTet
         points = np.ascontiguousarray(link.points_m[:, used10], dtype=float)
         bores = np.hstack([link.fixed_bore_facets, link.loaded_bore_facets])
         mesh = MeshTet2(points, compact.reshape(link.tets10.shape))
-        mesh = closest_to_cad(mesh, cells_on_facets(mesh.t, index[bores]), link.cad_volume_m3 / _copies(link))
+        mesh = closest_to_cad(
+            mesh, cells_on_facets(mesh.t, index[bores]), link.cad_volume_m3 / _copies(link), away_ratios
+        )
     else:
         mesh = MeshTet1(np.ascontiguousarray(link.points_m[:, used], dtype=float), index[link.tets])
     return mesh, index
@@ -182,11 +189,15 @@ def cells_on_facets(cells: np.ndarray, facets: np.ndarray) -> np.ndarray:
     return np.any([np.isin(keys(face), wanted) for face in faces], axis=0)
 
 
-def closest_to_cad(mesh: MeshTet2, on_facets: np.ndarray, cad_volume_m3: float) -> MeshTet2:
-    """The mesh straightened at MIN_CURVED_JACOBIAN_RATIO everywhere, or only at the bore facets
-    (MIN_CURVED_JACOBIAN_RATIO_AWAY elsewhere): whichever has its volume nearer the CAD volume."""
+def closest_to_cad(
+    mesh: MeshTet2, on_facets: np.ndarray, cad_volume_m3: float, away_ratios: Sequence[float] = VOLUME_AWAY_RATIOS
+) -> MeshTet2:
+    """The mesh straightened at MIN_CURVED_JACOBIAN_RATIO at the bore facets and at each of
+    `away_ratios` elsewhere (by default: at MIN_CURVED_JACOBIAN_RATIO everywhere, or at
+    MIN_CURVED_JACOBIAN_RATIO_AWAY away from the bore facets): whichever has its volume nearer the
+    CAD volume."""
     candidates = []
-    for away in (MIN_CURVED_JACOBIAN_RATIO, MIN_CURVED_JACOBIAN_RATIO_AWAY):
+    for away in away_ratios:
         try:
             candidates.append(straighten_distorted(mesh, on_facets=on_facets, away_ratio=away))
         except FemError:
@@ -314,6 +325,7 @@ def analyse_link_materials(
     solver: str = "auto",
     stress: bool = True,
     checked: bool = False,
+    away_ratios: Sequence[float] = VOLUME_AWAY_RATIOS,
 ) -> dict[str, LinkSolution]:
     """`analyse_link` for several materials on one mesh, keyed by material name.
 
@@ -325,7 +337,8 @@ def analyse_link_materials(
     Shared costs are booked in the first material's `timing_s`. stress=False skips the stress
     evaluation (its fields are NaN): a study needs stresses on its finest level only. checked=True:
     the caller has run `check_mesh_and_materials` (a study does, before it solves the level in a
-    thread of its own, so that its warnings come from the caller's thread).
+    thread of its own, so that its warnings come from the caller's thread). `away_ratios`: how
+    curved cells are straightened (`closest_to_cad`; the stress study holds them to one ratio).
     """
     problem.element(order)
     if not (np.isfinite(load_N) and load_N > 0):
@@ -338,7 +351,7 @@ def analyse_link_materials(
     start = time.perf_counter()
     if not checked:
         check_mesh_and_materials(mesh, materials, order)
-    sk_mesh, index = skfem_mesh(mesh, order)
+    sk_mesh, index = skfem_mesh(mesh, order, away_ratios=away_ratios)
     try:
         basis, fixed, unit, on_plane = _discretise(mesh, sk_mesh, index, order)
     except Exception as exc:  # scikit-fem raises a bare Exception when its inverse map fails

@@ -26,8 +26,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import quality
 from .errors import FemError, FemWarning
-from .link import LinkSolution, analyse_link_materials
+from .heap import release_free_memory
+from .link import MIN_CURVED_JACOBIAN_RATIO, LinkSolution, analyse_link_materials, skfem_mesh
 from .materials import Material
 from .quality import QUALITY_WARNING_PREFIX
 from .settings import FeaSettings, settings_with
@@ -39,6 +41,13 @@ MAX_LEVELS = 4  # refinement levels after the base mesh (local size base / 2^4 a
 # as it moves by a fraction of an element from level to level; the balls shrink with the elements,
 # so each level adds about as many DOFs as the one before.
 BALL_RADIUS_ELEMENTS = 1.5
+# Curved cells of the stress levels are straightened at MIN_CURVED_JACOBIAN_RATIO everywhere, not
+# only near the bores as the k studies may (fem.link.closest_to_cad keeps the rounds' volume): a
+# nearly folded curved cell carries a spurious stress spike. Measured on the default link: with the
+# k studies' cells the 4.5 mm half peaked at 39.8 MPa/kN (13.6 straightened) and the local levels
+# jumped 14.6 / 20.5 / 16.7 / 20.3 MPa/kN without converging; straightened they converge (13.8).
+# Straightening is a local O(h^2) geometry error, and the levels refine where the peak is.
+STRESS_AWAY_RATIOS = (MIN_CURVED_JACOBIAN_RATIO,)
 
 
 @dataclass(frozen=True, eq=False)
@@ -108,14 +117,16 @@ def stress_study(
     built-in) by local refinement, per material, until a level changes the peak by at most
     `settings.stress_tolerance`.
 
-    settings: `FeaSettings` (None: the defaults; its order, solver, load and bore refinement are
-    used); keyword `changes` replace its fields. `base`, if given, holds the materials' solutions on
-    the base mesh (e.g. the finest level of a stiffness study at `base_mesh_size_m`), which are then
-    not solved again. The hot spots are those of the first material (Poisson's ratio barely moves
-    them); every level is solved for all materials on one mesh (`analyse_link_materials`). The
-    refined levels mesh the whole link; a base solved on a mirror half has its hot spots refined on
-    both sides (on the half, local balls left 37 slivers on the default link at 4.5 mm, P1:
-    tests/test_pipeline_cli.py's locking case).
+    settings: `FeaSettings` (None: the defaults; its order, solver, load, bore refinement and mirror
+    symmetry are used); keyword `changes` replace its fields. `base`, if given, holds the materials'
+    solutions on the base mesh (e.g. the finest level of a stiffness study at `base_mesh_size_m`),
+    which are not solved again if they are on the mesh the study would use (the same half or whole
+    link, the same straightened cells: STRESS_AWAY_RATIOS); otherwise its mesh is solved again. The
+    hot spots are those of the first material (Poisson's ratio barely moves them); every level is
+    solved for all materials on one mesh (`analyse_link_materials`). Where the link is mirror
+    symmetric and `settings.mirror_symmetry`, every level is meshed and solved on its half (the same
+    discrete problem as the whole link meshed as that half and its mirror image, fem.link): the
+    hot spots of both sides are refined at about half the unknowns.
     """
     import geometry
     from geometry.meshing import Refinement, refined
@@ -123,34 +134,63 @@ def stress_study(
     settings = settings_with(settings, changes)
     tolerance, order = settings.stress_tolerance, settings.order
     start = time.perf_counter()
-    part = geometry.as_part(source, symmetry=False)  # the refined levels mesh the whole link
+    part = geometry.as_part(source, symmetry=settings.mirror_symmetry)
+    half = settings.mirror_symmetry and part.mirror_plane is not None
     mesh_order = 2 if order == 2 else 1
+    names = [m.name for m in materials]
 
-    def mesh(balls: Sequence[Refinement]):
+    def mesh(balls: Sequence[Refinement], on_half: bool = half):
         with refined(balls):
             return geometry.mesh_part(
-                part, mesh_size_m=base_mesh_size_m, order=mesh_order, bore_refinement=settings.bore_refinement
+                part,
+                mesh_size_m=base_mesh_size_m,
+                order=mesh_order,
+                bore_refinement=settings.bore_refinement,
+                mirror=on_half,
             )
 
     def solve(link) -> dict[str, LinkSolution]:
-        return analyse_link_materials(link, materials, order=order, load_N=settings.load_N, solver=settings.solver)
+        return analyse_link_materials(
+            link,
+            materials,
+            order=order,
+            load_N=settings.load_N,
+            solver=settings.solver,
+            away_ratios=STRESS_AWAY_RATIOS,
+        )
 
-    names = [m.name for m in materials]
+    def refined_level(spots: list[np.ndarray], radius: float, size: float) -> dict[str, LinkSolution]:
+        """The level solved on the half, or on the whole link where the half's mesh has poor tets
+        near a hot spot or near the peak it gives (MeshAdapt's surfaces with local balls left one
+        or two at radius ratio 0.05-0.09 on the default link, away from the peak; more with P1)."""
+        plane = part.mirror_plane
+        if half:
+            link = mesh([Refinement(_coordinates(_on_positive_side(s, plane)), radius, size) for s in spots])
+            near = radius + base_mesh_size_m
+            if not any(_poor_tets_near(link, _on_positive_side(s, plane), near) for s in spots):
+                solved = solve(link)
+                peak = np.asarray(solved[names[0]].peak_von_mises_away_location_m)
+                if not _poor_tets_near(link, peak, base_mesh_size_m):
+                    return solved
+        both = spots + [plane.reflect(s) for s in spots] if plane is not None else spots
+        return solve(mesh([Refinement(_coordinates(s), radius, size) for s in both], on_half=False))
+
     if base is None or any(n not in base for n in names):
         base = solve(mesh(()))
+    elif not _reusable(base[names[0]], half):
+        base = solve(base[names[0]].link)
     levels = {n: [(base_mesh_size_m, base[n].dofs, base[n].peak_von_mises_away_from_clamp_Pa_per_N)] for n in names}
     seconds = [time.perf_counter() - start]
     current = {n: base[n] for n in names}
     local = base_mesh_size_m
     for _ in range(MAX_LEVELS):
         radius = BALL_RADIUS_ELEMENTS * local
-        spots = _both_sides(hot_spots(current[names[0]], separation_m=radius), current[names[0]], radius)
+        spots = hot_spots(current[names[0]], separation_m=radius)
         local /= 2
-        balls = [Refinement(tuple(float(x) for x in s), radius, local) for s in spots]
-        link = mesh(balls)
         with warnings.catch_warnings(record=True) as caught:  # re-issued for the finest level only
             warnings.simplefilter("always", FemWarning)
-            current = solve(link)
+            current = refined_level(spots, radius, local)
+        release_free_memory()  # the previous level's arrays
         for n in names:
             levels[n].append((local, current[n].dofs, current[n].peak_von_mises_away_from_clamp_Pa_per_N))
         seconds.append(time.perf_counter() - start)
@@ -164,19 +204,43 @@ def stress_study(
             )
         if max(moved) <= tolerance:
             break
-    for w in caught:
+    for w in caught if not current[names[0]].mirrored else ():  # a half's poor tets are away from the peak
         if str(w.message).startswith(QUALITY_WARNING_PREFIX):
             warnings.warn(f"stress study's finest mesh: {w.message}", FemWarning, stacklevel=2)
     elapsed = time.perf_counter() - start
     return {n: _estimate(levels[n], current[n], tolerance, elapsed / len(names), tuple(seconds)) for n in names}
 
 
-def _both_sides(spots: list[np.ndarray], solution: LinkSolution, separation_m: float) -> list[np.ndarray]:
-    """The hot spots and, for a solution on a mirror half, their mirror images (where apart)."""
-    if not solution.mirrored:
-        return spots
-    plane = solution.link.mirror_plane
-    return spots + [plane.reflect(s) for s in spots if abs(plane.distance_m(s)) > separation_m / 2]
+def _coordinates(point: np.ndarray) -> tuple[float, float, float]:
+    return tuple(float(x) for x in point)
+
+
+def _on_positive_side(point: np.ndarray, plane) -> np.ndarray:
+    """A hot spot of a whole-link solution moved to the meshed half (its mirror image) if needed."""
+    return plane.reflect(point) if plane.distance_m(point) < 0 else point
+
+
+def _poor_tets_near(link, point: np.ndarray, distance_m: float) -> bool:
+    """Whether a tet of radius ratio below fem.quality's threshold has its centroid within
+    `distance_m` of `point`."""
+    poor = quality.radius_ratios(link.points_m, link.tets) < quality.POOR_QUALITY_THRESHOLD
+    if not poor.any():
+        return False
+    centroids = link.points_m[:, link.tets[:, poor]].mean(axis=1)
+    return bool(np.min(np.linalg.norm(centroids - np.asarray(point).reshape(3, 1), axis=0)) <= distance_m)
+
+
+def _reusable(solution: LinkSolution, half: bool) -> bool:
+    """Whether a given base solution is on the mesh the study solves: the half or the whole link as
+    the study meshes it, its curved cells straightened as STRESS_AWAY_RATIOS straightens them."""
+    if solution.mirrored != half:
+        return False
+    if solution.basis.mesh.affine:
+        return True
+    mesh, _ = skfem_mesh(solution.link, solution.order, away_ratios=STRESS_AWAY_RATIOS)
+    return mesh.doflocs.shape == solution.basis.mesh.doflocs.shape and np.array_equal(
+        mesh.doflocs, solution.basis.mesh.doflocs
+    )
 
 
 def _change(levels: list[tuple[float, int, float]]) -> float:

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 from . import budget, quality
 from .errors import FemError, FemWarning
+from .heap import release_free_memory
 from .link import LinkSolution, analyse_link_materials, check_mesh_and_materials
 from .materials import Material
 from .richardson import Extrapolation, extrapolate, rate_bracket
@@ -176,6 +177,7 @@ def stiffness_studies(
             if not concurrent_levels:
                 pending[level].result()  # an error stops the study before the next level is meshed
         solved = [pending[level].result() for level in range(len(sizes))]
+    release_free_memory()  # the levels' threads' arenas
     solutions: dict[str, list[LinkSolution]] = {m.name: [s[m.name] for s in solved] for m in materials}
     if progress is not None:
         for level, (h, by_material) in enumerate(zip(sizes, solved), start=1):

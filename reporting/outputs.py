@@ -20,6 +20,7 @@ import numpy as np
 from dynamics.response.metrics import rank_cams, rms, station_links
 from dynamics.scene import ChainModelKind
 from reporting import html, plots
+from reporting.drawing import FigureJob, draw_figures
 from reporting.history import CamHistory
 from reporting.sections import Report, build_sections
 from reporting.tables import Table, max_acceleration_table, rms_table
@@ -355,26 +356,39 @@ def _write_tables(staged: StagedOutput, tables: dict[str, Table]) -> str:
 
 def _material_plots(
     staged: StagedOutput, histories: list[CamHistory], links: dict[str, int], focus: int
-) -> dict[str, Path]:
+) -> dict[str, FigureJob]:
     """The report's figures; links = the stations whose histories exist, focus = the link they centre on."""
     m = histories[0].material
     figures = {}
     if histories[0].links is None:
         n = histories[0].x_m.shape[1]
-        figures["three links"] = plots.plot_three_links(
-            histories, [1, links["idler-end"], n], staged.path(f"{m}_three_links.png")
+        figures["three links"] = FigureJob(
+            plots.plot_three_links, (histories, [1, links["idler-end"], n], staged.path(f"{m}_three_links.png"))
         )
-        figures["middle link, all cams"] = plots.plot_three_links(
-            histories, [links["idler-end"]], staged.path(f"{m}_link{links['idler-end']}_all_cams.png")
+        figures["middle link, all cams"] = FigureJob(
+            plots.plot_three_links,
+            (histories, [links["idler-end"]], staged.path(f"{m}_link{links['idler-end']}_all_cams.png")),
         )
     figures |= {
-        "vs input": plots.plot_link_vs_input(histories, focus, staged.path(f"{m}_link{focus}_vs_input.png")),
-        "differences": plots.plot_differences(histories, focus, staged.path(f"{m}_link{focus}_differences.png")),
-        "dwell": plots.plot_dwell_vibration(histories, focus, staged.path(f"{m}_link{focus}_dwell_vibration.png")),
+        "vs input": FigureJob(
+            plots.plot_link_vs_input, (histories, focus, staged.path(f"{m}_link{focus}_vs_input.png"))
+        ),
+        "differences": FigureJob(
+            plots.plot_differences, (histories, focus, staged.path(f"{m}_link{focus}_differences.png"))
+        ),
+        "dwell": FigureJob(
+            plots.plot_dwell_vibration, (histories, focus, staged.path(f"{m}_link{focus}_dwell_vibration.png"))
+        ),
     }
     if np.any(histories[0].tension_N):
-        figures["tension"] = plots.plot_tension(histories, staged.path(f"{m}_tension.png"))
+        figures["tension"] = FigureJob(plots.plot_tension, (histories, staged.path(f"{m}_tension.png")))
     return figures
+
+
+def _drawn(figures: dict[str, dict[str, FigureJob]]) -> dict[str, dict[str, Path]]:
+    """Per material, its figures drawn (side by side, reporting.drawing)."""
+    paths = draw_figures({(m, label): job for m, jobs in figures.items() for label, job in jobs.items()})
+    return {m: {label: paths[m, label] for label in jobs} for m, jobs in figures.items()}
 
 
 def _station_table(scenarios: dict, band_m: float) -> Table:
@@ -513,16 +527,30 @@ def write_default_outputs(results: RunResults, progress) -> None:
         }
         staged.write_text("tables.md", _write_tables(staged, tables))
         residual = {m: {c: scenarios[m, c].stations[focus].residual_vibration_m for c in cfg.cams} for m in fea}
-        residual_png = plots.plot_residual_vibration(residual, focus, staged.path("residual_vibration.png"))
-        figures = {m: _material_plots(staged, [histories[m, c] for c in cfg.cams], links, focus_link) for m in fea}
-        for m, path in _tension_maps(staged, scenarios, fea, cfg.cams).items():
-            figures[m]["tension map"] = path
+        material_jobs = {
+            m: _material_plots(staged, [histories[m, c] for c in cfg.cams], links, focus_link) for m in fea
+        }
+        for m, job in _tension_maps(staged, scenarios, fea, cfg.cams).items():
+            material_jobs[m]["tension map"] = job
+        jobs = {("material", m, label): job for m, by_label in material_jobs.items() for label, job in by_label.items()}
+        jobs["residual",] = FigureJob(
+            plots.plot_residual_vibration, (residual, focus, staged.path("residual_vibration.png"))
+        )
+        jobs |= {
+            ("sweep", m): FigureJob(plots.plot_rpm_sweep, (sweep, staged.path(f"{m}_rpm_sweep.png")))
+            for m, sweep in sweeps.items()
+        }
+        paths = draw_figures(jobs)
+        figures = {
+            m: {label: paths["material", m, label] for label in by_label} for m, by_label in material_jobs.items()
+        }
+        residual_png = paths["residual",]
+        sweep_pngs = {m: paths["sweep", m] for m in sweeps}
         images = {}
         for m, r in fea.items():
             if r.image is not None:
                 images[m] = staged.path(f"{m}_deformed.png")
                 shutil.copyfile(r.image, images[m])
-        sweep_pngs = {m: plots.plot_rpm_sweep(sweep, staged.path(f"{m}_rpm_sweep.png")) for m, sweep in sweeps.items()}
         if sweeps:
             staged.write_text("rpm_sweep.csv", _sweep_table(sweeps).to_csv())
             summary["rpm_sweep"] = {m: _sweep_summary(sweep) for m, sweep in sweeps.items()}
@@ -535,7 +563,7 @@ def write_default_outputs(results: RunResults, progress) -> None:
     _announce(cfg, staged, timing, progress, ranking)
 
 
-def _tension_maps(staged: StagedOutput, scenarios: dict, materials, cams) -> dict[str, Path]:
+def _tension_maps(staged: StagedOutput, scenarios: dict, materials, cams) -> dict[str, FigureJob]:
     """Per material, the span x time tension map of the cam with the highest peak tension."""
     maps = {}
     for m in materials:
@@ -544,7 +572,7 @@ def _tension_maps(staged: StagedOutput, scenarios: dict, materials, cams) -> dic
         clearance_ran = sc.contact.model == ChainModelKind.CLEARANCE
         free_play = sc.history.tension_N == 0.0 if clearance_ran else np.zeros(sc.history.tension_N.shape, bool)
         note = f"{sc.contact.model} model; highest peak tension of the cam laws"
-        maps[m] = plots.plot_tension_map(sc.history, free_play, staged.path(f"{m}_tension_map.png"), note)
+        maps[m] = FigureJob(plots.plot_tension_map, (sc.history, free_play, staged.path(f"{m}_tension_map.png"), note))
     return maps
 
 
@@ -657,7 +685,7 @@ def write_replica_outputs(cfg, runs: dict[str, ReplicaRun], timing: dict, progre
         staged.write_text("tables.md", _write_tables(staged, tables))
         links = station_links(cfg.links)
         cams = list(first.cams)
-        figures = {m: _material_plots(staged, [histories[m, c] for c in cams], links, link) for m in replicas}
+        figures = _drawn({m: _material_plots(staged, [histories[m, c] for c in cams], links, link) for m in replicas})
         _close_timing(timing, progress)
         summary = replica_summary(cfg, runs, timing)
         staged.write_text("summary.json", json.dumps(summary, indent=1))

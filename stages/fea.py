@@ -147,6 +147,7 @@ def run_fea(
     from fem import load_materials, render_deformed
     from fem.cache import FeaCache, cache_key
     from fem.errors import FemWarning
+    from fem.heap import release_free_memory
 
     library = load_materials(cfg.materials_file)
     unknown = [m for m in cfg.materials if m not in library]
@@ -174,6 +175,7 @@ def run_fea(
         studies, stresses = (
             _solve_fea(part, settings, missing, stiffness_tolerance, progress, solved_levels) if missing else ({}, {})
         )
+    release_free_memory()  # the levels' freed arrays, before the dynamics and the figures
     cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
     for message in cautions:
         print(f"pipeline.py: warning: {message}", file=sys.stderr)

@@ -1,0 +1,48 @@
+"""Figures drawn side by side (reporting.drawing): every job drawn once, paths under their keys in
+the jobs' order, the same files as drawn one after the other, a failing figure fails the run."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+
+from fem.heap import release_free_memory
+from reporting.drawing import FigureJob, draw_figures
+
+
+def _write(text: str, path: Path) -> Path:
+    path.write_text(f"{text} {os.getpid()}")
+    return path
+
+
+def _fail(path: Path) -> Path:
+    raise ValueError(f"cannot draw {path.name}")
+
+
+def _jobs(folder: Path) -> dict:
+    return {("material", str(i)): FigureJob(_write, (f"figure {i}", folder / f"{i}.txt")) for i in range(5)}
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_every_figure_is_drawn_once_and_returned_under_its_key(tmp_path, workers):
+    jobs = _jobs(tmp_path)
+    paths = draw_figures(jobs, workers=workers)
+    assert list(paths) == list(jobs)
+    for (_, i), path in paths.items():
+        assert path == tmp_path / f"{i}.txt" and path.read_text().startswith(f"figure {i} ")
+    drawn_by = {int(path.read_text().split()[-1]) for path in paths.values()}
+    assert (drawn_by == {os.getpid()}) == (workers == 1)  # side by side: in worker processes
+
+
+def test_a_figure_that_fails_fails_the_drawing(tmp_path):
+    jobs = _jobs(tmp_path) | {"bad": FigureJob(_fail, (tmp_path / "bad.png",))}
+    with pytest.raises(ValueError, match="cannot draw bad.png"):
+        draw_figures(jobs, workers=2)
+
+
+def test_the_heap_gives_its_free_pages_back_on_glibc():
+    import platform
+
+    assert release_free_memory() == (platform.libc_ver()[0] == "glibc")
