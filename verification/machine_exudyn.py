@@ -130,10 +130,23 @@ class PlanarResponse:
     wall_time_s: float
 
 
-def planar_response(machine: PlanarMachine, cam, t_eval_s, *, steps_per_output: int = 20) -> PlanarResponse:
-    """The machine from rest in its preloaded dwell state at t_eval_s[0] (the cam's lift there is the
-    sprocket's angle 0), solved by Exudyn over uniform t_eval_s; no seat changes (the same pins stay
-    seated: one index cycle from a dwell)."""
+@dataclass(frozen=True)
+class PlanarState:
+    """The planar machine at a dwell: every pin's position and velocity (N, 2; seated pins' rows are
+    not read), the wheels' angles from their dwell layout and their rates (2,: sprocket, idler)."""
+
+    pin_m: np.ndarray
+    pin_m_s: np.ndarray
+    angle_rad: np.ndarray
+    angle_rad_s: np.ndarray
+
+
+def planar_response(
+    machine: PlanarMachine, cam, t_eval_s, *, steps_per_output: int = 20, initial: PlanarState | None = None
+) -> PlanarResponse:
+    """The machine from `initial` (default: rest in its preloaded dwell layout) at t_eval_s[0], a
+    dwell's end (the cam's lift there is the sprocket's angle 0), solved by Exudyn over uniform
+    t_eval_s; the same pins stay seated (one index cycle; `seat_change` moves them on)."""
     import exudyn as exu
     from exudyn import itemInterface as ii
 
@@ -148,6 +161,7 @@ def planar_response(machine: PlanarMachine, cam, t_eval_s, *, steps_per_output: 
     pins = mc.pin_positions_m()
     wheel_of = mc.wheel_of_link()
     seat_angles = mc.seat_angles_rad()
+    start = initial if initial is not None else PlanarState(pins, np.zeros_like(pins), np.zeros(2), np.zeros(2))
 
     system = exu.SystemContainer()
     mbs = system.AddSystem()
@@ -158,7 +172,14 @@ def planar_response(machine: PlanarMachine, cam, t_eval_s, *, steps_per_output: 
         ((0.0, 0.0), mc.sprocket_inertia_kg_m2),
         ((mc.centre_distance_m, 0.0), mc.idler_inertia_kg_m2),
     ):
-        node = mbs.AddNode(ii.NodeRigidBody2D(referenceCoordinates=[centre[0], centre[1], 0.0]))
+        i = len(wheel_nodes)
+        node = mbs.AddNode(
+            ii.NodeRigidBody2D(
+                referenceCoordinates=[centre[0], centre[1], 0.0],
+                initialCoordinates=[0.0, 0.0, float(start.angle_rad[i])],
+                initialVelocities=[0.0, 0.0, float(start.angle_rad_s[i])],
+            )
+        )
         body = mbs.AddObject(ii.ObjectRigidBody2D(nodeNumber=node, mass=10.0, inertia=inertia + w * m * r**2))
         for coordinate in (0, 1):  # the fixed axle
             marker = mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=node, coordinate=coordinate))
@@ -177,8 +198,14 @@ def planar_response(machine: PlanarMachine, cam, t_eval_s, *, steps_per_output: 
                 mbs.AddMarker(ii.MarkerBodyPosition(bodyNumber=wheel_bodies[wheel_of[j]], localPosition=local))
             )
             continue
-        node = mbs.AddNode(ii.NodePoint2D(referenceCoordinates=list(pins[j]), initialCoordinates=[0.0, 0.0]))
-        mbs.AddObject(ii.MassPoint2D(nodeNumber=node, physicsMass=m))
+        node = mbs.AddNode(
+            ii.NodePoint2D(
+                referenceCoordinates=list(pins[j]),
+                initialCoordinates=list(start.pin_m[j] - pins[j]),
+                initialVelocities=list(start.pin_m_s[j]),
+            )
+        )
+        mbs.AddObject(ii.MassPoint2D(nodeNumber=node, mass=m))
         pin_nodes[j] = node
         pin_markers.append(mbs.AddMarker(ii.MarkerNodePosition(nodeNumber=node)))
     links = {}
@@ -293,7 +320,7 @@ STATIONS = ("drive-end", "tight-side", "idler-end", "slack-side")
 @dataclass(frozen=True)
 class StationHistory:
     """One station over the window: path displacement relative to the cam (m) and absolute path
-    acceleration (m/s^2); the tension of the span from the tight strand onto the sprocket (N)."""
+    acceleration (m/s^2)."""
 
     y_m: np.ndarray
     a_m_s2: np.ndarray
@@ -322,9 +349,10 @@ def one_d_machine(machine: PlanarMachine):
     )
 
 
-def one_d_response(machine: PlanarMachine, cam, t_eval_s):
-    """The 1-D model over the window from rest (dynamics.solvers.machine_ivp, the cam's law exact):
-    per station a StationHistory and the tension into the sprocket."""
+def one_d_response(machine: PlanarMachine, cam, t_eval_s, q0=None, v0=None):
+    """The 1-D model over the window from (q0, v0) (default rest; dynamics.solvers.machine_ivp, the
+    cam's law exact, t_eval_s[0] a dwell's end): per station a StationHistory, the tension into the
+    sprocket, and the run."""
     from dynamics.solvers.machine_ivp import integrate_cycle
 
     t = np.asarray(t_eval_s, dtype=float)
@@ -334,7 +362,9 @@ def one_d_response(machine: PlanarMachine, cam, t_eval_s):
     def cam_at(x, i):
         return float(cam.svaj(np.array([x]))[i][0])
 
-    run = integrate_cycle(model, lambda x: cam_at(x, 2), lambda x: cam_at(x, 0), t, np.zeros(n), np.zeros(n))
+    q0 = np.zeros(n) if q0 is None else q0
+    v0 = np.zeros(n) if v0 is None else v0
+    run = integrate_cycle(model, lambda x: cam_at(x, 2), lambda x: cam_at(x, 0), t, q0, v0)
     s, _, a, _ = cam.svaj(t)
     m = np.diag(model.mass_matrix())
     k_mat, c_mat, load = model.stiffness_matrix(), model.damping_matrix(), model.inertial_load()
@@ -419,4 +449,78 @@ def station_metrics(histories: dict, tension_N: np.ndarray, cam, t_s: np.ndarray
         name: (float(np.max(np.abs(h.y_m[dwell]))), float(np.max(np.abs(h.a_m_s2)))) for name, h in histories.items()
     }
     out["tension"] = float(np.max(tension_N))
+    return out
+
+
+def end_state(machine: PlanarMachine, response: PlanarResponse) -> PlanarState:
+    """The state at the window's end (seated pins placed on their wheels)."""
+    pins = response.pin_m[-1].copy()
+    vel = response.pin_m_s[-1].copy()
+    theta, omega = response.angle_rad[-1], response.angle_rad_s[-1]
+    for j in np.flatnonzero(machine.wheel_of_link() >= 0):
+        pins[j], vel[j] = _seat_motion(machine, j, theta, omega)
+    return PlanarState(pins, vel, theta.copy(), omega.copy())
+
+
+def _seat_motion(machine: PlanarMachine, link: int, theta, omega):
+    """Position and velocity of the seat of `link` (a seated place) at the wheels' angles and rates."""
+    wheel = machine.wheel_of_link()[link]
+    seat = machine.seat_angles_rad()[link if wheel == 0 else link - machine.strand_links]
+    r = machine.pitch_radius_m
+    centre = np.array([0.0 if wheel == 0 else machine.centre_distance_m, 0.0])
+    phi = seat + theta[wheel]
+    return centre + r * np.array([np.cos(phi), np.sin(phi)]), r * omega[wheel] * np.array([-np.sin(phi), np.cos(phi)])
+
+
+def seat_change(machine: PlanarMachine, state: PlanarState) -> PlanarState:
+    """The seat change at the dwell, in places as the 1-D model's transfer: every free place takes the
+    pin one place behind it; the pin arriving at a wheel (the last of the strand running onto it) seats
+    in a plastic impact that keeps the angular momentum about the axle, (J_w + m R^2) omega' = J_w omega
+    + m (r x v), J_w the wheel's inertia with its seated pins, and moves to its seat (the snap); the
+    pin leaving the wheel (its last seated place) starts at its seat with the seat's velocity; each
+    wheel's angle goes back one tooth, so its seats stand at the places' angles again."""
+    n, w, n_s = machine.n_links, machine.wrap_links, machine.strand_links
+    m, r = machine.link_mass_kg, machine.pitch_radius_m
+    theta = state.angle_rad - 2.0 * np.pi / machine.teeth
+    omega = state.angle_rad_s.copy()
+    for wheel, arriving, inertia in (
+        (0, n - 1, machine.sprocket_inertia_kg_m2),
+        (1, w + n_s - 1, machine.idler_inertia_kg_m2),
+    ):
+        centre = np.array([0.0 if wheel == 0 else machine.centre_distance_m, 0.0])
+        arm = state.pin_m[arriving] - centre
+        moment = float(arm[0] * state.pin_m_s[arriving, 1] - arm[1] * state.pin_m_s[arriving, 0])
+        j_wheel = inertia + w * m * r**2
+        omega[wheel] = (j_wheel * omega[wheel] + m * moment) / (j_wheel + m * r**2)
+    pins = np.roll(state.pin_m, 1, axis=0)
+    vel = np.roll(state.pin_m_s, 1, axis=0)
+    for j in np.flatnonzero(machine.wheel_of_link() >= 0):
+        pins[j], vel[j] = _seat_motion(machine, j, theta, omega)
+    for leaving in (w, 2 * w + n_s):  # first free place after each wheel: at its seat one tooth back
+        wheel = 0 if leaving == w else 1
+        previous = leaving - 1
+        ahead_theta = theta.copy()
+        ahead_theta[wheel] += 2.0 * np.pi / machine.teeth
+        pins[leaving], vel[leaving] = _seat_motion(machine, previous, ahead_theta, omega)
+    return PlanarState(pins, vel, theta, omega)
+
+
+def relabelled_windows(machine: PlanarMachine, cam, n_cycles: int, *, samples: int = 360, steps_per_output: int = 20):
+    """Both models over n_cycles index cycles from rest with the seat change at each dwell (the 1-D
+    model's transfer, the planar model's `seat_change`): per cycle the station metrics of each."""
+    from dynamics.solvers.machine_steady import transfer
+
+    model = one_d_machine(machine)
+    n = model.topology.n_dof
+    q, v = np.zeros(n), np.zeros(n)
+    state = None
+    out = []
+    for i in range(n_cycles):
+        t = cam.cycle_s * (i + np.arange(samples + 1) / samples)
+        histories, tension, run = one_d_response(machine, cam, t, q, v)
+        response = planar_response(machine, cam, t, steps_per_output=steps_per_output, initial=state)
+        h_planar, t_planar = planar_stations(machine, response, cam)
+        out.append((station_metrics(histories, tension, cam, t), station_metrics(h_planar, t_planar, cam, t)))
+        q, v, _, _ = transfer(model, run.q_m[-1], run.v_m_s[-1])
+        state = seat_change(machine, end_state(machine, response))
     return out
