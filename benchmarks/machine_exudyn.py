@@ -27,6 +27,7 @@ from verification.machine_exudyn import (
     one_d_response,
     planar_response,
     planar_stations,
+    relabelled_windows,
     station_metrics,
     strand_transverse,
 )
@@ -109,6 +110,29 @@ def main() -> None:
         print_comparison(
             f"z = {teeth}, N = {teeth + 18}, preload {preload:g} N, {rpm:g} rpm", compare(teeth, preload, rpm)
         )
+    print_seat_changes(12, 1e5, 45.0, 3)
+
+
+def print_seat_changes(teeth: int, preload_N: float, rpm: float, n_cycles: int) -> None:
+    """Both models over n_cycles from rest with the seat change at each dwell, per cycle."""
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=rpm)
+    start = time.perf_counter()
+    windows = relabelled_windows(planar_machine(teeth, preload_N), cam, n_cycles)
+    print(
+        f"\nseat changes: z = {teeth}, preload {preload_N:g} N, {rpm:g} rpm, {n_cycles} cycles from rest (1-D / planar)"
+    )
+    print(
+        f"{'cycle':5s} "
+        + " ".join(f"{s[:5] + ' res um':>16s} {s[:5] + ' a':>14s}" for s in STATIONS)
+        + f" {'T-P N':>14s}"
+    )
+    for i, (one_d, planar) in enumerate(windows):
+        cells = " ".join(
+            f"{one_d[s][0] * 1e6:7.2f}/{planar[s][0] * 1e6:<8.2f} {one_d[s][1]:6.2f}/{planar[s][1]:<7.2f}"
+            for s in STATIONS
+        )
+        print(f"{i + 1:5d} {cells} {one_d['tension'] - preload_N:6.1f}/{planar['tension'] - preload_N:<7.1f}")
+    print(f"({time.perf_counter() - start:.0f} s)")
 
 
 if __name__ == "__main__":

@@ -22,9 +22,11 @@ from dynamics.cams import CamProgram, Segment
 from verification.machine_exudyn import (
     STATIONS,
     PlanarMachine,
+    PlanarState,
     one_d_response,
     planar_response,
     planar_stations,
+    seat_change,
     station_metrics,
 )
 
@@ -62,6 +64,31 @@ def test_the_planar_layout_seats_the_pins_and_straightens_the_strands(teeth):
     np.testing.assert_allclose(np.abs(pins[free, 1]), machine.pitch_radius_m * np.cos(np.pi / teeth), rtol=1e-12)
     # the end pins of each wrap stand at gamma = -pi/z from the tangent points, as the 1-D model's
     assert pins[0, 0] == pytest.approx(machine.pitch_radius_m * np.sin(np.pi / teeth), rel=1e-12)
+
+
+@pytest.mark.parametrize("teeth", [6, 12])
+def test_the_planar_seat_change_maps_a_chain_advanced_by_one_pitch_onto_its_layout(teeth):
+    """The chain moved rigidly one pitch on (wheels one tooth on, every free pin where the place ahead
+    of it was) is, after the seat change, the dwell layout again: no snap, nothing moving. And the
+    arriving pin's impact keeps the angular momentum about its wheel's axle."""
+    machine = _planar(teeth, 2224.0)
+    layout = machine.pin_positions_m()
+    tooth = 2 * np.pi / teeth
+    advanced = PlanarState(np.roll(layout, -1, axis=0), np.zeros_like(layout), np.full(2, tooth), np.zeros(2))
+    after = seat_change(machine, advanced)
+    np.testing.assert_allclose(after.pin_m, layout, rtol=0, atol=1e-14)
+    np.testing.assert_array_equal(after.angle_rad_s, 0.0)
+    np.testing.assert_allclose(after.angle_rad, 0.0, atol=1e-15)
+    # a pin arriving at the sprocket with some velocity: (J_w + m R^2) omega' = J_w omega + m r x v
+    velocities = np.zeros_like(layout)
+    velocities[-1] = [-0.3, 0.2]
+    moving = PlanarState(advanced.pin_m, velocities, advanced.angle_rad, np.array([0.5, 0.0]))
+    omega = seat_change(machine, moving).angle_rad_s[0]
+    r, m = machine.pitch_radius_m, MASS
+    j_wheel = machine.sprocket_inertia_kg_m2 + machine.wrap_links * m * r**2
+    arm = advanced.pin_m[-1]
+    moment = m * (arm[0] * 0.2 - arm[1] * -0.3)
+    assert (j_wheel + m * r**2) * omega == pytest.approx(j_wheel * 0.5 + moment, rel=1e-12)
 
 
 def test_the_planar_model_rests_in_its_preloaded_state():
