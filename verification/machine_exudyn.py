@@ -1,6 +1,7 @@
 """The machine on its wheels as a planar multibody model in Exudyn: an independent cross-check of the
 1-D model (dynamics.models.machine, integrated by dynamics.solvers.machine_ivp) over one index cycle
-in which no link changes seats (tests/test_machine_exudyn.py, benchmarks/machine_exudyn.py).
+in which no link changes seats, and over cycles with the seat change at each dwell (`seat_change`,
+in places as the 1-D model's transfer) (tests/test_machine_exudyn.py, benchmarks/machine_exudyn.py).
 
 The planar model (SI, the plane of the chain loop, no gravity):
 - every free pin a point mass (`NodePoint2D` + `MassPoint2D`, the link's mass: the 1-D model's
@@ -39,7 +40,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dynamics.models.wheels import pitch_radius_m
+from dynamics.models.chain import ChainModel
+from dynamics.models.machine import MachineOnWheels
+from dynamics.models.wheels import Wheel, pitch_radius_m
+from dynamics.solvers.machine_ivp import integrate_cycle
+from dynamics.solvers.machine_steady import transfer
+from verification.machine_energy import polygonal_stretches_m
 
 
 @dataclass(frozen=True)
@@ -326,13 +332,9 @@ class StationHistory:
     a_m_s2: np.ndarray
 
 
-def one_d_machine(machine: PlanarMachine):
+def one_d_machine(machine: PlanarMachine) -> MachineOnWheels:
     """The project's 1-D model of the same machine: w = z/2 + 1 links seated on each wheel (their
     end pins at the same gamma), the same drive, inertias and beta (C = beta K), polygonal feed."""
-    from dynamics.models.chain import ChainModel
-    from dynamics.models.machine import MachineOnWheels
-    from dynamics.models.wheels import Wheel
-
     mc = machine
     chain = ChainModel(
         mc.n_links,
@@ -353,8 +355,6 @@ def one_d_response(machine: PlanarMachine, cam, t_eval_s, q0=None, v0=None):
     """The 1-D model over the window from (q0, v0) (default rest; dynamics.solvers.machine_ivp, the
     cam's law exact, t_eval_s[0] a dwell's end): per station a StationHistory, the tension into the
     sprocket, and the run."""
-    from dynamics.solvers.machine_ivp import integrate_cycle
-
     t = np.asarray(t_eval_s, dtype=float)
     model = one_d_machine(machine)
     n = model.topology.n_dof
@@ -375,8 +375,6 @@ def one_d_response(machine: PlanarMachine, cam, t_eval_s, q0=None, v0=None):
     dof = model.topology.link_dof()
     stations = model.stations()
     out = {name: StationHistory(run.q_m[:, dof[stations[name]]], acc[:, dof[stations[name]]] + a) for name in STATIONS}
-    from verification.machine_energy import polygonal_stretches_m
-
     behind = model.wheel_ends[0].behind_span
     stretch = np.array([polygonal_stretches_m(model, q, ang)[behind] for ang, q in zip(angles, run.q_m)])
     return out, model.chain.preload_N + model.chain.stiffness_N_per_m * stretch, run
@@ -508,8 +506,6 @@ def seat_change(machine: PlanarMachine, state: PlanarState) -> PlanarState:
 def relabelled_windows(machine: PlanarMachine, cam, n_cycles: int, *, samples: int = 360, steps_per_output: int = 20):
     """Both models over n_cycles index cycles from rest with the seat change at each dwell (the 1-D
     model's transfer, the planar model's `seat_change`): per cycle the station metrics of each."""
-    from dynamics.solvers.machine_steady import transfer
-
     model = one_d_machine(machine)
     n = model.topology.n_dof
     q, v = np.zeros(n), np.zeros(n)
