@@ -11,8 +11,10 @@ continuous indexing is therefore the state x0 at the start of an index with
 P the motion over one index cycle (from the start of one index to the start of the next, the cam at
 rest at both ends) and T the transfer at the dwell:
 - a free link takes the state of the link one place behind it;
-- the link that leaves a wheel onto the strand ahead starts at its seat: y = u + d(a_end) (d the
-  feed's departure, dynamics.models.wheels; 0 without the polygonal action), y' = u' dX/du;
+- the link that leaves a wheel onto the strand ahead starts at its seat: y = u + d(a_end) - g u_c (d
+  the feed's departure, dynamics.models.wheels, 0 without the polygonal action; g u_c the carriage's
+  lengthening of the span ahead of an idler wheel on it), y' = u' dX/du (the model's seated links
+  move with u alone, so this keeps the kinetic energy the model gives them);
 - the link that arrives from the strand behind seats with a plastic impact along the strand
   (the tooth takes it at the wheel's pitch-circle speed): the group's generalised momentum
   M_g u' + m c y'_in is kept, u'+ = (M_g u' + m c y'_in) / (M_g + m c^2), c = dX/du at the seat
@@ -124,7 +126,10 @@ def transfer(machine: MachineOnWheels, q: np.ndarray, v: np.ndarray, *, linear: 
             ud_new = (mg * ud + link_mass * c * v[arriving]) / (mg + link_mass * c**2)
             impact = 0.5 * mg * link_mass * (v[arriving] - c * ud) ** 2 / (mg + link_mass * c**2)
             q_new[group], v_new[group] = u, ud_new
-        q_new[leaving] = u + d
+        # the leaving link stays at its seat: the span ahead keeps a seated span's stretch; a carriage
+        # under an idler wheel lengthens that span by gain * u_c, so the seat is that much behind
+        ahead = topo.spans[ends.ahead_span]
+        q_new[leaving] = u + d - (ahead.carriage_gain * q[ahead.carriage] if ahead.carriage is not None else 0.0)
         v_new[leaving] = c * ud_new
         speeds.append(float(abs(v[arriving] - c * ud)))
         impacts.append(float(impact))
