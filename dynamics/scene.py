@@ -156,6 +156,9 @@ class ContactSummary:
     steps_per_output: int | None = None
     diagnostics: dict = field(default_factory=dict)
     impacts: ImpactStatistics = ImpactStatistics()
+    # the machine on its wheels (drive "wheels"): the seat changes at the end of the window's last
+    # index (dynamics.solvers.machine_verlet.Seating); None for the single-link drive
+    seating: object = None
 
 
 def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float) -> ModelChoice:
@@ -413,7 +416,11 @@ def simulate_scene(
 ) -> tuple[ChainResponse, ContactSummary]:
     """What the orchestrators call: the scene's model (auto, linear or clearance) for one cam."""
     if scene.layout.on_wheels:
-        raise DynamicsError("drive: the machine on its wheels is not wired into the run yet; use --drive link")
+        from dynamics.machine_scene import machine_model, simulate_machine
+
+        return simulate_machine(
+            machine_model(scene, chain), cam, t_eval_s, choice=scene.model, steady_state=scene.steady_state, links=links
+        )
     return simulate_chain(
         scene_model(scene, chain),
         cam,

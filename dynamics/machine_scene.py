@@ -1,0 +1,254 @@
+"""A scene's chain on its wheels (issue #22): which model runs and its response, as
+dynamics.scene.simulate_chain does for the single-link drive.
+
+`simulate_machine(model, cam, t_eval_s, choice="auto")` always runs the linear machine first (the
+clearance machine at free play 0 with the global damping law: the span law is then linear, and the
+model is dynamics.models.machine.MachineOnWheels with its polygonal feed), in its relabelled periodic
+steady state (or from rest). The model is chosen from it exactly as for the single-link drive
+(dynamics.scene.choose_model): the linear machine when the free play is 0 or its minimum tension
+stays >= 0; the clearance machine otherwise (or when asked, or with a tensioner), started from the
+linear machine's steady state.
+
+Frame of the output (the machine as it runs): every index moves each link one place ahead, and the
+response's columns are places: column j is the link at link j's place at the start of each index
+(a seated link's column is its wheel's pitch-circle motion, a link seated on a sprocket held to the
+cam moves with the cam). The seat changes happen at each index's start, where the output sample
+is the state after them. The spans between two links seated on the same wheel do not stretch
+(rigid seating); their column in `tension_N` is the larger of the wheel's two strand-end spans
+(an upper bound of what the seated spans carry). `drive_force_N` is the force the sprocket's drive
+puts on the chain along its path: k_theta / R_m^2 times the sprocket's lag behind the cam, or, for
+a sprocket held to the cam, the strand-end tensions' difference plus the seated links' inertia.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from dynamics.errors import DynamicsError
+from dynamics.models.clearance_machine import ClearanceMachine
+from dynamics.scene import (
+    DEFAULT_MAX_CYCLES,
+    DEFAULT_TOL,
+    ChainModelKind,
+    ContactSummary,
+    ImpactStatistics,
+    SteadyState,
+    choose_model,
+)
+from dynamics.solvers import clearance_verlet as verlet
+from dynamics.solvers import machine_verlet as mv
+from dynamics.solvers.simulate import ChainResponse
+
+
+def machine_model(scene, chain) -> ClearanceMachine:
+    """The clearance machine of a scene (its layout, tensioner, free play, damping law) on one
+    material's chain (a dynamics.models.chain.ChainModel)."""
+    return ClearanceMachine.of(chain, scene.layout, scene.tensioner, scene.pin_clearance_m, scene.span_damping)
+
+
+def simulate_machine(
+    model: ClearanceMachine,
+    cam,
+    t_eval_s,
+    *,
+    choice: str = "auto",
+    steady_state: bool = True,
+    links=None,
+    safety: float | None = None,
+    predictor: str | None = None,
+    tol: float = DEFAULT_TOL,
+    max_cycles: int = DEFAULT_MAX_CYCLES,
+) -> tuple[ChainResponse, ContactSummary]:
+    """The response of the machine at t_eval_s (index cycles from an index's start, equally spaced,
+    a whole number of samples per cycle) and what it says about contact and seating."""
+    t = np.asarray(t_eval_s, dtype=float)
+    period = getattr(cam, "period_s", None)
+    if period is None:
+        raise DynamicsError("cam: the machine on its wheels needs a periodic indexing cam (one pitch per index)")
+    h_out = float(t[1] - t[0])
+    per_cycle = int(round(period / h_out))
+    if np.max(np.abs(np.diff(t) - h_out)) > 1e-9 * h_out or abs(per_cycle * h_out - period) > 1e-9 * period:
+        raise DynamicsError("t_eval_s: the machine needs equally spaced output times, a whole number per index cycle")
+    if abs(t[0] / period - round(t[0] / period)) > 1e-9:
+        raise DynamicsError("t_eval_s: the machine's output window must start at an index's start (the dwell's end)")
+    linear = ClearanceMachine(model.machine, 0.0, "global", None, model.friction_chain)
+    lin_pred = verlet.default_predictor(linear) if predictor is None else predictor
+    lin_safety = verlet.default_safety(linear, lin_pred) if safety is None else safety
+    n_dof = model.topology.n_dof
+    start = (np.zeros(n_dof), np.zeros(n_dof))
+    lin_sub = mv.substeps_for(linear, h_out, lin_safety, lin_pred)
+    lin_state, lin_ss = _start_state(
+        linear, cam, h_out, per_cycle, lin_sub, start, steady_state, tol, max_cycles, lin_pred
+    )
+    lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred)
+    needed = max(model.chain.preload_N - lin.min_tension_N, 0.0)
+    chosen = choose_model(model, choice, lin.min_tension_N)
+    if chosen.model == ChainModelKind.LINEAR:
+        run, sub, ss = lin, lin_sub, lin_ss
+    else:
+        pred = verlet.default_predictor(model) if predictor is None else predictor
+        saf = verlet.default_safety(model, pred) if safety is None else safety
+        sub = mv.substeps_for(model, h_out, saf, pred)
+        state, ss = _start_state(model, cam, h_out, per_cycle, sub, lin_state, steady_state, tol, max_cycles, pred)
+        run = _window(model, cam, t, per_cycle, sub, state, pred)
+    return _response(model, cam, t, run, links, sub, ss), _summary(model, chosen, run, lin, needed, ss, sub, t, period)
+
+
+class _Window:
+    """The outputs of consecutive index cycles at the output times, with their statistics."""
+
+    def __init__(self, q, v, a, tension, runs, seating, step_s):
+        self.q, self.v, self.a, self.tension_N = q, v, a, tension
+        self.seating = seating
+        self.step_s = step_s
+        recorded = sum(r.q.shape[0] for r in runs)
+        self.impacts = sum(r.impacts for r in runs)
+        self.free_play_fraction = float(sum(r.free_play_fraction * r.q.shape[0] for r in runs) / recorded)
+        self.peak_tension_N = max(r.peak_tension_N for r in runs)
+        self.min_tension_N = min(r.min_tension_N for r in runs)
+        self.impact_force_spike_N = max(r.impact_force_spike_N for r in runs)
+        self.impact_kinetic_energy_J = sum(r.impact_kinetic_energy_J for r in runs)
+        self.impact_max_speed_m_s = max(r.impact_max_speed_m_s for r in runs)
+        self.impact_speeds_m_s = np.concatenate([r.impact_speeds_m_s for r in runs])
+
+
+def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor):
+    if not steady_state:
+        return state, None
+    q0, v0, cycles, residual, found = mv.relabelled_periodic_state(
+        model, cam, h_out / sub, per_cycle * sub, *state, tol=tol, max_cycles=max_cycles, predictor=predictor
+    )
+    if found:
+        text = (
+            f"relabelled periodic steady state found after {cycles} index cycles "
+            f"(change per cycle {residual:.2g} <= {tol:g})"
+        )
+        return (q0, v0), SteadyState(True, 1, cycles, residual, text)
+    text = (
+        f"NO relabelled periodic steady state found: after {cycles} index cycles the state still changes by "
+        f"{residual:.2g} per cycle; the results are the motion after {cycles} cycles, not a steady state"
+    )
+    return (q0, v0), SteadyState(False, None, cycles, residual, text)
+
+
+def _window(model, cam, t, per_cycle, sub, state, predictor) -> _Window:
+    """Index cycle after index cycle over the output samples, the seat change between cycles; a
+    sample at a cycle's start is the state after the seat change."""
+    h = (t[1] - t[0]) / sub
+    zr, zd, zdd = mv.cycle_nodes(cam, h, per_cycle * sub)
+    q0, v0 = state
+    rows_q, rows_v, rows_a, rows_t, runs = [], [], [], [], []
+    seating = None
+    remaining = t.size
+    while remaining > 0:
+        run = mv.integrate(model, zr, zd, zdd, h, q0, v0, out_every=sub, predictor=predictor)
+        runs.append(run)
+        take = min(per_cycle, remaining)
+        for rows, out in ((rows_q, run.q), (rows_v, run.v), (rows_a, run.a), (rows_t, run.tension_N)):
+            rows.append(out[:take])
+        remaining -= take
+        q0, v0, seating = mv.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
+    return _Window(*(np.concatenate(r) for r in (rows_q, rows_v, rows_a, rows_t)), runs, seating, h)
+
+
+def _link_spans(model: ClearanceMachine) -> np.ndarray:
+    """For each link span j (link j to link j + 1), the topology span that carries it, or -1 inside a
+    seated group."""
+    groups = model.machine.groups if model.machine.drive == "wheels" else tuple((j,) for j in range(model.n_links))
+    place_of = np.empty(model.n_links, dtype=int)
+    for p, carried in enumerate(groups):
+        place_of[list(carried)] = p
+    out = np.full(model.n_links, -1)
+    for j in range(model.n_links):
+        nxt = (j + 1) % model.n_links
+        if place_of[j] != place_of[nxt]:
+            out[j] = place_of[j]  # span p joins place p to place p + 1
+    return out
+
+
+def _link_tensions(model: ClearanceMachine, span_tension: np.ndarray) -> np.ndarray:
+    spans = _link_spans(model)
+    out = np.empty((span_tension.shape[0], model.n_links))
+    free = spans >= 0
+    out[:, free] = span_tension[:, spans[free]]
+    for ends in model.machine.wheel_ends:
+        group = [j for j in model.machine.groups[ends.ahead_span][:-1]]
+        out[:, group] = np.maximum(span_tension[:, [ends.behind_span]], span_tension[:, [ends.ahead_span]])
+    return out
+
+
+def _drive_force(model: ClearanceMachine, run: _Window, zdd: np.ndarray) -> np.ndarray:
+    ends = model.machine.wheel_ends[0]
+    if ends.dof is not None:
+        return -model.topology.ground_vector()[ends.dof] * run.q[:, ends.dof]
+    seated = len(model.machine.groups[0]) * model.chain.link_mass_kg
+    return run.tension_N[:, ends.behind_span] - run.tension_N[:, ends.ahead_span] + seated * zdd
+
+
+def _response(model, cam, t, run: _Window, links, sub, ss) -> ChainResponse:
+    s, v, a, _ = (np.asarray(x, dtype=float) for x in cam.svaj(t))
+    cols = list(range(model.n_links)) if links is None else [int(i) for i in np.atleast_1d(links)]
+    dof = model.topology.link_dof()[cols]
+    held = dof < 0
+    pick = np.where(held, 0, dof)
+
+    def at_links(x):
+        return np.where(held[None, :], 0.0, x[:, pick])
+
+    tension = _link_tensions(model, run.tension_N)
+    return ChainResponse(
+        t_s=t,
+        x_m=s[:, None] + at_links(run.q),
+        v_m_s=v[:, None] + at_links(run.v),
+        a_m_s2=a[:, None] + at_links(run.a),
+        z_m=s,
+        zdot_m_s=v,
+        zddot_m_s2=a,
+        tension_N=tension,
+        drive_force_N=_drive_force(model, run, a),
+        links=tuple(cols),
+        min_tension_N=run.min_tension_N,
+        slack=run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
+        method="machine-verlet",
+        diagnostics={
+            "steps_per_output": sub,
+            "step_s": run.step_s,
+            "steady_state": ss,
+            "carriage_m": run.q[:, -1] if model.tensioner is not None else None,
+            "frame": "places (relabelled: each index moves every link one place ahead)",
+        },
+    )
+
+
+def _summary(model, chosen, run: _Window, lin: _Window, needed, ss, sub, t, period) -> ContactSummary:
+    cycles = (t[-1] - t[0]) / period
+    speeds = run.impact_speeds_m_s
+    median, p90 = np.percentile(speeds, [50.0, 90.0]) if speeds.size else (0.0, 0.0)
+    impacts = ImpactStatistics(
+        run.impact_max_speed_m_s,
+        float(median),
+        float(p90),
+        run.impact_force_spike_N,
+        float(run.impact_kinetic_energy_J / cycles),
+        # the global law's contact is lossless (as for the single-link drive); the Kelvin-Voigt
+        # dashpots' share in the impact contacts is not measured on the machine yet
+        0.0 if model.span_damping == "global" else math.nan,
+    )
+    return ContactSummary(
+        *chosen,
+        model.clearance_m,
+        run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
+        run.free_play_fraction,
+        run.impacts / cycles if math.isfinite(cycles) and cycles > 0 else 0.0,
+        run.impact_force_spike_N,
+        run.peak_tension_N,
+        run.min_tension_N,
+        needed,
+        lin.min_tension_N,
+        ss,
+        sub,
+        impacts=impacts,
+        seating=run.seating,
+    )

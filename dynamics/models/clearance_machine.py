@@ -1,0 +1,215 @@
+"""The clearance chain on its wheels (issue #22): the machine of dynamics.models.machine (seated groups,
+drive compliance, wheel inertias, idler wheel, carriage, polygonal feed) with the span law of
+dynamics.models.clearance (pin free play, loss of contact, impacts) in every span between places.
+
+Everything derives from the machine's topology (dynamics.models.topology): a span's stretch is
+
+    e_j = y[ahead] - y[behind] + gain y[carriage] + s_j d_w(a_w)
+
+(a held end has y = 0; s_j = +1 for the span running onto wheel w, -1 for the span it feeds, 0
+elsewhere; d_w the wheel's polygonal feed departure at its angle a_w = (z - z_dwell + u_w) / R_m since
+the dwell, 0 without the polygonal action). Span force T_j = the clearance law of P + k e_j; the forces
+go back through the transposed incidence, -T_j de_j/dq (the wheel's share through
+dd/du = R cos(gamma) / R_m - 1), plus the preload's static balance P B^T 1 (2P on the carriage of
+today's idler point, 0 elsewhere), so the static state q = 0 is at rest.
+
+Damping laws as the clearance chain's: "global" is the machine's own damping matrix
+(MachineOnWheels.damping_matrix: modal zeta or Rayleigh on the chain's DOFs, the carriage's c_t)
+on q'; "kelvin-voigt" a dashpot beta k per span in contact plus beta k_ground on the drive, c_t on
+the carriage. Friction (regularised Coulomb, dynamics.models.friction) acts on the free links of the
+strands only: the seated links ride on their wheel, not on the guide.
+
+With clearance 0 and friction 0 the model is MachineOnWheels exactly (tested against
+dynamics.solvers.machine_steady and machine_ivp).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from functools import cached_property
+
+import numpy as np
+
+from dynamics.errors import DynamicsError
+from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M, SPAN_DAMPING_LAWS, span_energy_J, span_force_N
+from dynamics.models.machine import MachineOnWheels
+
+
+@dataclass(frozen=True)
+class MachineArrays:
+    """The topology and parameters as the compiled step takes them (dynamics.solvers.machine_verlet)."""
+
+    span_int: np.ndarray  # (n_spans, 4) int64: behind, ahead, carriage, wheel (-1: none / held)
+    span_float: np.ndarray  # (n_spans, 2): carriage gain, polygon sign
+    dof_float: np.ndarray  # (n_dof, 7): 1/mass, inertial load / mass, ground k, ground c, friction links, f0, mass
+    wheel_float: np.ndarray  # (n_wheels, 4): R, R_m, gamma at the dwell, DOF (-1 held) as float
+    par: np.ndarray  # k, P, k g, beta k, kv flag, F_c, 1 / v_s, m (one link)
+    cmat: np.ndarray  # (n_dof, n_dof) global law's C; (0, 0) for Kelvin-Voigt
+
+
+@dataclass(frozen=True)
+class ClearanceMachine:
+    """MachineOnWheels (its chain's friction and the tensioner included) with pin free play `clearance_m`."""
+
+    machine: MachineOnWheels
+    clearance_m: float = DEFAULT_PIN_CLEARANCE_M
+    span_damping: str = "global"
+    kv_beta_s: float | None = None
+    friction_chain: object = None  # the chain with its friction (`of`); None: the machine's own (friction 0)
+
+    def __post_init__(self) -> None:
+        if not (self.clearance_m >= 0 and not np.isnan(self.clearance_m)):
+            raise DynamicsError(f"clearance_m: expected a free play >= 0 m (inf allowed), got {self.clearance_m!r}")
+        if self.span_damping not in SPAN_DAMPING_LAWS:
+            raise DynamicsError(
+                f"span_damping: expected one of {', '.join(SPAN_DAMPING_LAWS)}, got {self.span_damping!r}"
+            )
+
+    @classmethod
+    def of(cls, chain, layout, tensioner, clearance_m, span_damping="global", kv_beta_s=None) -> ClearanceMachine:
+        """The clearance machine of one material's chain (a ChainModel, friction allowed) on a layout
+        (dynamics.models.layout.MachineLayout). The machine's matrices do not depend on friction, so it
+        is built on the friction-free chain and the friction kept here."""
+        frictionless = replace(chain, friction_coefficient=0.0)
+        return cls(layout.machine(frictionless, tensioner), clearance_m, span_damping, kv_beta_s, chain)
+
+    @property
+    def chain(self):
+        return self.friction_chain if self.friction_chain is not None else self.machine.chain
+
+    @property
+    def tensioner(self):
+        return self.machine.tensioner
+
+    @property
+    def topology(self):
+        return self.machine.topology
+
+    @property
+    def n_links(self) -> int:
+        return self.machine.n_links
+
+    @property
+    def beta_s(self) -> float:
+        """The Kelvin-Voigt dashpot factor, as dynamics.models.clearance.ClearanceChain.beta_s."""
+        c = self.chain
+        if self.kv_beta_s is not None:
+            return float(self.kv_beta_s)
+        if c.rayleigh_coefficients is not None:
+            return float(c.rayleigh_coefficients[1])
+        return 2.0 * c.damping_ratio / float(np.sqrt(2.0 * c.stiffness_N_per_m / c.link_mass_kg))
+
+    @cached_property
+    def damping_matrix(self) -> np.ndarray:
+        return np.ascontiguousarray(self.machine.damping_matrix())
+
+    @cached_property
+    def max_frequency_rad_s(self) -> float:
+        """Highest full-contact frequency; with the polygonal action the wheel ends' stiffness is
+        scaled by (R / R_m)^2 at most (dd/du <= R / R_m - 1), so the frequency is bounded by R / R_m times."""
+        k, m = self.machine.stiffness_matrix(), np.diag(self.machine.mass_matrix())
+        lam = np.linalg.eigvalsh(k / np.sqrt(np.outer(m, m)))
+        omega = float(np.sqrt(max(lam[-1], 0.0)))
+        if self.machine.polygonal:
+            omega *= max(e.wheel.pitch_radius_m / e.wheel.feed_radius_m for e in self.machine.wheel_ends)
+        return omega
+
+    def damping_ratio_at(self, omega_rad_s: float) -> float:
+        c = self.chain
+        if self.span_damping == "kelvin-voigt":
+            return 0.5 * self.beta_s * omega_rad_s
+        if c.rayleigh_coefficients is not None:
+            alpha, beta = c.rayleigh_coefficients
+            return 0.5 * (alpha / omega_rad_s + beta * omega_rad_s)
+        return c.damping_ratio
+
+    @cached_property
+    def arrays(self) -> MachineArrays:
+        topo, mach, c = self.topology, self.machine, self.chain
+        kv = self.span_damping == "kelvin-voigt"
+        n_spans = len(topo.spans)
+        span_int = np.full((n_spans, 4), -1, dtype=np.int64)
+        span_float = np.zeros((n_spans, 2))
+        for j, s in enumerate(topo.spans):
+            span_int[j, :3] = [-1 if d is None else d for d in (s.behind, s.ahead, s.carriage)]
+            span_float[j, 0] = s.carriage_gain
+        wheels = mach.wheel_ends if mach.polygonal else ()
+        wheel_float = np.zeros((len(wheels), 4))
+        for i, ends in enumerate(wheels):
+            w = ends.wheel
+            wheel_float[i] = (
+                w.pitch_radius_m,
+                w.feed_radius_m,
+                w.gamma_at_dwell_rad(),
+                -1 if ends.dof is None else ends.dof,
+            )
+            for span, sign in ((ends.behind_span, 1.0), (ends.ahead_span, -1.0)):
+                span_int[span, 3] = i
+                span_float[span, 1] = sign
+        masses = np.asarray(topo.masses_kg, dtype=float)
+        moves = np.array([1.0 if carried else 0.0 for carried in topo.links])
+        ground = topo.ground_vector()
+        ground_c = np.zeros(topo.n_dof)
+        if mach.tensioner is not None:
+            ground_c[-1] = mach.tensioner.damping_N_s_per_m if kv else 0.0  # the global law's C holds c_t
+            drive = [d for d, _ in topo.ground if d != topo.n_dof - 1]
+        else:
+            drive = [d for d, _ in topo.ground]
+        if kv:
+            for d in drive:
+                ground_c[d] += self.beta_s * ground[d]
+        wheel_dofs = {ends.dof for ends in mach.wheel_ends}
+        friction_links = np.array(
+            [1.0 if (carried and d not in wheel_dofs) else 0.0 for d, carried in enumerate(topo.links)]
+        )
+        b = topo.incidence().toarray()
+        f0 = topo.preload_N * b.sum(axis=0)
+        dof_float = np.column_stack([1.0 / masses, moves, ground, ground_c, friction_links, f0, masses])
+        k = topo.span_stiffness_N_per_m
+        par = np.array(
+            [
+                k,
+                topo.preload_N,
+                k * self.clearance_m,
+                self.beta_s * k if kv else 0.0,
+                1.0 if kv else 0.0,
+                c.coulomb_force_N,
+                1.0 / c.friction_velocity_scale_m_s,
+                c.link_mass_kg,
+            ]
+        )
+        cmat = np.zeros((0, 0)) if kv else self.damping_matrix
+        return MachineArrays(span_int, span_float, np.ascontiguousarray(dof_float), wheel_float, par, cmat)
+
+    # --- the span law on the machine -------------------------------------------------------------
+
+    def stretches_m(self, q: np.ndarray, z_rel_m) -> np.ndarray:
+        """Span stretches (..., n_spans) of DOF states (..., n_dof) at the cam's lift since the dwell."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        z_rel = np.broadcast_to(np.asarray(z_rel_m, dtype=float), q.shape[:1])
+        e = q @ self.topology.incidence().T.toarray()
+        arr = self.arrays
+        for i, (r, rm, g0, dof) in enumerate(arr.wheel_float):
+            u = q[:, int(dof)] if dof >= 0 else 0.0
+            a = (z_rel + u) / rm
+            d = r * (np.sin(g0 + a) - np.sin(g0)) - rm * a
+            for j in np.flatnonzero(arr.span_int[:, 3] == i):
+                e[:, j] += arr.span_float[j, 1] * d
+        return e
+
+    def tension_N(self, q: np.ndarray, z_rel_m) -> np.ndarray:
+        c = self.chain
+        return span_force_N(self.stretches_m(q, z_rel_m), c.preload_N, c.stiffness_N_per_m, self.clearance_m)
+
+    def stored_energy_J(self, q, v, zdot_m_s: float, z_rel_m: float) -> float:
+        """Kinetic + elastic energy (absolute frame) of one state: 1/2 sum M (q' + z')^2 (the carriage
+        without z'), the spans' law energy (dynamics.models.clearance.span_energy_J, from the unstressed
+        length), the ground springs, and -2 P u of the carriage's preload balance (-f0 . q)."""
+        arr = self.arrays
+        q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
+        masses, moves, ground, f0 = arr.dof_float[:, 6], arr.dof_float[:, 1], arr.dof_float[:, 2], arr.dof_float[:, 5]
+        c = self.chain
+        e = self.stretches_m(q, z_rel_m)[0]
+        kinetic = 0.5 * float(np.sum(masses * (v + moves * zdot_m_s) ** 2))
+        elastic = float(np.sum(span_energy_J(e, c.preload_N, c.stiffness_N_per_m, self.clearance_m)))
+        return kinetic + elastic + 0.5 * float(np.sum(ground * q**2)) - float(f0 @ q)

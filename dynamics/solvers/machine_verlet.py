@@ -1,0 +1,426 @@
+"""Fast integrator of the clearance chain on its wheels (dynamics.models.clearance_machine): the
+clearance chain's explicit velocity Verlet (dynamics.solvers.clearance_verlet: the same step, the same
+velocity predictors and stability limit) on any chain topology, the spans as a loop over the packed
+arrays (behind, ahead, carriage, wheel), the forces back through the transposed incidence, the
+polygonal feed d(a) of each wheel as a time-dependent offset of its two wheel-end spans evaluated at
+every step, the global damping law as the plain product C q' (the machine has no mirror symmetry).
+Compiled with numba when installed (the same functions run as Python otherwise, slowly).
+
+One index cycle at a time: the polygonal feed's angle is counted from the dwell at the cycle's start
+(`z_rel`, the cam's lift since then), where the seats change (dynamics.solvers.machine_steady.transfer).
+
+Impacts (a span entering contact from free play): counted per step, the closing speed taken as the
+span's |e'| at the end of the step in which it entered contact (first order in the step, unlike the
+ring's interpolated crossing), its approach energy 1/4 m e'^2 (m_eff = m / 2), the force spike the
+largest |T| within one impact duration pi sqrt(m_eff / k) of it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from dynamics.errors import DynamicsError, SolverDivergedError
+from dynamics.solvers.clearance_verlet import FASTMATH, PREDICTORS, SPEED_CAPACITY, stable_omega_h
+
+try:
+    import numba
+except ImportError:  # pragma: no cover
+    numba = None
+
+# stats: impacts, free span-steps, recorded span-steps, peak T, min T, diverged at step, force spike,
+# impact kinetic energy, largest closing speed, closing speeds stored
+N_STATS = 10
+
+
+def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
+    """Per wheel: the feed's departure d, its slope dd/du and its rate dd/dt at the wheel's angle."""
+    for i in range(wheel_float.shape[0]):
+        r, rm, g0, dof = wheel_float[i, 0], wheel_float[i, 1], wheel_float[i, 2], int(wheel_float[i, 3])
+        u = q[dof] if dof >= 0 else 0.0
+        ud = v[dof] if dof >= 0 else 0.0
+        ang = (z_rel + u) / rm
+        wd[i] = r * (math.sin(g0 + ang) - math.sin(g0)) - rm * ang
+        wsl[i] = (r * math.cos(g0 + ang) - rm) / rm
+        wdt[i] = wsl[i] * (zd + ud)
+
+
+def _accel_into(
+    q, v, z_rel, zd, zdd, span_int, span_float, dof_float, wheel_float, par, cmat, work, t_el, ed, contact, a
+):
+    """a = M^-1 (forces) - r z'' of one state; span forces t_el, their rates ed and contact flags."""
+    k, preload, kg, beta_k, kv, fc, inv_vs = par[0], par[1], par[2], par[3], par[4] > 0.5, par[5], par[6]
+    n = q.shape[0]
+    wd, wsl, wdt, f = work[0], work[1], work[2], work[3]
+    _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt)
+    for i in range(n):
+        f[i] = dof_float[i, 5]
+    for j in range(span_int.shape[0]):
+        b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
+        e = 0.0
+        de = 0.0
+        if fw >= 0:
+            e += q[fw]
+            de += v[fw]
+        if b >= 0:
+            e -= q[b]
+            de -= v[b]
+        if c >= 0:
+            e += span_float[j, 0] * q[c]
+            de += span_float[j, 0] * v[c]
+        if wi >= 0:
+            e += span_float[j, 1] * wd[wi]
+            de += span_float[j, 1] * wdt[wi]
+        d = preload + k * e
+        t = max(d, 0.0) + min(d + kg, 0.0)
+        on = (d >= 0.0) | (d <= -kg)
+        t_el[j] = t
+        ed[j] = de
+        contact[j] = on
+        if kv and on:
+            t += beta_k * de
+        if fw >= 0:
+            f[fw] -= t
+        if b >= 0:
+            f[b] += t
+        if c >= 0:
+            f[c] -= span_float[j, 0] * t
+        if wi >= 0:
+            dof = int(wheel_float[wi, 3])
+            if dof >= 0:
+                f[dof] -= span_float[j, 1] * wsl[wi] * t
+    if not kv:
+        for i in range(n):
+            s = 0.0
+            for m in range(n):
+                s += cmat[i, m] * v[m]
+            f[i] -= s
+    for i in range(n):
+        x = (zd + v[i]) * inv_vs
+        fr = 0.0
+        if dof_float[i, 4] > 0.0:
+            fr = -fc * dof_float[i, 4] * math.tanh(x)
+        f[i] += fr - dof_float[i, 2] * q[i] - dof_float[i, 3] * v[i]
+        a[i] = f[i] * dof_float[i, 0] - dof_float[i, 1] * zdd
+
+
+def _run_loops(
+    q,
+    v,
+    z_rel,
+    zd,
+    zdd,
+    h,
+    theta,
+    out_every,
+    record_from,
+    span_int,
+    span_float,
+    dof_float,
+    wheel_float,
+    par,
+    cmat,
+    bound,
+    out_q,
+    out_v,
+    out_a,
+    out_t,
+    stats,
+    speeds,
+):
+    n_steps = zd.shape[0] - 1
+    n = q.shape[0]
+    ns = span_int.shape[0]
+    q = q.copy()
+    v = v.copy()
+    a = np.empty(n)
+    a_prev = np.empty(n)
+    a_out = np.empty(n)
+    wh = np.empty(n)
+    wp = np.empty(n)
+    t_el = np.empty(ns)
+    ed = np.empty(ns)
+    contact = np.empty(ns, dtype=np.bool_)
+    free = np.empty(ns, dtype=np.bool_)
+    clock = np.full(ns, np.inf)
+    nw = max(wheel_float.shape[0], 1)
+    work = (np.zeros(nw), np.zeros(nw), np.zeros(nw), np.zeros(n))
+    window = math.pi * math.sqrt(0.5 * par[7] / par[0])
+    _accel_into(
+        q,
+        v,
+        z_rel[0],
+        zd[0],
+        zdd[0],
+        span_int,
+        span_float,
+        dof_float,
+        wheel_float,
+        par,
+        cmat,
+        work,
+        t_el,
+        ed,
+        contact,
+        a,
+    )
+    for j in range(n):
+        a_prev[j] = a[j]
+    for j in range(ns):
+        free[j] = not contact[j]
+    out_q[0] = q
+    out_v[0] = v
+    out_a[0] = a
+    out_t[0] = t_el
+    row = 1
+    if record_from == 0:
+        _record(t_el, contact, stats)
+    hh = 0.5 * h
+    for i in range(n_steps):
+        for j in range(n):
+            wh[j] = v[j] + hh * a[j]
+            q[j] += h * wh[j]
+            wp[j] = v[j] + h * (a[j] + theta * (a[j] - a_prev[j]))
+            a_prev[j] = a[j]
+        _accel_into(
+            q,
+            wp,
+            z_rel[i + 1],
+            zd[i + 1],
+            zdd[i + 1],
+            span_int,
+            span_float,
+            dof_float,
+            wheel_float,
+            par,
+            cmat,
+            work,
+            t_el,
+            ed,
+            contact,
+            a,
+        )
+        for j in range(n):
+            v[j] = wh[j] + hh * a[j]
+        recording = i + 1 >= record_from
+        for j in range(ns):
+            if contact[j] and free[j]:
+                clock[j] = 0.0
+                if recording:
+                    speed = abs(ed[j])
+                    stats[0] += 1
+                    stats[7] += 0.25 * par[7] * speed * speed
+                    stats[8] = max(stats[8], speed)
+                    stored = int(stats[9])
+                    if stored < speeds.shape[0]:
+                        speeds[stored] = speed
+                        stats[9] = stored + 1
+            elif contact[j]:
+                clock[j] += h
+            else:
+                clock[j] = np.inf
+            if recording and clock[j] <= window:
+                stats[6] = max(stats[6], abs(t_el[j]))
+            free[j] = not contact[j]
+        if recording:
+            _record(t_el, contact, stats)
+        if (i + 1) % out_every == 0:
+            _accel_into(
+                q,
+                v,
+                z_rel[i + 1],
+                zd[i + 1],
+                zdd[i + 1],
+                span_int,
+                span_float,
+                dof_float,
+                wheel_float,
+                par,
+                cmat,
+                work,
+                t_el,
+                ed,
+                contact,
+                a_out,
+            )
+            out_q[row] = q
+            out_v[row] = v
+            out_a[row] = a_out
+            out_t[row] = t_el
+            row += 1
+            big = 0.0
+            for j in range(n):
+                big = max(big, abs(q[j]))
+            if not (big < bound):
+                stats[5] = i + 1
+                return
+
+
+def _record(t_el, contact, stats):
+    for j in range(t_el.shape[0]):
+        stats[1] += not contact[j]
+        stats[2] += 1
+        stats[3] = max(stats[3], t_el[j])
+        stats[4] = min(stats[4], t_el[j])
+
+
+if numba is not None:
+    for _name in ("_wheels_into", "_accel_into", "_record"):
+        globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
+    _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
+else:  # pragma: no cover
+    _run = _run_loops
+
+
+@dataclass(frozen=True)
+class MachineRun:
+    """Outputs of one integration: DOF states and span forces at the output nodes, window statistics."""
+
+    q: np.ndarray  # (m, n_dof) relative to the cam
+    v: np.ndarray
+    a: np.ndarray  # relative accelerations q''
+    tension_N: np.ndarray  # (m, n_spans) elastic span forces
+    impacts: int
+    free_play_fraction: float
+    peak_tension_N: float
+    min_tension_N: float
+    impact_force_spike_N: float
+    impact_kinetic_energy_J: float
+    impact_max_speed_m_s: float
+    impact_speeds_m_s: np.ndarray
+    step_s: float
+
+
+def integrate(
+    model,
+    z_rel_nodes,
+    zd_nodes,
+    zdd_nodes,
+    step_s: float,
+    q0,
+    v0,
+    *,
+    out_every: int = 1,
+    record_from: int = 0,
+    predictor: str = "euler",
+) -> MachineRun:
+    """Step the clearance machine `model` over the cam's nodes (lift since the dwell, velocity,
+    acceleration; uniform step, n_steps + 1 nodes) from (q0, v0)."""
+    theta = PREDICTORS[predictor]
+    if theta and model.span_damping != "global":
+        raise DynamicsError(f"predictor: {predictor!r} is for the global damping law; use predictor='euler'")
+    zr, zd, zdd = (np.ascontiguousarray(x, dtype=float) for x in (z_rel_nodes, zd_nodes, zdd_nodes))
+    n_steps = zd.size - 1
+    if zr.shape != zd.shape or zdd.shape != zd.shape or n_steps < 1 or n_steps % out_every:
+        raise DynamicsError("integrate: expected cam nodes of equal length, a whole number of output intervals")
+    arr = model.arrays
+    n = arr.dof_float.shape[0]
+    q0 = np.array(q0, dtype=float).reshape(n)
+    v0 = np.array(v0, dtype=float).reshape(n)
+    c = model.chain
+    scale = max(np.max(np.abs(q0)), np.max(np.abs(zr)), c.preload_N / c.stiffness_N_per_m, 1e-9)
+    m_out = n_steps // out_every + 1
+    out = [np.zeros((m_out, n)) for _ in range(3)] + [np.zeros((m_out, arr.span_int.shape[0]))]
+    stats = np.zeros(N_STATS)
+    stats[3], stats[4] = -np.inf, np.inf
+    speeds = np.zeros(SPEED_CAPACITY)
+    with np.errstate(over="ignore", invalid="ignore"):
+        _run(
+            q0,
+            v0,
+            zr,
+            zd,
+            zdd,
+            float(step_s),
+            theta,
+            int(out_every),
+            int(record_from),
+            arr.span_int,
+            arr.span_float,
+            arr.dof_float,
+            arr.wheel_float,
+            arr.par,
+            arr.cmat if arr.cmat.size else np.zeros((1, 1)),
+            1e6 * scale,
+            *out,
+            stats,
+            speeds,
+        )
+    if stats[5] or not np.all(np.isfinite(out[0])):
+        raise SolverDivergedError(
+            f"machine-verlet: solution diverged at step {stats[5] or '?'} (step {step_s:.3g} s); reduce the step"
+        )
+    recorded = max(stats[2], 1.0)
+    return MachineRun(
+        *out,
+        impacts=int(stats[0]),
+        free_play_fraction=float(stats[1] / recorded),
+        peak_tension_N=float(stats[3]),
+        min_tension_N=float(stats[4]),
+        impact_force_spike_N=float(stats[6]),
+        impact_kinetic_energy_J=float(stats[7]),
+        impact_max_speed_m_s=float(stats[8]),
+        impact_speeds_m_s=speeds[: int(stats[9])].copy(),
+        step_s=float(step_s),
+    )
+
+
+def stable_step_s(model, safety: float, predictor: str) -> float:
+    omega = model.max_frequency_rad_s
+    return safety * stable_omega_h(model.damping_ratio_at(omega), predictor) / omega
+
+
+def substeps_for(model, output_step_s: float, safety: float, predictor: str) -> int:
+    return max(1, int(math.ceil(output_step_s / stable_step_s(model, safety, predictor) - 1e-9)))
+
+
+@dataclass(frozen=True)
+class Seating:
+    """The seat changes at the end of an index cycle (dynamics.solvers.machine_steady.transfer): per
+    wheel the seating speed |y'_in - c u'| and the kinetic energy its plastic impact takes, and the
+    transfer's whole change of stored energy (the clearance law's span energy), SI."""
+
+    speed_m_s: tuple[float, ...]
+    impact_energy_J: tuple[float, ...]
+    transfer_energy_change_J: float
+
+
+def cycle_nodes(cam, step_s: float, n_steps: int):
+    """The cam over one index cycle from its start (lift since the dwell, velocity, acceleration)."""
+    t = step_s * np.arange(n_steps + 1)
+    s, v, a, _ = cam.svaj(t)
+    s = np.asarray(s, dtype=float)
+    return s - s[0], np.asarray(v, dtype=float), np.asarray(a, dtype=float)
+
+
+def seat_change(model, q, v, z_rel_end_m: float):
+    """(q, v) after the transfer at the dwell, and its Seating."""
+    from dynamics.solvers.machine_steady import transfer
+
+    q_new, v_new, speeds, impacts = transfer(model.machine, q, v)
+    change = model.stored_energy_J(q_new, v_new, 0.0, 0.0) - model.stored_energy_J(q, v, 0.0, z_rel_end_m)
+    return q_new, v_new, Seating(speeds, impacts, float(change))
+
+
+def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor):
+    """The state at the start of an index with x0 = T(P(x0)) (dynamics.solvers.machine_steady), by
+    stepping cycle after cycle with the seat change between them until the start state changes by
+    less than `tol` (relative to the largest |q| and |q'| over the cycle). Returns (q0, v0, cycles,
+    residual, found)."""
+    zr, zd, zdd = cycle_nodes(cam, step_s, n_steps)
+    every = max(n_steps // 90, 1)
+    while n_steps % every:
+        every -= 1
+    residual = math.inf
+    for cycle in range(1, max_cycles + 1):
+        run = integrate(model, zr, zd, zdd, step_s, q0, v0, out_every=every, predictor=predictor)
+        q1, v1, _ = seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
+        tiny = np.finfo(float).tiny
+        sq, sv = max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
+        residual = max(float(np.max(np.abs(q1 - q0))) / sq, float(np.max(np.abs(v1 - v0))) / sv)
+        q0, v0 = q1, v1
+        if residual <= tol:
+            return q0, v0, cycle, residual, True
+    return q0, v0, max_cycles, residual, False

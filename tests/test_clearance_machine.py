@@ -1,0 +1,155 @@
+"""The clearance chain on its wheels (dynamics.models.clearance_machine, dynamics.solvers.machine_verlet,
+dynamics.machine_scene): reductions to today's clearance chain and to the linear machine, the
+relabelled steady state, the scene entry point."""
+
+import numpy as np
+import pytest
+
+from dynamics.cams import CamProgram
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import ClearanceChain, Tensioner
+from dynamics.models.clearance_machine import ClearanceMachine
+from dynamics.models.layout import MachineLayout
+from dynamics.models.wheels import Wheel
+from dynamics.scene import Scene, simulate_scene
+from dynamics.solvers import clearance_verlet as cv
+from dynamics.solvers import machine_verlet as mv
+from dynamics.solvers.machine_ivp import integrate_cycle
+from dynamics.solvers.machine_steady import transfer
+
+PITCH_M = 0.1125
+K = 9.331e7
+M = 2.03
+
+
+def _cam(rpm=180):
+    return CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=rpm)
+
+
+def _wheels(polygonal=True, inertia=0.688, idler=True, stiffness=None):
+    w = Wheel(12, PITCH_M, 6, inertia)
+    return MachineLayout("wheels", w, w if idler else None, stiffness, polygonal)
+
+
+@pytest.mark.parametrize("law", ["global", "kelvin-voigt"])
+@pytest.mark.parametrize("tensioner", [None, Tensioner(1e5, 5.0, 100.0)])
+@pytest.mark.parametrize("friction", [0.0, 0.1])
+def test_the_ring_on_the_topology_step_is_todays_clearance_chain(law, tensioner, friction):
+    """drive='link': the topology's spans, carriage and ground springs packed as arrays give
+    dynamics.solvers.clearance_verlet's step (the ring's own kernel, mirror damping product and all)
+    to rounding over a whole index cycle through hundreds of impacts."""
+    chain = ChainModel(85, M, K, friction_coefficient=friction)
+    ring = ClearanceChain(chain, 94e-6, span_damping=law, tensioner=tensioner)
+    machine = ClearanceMachine.of(chain, MachineLayout(), tensioner, 94e-6, law)
+    cam = _cam()
+    n = int(cam.cycle_s / cv.stable_step_s(ring, 0.25)) + 1
+    h = cam.cycle_s / n
+    zr, zd, zdd = mv.cycle_nodes(cam, h, n)
+    rng = np.random.default_rng(1)
+    y0, w0 = 1e-4 * rng.standard_normal(85), 1e-2 * rng.standard_normal(85)
+    old = cv.integrate(ring, zd, zdd, h, y0, w0, out_every=n)
+    extra = [0.0] if tensioner else []
+    new = mv.integrate(machine, zr, zd, zdd, h, np.r_[y0, extra], np.r_[w0, extra], out_every=n)
+    assert old.impacts > 100 and new.impacts == old.impacts
+    scale = np.max(np.abs(old.y[-1]))
+    assert np.max(np.abs(new.q[-1, :85] - old.y[-1])) < 1e-12 * scale
+    assert new.peak_tension_N == pytest.approx(old.peak_tension_N, rel=1e-12)
+    assert new.min_tension_N == pytest.approx(old.min_tension_N, rel=1e-12)
+
+
+def _exact_cam(cam):
+    return (lambda t: float(cam.svaj(np.array([t]))[2][0]), lambda t: float(cam.svaj(np.array([t]))[0][0]))
+
+
+@pytest.mark.parametrize("polygonal", [False, True])
+def test_free_play_zero_is_the_linear_machine_to_the_steps_error(polygonal):
+    """Clearance 0, friction 0: the clearance machine is MachineOnWheels. Against its reference
+    integrator (DOP853, error ~1e-8 of the peaks, on the exact cam) over one index cycle of a
+    30-link machine on two 12-tooth wheels from rest: the Verlet step's error is the second-order
+    error of the step (3.6e-5 of the peaks at the default step, ab2 at 0.31 of its limit; measured),
+    and it falls 15x when the step is quartered (second order: the limit is the reference)."""
+    chain = ChainModel(30, M, K)
+    model = ClearanceMachine.of(chain, _wheels(polygonal), None, 0.0)
+    cam = _cam()
+    n_dof = model.topology.n_dof
+    q0, v0 = np.zeros(n_dof), np.zeros(n_dof)
+    samples = 120
+    t = cam.cycle_s * np.arange(samples + 1) / samples
+    ref = integrate_cycle(model.machine, *_exact_cam(cam), t, q0, v0)
+    errors = []
+    for safety in (0.31, 0.31 / 4):
+        sub = mv.substeps_for(model, t[1], safety, "ab2")
+        zr, zd, zdd = mv.cycle_nodes(cam, t[1] / sub, samples * sub)
+        run = mv.integrate(model, zr, zd, zdd, t[1] / sub, q0, v0, out_every=sub, predictor="ab2")
+        errors.append(
+            max(
+                np.max(np.abs(run.q - ref.q_m)) / np.max(np.abs(ref.q_m)),
+                np.max(np.abs(run.v - ref.v_m_s)) / np.max(np.abs(ref.v_m_s)),
+            )
+        )
+    assert errors[0] < 1e-4
+    assert errors[1] < errors[0] / 10
+
+
+def _scene(layout, clearance=94e-6, model="auto", law="global", tensioner=None):
+    return Scene(clearance, law, tensioner, model, True, "exact", layout)
+
+
+def _window(cam, samples_per_degree=2):
+    return np.arange(int(180 * samples_per_degree) + 1) / samples_per_degree / (6.0 * cam.rpm)
+
+
+def test_a_chain_that_never_leaves_pulling_contact_gives_the_linear_machine_exactly():
+    chain = ChainModel(40, M, K, preload_N=2e5)
+    cam = _cam()
+    t = _window(cam)
+    lin, lin_summary = simulate_scene(_scene(_wheels(), model="linear"), chain, cam, t)
+    auto, auto_summary = simulate_scene(_scene(_wheels()), chain, cam, t)
+    clr, clr_summary = simulate_scene(_scene(_wheels(), model="clearance"), chain, cam, t)
+    assert auto_summary.model == "linear" and clr_summary.model == "clearance"
+    assert clr_summary.free_play_time_fraction == 0.0 and clr_summary.impacts_per_cycle == 0.0
+    np.testing.assert_array_equal(auto.x_m, lin.x_m)
+    np.testing.assert_allclose(clr.x_m - clr.z_m[:, None], lin.x_m - lin.z_m[:, None], rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("tensioner", [None, Tensioner(2e5, 20.0, 500.0)])
+def test_the_relabelled_steady_state_repeats_after_one_index(tensioner):
+    """x0 = T(P(x0)): one index cycle from the steady state, then the seat change, returns to it."""
+    chain = ChainModel(40, M, K)
+    model = ClearanceMachine.of(chain, _wheels(), tensioner, 94e-6)
+    cam = _cam()
+    sub = mv.substeps_for(model, cam.cycle_s / 180, 0.31, "ab2")
+    n = 180 * sub
+    h = cam.cycle_s / n
+    zeros = np.zeros(model.topology.n_dof)
+    q0, v0, _, _, found = mv.relabelled_periodic_state(
+        model, cam, h, n, zeros, zeros, tol=1e-9, max_cycles=60, predictor="ab2"
+    )
+    assert found
+    run = mv.integrate(model, *mv.cycle_nodes(cam, h, n), h, q0, v0, out_every=sub, predictor="ab2")
+    assert run.impacts > 0
+    q1, v1, _, _ = transfer(model.machine, run.q[-1], run.v[-1])
+    assert np.max(np.abs(q1 - q0)) < 1e-8 * np.max(np.abs(run.q))
+    assert np.max(np.abs(v1 - v0)) < 1e-8 * np.max(np.abs(run.v))
+
+
+def test_the_scene_on_wheels_reports_places_seating_and_its_model():
+    chain = ChainModel(85, M, K)
+    cam = _cam()
+    t = _window(cam)
+    layout = _wheels()
+    r, summary = simulate_scene(_scene(layout), chain, cam, t)
+    assert summary.model == "clearance" and summary.steady_state.found
+    assert r.x_m.shape == (t.size, 85) and r.tension_N.shape == (t.size, 85)
+    seating = summary.seating
+    assert len(seating.speed_m_s) == 2 and all(s > 0 for s in seating.speed_m_s)
+    assert all(e > 0 for e in seating.impact_energy_J)
+    # the six links seated on a wheel move together (one place), and the window's two index cycles
+    # are the same motion in the frame of places
+    np.testing.assert_array_equal(r.x_m[:, 0:6], np.repeat(r.x_m[:, :1], 6, axis=1))
+    half = (t.size - 1) // 2
+    y = r.x_m - r.z_m[:, None]
+    assert np.max(np.abs(y[half:] - y[: half + 1])) < 1e-4 * np.max(np.abs(y))
+    # a layout with a sprocket held to the cam: its seated links move with the cam
+    held, _ = simulate_scene(_scene(_wheels(stiffness=np.inf)), chain, cam, t)
+    np.testing.assert_array_equal(held.x_m[:, :6], np.repeat(held.z_m[:, None], 6, axis=1))
