@@ -119,7 +119,7 @@ def simulate_scenario(
     from dynamics.response.metrics import link_metrics, settling_times, tension_extremes
     from dynamics.scene import simulate_scene
     from reporting.history import CamHistory
-    from stages.machine import machine_parts
+    from stages.machine import machine_cycle, machine_parts
 
     t = output_times_s(cfg.rpm, samples_per_degree)
     cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
@@ -158,7 +158,10 @@ def simulate_scenario(
     settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
     # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
-    return Scenario(history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst, contact)
+    seats = None if contact.seating is None else machine_cycle(contact.seating, scene.steady_state)
+    return Scenario(
+        history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst, contact, seats
+    )
 
 
 def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, cam_id: str) -> Scenario:

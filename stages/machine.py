@@ -97,11 +97,11 @@ def machine_parts(scene: Scene, model: ChainModel) -> MachineParts:
 
 
 class SeatChanges(Protocol):
-    """What the dynamics report of the transfer that ends an index cycle on the wheels, per wheel in
-    `wheel_ends` order (dynamics.solvers.machine_steady.CycleResponse has these fields)."""
+    """What the dynamics report of the seat changes at the end of an index, per wheel in `wheel_ends`
+    order (dynamics.solvers.machine_verlet.Seating, in `ContactSummary.seating`)."""
 
-    seating_speed_m_s: tuple[float, ...]
-    seating_impact_J: tuple[float, ...]
+    speed_m_s: tuple[float, ...]
+    impact_energy_J: tuple[float, ...]
     transfer_energy_change_J: float
 
 
@@ -115,16 +115,16 @@ class WheelSeating:
 
 @dataclass(frozen=True)
 class MachineCycle:
-    """The seat changes of one index cycle of a scenario on the wheels."""
+    """The seat changes at the end of a scenario's last index on the wheels."""
 
-    frame: str  # "relabelled": every link moves one place per index (the machine as it runs)
+    frame: str | None  # "relabelled": the periodic steady state as the machine runs; None: from rest
     seating: dict[str, WheelSeating]  # per wheel, as in MachineParts.wheels
     transfer_energy_change_J: float  # stored energy after the seat changes minus before (all wheels)
 
 
-def machine_cycle(changes: SeatChanges, frame: str = "relabelled") -> MachineCycle:
+def machine_cycle(changes: SeatChanges, steady_state: bool) -> MachineCycle:
     seating = {
         name: WheelSeating(float(speed), float(energy))
-        for name, speed, energy in zip(WHEEL_NAMES, changes.seating_speed_m_s, changes.seating_impact_J)
+        for name, speed, energy in zip(WHEEL_NAMES, changes.speed_m_s, changes.impact_energy_J)
     }
-    return MachineCycle(frame, seating, float(changes.transfer_energy_change_J))
+    return MachineCycle("relabelled" if steady_state else None, seating, float(changes.transfer_energy_change_J))

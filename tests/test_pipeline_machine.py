@@ -156,16 +156,19 @@ def test_the_stations_are_places_on_the_machine():
 
 @pytest.fixture(scope="module")
 def linear_machine_cycle():
-    """The relabelled periodic state of a short linear machine (dynamics.solvers.machine_steady), the
-    stage's summary of it and the machine it ran on."""
+    """The relabelled periodic state of a short linear machine (dynamics.solvers.machine_steady), its
+    seat changes as the dynamics report them (machine_verlet.Seating), the stage's summary of them
+    and the machine it ran on."""
     from dynamics.cams import CamProgram
     from dynamics.solvers.machine_steady import periodic_state
+    from dynamics.solvers.machine_verlet import Seating
     from stages.machine import machine_cycle, machine_parts, scene_machine
 
     scene, chain = _machine_scene(24, polygonal_action=False)
     machine = scene_machine(scene, chain)
     steady = periodic_state(machine, CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180.0), 180)
-    return steady, machine_cycle(steady), machine_parts(scene, chain)
+    seating = Seating(steady.seating_speed_m_s, steady.seating_impact_J, steady.transfer_energy_change_J)
+    return steady, machine_cycle(seating, steady_state=True), machine_parts(scene, chain)
 
 
 def test_the_summary_records_each_wheel_and_the_seat_changes(linear_machine_cycle):
@@ -238,6 +241,38 @@ def test_the_wheels_are_study_variables_bounded_by_the_settings_limits():
     assert type(cfg.sprocket_teeth) is int
     with pytest.raises(StudyError, match="sprocket_teeth"):
         parse_study({"variables": {"sprocket_teeth": [2, 12]}})
+
+
+def test_a_run_on_its_wheels_says_which_parts_ran(tmp_path):
+    out = tmp_path / "out"
+    args = ["--mesh-size", "10", "--links", "16", "--samples-per-degree", "2", "--no-images", "-q"]
+    args += ["--materials", "al6061-t6", "--cams", "modified-sine", "--drive", "wheels", "--idler-wrap-links", "4"]
+    assert pipeline.main([*args, "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["inputs"]["drive"] == s["machine"]["drive"] == "wheels"
+    assert s["machine"]["polygonal_action"] is True and s["machine"]["steady_state_frame"] == "relabelled"
+    # 16 links: sprocket 1..6, slack strand 7..9, idler 10..13, tight strand 14..16
+    assert s["stations"] == {"drive-end": 3, "tight-side": 15, "idler-end": 11, "slack-side": 8}
+    material = s["materials"]["al6061-t6"]
+    wheels = material["machine"]["wheels"]
+    assert (wheels["sprocket"]["wrap_links"], wheels["idler"]["wrap_links"]) == (6, 4)
+    assert wheels["sprocket"]["pitch_radius_m"] == pytest.approx(
+        s["geometry"]["pitch_m"] / (2 * math.sin(math.pi / 12)), rel=1e-14
+    )
+    k_theta = material["stiffness_N_per_m"] * wheels["sprocket"]["feed_radius_m"] ** 2
+    assert material["machine"]["drive_stiffness_N_m_per_rad"] == pytest.approx(k_theta, rel=1e-14)
+    cam = material["cams"]["modified-sine"]
+    assert cam["machine"]["steady_state_frame"] == "relabelled" and set(cam["machine"]["seating"]) == {
+        "sprocket",
+        "idler",
+    }
+    for seat in cam["machine"]["seating"].values():
+        assert seat["speed_m_s"] >= 0.0 and seat["impact_energy_J"] >= 0.0
+    assert {name: st["link"] for name, st in cam["stations"].items()} == s["stations"]
+    for name, link in s["stations"].items():
+        assert cam["stations"][name]["residual_vibration_m"] == cam["per_link"]["residual_vibration_m"][link - 1]
+    report = (out / "report.html").read_text()
+    assert "Machine: on its wheels: drive sprocket (12 teeth" in report and "polygonal action on" in report
 
 
 def _without(summary: dict, paths: list[tuple[str, ...]]) -> dict:
