@@ -12,7 +12,7 @@ from __future__ import annotations
 
 DEFAULT_MATERIALS = ("al6061-t6", "ti-grade2")
 DEFAULT_STATION = "tight-side"  # where tables, rankings and plots look unless --station says otherwise
-DEFAULT_DRIVE = "link"  # how the chain is driven when --drive is not given (RunConfig.machine_drive)
+DEFAULT_DRIVE = "wheels"  # how the chain is driven when --drive is not given (RunConfig.machine_drive)
 PRESETS = ("mqp2012",)
 ELEMENT_ORDERS = (1, 2)  # P1 / P2 tetrahedra
 

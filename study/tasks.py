@@ -36,6 +36,7 @@ def base_config(settings: Settings, cache_dir: Path | None = None) -> RunConfig:
         solver=settings.solver,
         settling_band_m=settings.settling_band_m,
         steady_state=settings.steady_state,
+        drive=settings.drive,
         cache_dir=cfg.cache_dir if cache_dir is None else cache_dir,
     )
 

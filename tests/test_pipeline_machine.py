@@ -59,7 +59,8 @@ def test_the_wheel_options_map_onto_run_config_fields():
 
 def test_the_drive_defaults_follow_the_registry_and_the_preset_keeps_the_link_drive():
     d = RunConfig()
-    assert d.drive is None and d.machine_drive == registries.DEFAULT_DRIVE in registries.drives()
+    assert d.drive is None and d.machine_drive == registries.DEFAULT_DRIVE == "wheels"  # issue #22's default
+    assert pipeline.parse_cli([]).machine_drive == "wheels"
     assert replace(d, preset="mqp2012").machine_drive == "link"
     assert (d.idler_teeth_used, d.idler_wrap_links_used) == (d.sprocket_teeth, d.sprocket_wrap_links) == (12, 6)
     check_run_config(replace(d, drive="wheels"))
