@@ -83,14 +83,15 @@ def chain_scene(cfg: RunConfig, pitch_m: float) -> Scene:
     )
 
 
-def natural_frequencies_Hz(scene: Scene, model: ChainModel) -> np.ndarray:
-    """The lowest REPORTED_MODES natural frequencies of the chain as the scene carries it."""
+def natural_frequencies_Hz(scene: Scene, model: ChainModel, count: int = REPORTED_MODES) -> np.ndarray:
+    """The lowest `count` natural frequencies of the chain as the scene carries it (the link drive's
+    chain, or the machine on its wheels)."""
     from dynamics.models.reduction import lowest_natural_frequencies_Hz
     from stages.machine import scene_machine
 
     if not scene.layout.on_wheels:
-        return lowest_natural_frequencies_Hz(model, REPORTED_MODES)
-    return scene_machine(scene, model).natural_frequencies_Hz()[:REPORTED_MODES]
+        return lowest_natural_frequencies_Hz(model, count)
+    return scene_machine(scene, model).natural_frequencies_Hz()[:count]
 
 
 def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None) -> ChainModel:

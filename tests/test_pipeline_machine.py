@@ -320,3 +320,40 @@ def test_drive_link_gives_todays_summary(tmp_path):
     ours = _without(ours, [*new, ("timing_s",)])
     theirs = _without(theirs, [("timing_s",)])
     _assert_same(ours, theirs)
+
+
+def _fea(pitch_m: float = PITCH_M):
+    """A MaterialFea of the default aluminium link's size (no FEA run)."""
+    from stages.fea import MaterialFea
+
+    return MaterialFea(
+        "al6061-t6", 9.3e7, 0.01, 0.373, 1.38e-4, pitch_m, 0.0095, 1e5, 1e5, 1e5, 0.0, "test", 276e6, 1000, 0.005,
+        {}, [], False, None,
+    )  # fmt: skip
+
+
+def test_a_study_point_on_its_wheels_reports_the_machines_first_frequency():
+    from dynamics.models.reduction import lowest_natural_frequencies_Hz
+    from stages.chain import chain_model, chain_scene
+    from stages.machine import scene_machine
+    from study.spec import Settings
+    from study.tasks import chain_task, point_config
+
+    settings = Settings(samples_per_degree=1)
+    inputs = {"material": "al6061-t6", "cam": "modified-sine", "links": 16, "friction": 0.0}
+    point = {"index": 0, "point_id": "p", "geometry": "g", "inputs": inputs}
+    fea = _fea()
+    rows = {}
+    for drive in ("wheels", "link"):
+        rows[drive] = chain_task(
+            {"fea": {"al6061-t6": fea}, "reason": None}, "al6061-t6", [point], replace(settings, drive=drive)
+        )["rows"][0]
+        assert rows[drive]["status"] == "ok", rows[drive]["reason"]
+    cfg = point_config(settings, inputs)
+    model = chain_model(cfg, fea)
+    machine = scene_machine(chain_scene(cfg, PITCH_M), model)
+    assert rows["wheels"]["first_natural_frequency_Hz"] == pytest.approx(machine.natural_frequencies_Hz()[0], rel=1e-12)
+    assert rows["link"]["first_natural_frequency_Hz"] == lowest_natural_frequencies_Hz(model, 1)[0]
+    seated = dict(inputs, links=12)
+    bad = chain_task({"fea": {"al6061-t6": fea}, "reason": None}, "al6061-t6", [dict(point, inputs=seated)], settings)
+    assert bad["rows"][0]["status"] == "infeasible" and "wrap" in bad["rows"][0]["reason"]
