@@ -41,6 +41,11 @@ from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import machine_verlet as mv
 from dynamics.solvers.simulate import ChainResponse
 
+# The linear machine's steady state is found to this tolerance before the model is chosen: enough for
+# the choice and the preload for full contact (its minimum tension to about this fraction), not
+# for the answer (see simulate_machine)
+CHOICE_TOL = 1e-3
+
 
 def machine_model(scene, chain) -> ClearanceMachine:
     """The clearance machine of a scene (its layout, tensioner, free play, damping law) on one
@@ -79,21 +84,41 @@ def simulate_machine(
     n_dof = model.topology.n_dof
     start = (np.zeros(n_dof), np.zeros(n_dof))
     lin_sub = mv.substeps_for(linear, h_out, lin_safety, lin_pred)
-    lin_state, lin_ss = _start_state(
-        linear, cam, h_out, per_cycle, lin_sub, start, steady_state, tol, max_cycles, lin_pred
+    # the linear machine first to CHOICE_TOL: its minimum tension decides the model (and gives the
+    # preload for full contact) and its state starts the clearance machine's steady state, which
+    # is then iterated to `tol`; only when the linear machine is the answer is it iterated on to `tol`
+    # and its window stepped
+    lin_tol = max(tol, CHOICE_TOL)
+    lin_state, lin_ss, lin_last = _start_state(
+        linear, cam, h_out, per_cycle, lin_sub, start, steady_state, lin_tol, max_cycles, lin_pred
     )
-    lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred)
-    needed = max(model.chain.preload_N - lin.min_tension_N, 0.0)
-    chosen = choose_model(model, choice, lin.min_tension_N)
+    lin = None
+    if lin_last is not None and lin_ss.found:
+        # in the steady state every index cycle is the last one stepped (to lin_tol): its minimum
+        # tension is the window's
+        lin_min = lin_last.min_tension_N
+    else:
+        lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred)
+        lin_min = lin.min_tension_N
+    chosen = choose_model(model, choice, lin_min)
+    if chosen.model == ChainModelKind.LINEAR and lin is None:
+        lin_state, lin_ss, _ = _start_state(
+            linear, cam, h_out, per_cycle, lin_sub, lin_state, steady_state, tol, max_cycles, lin_pred
+        )
+        lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred, _found(lin_ss))
+        lin_min = lin.min_tension_N
+        chosen = choose_model(model, choice, lin_min)
+    needed = max(model.chain.preload_N - lin_min, 0.0)
     if chosen.model == ChainModelKind.LINEAR:
         run, sub, ss = lin, lin_sub, lin_ss
     else:
         pred = verlet.default_predictor(model) if predictor is None else predictor
         saf = verlet.default_safety(model, pred) if safety is None else safety
         sub = mv.substeps_for(model, h_out, saf, pred)
-        state, ss = _start_state(model, cam, h_out, per_cycle, sub, lin_state, steady_state, tol, max_cycles, pred)
-        run = _window(model, cam, t, per_cycle, sub, state, pred)
-    return _response(model, cam, t, run, links, sub, ss), _summary(model, chosen, run, lin, needed, ss, sub, t, period)
+        state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, lin_state, steady_state, tol, max_cycles, pred)
+        run = _window(model, cam, t, per_cycle, sub, state, pred, _found(ss))
+    summary = _summary(model, chosen, run, lin_min, needed, ss, sub, t, period)
+    return _response(model, cam, t, run, links, sub, ss), summary
 
 
 class _Window:
@@ -114,10 +139,14 @@ class _Window:
         self.impact_speeds_m_s = np.concatenate([r.impact_speeds_m_s for r in runs])
 
 
+def _found(ss) -> bool:
+    return ss is not None and ss.found
+
+
 def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor):
     if not steady_state:
-        return state, None
-    q0, v0, cycles, residual, found = mv.relabelled_periodic_state(
+        return state, None, None
+    q0, v0, cycles, residual, found, last = mv.relabelled_periodic_state(
         model, cam, h_out / sub, per_cycle * sub, *state, tol=tol, max_cycles=max_cycles, predictor=predictor
     )
     if found:
@@ -125,17 +154,19 @@ def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, ma
             f"relabelled periodic steady state found after {cycles} index cycles "
             f"(change per cycle {residual:.2g} <= {tol:g})"
         )
-        return (q0, v0), SteadyState(True, 1, cycles, residual, text)
+        return (q0, v0), SteadyState(True, 1, cycles, residual, text), last
     text = (
         f"NO relabelled periodic steady state found: after {cycles} index cycles the state still changes by "
         f"{residual:.2g} per cycle; the results are the motion after {cycles} cycles, not a steady state"
     )
-    return (q0, v0), SteadyState(False, None, cycles, residual, text)
+    return (q0, v0), SteadyState(False, None, cycles, residual, text), last
 
 
-def _window(model, cam, t, per_cycle, sub, state, predictor) -> _Window:
+def _window(model, cam, t, per_cycle, sub, state, predictor, periodic=False) -> _Window:
     """Index cycle after index cycle over the output samples, the seat change between cycles; a
-    sample at a cycle's start is the state after the seat change."""
+    sample at a cycle's start is the state after the seat change. `periodic`: the state is the
+    relabelled steady state (x0 = T(P(x0)) to its tolerance), so every cycle is the first one in
+    the frame of places and is stepped once."""
     h = (t[1] - t[0]) / sub
     zr, zd, zdd = mv.cycle_nodes(cam, h, per_cycle * sub)
     q0, v0 = state
@@ -143,7 +174,10 @@ def _window(model, cam, t, per_cycle, sub, state, predictor) -> _Window:
     seating = None
     remaining = t.size
     while remaining > 0:
-        run = mv.integrate(model, zr, zd, zdd, h, q0, v0, out_every=sub, predictor=predictor)
+        if periodic and runs:
+            run = runs[0]
+        else:
+            run = mv.integrate(model, zr, zd, zdd, h, q0, v0, out_every=sub, predictor=predictor)
         runs.append(run)
         take = min(per_cycle, remaining)
         for rows, out in ((rows_q, run.q), (rows_v, run.v), (rows_a, run.a), (rows_t, run.tension_N)):
@@ -222,7 +256,7 @@ def _response(model, cam, t, run: _Window, links, sub, ss) -> ChainResponse:
     )
 
 
-def _summary(model, chosen, run: _Window, lin: _Window, needed, ss, sub, t, period) -> ContactSummary:
+def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, sub, t, period) -> ContactSummary:
     cycles = (t[-1] - t[0]) / period
     speeds = run.impact_speeds_m_s
     median, p90 = np.percentile(speeds, [50.0, 90.0]) if speeds.size else (0.0, 0.0)
@@ -246,7 +280,7 @@ def _summary(model, chosen, run: _Window, lin: _Window, needed, ss, sub, t, peri
         run.peak_tension_N,
         run.min_tension_N,
         needed,
-        lin.min_tension_N,
+        lin_min_tension_N,
         ss,
         sub,
         impacts=impacts,

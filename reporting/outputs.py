@@ -120,6 +120,11 @@ def _tension_extremes_N(scenario) -> tuple[float, float]:
     return scenario.contact.peak_tension_N, scenario.contact.min_tension_N
 
 
+def _number_or_null(value: float) -> float | None:
+    """JSON has no NaN: a figure the model does not measure (NaN) is null."""
+    return None if np.isnan(value) else float(value)
+
+
 def _contact_summary(contact) -> dict:
     """Which model ran and why, and what it says about free play and impacts (issue #11)."""
     ss = contact.steady_state
@@ -131,7 +136,11 @@ def _contact_summary(contact) -> dict:
         "free_play_time_fraction": float(contact.free_play_time_fraction),
         "impacts_per_cycle": float(contact.impacts_per_cycle),
         "impact_force_spike_N": float(contact.impact_force_spike_N),
-        **{f"impact_{name}": float(value) for name, value in vars(contact.impacts).items() if name != "force_spike_N"},
+        **{
+            f"impact_{name}": _number_or_null(value)
+            for name, value in vars(contact.impacts).items()
+            if name != "force_spike_N"
+        },
         "preload_for_full_contact_N": float(contact.preload_for_full_contact_N),
         "linear_min_tension_N": float(contact.linear_min_tension_N),
         "clearance_steady_state": None

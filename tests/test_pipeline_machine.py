@@ -357,3 +357,16 @@ def test_a_study_point_on_its_wheels_reports_the_machines_first_frequency():
     seated = dict(inputs, links=12)
     bad = chain_task({"fea": {"al6061-t6": fea}, "reason": None}, "al6061-t6", [dict(point, inputs=seated)], settings)
     assert bad["rows"][0]["status"] == "infeasible" and "wrap" in bad["rows"][0]["reason"]
+
+
+def test_a_figure_the_machine_does_not_measure_is_null_in_summary_json():
+    from dynamics.scene import ChainModelKind, ContactSummary, ImpactStatistics, Validity
+    from reporting.outputs import _contact_summary
+
+    impacts = ImpactStatistics(0.1, 0.05, 0.08, 900.0, 0.2, math.nan)  # Kelvin-Voigt losses on wheels
+    contact = ContactSummary(
+        ChainModelKind.CLEARANCE, "asked for", Validity.VALID, 1e-4, True, 0.1, 2.0, 900.0, 5e3, -10.0, 20.0, -10.0,
+        impacts=impacts,
+    )  # fmt: skip
+    summary = json.loads(json.dumps(_contact_summary(contact), allow_nan=False))
+    assert summary["impact_dissipated_per_cycle_J"] is None and summary["impact_energy_per_cycle_J"] == 0.2

@@ -33,6 +33,10 @@ import numpy as np
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M, SPAN_DAMPING_LAWS, span_energy_J, span_force_N
 from dynamics.models.machine import MachineOnWheels
+from dynamics.models.reduction import DENSE_LINK_LIMIT
+from dynamics.solvers import cache
+from dynamics.solvers._common import serial_blas
+from dynamics.solvers.clearance_verlet import _padded
 
 
 @dataclass(frozen=True)
@@ -44,7 +48,9 @@ class MachineArrays:
     dof_float: np.ndarray  # (n_dof, 7): 1/mass, inertial load / mass, ground k, ground c, friction links, f0, mass
     wheel_float: np.ndarray  # (n_wheels, 4): R, R_m, gamma at the dwell, DOF (-1 held) as float
     par: np.ndarray  # k, P, k g, beta k, kv flag, F_c, 1 / v_s, m (one link)
-    cmat: np.ndarray  # (n_dof, n_dof) global law's C; (0, 0) for Kelvin-Voigt
+    cmat: (
+        np.ndarray
+    )  # the global law's C padded for the four-row product (clearance_verlet._padded); 0 for Kelvin-Voigt
 
 
 @dataclass(frozen=True)
@@ -60,6 +66,13 @@ class ClearanceMachine:
     def __post_init__(self) -> None:
         if not (self.clearance_m >= 0 and not np.isnan(self.clearance_m)):
             raise DynamicsError(f"clearance_m: expected a free play >= 0 m (inf allowed), got {self.clearance_m!r}")
+        if self.machine.n_links > DENSE_LINK_LIMIT:
+            # the machine's damping is its dense modal C (no O(N) form on wheels yet), and the
+            # linear machine that chooses the model always takes it
+            raise DynamicsError(
+                f"links: the machine on its wheels takes at most {DENSE_LINK_LIMIT} links, got "
+                f"{self.machine.n_links} (use --drive link for longer chains)"
+            )
         if self.span_damping not in SPAN_DAMPING_LAWS:
             raise DynamicsError(
                 f"span_damping: expected one of {', '.join(SPAN_DAMPING_LAWS)}, got {self.span_damping!r}"
@@ -99,17 +112,16 @@ class ClearanceMachine:
             return float(c.rayleigh_coefficients[1])
         return 2.0 * c.damping_ratio / float(np.sqrt(2.0 * c.stiffness_N_per_m / c.link_mass_kg))
 
-    @cached_property
+    @property
     def damping_matrix(self) -> np.ndarray:
-        return np.ascontiguousarray(self.machine.damping_matrix())
+        """The machine's C (computed once per machine: the solvers' cache, read-only)."""
+        return cache.cached(("machine-damping", self.machine), lambda: _damping_matrix(self.machine))
 
-    @cached_property
+    @property
     def max_frequency_rad_s(self) -> float:
         """Highest full-contact frequency; with the polygonal action the wheel ends' stiffness is
         scaled by (R / R_m)^2 at most (dd/du <= R / R_m - 1), so the frequency is bounded by R / R_m times."""
-        k, m = self.machine.stiffness_matrix(), np.diag(self.machine.mass_matrix())
-        lam = np.linalg.eigvalsh(k / np.sqrt(np.outer(m, m)))
-        omega = float(np.sqrt(max(lam[-1], 0.0)))
+        omega = cache.cached(("machine-top-frequency", self.machine), lambda: _top_frequency(self.machine))
         if self.machine.polygonal:
             omega *= max(e.wheel.pitch_radius_m / e.wheel.feed_radius_m for e in self.machine.wheel_ends)
         return omega
@@ -122,6 +134,10 @@ class ClearanceMachine:
             alpha, beta = c.rayleigh_coefficients
             return 0.5 * (alpha / omega_rad_s + beta * omega_rad_s)
         return c.damping_ratio
+
+    @cached_property
+    def _incidence(self) -> np.ndarray:
+        return self.topology.incidence().toarray()
 
     @cached_property
     def arrays(self) -> MachineArrays:
@@ -162,7 +178,7 @@ class ClearanceMachine:
         friction_links = np.array(
             [1.0 if (carried and d not in wheel_dofs) else 0.0 for d, carried in enumerate(topo.links)]
         )
-        b = topo.incidence().toarray()
+        b = self._incidence
         f0 = topo.preload_N * b.sum(axis=0)
         dof_float = np.column_stack([1.0 / masses, moves, ground, ground_c, friction_links, f0, masses])
         k = topo.span_stiffness_N_per_m
@@ -178,7 +194,7 @@ class ClearanceMachine:
                 c.link_mass_kg,
             ]
         )
-        cmat = np.zeros((0, 0)) if kv else self.damping_matrix
+        cmat = _padded(np.zeros((1, 1)) if kv else self.damping_matrix)
         return MachineArrays(span_int, span_float, np.ascontiguousarray(dof_float), wheel_float, par, cmat)
 
     # --- the span law on the machine -------------------------------------------------------------
@@ -187,7 +203,7 @@ class ClearanceMachine:
         """Span stretches (..., n_spans) of DOF states (..., n_dof) at the cam's lift since the dwell."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         z_rel = np.broadcast_to(np.asarray(z_rel_m, dtype=float), q.shape[:1])
-        e = q @ self.topology.incidence().T.toarray()
+        e = q @ self._incidence.T
         arr = self.arrays
         for i, (r, rm, g0, dof) in enumerate(arr.wheel_float):
             u = q[:, int(dof)] if dof >= 0 else 0.0
@@ -213,3 +229,17 @@ class ClearanceMachine:
         kinetic = 0.5 * float(np.sum(masses * (v + moves * zdot_m_s) ** 2))
         elastic = float(np.sum(span_energy_J(e, c.preload_N, c.stiffness_N_per_m, self.clearance_m)))
         return kinetic + elastic + 0.5 * float(np.sum(ground * q**2)) - float(f0 @ q)
+
+
+def _damping_matrix(machine: MachineOnWheels) -> np.ndarray:
+    with serial_blas():
+        c = np.ascontiguousarray(machine.damping_matrix())
+    c.flags.writeable = False
+    return c
+
+
+def _top_frequency(machine: MachineOnWheels) -> float:
+    k, m = machine.stiffness_matrix(), np.diag(machine.mass_matrix())
+    with serial_blas():
+        lam = np.linalg.eigvalsh(k / np.sqrt(np.outer(m, m)))
+    return float(np.sqrt(max(lam[-1], 0.0)))

@@ -19,11 +19,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError
-from dynamics.solvers.clearance_verlet import FASTMATH, PREDICTORS, SPEED_CAPACITY, stable_omega_h
+from dynamics.solvers.clearance_verlet import (
+    FASTMATH,
+    PREDICTORS,
+    SPEED_CAPACITY,
+    TANH_IS_ONE,
+    _rows_times,
+    _tanh,
+    stable_omega_h,
+)
 
 try:
     import numba
@@ -50,13 +59,22 @@ def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
 def _accel_into(
     q, v, z_rel, zd, zdd, span_int, span_float, dof_float, wheel_float, par, cmat, work, t_el, ed, contact, a
 ):
-    """a = M^-1 (forces) - r z'' of one state; span forces t_el, their rates ed and contact flags."""
+    """a = M^-1 (forces) - r z'' of one state; span forces t_el, their rates ed and contact flags;
+    into work[6] the powers (cam, damping, friction) of the absolute-frame energy balance:
+
+        d/dt [1/2 sum M (q' + r z')^2 + sum span energy + 1/2 sum k_g q^2 - f0 . q]
+            = z' (sum over the DOFs that move with the cam of their force without friction
+                  + sum over the wheel-end spans of T s dd/du)           (the cam's power)
+              - (C q' . q' or the dashpots' T_d e' + c_g q'^2)           (damping)
+              - (-F_friction . (q' + z'))                                (friction)"""
     k, preload, kg, beta_k, kv, fc, inv_vs = par[0], par[1], par[2], par[3], par[4] > 0.5, par[5], par[6]
     n = q.shape[0]
-    wd, wsl, wdt, f = work[0], work[1], work[2], work[3]
+    wd, wsl, wdt, f, powers = work[0], work[1], work[2], work[3], work[6]
     _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt)
     for i in range(n):
         f[i] = dof_float[i, 5]
+    p_damp = 0.0
+    p_poly = 0.0
     for j in range(span_int.shape[0]):
         b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
         e = 0.0
@@ -81,6 +99,7 @@ def _accel_into(
         contact[j] = on
         if kv and on:
             t += beta_k * de
+            p_damp += beta_k * de * de
         if fw >= 0:
             f[fw] -= t
         if b >= 0:
@@ -88,22 +107,37 @@ def _accel_into(
         if c >= 0:
             f[c] -= span_float[j, 0] * t
         if wi >= 0:
+            p_poly += span_float[j, 1] * wsl[wi] * t
             dof = int(wheel_float[wi, 3])
             if dof >= 0:
                 f[dof] -= span_float[j, 1] * wsl[wi] * t
-    if not kv:
+    if not kv:  # C v, four rows at a time on the padded C (clearance_verlet._rows_times)
+        vp, cv_out = work[4], work[5]
         for i in range(n):
-            s = 0.0
-            for m in range(n):
-                s += cmat[i, m] * v[m]
-            f[i] -= s
+            vp[i] = v[i]
+        _rows_times(cmat, vp, cv_out)
+        for i in range(n):
+            f[i] -= cv_out[i]
+            p_damp += v[i] * cv_out[i]
+    cam = 0.0
     for i in range(n):
-        x = (zd + v[i]) * inv_vs
-        fr = 0.0
-        if dof_float[i, 4] > 0.0:
-            fr = -fc * dof_float[i, 4] * math.tanh(x)
-        f[i] += fr - dof_float[i, 2] * q[i] - dof_float[i, 3] * v[i]
+        f[i] -= dof_float[i, 2] * q[i] + dof_float[i, 3] * v[i]
+        p_damp += dof_float[i, 3] * v[i] * v[i]
+        cam += dof_float[i, 1] * f[i]
+    p_fric = 0.0
+    if fc > 0.0:
+        for i in range(n):
+            if dof_float[i, 4] > 0.0:
+                x = (zd + v[i]) * inv_vs
+                th = 1.0 if x > TANH_IS_ONE else (-1.0 if x < -TANH_IS_ONE else _tanh(x))
+                fr = fc * dof_float[i, 4] * th
+                f[i] -= fr
+                p_fric += fr * (v[i] + dof_float[i, 1] * zd)
+    for i in range(n):
         a[i] = f[i] * dof_float[i, 0] - dof_float[i, 1] * zdd
+    powers[0] = zd * (cam + p_poly)
+    powers[1] = p_damp
+    powers[2] = p_fric
 
 
 def _run_loops(
@@ -129,7 +163,12 @@ def _run_loops(
     out_t,
     stats,
     speeds,
+    track_energy,
+    energy,
 ):
+    """The step loop (module docstring); `energy` (cam work, damping and friction dissipation)
+    integrated trapezoidally in the powers at the steps' states when `track_energy` (one more force
+    evaluation per step)."""
     n_steps = zd.shape[0] - 1
     n = q.shape[0]
     ns = span_int.shape[0]
@@ -146,7 +185,15 @@ def _run_loops(
     free = np.empty(ns, dtype=np.bool_)
     clock = np.full(ns, np.inf)
     nw = max(wheel_float.shape[0], 1)
-    work = (np.zeros(nw), np.zeros(nw), np.zeros(nw), np.zeros(n))
+    work = (
+        np.zeros(nw),
+        np.zeros(nw),
+        np.zeros(nw),
+        np.zeros(n),
+        np.zeros(cmat.shape[1]),
+        np.zeros(cmat.shape[0]),
+        np.zeros(3),
+    )
     window = math.pi * math.sqrt(0.5 * par[7] / par[0])
     _accel_into(
         q,
@@ -166,6 +213,7 @@ def _run_loops(
         contact,
         a,
     )
+    p_prev = work[6].copy()
     for j in range(n):
         a_prev[j] = a[j]
     for j in range(ns):
@@ -226,7 +274,8 @@ def _run_loops(
             free[j] = not contact[j]
         if recording:
             _record(t_el, contact, stats)
-        if (i + 1) % out_every == 0:
+        on_output = (i + 1) % out_every == 0
+        if track_energy or on_output:
             _accel_into(
                 q,
                 v,
@@ -245,6 +294,11 @@ def _run_loops(
                 contact,
                 a_out,
             )
+            if track_energy:
+                for m in range(3):
+                    energy[m] += hh * (p_prev[m] + work[6][m])
+                    p_prev[m] = work[6][m]
+        if on_output:
             out_q[row] = q
             out_v[row] = v
             out_a[row] = a_out
@@ -291,6 +345,9 @@ class MachineRun:
     impact_max_speed_m_s: float
     impact_speeds_m_s: np.ndarray
     step_s: float
+    cam_work_J: float = 0.0  # the energy terms, when integrate(track_energy=True)
+    dissipated_damping_J: float = 0.0
+    dissipated_friction_J: float = 0.0
 
 
 def integrate(
@@ -305,6 +362,7 @@ def integrate(
     out_every: int = 1,
     record_from: int = 0,
     predictor: str = "euler",
+    track_energy: bool = False,
 ) -> MachineRun:
     """Step the clearance machine `model` over the cam's nodes (lift since the dwell, velocity,
     acceleration; uniform step, n_steps + 1 nodes) from (q0, v0)."""
@@ -326,6 +384,7 @@ def integrate(
     stats = np.zeros(N_STATS)
     stats[3], stats[4] = -np.inf, np.inf
     speeds = np.zeros(SPEED_CAPACITY)
+    energy = np.zeros(3)
     with np.errstate(over="ignore", invalid="ignore"):
         _run(
             q0,
@@ -342,11 +401,13 @@ def integrate(
             arr.dof_float,
             arr.wheel_float,
             arr.par,
-            arr.cmat if arr.cmat.size else np.zeros((1, 1)),
+            arr.cmat,
             1e6 * scale,
             *out,
             stats,
             speeds,
+            bool(track_energy),
+            energy,
         )
     if stats[5] or not np.all(np.isfinite(out[0])):
         raise SolverDivergedError(
@@ -364,12 +425,20 @@ def integrate(
         impact_max_speed_m_s=float(stats[8]),
         impact_speeds_m_s=speeds[: int(stats[9])].copy(),
         step_s=float(step_s),
+        cam_work_J=float(energy[0]),
+        dissipated_damping_J=float(energy[1]),
+        dissipated_friction_J=float(energy[2]),
     )
 
 
 def stable_step_s(model, safety: float, predictor: str) -> float:
     omega = model.max_frequency_rad_s
-    return safety * stable_omega_h(model.damping_ratio_at(omega), predictor) / omega
+    return safety * _stable_omega_h(model.damping_ratio_at(omega), predictor) / omega
+
+
+@lru_cache(maxsize=64)
+def _stable_omega_h(zeta: float, predictor: str) -> float:
+    return stable_omega_h(zeta, predictor)
 
 
 def substeps_for(model, output_step_s: float, safety: float, predictor: str) -> int:
@@ -408,7 +477,7 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
     """The state at the start of an index with x0 = T(P(x0)) (dynamics.solvers.machine_steady), by
     stepping cycle after cycle with the seat change between them until the start state changes by
     less than `tol` (relative to the largest |q| and |q'| over the cycle). Returns (q0, v0, cycles,
-    residual, found)."""
+    residual, found, the last cycle's MachineRun)."""
     zr, zd, zdd = cycle_nodes(cam, step_s, n_steps)
     every = max(n_steps // 90, 1)
     while n_steps % every:
@@ -422,5 +491,5 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
         residual = max(float(np.max(np.abs(q1 - q0))) / sq, float(np.max(np.abs(v1 - v0))) / sv)
         q0, v0 = q1, v1
         if residual <= tol:
-            return q0, v0, cycle, residual, True
-    return q0, v0, max_cycles, residual, False
+            return q0, v0, cycle, residual, True, run
+    return q0, v0, max_cycles, residual, False, run

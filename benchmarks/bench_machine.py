@@ -1,0 +1,190 @@
+"""The clearance chain on its wheels (issue #22): one window's cost and accuracy, and the pipeline's
+dynamics stage with the machine.
+
+    python benchmarks/run.py --only machine
+
+1. One 85-link, 180-degree window (two index cycles, 4 samples per degree) of the clearance machine
+   from rest: the default layout (12-tooth sprocket and idler wheel, six links seated on each,
+   steel-disc inertia, the drive's default compliance, polygonal feed), aluminium, modified sine,
+   180 rpm, 0.094 mm free play, global damping. Station metrics (RMS x, v, a, max |a|, residual
+   vibration at the machine's four stations) at the default step (ab2 at 0.31 of its limit) and at
+   finer steps against the same integrator at 1/16 of the default step; the time is the median of
+   interleaved runs.
+2. The pipeline's dynamics stage as the default run will run it on wheels: 2 materials x 5 cams,
+   85 links, relabelled periodic steady state, model chosen automatically (the clearance machine on
+   this scene); beside it, in the same run, today's single-link drive (dynamics.scene.simulate_chain).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import numpy as np
+
+from dynamics.cams import CamProgram
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M
+from dynamics.models.layout import MachineLayout
+from dynamics.models.wheels import Wheel, pitch_radius_m, steel_disc_inertia_kg_m2
+from dynamics.scene import Scene, simulate_scene
+from dynamics.solvers import machine_verlet as mv
+
+MATERIALS = {"al6061-t6": (9.0092e7, 2.03), "ti-grade2": (1.3696e8, 2.28)}  # as bench_clearance
+CAMS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
+PITCH_M, RPM, N_LINKS = 0.1125, 180.0, 85
+TARGET_WINDOW_S, TARGET_STAGE_S = 0.020, 3.0
+
+
+def layout() -> MachineLayout:
+    wheel = Wheel(12, PITCH_M, 6, steel_disc_inertia_kg_m2(pitch_radius_m(PITCH_M, 12), 0.025))
+    return MachineLayout("wheels", wheel, wheel, None, True)
+
+
+def _chain(material: str) -> ChainModel:
+    k, m = MATERIALS[material]
+    return ChainModel(n_links=N_LINKS, link_mass_kg=m, stiffness_N_per_m=k)
+
+
+def _window_times() -> np.ndarray:
+    return np.arange(721) / 4 / (6 * RPM)
+
+
+def _station_metrics(model, cam, t, y, v, a) -> np.ndarray:
+    """RMS x, v, a, max |a| over the window and max |x - z| over the dwell at the four stations."""
+    dwell = cam.dwell_mask(t)
+    dof = model.topology.link_dof()[list(model.machine.stations().values())]
+    out = []
+    for d in dof:
+        out += [
+            np.sqrt(np.mean(y[:, d] ** 2)),
+            np.sqrt(np.mean(v[:, d] ** 2)),
+            np.sqrt(np.mean(a[:, d] ** 2)),
+            np.max(np.abs(a[:, d])),
+            np.max(np.abs(y[dwell, d])),
+        ]
+    return np.array(out)
+
+
+def _window_run(model, cam, t, sub):
+    """Two index cycles from rest at `sub` steps per output sample, the seat change between them."""
+    h = (t[1] - t[0]) / sub
+    per_cycle = (t.size - 1) // 2
+    zr, zd, zdd = mv.cycle_nodes(cam, h, per_cycle * sub)
+    q = v = np.zeros(model.topology.n_dof)
+    ys, vs, accs = [], [], []
+    start = time.perf_counter()
+    for cycle in range(2):
+        run = mv.integrate(model, zr, zd, zdd, h, q, v, out_every=sub, predictor="ab2")
+        take = slice(0, per_cycle + (cycle == 1))
+        ys.append(run.q[take])
+        vs.append(run.v[take])
+        accs.append(run.a[take] + zdd[::sub][take, None] * model.arrays.dof_float[:, 1])
+        q, v, _ = mv.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
+    seconds = time.perf_counter() - start
+    return seconds, _station_metrics(model, cam, t, np.concatenate(ys), np.concatenate(vs), np.concatenate(accs))
+
+
+def _ring_window_s(cam, t, sub) -> float:
+    from dynamics.models.clearance import ClearanceChain
+    from dynamics.solvers import clearance_verlet
+
+    ring = ClearanceChain(_chain("al6061-t6"), DEFAULT_PIN_CLEARANCE_M)
+    tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
+    _, zd, zdd, _ = cam.svaj(tf)
+    zeros = np.zeros(N_LINKS)
+    start = time.perf_counter()
+    clearance_verlet.integrate(ring, zd, zdd, tf[1] - tf[0], zeros, zeros, out_every=sub, predictor="ab2")
+    return time.perf_counter() - start
+
+
+def _window_table(quick: bool) -> list[str]:
+    from dynamics.models.clearance_machine import ClearanceMachine
+
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=RPM)
+    t = _window_times()
+    model = ClearanceMachine.of(_chain("al6061-t6"), layout(), None, DEFAULT_PIN_CLEARANCE_M)
+    default = mv.substeps_for(model, t[1] - t[0], 0.31, "ab2")
+    _, ref = _window_run(model, cam, t, 16 * default)
+    scale = np.abs(ref).reshape(4, 5).max(axis=0)  # per metric, its largest over the stations
+    lines = [
+        "Clearance machine, one 85-link window (2 index cycles from rest, 4 samples/degree, aluminium, "
+        "modified sine, 180 rpm, 0.094 mm; wheels 12 teeth, 6 seated, polygonal feed); error = worst "
+        f"station metric against {16 * default} steps/sample, relative to that metric's largest station value; "
+        "time = median of interleaved runs:",
+        "",
+        "| steps/sample | time | error |",
+        "|---|---|---|",
+    ]
+    subs = (default,) if quick else (default, 2 * default)
+    repeats = 3 if quick else 9
+    times = {sub: [] for sub in subs}
+    errors = {}
+    _window_run(model, cam, t, default)  # compile
+    for _ in range(repeats):
+        for sub in subs:
+            seconds, metrics = _window_run(model, cam, t, sub)
+            times[sub].append(seconds)
+            errors[sub] = float(np.max(np.abs(metrics - ref).reshape(4, 5) / scale))
+    for sub in subs:
+        lines.append(f"| {sub} | {1e3 * statistics.median(times[sub]):.1f} ms | {errors[sub]:.1e} |")
+    ring_s = [_ring_window_s(cam, t, 2 * default) for _ in range(repeats)]
+    lines.append(
+        f"Yardstick, same run: today's 85-link ring (single-link drive, same chain) over the same window "
+        f"at {2 * default} steps/sample: {1e3 * statistics.median(ring_s):.1f} ms"
+    )
+    met = errors[default] <= 1e-3 and statistics.median(times[default]) <= TARGET_WINDOW_S
+    lines.append(
+        f"Target (1e-3 within {1e3 * TARGET_WINDOW_S:.0f} ms at the default step): **{'met' if met else 'NOT met'}**"
+    )
+    return lines
+
+
+def _stage_s(scene, cams) -> tuple[float, set, list]:
+    t = _window_times()
+    models, cycles = set(), []
+    start = time.perf_counter()
+    for material in MATERIALS:
+        chain = _chain(material)
+        for law in cams:
+            cam = CamProgram.indexing(law, pitch_m=PITCH_M, rpm=RPM)
+            _, contact = simulate_scene(scene, chain, cam, t)
+            models.add(str(contact.model))
+            if contact.steady_state is not None:
+                cycles.append(contact.steady_state.cycles)
+    return time.perf_counter() - start, models, cycles
+
+
+def _stage_table(quick: bool) -> list[str]:
+    from dynamics.solvers import cache
+
+    cams = CAMS[:2] if quick else CAMS
+    wheels = Scene(DEFAULT_PIN_CLEARANCE_M, "global", None, "auto", True, "exact", layout())
+    link = Scene(DEFAULT_PIN_CLEARANCE_M, "global", None, "auto", True, "exact")
+    _stage_s(wheels, cams[:1])  # compile
+    repeats = 1 if quick else 3
+    runs = {"wheels": [], "link": []}
+    info = {}
+    for _ in range(repeats):
+        for name, scene in (("wheels", wheels), ("link", link)):
+            cache.clear()
+            seconds, models, cycles = _stage_s(scene, cams)
+            runs[name].append(seconds)
+            info[name] = (models, cycles)
+    n = len(MATERIALS) * len(cams)
+    lines = ["", f"Pipeline dynamics stage ({len(MATERIALS)} materials x {len(cams)} cams, 85 links, steady state, "]
+    lines[-1] += f"median of {repeats} interleaved runs, caches cleared before each):"
+    for name in ("wheels", "link"):
+        median = statistics.median(runs[name])
+        models, cycles = info[name]
+        lines.append(
+            f"- drive {name}: {median:.2f} s ({1e3 * median / n:.0f} ms per scenario), model "
+            f"{'/'.join(sorted(models))}, {min(cycles)}-{max(cycles)} cycles to the steady state"
+        )
+    met = statistics.median(runs["wheels"]) <= TARGET_STAGE_S
+    lines.append(f"Target (wheels stage within {TARGET_STAGE_S:.0f} s): **{'met' if met else 'NOT met'}**")
+    return lines
+
+
+def run(quick: bool) -> list[str]:
+    return _window_table(quick) + _stage_table(quick)
