@@ -22,8 +22,6 @@ a sprocket held to the cam, the strand-end tensions' difference plus the seated 
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from dynamics.errors import DynamicsError
@@ -117,7 +115,7 @@ def simulate_machine(
         sub = mv.substeps_for(model, h_out, saf, pred)
         state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, lin_state, steady_state, tol, max_cycles, pred)
         run = _window(model, cam, t, per_cycle, sub, state, pred, _found(ss))
-    summary = _summary(model, chosen, run, lin_min, needed, ss, sub, t, period)
+    summary = _summary(model, chosen, run, lin_min, needed, ss, sub)
     return _response(model, cam, t, run, links, sub, ss), summary
 
 
@@ -128,6 +126,7 @@ class _Window:
         self.q, self.v, self.a, self.tension_N = q, v, a, tension
         self.seating = seating
         self.step_s = step_s
+        self.cycles = len(runs)  # index cycles stepped (the statistics are over them)
         recorded = sum(r.q.shape[0] for r in runs)
         self.impacts = sum(r.impacts for r in runs)
         self.free_play_fraction = float(sum(r.free_play_fraction * r.q.shape[0] for r in runs) / recorded)
@@ -135,6 +134,7 @@ class _Window:
         self.min_tension_N = min(r.min_tension_N for r in runs)
         self.impact_force_spike_N = max(r.impact_force_spike_N for r in runs)
         self.impact_kinetic_energy_J = sum(r.impact_kinetic_energy_J for r in runs)
+        self.impact_dissipated_J = sum(r.impact_dissipated_J for r in runs)
         self.impact_max_speed_m_s = max(r.impact_max_speed_m_s for r in runs)
         self.impact_speeds_m_s = np.concatenate([r.impact_speeds_m_s for r in runs])
 
@@ -174,6 +174,11 @@ def _window(model, cam, t, per_cycle, sub, state, predictor, periodic=False) -> 
     seating = None
     remaining = t.size
     while remaining > 0:
+        if remaining == 1 and runs:  # the window ends at an index's start: the state after the seat change
+            start = mv.integrate(model, zr[:2], zd[:2], zdd[:2], h, q0, v0, out_every=1, predictor=predictor)
+            for rows, out in ((rows_q, start.q), (rows_v, start.v), (rows_a, start.a), (rows_t, start.tension_N)):
+                rows.append(out[:1])
+            break
         if periodic and runs:
             run = runs[0]
         else:
@@ -256,8 +261,17 @@ def _response(model, cam, t, run: _Window, links, sub, ss) -> ChainResponse:
     )
 
 
-def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, sub, t, period) -> ContactSummary:
-    cycles = (t[-1] - t[0]) / period
+def _free_play_fraction(model, chosen, run: _Window) -> float:
+    """The clearance machine's share of span-time in free play; for the linear machine, as for the
+    single-link drive, the share of its output span-samples below zero tension where there is free
+    play to enter (0 without)."""
+    if chosen.model == ChainModelKind.LINEAR:
+        return float(np.mean(run.tension_N < 0.0)) if model.clearance_m > 0 else 0.0
+    return run.free_play_fraction
+
+
+def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, sub) -> ContactSummary:
+    cycles = run.cycles
     speeds = run.impact_speeds_m_s
     median, p90 = np.percentile(speeds, [50.0, 90.0]) if speeds.size else (0.0, 0.0)
     impacts = ImpactStatistics(
@@ -266,16 +280,14 @@ def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, 
         float(p90),
         run.impact_force_spike_N,
         float(run.impact_kinetic_energy_J / cycles),
-        # the global law's contact is lossless (as for the single-link drive); the Kelvin-Voigt
-        # dashpots' share in the impact contacts is not measured on the machine yet
-        0.0 if model.span_damping == "global" else math.nan,
+        float(run.impact_dissipated_J / cycles),
     )
     return ContactSummary(
         *chosen,
         model.clearance_m,
         run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
-        run.free_play_fraction,
-        run.impacts / cycles if math.isfinite(cycles) and cycles > 0 else 0.0,
+        _free_play_fraction(model, chosen, run),
+        run.impacts / cycles,
         run.impact_force_spike_N,
         run.peak_tension_N,
         run.min_tension_N,

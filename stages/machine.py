@@ -32,18 +32,20 @@ def machine_layout(cfg: RunConfig, pitch_m: float) -> MachineLayout:
 
     if cfg.machine_drive == "link":
         return LINK_DRIVE
-    sprocket = _wheel(cfg.sprocket_teeth, pitch_m, cfg.sprocket_wrap_links, cfg.sprocket_inertia_kg_m2, cfg)
+    phase = cfg.tooth_phase
+    sprocket = _wheel(cfg.sprocket_teeth, pitch_m, cfg.sprocket_wrap_links, cfg.sprocket_inertia_kg_m2, phase)
     idler = None
     if cfg.idler_wrap_links_used > 0:
-        idler = _wheel(cfg.idler_teeth_used, pitch_m, cfg.idler_wrap_links_used, cfg.idler_inertia_kg_m2, cfg)
+        idler = _wheel(cfg.idler_teeth_used, pitch_m, cfg.idler_wrap_links_used, cfg.idler_inertia_kg_m2, phase)
     return MachineLayout("wheels", sprocket, idler, cfg.drive_stiffness_N_m_per_rad, cfg.polygonal_action)
 
 
-def _wheel(teeth: int, pitch_m: float, wrap: int, inertia_kg_m2: float | None, cfg: RunConfig) -> Wheel:
+def _wheel(teeth: int, pitch_m: float, wrap: int, inertia_kg_m2: float | None, tooth_phase: float) -> Wheel:
+    """A wheel on the chain's pitch; no inertia given: the default wheel of its own pitch radius."""
     from dynamics.models.wheels import Wheel, default_wheel_inertia_kg_m2
 
     inertia = default_wheel_inertia_kg_m2(pitch_m, teeth) if inertia_kg_m2 is None else inertia_kg_m2
-    return Wheel(int(teeth), pitch_m, int(wrap), inertia, cfg.tooth_phase)
+    return Wheel(int(teeth), pitch_m, int(wrap), inertia, tooth_phase)
 
 
 def scene_machine(scene: Scene, model: ChainModel) -> MachineOnWheels:

@@ -48,9 +48,8 @@ class MachineArrays:
     dof_float: np.ndarray  # (n_dof, 7): 1/mass, inertial load / mass, ground k, ground c, friction links, f0, mass
     wheel_float: np.ndarray  # (n_wheels, 4): R, R_m, gamma at the dwell, DOF (-1 held) as float
     par: np.ndarray  # k, P, k g, beta k, kv flag, F_c, 1 / v_s, m (one link)
-    cmat: (
-        np.ndarray
-    )  # the global law's C padded for the four-row product (clearance_verlet._padded); 0 for Kelvin-Voigt
+    # the global law's C, padded for the four-row product (clearance_verlet._padded); zeros for Kelvin-Voigt
+    cmat: np.ndarray
 
 
 @dataclass(frozen=True)

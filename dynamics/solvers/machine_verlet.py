@@ -12,7 +12,9 @@ One index cycle at a time: the polygonal feed's angle is counted from the dwell 
 Impacts (a span entering contact from free play): counted per step, the closing speed taken as the
 span's |e'| at the end of the step in which it entered contact (first order in the step, unlike the
 ring's interpolated crossing), its approach energy 1/4 m e'^2 (m_eff = m / 2), the force spike the
-largest |T| within one impact duration pi sqrt(m_eff / k) of it.
+largest |T| within one impact duration pi sqrt(m_eff / k) of it, and (Kelvin-Voigt law) the span
+dashpots' work over the contacts begun by impacts while they last (trapezoidal over the steps, the
+impact's own step at half weight: first order at the crossing, unlike the ring's interpolation).
 """
 
 from __future__ import annotations
@@ -40,8 +42,8 @@ except ImportError:  # pragma: no cover
     numba = None
 
 # stats: impacts, free span-steps, recorded span-steps, peak T, min T, diverged at step, force spike,
-# impact kinetic energy, largest closing speed, closing speeds stored
-N_STATS = 10
+# impact kinetic energy, largest closing speed, closing speeds stored, dashpot work in impact contacts
+N_STATS = 11
 
 
 def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
@@ -184,6 +186,8 @@ def _run_loops(
     contact = np.empty(ns, dtype=np.bool_)
     free = np.empty(ns, dtype=np.bool_)
     clock = np.full(ns, np.inf)
+    in_impact = np.zeros(ns, dtype=np.bool_)  # a contact begun by an impact, while it lasts
+    dash_prev = np.zeros(ns)
     nw = max(wheel_float.shape[0], 1)
     work = (
         np.zeros(nw),
@@ -254,9 +258,12 @@ def _run_loops(
             v[j] = wh[j] + hh * a[j]
         recording = i + 1 >= record_from
         for j in range(ns):
+            p_dash = par[3] * ed[j] * ed[j] if contact[j] else 0.0  # the Kelvin-Voigt dashpot's power
             if contact[j] and free[j]:
                 clock[j] = 0.0
+                in_impact[j] = True
                 if recording:
+                    stats[10] += hh * p_dash
                     speed = abs(ed[j])
                     stats[0] += 1
                     stats[7] += 0.25 * par[7] * speed * speed
@@ -267,8 +274,12 @@ def _run_loops(
                         stats[9] = stored + 1
             elif contact[j]:
                 clock[j] += h
+                if recording and in_impact[j]:
+                    stats[10] += hh * (dash_prev[j] + p_dash)
             else:
                 clock[j] = np.inf
+                in_impact[j] = False
+            dash_prev[j] = p_dash
             if recording and clock[j] <= window:
                 stats[6] = max(stats[6], abs(t_el[j]))
             free[j] = not contact[j]
@@ -345,6 +356,7 @@ class MachineRun:
     impact_max_speed_m_s: float
     impact_speeds_m_s: np.ndarray
     step_s: float
+    impact_dissipated_J: float = 0.0  # Kelvin-Voigt dashpots' work in contacts begun by impacts (0: global law)
     cam_work_J: float = 0.0  # the energy terms, when integrate(track_energy=True)
     dissipated_damping_J: float = 0.0
     dissipated_friction_J: float = 0.0
@@ -424,6 +436,7 @@ def integrate(
         impact_kinetic_energy_J=float(stats[7]),
         impact_max_speed_m_s=float(stats[8]),
         impact_speeds_m_s=speeds[: int(stats[9])].copy(),
+        impact_dissipated_J=float(stats[10]),
         step_s=float(step_s),
         cam_work_J=float(energy[0]),
         dissipated_damping_J=float(energy[1]),
