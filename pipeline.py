@@ -222,7 +222,83 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="N*s/m",
         help="idler carriage damping, N*s/m (default 0 with a tensioner)",
     )
+    _add_machine_arguments(p, d)
     return p
+
+
+def _add_machine_arguments(p: argparse.ArgumentParser, d: RunConfig) -> None:
+    """The drive and the wheels (issue #22); see docs/physics.md, The machine on its wheels."""
+    p.add_argument(
+        "--drive",
+        choices=registries.drives(),
+        default=d.drive,
+        help=f"link: link 1 driven through the drive spring k_d (the 2012 report's model); wheels: the chain on its "
+        f"drive sprocket and idler wheel (default: {d.machine_drive}; link with --preset mqp2012)",
+    )
+    p.add_argument(
+        "--sprocket-teeth",
+        type=int,
+        default=d.sprocket_teeth,
+        metavar="Z",
+        help="drive sprocket teeth (default: %(default)s; pitch radius p / (2 sin(pi/Z)) on the link's pitch p)",
+    )
+    p.add_argument(
+        "--sprocket-wrap-links",
+        type=int,
+        default=d.sprocket_wrap_links,
+        metavar="W",
+        help="links seated on the drive sprocket (default: %(default)s, the report's)",
+    )
+    p.add_argument(
+        "--drive-stiffness",
+        type=float,
+        default=d.drive_stiffness_N_m_per_rad,
+        metavar="N*m/rad",
+        help="torsional stiffness between the indexer's cam and the sprocket, or inf to hold the sprocket to the "
+        "cam (default: the report's k_d at the sprocket's feed radius, k_d R_m^2)",
+    )
+    p.add_argument(
+        "--sprocket-inertia",
+        type=float,
+        default=d.sprocket_inertia_kg_m2,
+        metavar="KG*M2",
+        help="sprocket inertia, kg*m^2 (default: a solid steel disc of the pitch radius, 25 mm thick)",
+    )
+    p.add_argument(
+        "--idler-teeth",
+        type=int,
+        default=d.idler_teeth,
+        metavar="Z",
+        help="idler wheel teeth (default: the sprocket's)",
+    )
+    p.add_argument(
+        "--idler-wrap-links",
+        type=int,
+        default=d.idler_wrap_links,
+        metavar="W",
+        help="links seated on the idler wheel; 0: no idler wheel, the idler is a point inside a span as with "
+        "--drive link (default: the sprocket's)",
+    )
+    p.add_argument(
+        "--idler-inertia",
+        type=float,
+        default=d.idler_inertia_kg_m2,
+        metavar="KG*M2",
+        help="idler wheel inertia, kg*m^2 (default: a solid steel disc of its pitch radius, 25 mm thick)",
+    )
+    p.add_argument(
+        "--no-polygonal-action",
+        action="store_true",
+        help="feed the strands at the wheels' mean ratio instead of through the polygon of the seated pins",
+    )
+    p.add_argument(
+        "--tooth-phase",
+        type=float,
+        default=d.tooth_phase,
+        metavar="F",
+        help="where the teeth stand at the dwell, as a fraction of a tooth (default: %(default)s, a pin seats at "
+        "the dwell; other phases are not modelled yet)",
+    )
 
 
 def _split_ids(text: str, option: str) -> tuple[str, ...]:
@@ -297,6 +373,16 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         tensioner_rate_N_per_m=args.tensioner_rate,
         tensioner_mass_kg=args.tensioner_mass,
         tensioner_damping_N_s_per_m=args.tensioner_damping,
+        drive=args.drive,
+        sprocket_teeth=args.sprocket_teeth,
+        sprocket_wrap_links=args.sprocket_wrap_links,
+        drive_stiffness_N_m_per_rad=args.drive_stiffness,
+        sprocket_inertia_kg_m2=args.sprocket_inertia,
+        idler_teeth=args.idler_teeth,
+        idler_wrap_links=args.idler_wrap_links,
+        idler_inertia_kg_m2=args.idler_inertia,
+        polygonal_action=not args.no_polygonal_action,
+        tooth_phase=args.tooth_phase,
     )
     check_run_config(cfg)
     return replace(cfg, link_source=link_source(args.geometry, args))

@@ -121,6 +121,11 @@ def _tension_extremes_N(scenario) -> tuple[float, float]:
     return scenario.contact.peak_tension_N, scenario.contact.min_tension_N
 
 
+def _number_or_null(value: float) -> float | None:
+    """JSON has no NaN: a figure the model does not measure (NaN) is null."""
+    return None if np.isnan(value) else float(value)
+
+
 def _contact_summary(contact) -> dict:
     """Which model ran and why, and what it says about free play and impacts (issue #11)."""
     ss = contact.steady_state
@@ -132,7 +137,11 @@ def _contact_summary(contact) -> dict:
         "free_play_time_fraction": float(contact.free_play_time_fraction),
         "impacts_per_cycle": float(contact.impacts_per_cycle),
         "impact_force_spike_N": float(contact.impact_force_spike_N),
-        **{f"impact_{name}": float(value) for name, value in vars(contact.impacts).items() if name != "force_spike_N"},
+        **{
+            f"impact_{name}": _number_or_null(value)
+            for name, value in vars(contact.impacts).items()
+            if name != "force_spike_N"
+        },
         "preload_for_full_contact_N": float(contact.preload_for_full_contact_N),
         "linear_min_tension_N": float(contact.linear_min_tension_N),
         "clearance_steady_state": None
@@ -166,6 +175,8 @@ def _scenario_summary(scenario, fea, band_m: float) -> dict:
         **_contact_summary(scenario.contact),
         "samples_per_degree": scenario.samples_per_degree,
     }
+    if scenario.machine is not None:
+        out["machine"] = machine_cycle_summary(scenario.machine)
     if scenario.rel_error_estimate is not None:
         out["rel_error_estimate"] = scenario.rel_error_estimate
     if peak_stress is not None:
@@ -185,11 +196,66 @@ def _rankings(scenarios: dict, materials, cams, station: str) -> dict:
     return result
 
 
+def machine_parts_summary(parts) -> dict:
+    """A material's machine as it ran (stages.machine.MachineParts), SI; an infinite drive stiffness
+    (the sprocket held to the cam) is null with drive_held true."""
+    k_theta = parts.drive_stiffness_N_m_per_rad
+    return {
+        "drive": parts.drive,
+        "wheels": {
+            name: {
+                "teeth": w.teeth,
+                "pitch_radius_m": w.pitch_radius_m,
+                "feed_radius_m": w.feed_radius_m,
+                "wrap_links": w.wrap_links,
+                "inertia_kg_m2": w.inertia_kg_m2,
+            }
+            for name, w in parts.wheels.items()
+        },
+        "drive_stiffness_N_m_per_rad": None if k_theta is None or np.isinf(k_theta) else float(k_theta),
+        "drive_held": k_theta is not None and bool(np.isinf(k_theta)),
+        "polygonal_action": parts.polygonal_action,
+        "idler_carriage": parts.idler_carriage,
+    }
+
+
+def machine_cycle_summary(cycle) -> dict:
+    """The seat changes of an index cycle on the wheels (stages.machine.MachineCycle), SI."""
+    return {
+        "steady_state_frame": cycle.frame,
+        "seating": {
+            name: {"speed_m_s": seat.speed_m_s, "impact_energy_J": seat.impact_energy_J}
+            for name, seat in cycle.seating.items()
+        },
+        "transfer_energy_change_J": cycle.transfer_energy_change_J,
+    }
+
+
+def _machine(results: RunResults) -> dict:
+    """What ran for the whole run: the drive, the polygonal action, the steady state's frame."""
+    first = next(iter(results.chains.values())).machine
+    frames = sorted({sc.machine.frame for sc in results.scenarios.values() if sc.machine is not None})
+    return {
+        "drive": first.drive,
+        "polygonal_action": first.polygonal_action,
+        "steady_state_frame": frames[0] if len(frames) == 1 else None,
+        "stations_are": "places on the machine: the link there at the start of an index"
+        if first.drive == "wheels"
+        else "links",
+    }
+
+
+def _stations(results: RunResults) -> dict[str, int]:
+    """1-based link at each station (the same layout for every material)."""
+    return next(iter(results.chains.values())).machine.stations
+
+
 def default_summary(results: RunResults) -> dict:
     cfg, fea, scenarios = results.cfg, results.fea, results.scenarios
     first = next(iter(fea.values()))
     return {
         "inputs": _inputs(cfg),
+        "machine": _machine(results),
         "geometry": {
             "source": "default" if cfg.geometry is None else str(cfg.geometry),
             "pitch_m": first.pitch_m,
@@ -197,7 +263,7 @@ def default_summary(results: RunResults) -> dict:
             "bore_radius_m": first.bore_radius_m,
         },
         "stations": {
-            name: link for name, link in station_links(cfg.links).items() if cfg.station is None or name == cfg.station
+            name: link for name, link in _stations(results).items() if cfg.station is None or name == cfg.station
         },
         "cams": {cam: _input_rms(scenarios[first.material, cam].history) for cam in cfg.cams},
         "materials": {
@@ -207,6 +273,7 @@ def default_summary(results: RunResults) -> dict:
                 "body_mass_kg": r.body_mass_kg,
                 "lumped_mass_kg": results.chains[name].model.link_mass_kg,
                 "natural_frequencies_Hz": results.chains[name].natural_frequencies_Hz.tolist(),
+                "machine": machine_parts_summary(results.chains[name].machine),
                 "peak_von_mises_Pa_per_N": r.peak_von_mises_Pa_per_N,
                 "peak_von_mises_away_from_clamp_Pa_per_N": r.peak_von_mises_away_from_clamp_Pa_per_N,
                 "peak_von_mises_converged_Pa_per_N": r.peak_von_mises_converged_Pa_per_N,
@@ -271,6 +338,28 @@ def _inputs(cfg) -> dict:
         "fea_order": cfg.order,
         "fea_mesh_size_m": cfg.mesh_size_m,
         **_chain_model_inputs(cfg),
+        **_machine_inputs(cfg),
+    }
+
+
+def _machine_inputs(cfg) -> dict:
+    """The drive, and the wheel settings as given (None: the documented default) when it is the wheels."""
+    drive = cfg.machine_drive
+    if drive != "wheels":
+        return {"drive": drive}
+    k_theta = cfg.drive_stiffness_N_m_per_rad
+    return {
+        "drive": drive,
+        "sprocket_teeth": cfg.sprocket_teeth,
+        "sprocket_wrap_links": cfg.sprocket_wrap_links,
+        "drive_stiffness_N_m_per_rad": None if k_theta is None or np.isinf(k_theta) else k_theta,
+        "drive_stiffness_infinite": k_theta is not None and bool(np.isinf(k_theta)),
+        "sprocket_inertia_kg_m2": cfg.sprocket_inertia_kg_m2,
+        "idler_teeth": cfg.idler_teeth_used,
+        "idler_wrap_links": cfg.idler_wrap_links_used,
+        "idler_inertia_kg_m2": cfg.idler_inertia_kg_m2,
+        "polygonal_action": cfg.polygonal_action,
+        "tooth_phase": cfg.tooth_phase,
     }
 
 
@@ -509,7 +598,7 @@ def write_default_outputs(results: RunResults, progress) -> None:
     cfg, fea, scenarios, sweeps, timing = results.cfg, results.fea, results.scenarios, results.sweeps, results.timing
     with StagedOutput(cfg.out) as staged:
         progress("outputs: tables, plots and report")
-        links = station_links(cfg.links)
+        links = _stations(results)
         focus = _focus(cfg)
         focus_link = links[focus]
         histories = {key: sc.history for key, sc in scenarios.items()}

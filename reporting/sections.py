@@ -124,6 +124,46 @@ def run_section(report: Report) -> list[html.Section]:
     return [html.Section("Run", intro + _model_paragraphs(report.results))]
 
 
+def _wheel_words(name: str, wheel: dict) -> str:
+    return (
+        f"{name} ({wheel['teeth']} teeth, pitch radius {wheel['pitch_radius_m'] * 1e3:.1f} mm, "
+        f"{wheel['wrap_links']} links seated, inertia {wheel['inertia_kg_m2']:.3g} kg·m²"
+    )
+
+
+def machine_line(summary: dict) -> str:
+    """One line: which parts of the machine ran (summary.json's machine and each material's)."""
+    run = summary["machine"]
+    if run["drive"] == "link":
+        return "Machine: the 2012 report's single-point drive, link 1 driven through the drive spring k_d; no wheels (--drive link)."
+    parts = {m: data["machine"] for m, data in summary["materials"].items()}
+    first = next(iter(parts.values()))
+    wheels = first["wheels"]
+    if first["drive_held"]:
+        drive = "held to the cam"
+    else:
+        drive = "drive stiffness " + ", ".join(
+            f"{p['drive_stiffness_N_m_per_rad']:.3g} N·m/rad ({m})" for m, p in parts.items()
+        )
+    idler = (
+        _wheel_words("idler wheel", wheels["idler"])
+        + (", on the tensioner's carriage)" if first["idler_carriage"] else ", fixed axle)")
+        if "idler" in wheels
+        else "idler: a point inside a span, no wheel"
+    )
+    frame = run["steady_state_frame"]
+    return (
+        f"Machine: on its wheels: {_wheel_words('drive sprocket', wheels['sprocket'])}, {drive}); {idler}; "
+        f"polygonal action {'on' if run['polygonal_action'] else 'off'}"
+        + ("" if frame is None else f"; periodic steady state {frame} (one link seats per index)")
+        + "; stations are places on the machine."
+    )
+
+
+def machine_section(report: Report) -> list[html.Section]:
+    return [html.Section("Machine", html.paragraph(machine_line(report.summary)))]
+
+
 def fea_table(results: RunResults) -> Table:
     rows = tuple(
         (
@@ -253,6 +293,7 @@ def timing_section(report: Report) -> list[html.Section]:
 
 for _name, _build in (
     ("run", run_section),
+    ("machine", machine_section),
     ("link", link_section),
     ("cam law", cam_law_section),
     ("speed sweep", speed_sweep_section),

@@ -26,6 +26,7 @@ def check_run_config(cfg: RunConfig) -> None:
     _check_choices(cfg)
     _check_solver(cfg.solver, cfg.friction)
     _check_chain_model(cfg)
+    _check_machine(cfg)
     if cfg.rpm_sweep is not None:
         from dynamics.response.sweep import parse_rpm_range
 
@@ -87,6 +88,45 @@ def _check_chain_model(cfg: RunConfig) -> None:
         tensioner_from(cfg.tensioner_rate_N_per_m, cfg.tensioner_mass_kg, cfg.tensioner_damping_N_s_per_m)
     except ValueError as e:
         raise SettingsError(f"--tensioner-mass: {e}") from None
+
+
+def _check_machine(cfg: RunConfig) -> None:
+    """The drive and the wheels (issue #22); the model's own rules live in dynamics.models.machine."""
+    drives = registries.drives()
+    _require(cfg.drive in (None, *drives), f"--drive: expected one of {', '.join(drives)}, got {cfg.drive!r}")
+    _require(
+        cfg.preset != "mqp2012" or cfg.machine_drive == "link",
+        "--drive: the mqp2012 preset replicates the report's link drive; expected --drive link (or no --drive) with it",
+    )
+    if cfg.machine_drive != "wheels":
+        return
+    from dynamics.models.reduction import DENSE_LINK_LIMIT
+
+    _require(
+        cfg.links <= DENSE_LINK_LIMIT,
+        f"--links: the machine on its wheels is solved with dense matrices up to {DENSE_LINK_LIMIT} links this far, "
+        f"got {cfg.links}; expected --drive link for a longer chain",
+    )
+    _require(
+        cfg.tooth_phase == 0.0,
+        f"--tooth-phase: expected 0 (a pin seats at the dwell); other phases put the seat change inside the "
+        f"index, which is not modelled yet, got {cfg.tooth_phase:g}",
+    )
+    for option, wrap, teeth in (
+        ("--sprocket-wrap-links", cfg.sprocket_wrap_links, cfg.sprocket_teeth),
+        ("--idler-wrap-links", cfg.idler_wrap_links_used, cfg.idler_teeth_used),
+    ):
+        _require(wrap < teeth, f"{option}: expected fewer seated links than the wheel's {teeth} teeth, got {wrap}")
+    seated = cfg.sprocket_wrap_links + cfg.idler_wrap_links_used
+    _require(
+        cfg.links - seated >= 2,
+        f"--links: {seated} links seated on the wheels leave {cfg.links - seated} free of {cfg.links}; expected at "
+        "least two free links (more --links or fewer --sprocket-wrap-links/--idler-wrap-links)",
+    )
+    _require(
+        cfg.rpm_sweep is None,
+        "--rpm-sweep: the speed sweep runs the link drive's linear chain only; expected --drive link with it",
+    )
 
 
 def _check_mqp2012(cfg: RunConfig) -> None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 DEFAULT_MATERIALS = ("al6061-t6", "ti-grade2")
 DEFAULT_STATION = "tight-side"  # where tables, rankings and plots look unless --station says otherwise
+DEFAULT_DRIVE = "wheels"  # how the chain is driven when --drive is not given (RunConfig.machine_drive)
 PRESETS = ("mqp2012",)
 ELEMENT_ORDERS = (1, 2)  # P1 / P2 tetrahedra
 
@@ -67,6 +68,13 @@ def chain_models() -> tuple[str, ...]:
     from dynamics.scene import MODEL_CHOICES
 
     return MODEL_CHOICES
+
+
+def drives() -> tuple[str, ...]:
+    """link: the report's single-point drive; wheels: the machine on its wheels (dynamics.models.machine)."""
+    from dynamics.models.machine import DRIVES
+
+    return DRIVES
 
 
 def span_damping_laws() -> tuple[str, ...]:

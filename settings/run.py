@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from settings.registries import DEFAULT_MATERIALS, DEFAULT_STATION, cam_ids
+from settings.registries import DEFAULT_DRIVE, DEFAULT_MATERIALS, DEFAULT_STATION, cam_ids
 
 if TYPE_CHECKING:  # importing geometry pulls in gmsh, which reading settings does not need
     from geometry.assembly import LinkSource
@@ -110,11 +110,37 @@ class RunConfig:
     tensioner_damping_N_s_per_m: float | None = None
     # the built-in link's dimensions when `geometry` is None (None: DEFAULT_LINK); a study varies them
     link: LinkDimensions | None = None
+    # how the chain is driven and carried (issue #22): see dynamics.models.layout and stages.machine
+    drive: str | None = None  # "wheels" or "link"; None: `machine_drive`
+    sprocket_teeth: int = 12
+    sprocket_wrap_links: int = 6  # the report's six links seated on the drive sprocket
+    drive_stiffness_N_m_per_rad: float | None = None  # None: the report's k_d at the feed radius; inf: held
+    sprocket_inertia_kg_m2: float | None = None  # None: dynamics.models.wheels.default_wheel_inertia_kg_m2
+    idler_teeth: int | None = None  # None: the sprocket's
+    idler_wrap_links: int | None = None  # None: the sprocket's; 0: today's idler, a point inside a span
+    idler_inertia_kg_m2: float | None = None  # None: the default wheel inertia at the idler's pitch radius
+    polygonal_action: bool = True
+    tooth_phase: float = 0.0  # fraction of a tooth at the dwell; 0: a pin seats at the dwell
 
     @property
     def focus_station(self) -> str:
         """Where tables, rankings, plots and the speed sweep look: --station, else the tight side."""
         return self.station or DEFAULT_STATION
+
+    @property
+    def machine_drive(self) -> str:
+        """--drive, else the link drive for the mqp2012 preset (the report's model), else DEFAULT_DRIVE."""
+        if self.drive is not None:
+            return self.drive
+        return "link" if self.preset == "mqp2012" else DEFAULT_DRIVE
+
+    @property
+    def idler_teeth_used(self) -> int:
+        return self.sprocket_teeth if self.idler_teeth is None else self.idler_teeth
+
+    @property
+    def idler_wrap_links_used(self) -> int:
+        return self.sprocket_wrap_links if self.idler_wrap_links is None else self.idler_wrap_links
 
 
 @dataclass(frozen=True)
@@ -192,4 +218,16 @@ LIMITS: dict[str, Limit] = {
     "tensioner_rate_N_per_m": Limit("--tensioner-rate", "a finite spring rate", AT_LEAST_ZERO, "N/m"),
     "tensioner_mass_kg": Limit("--tensioner-mass", "a finite mass", ABOVE_ZERO, "kg"),
     "tensioner_damping_N_s_per_m": Limit("--tensioner-damping", "a finite damping", AT_LEAST_ZERO, "N*s/m"),
+    "sprocket_teeth": Limit("--sprocket-teeth", "a whole number of teeth", Bounds(3, True), whole=True),
+    "sprocket_wrap_links": Limit(
+        "--sprocket-wrap-links", "a whole number of seated links", Bounds(1, True), whole=True
+    ),
+    "drive_stiffness_N_m_per_rad": Limit(
+        "--drive-stiffness", "a torsional stiffness", ABOVE_ZERO, "N*m/rad", finite=False
+    ),
+    "sprocket_inertia_kg_m2": Limit("--sprocket-inertia", "a finite inertia", AT_LEAST_ZERO, "kg*m^2"),
+    "idler_teeth": Limit("--idler-teeth", "a whole number of teeth", Bounds(3, True), whole=True),
+    "idler_wrap_links": Limit("--idler-wrap-links", "a whole number of seated links", AT_LEAST_ZERO, whole=True),
+    "idler_inertia_kg_m2": Limit("--idler-inertia", "a finite inertia", AT_LEAST_ZERO, "kg*m^2"),
+    "tooth_phase": Limit("--tooth-phase", "a fraction of a tooth", Bounds(0.0, True, 1.0, False)),
 }

@@ -17,6 +17,7 @@ if TYPE_CHECKING:  # numpy, scipy and the dynamics load when a stage runs, not w
     from dynamics.response.sweep import SweepResult
     from dynamics.scene import ContactSummary, Scene
     from reporting.history import CamHistory
+    from stages.machine import MachineCycle, MachineParts
 
 REPORTED_MODES = 10  # natural frequencies kept per chain for the report
 
@@ -33,6 +34,7 @@ class Scenario:
     rel_error_estimate: dict[str, float] | None  # {"time_step", "stiffness", "total"} when --tolerance is given
     settling_time_s: np.ndarray  # per link, the longest settling into --settling-band over the dwells (NaN: never)
     contact: ContactSummary  # which model ran, why and whether it holds; free play, impacts
+    machine: MachineCycle | None = None  # the seat changes of an index on the wheels (None: the link drive)
 
 
 @dataclass(frozen=True)
@@ -40,7 +42,8 @@ class MaterialChain:
     """One material's chain as the dynamics stage made it, with its lowest natural frequencies."""
 
     model: ChainModel
-    natural_frequencies_Hz: np.ndarray  # the lowest REPORTED_MODES (fewer for a shorter chain)
+    natural_frequencies_Hz: np.ndarray  # the lowest REPORTED_MODES of the machine (fewer for a shorter chain)
+    machine: MachineParts  # which parts of the machine ran, and the stations
 
 
 @dataclass
@@ -63,9 +66,11 @@ def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.
     return degrees / (6.0 * rpm)
 
 
-def chain_scene(cfg: RunConfig) -> Scene:
-    """The chain beyond its linear model, as the dynamics take it (the settings are checked already)."""
+def chain_scene(cfg: RunConfig, pitch_m: float) -> Scene:
+    """The chain beyond its linear model, as the dynamics take it (the settings are checked already);
+    `pitch_m` is the link's (the FEA's), which the wheels are sized on."""
     from dynamics.scene import Scene, tensioner_from
+    from stages.machine import machine_layout
 
     return Scene(
         cfg.pin_clearance_m,
@@ -74,7 +79,19 @@ def chain_scene(cfg: RunConfig) -> Scene:
         cfg.model,
         cfg.steady_state,
         cfg.solver,
+        machine_layout(cfg, pitch_m),
     )
+
+
+def natural_frequencies_Hz(scene: Scene, model: ChainModel, count: int = REPORTED_MODES) -> np.ndarray:
+    """The lowest `count` natural frequencies of the chain as the scene carries it (the link drive's
+    chain, or the machine on its wheels)."""
+    from dynamics.models.reduction import lowest_natural_frequencies_Hz
+    from stages.machine import scene_machine
+
+    if not scene.layout.on_wheels:
+        return lowest_natural_frequencies_Hz(model, count)
+    return scene_machine(scene, model).natural_frequencies_Hz()[:count]
 
 
 def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None) -> ChainModel:
@@ -100,17 +117,20 @@ def simulate_scenario(
 
     from dynamics.cams import CamProgram
     from dynamics.models.reduction import modes_to_keep
-    from dynamics.response.metrics import link_metrics, settling_times, station_links, station_metrics, tension_extremes
+    from dynamics.response.metrics import link_metrics, settling_times, tension_extremes
     from dynamics.scene import simulate_scene
     from reporting.history import CamHistory
+    from stages.machine import machine_cycle, machine_parts
 
     t = output_times_s(cfg.rpm, samples_per_degree)
     cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
+    scene = chain_scene(cfg, pitch_m)
+    places = machine_parts(scene, model).stations
     # a one-station question keeps one link's history (the spring tensions are kept whole: they are
     # what the slack check and the stress need)
-    kept = None if cfg.station is None else (station_links(cfg.links)[cfg.station],)
+    kept = None if cfg.station is None else (places[cfg.station],)
     r, contact = simulate_scene(
-        chain_scene(cfg),
+        scene,
         model,
         cam,
         t,
@@ -132,11 +152,17 @@ def simulate_scenario(
         kept,
     )
     metrics = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, history.dwell_mask)
-    stations = station_metrics(metrics) if kept is None else {cfg.station: replace(metrics.at_link(1), link=kept[0])}
+    if kept is None:
+        stations = {name: metrics.at_link(link) for name, link in places.items()}
+    else:
+        stations = {cfg.station: replace(metrics.at_link(1), link=kept[0])}
     settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
     # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
-    return Scenario(history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst, contact)
+    seats = None if contact.seating is None else machine_cycle(contact.seating, scene.steady_state)
+    return Scenario(
+        history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst, contact, seats
+    )
 
 
 def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, cam_id: str) -> Scenario:
@@ -172,7 +198,8 @@ def run_dynamics(
     cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress
 ) -> tuple[dict[str, MaterialChain], dict[tuple[str, str], Scenario]]:
     """Simulate every material x cam law; returns each material's chain and the scenarios."""
-    from dynamics.models.reduction import lowest_natural_frequencies_Hz, modes_to_keep
+    from dynamics.models.reduction import modes_to_keep
+    from stages.machine import machine_parts
 
     chains, models, scenarios = {}, {}, {}
     for name, result in fea.items():
@@ -188,7 +215,10 @@ def run_dynamics(
                     f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
                     f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %"
                 )
-        chains[name] = MaterialChain(models[name], lowest_natural_frequencies_Hz(models[name], REPORTED_MODES))
+        scene = chain_scene(cfg, result.pitch_m)
+        chains[name] = MaterialChain(
+            models[name], natural_frequencies_Hz(scene, models[name]), machine_parts(scene, models[name])
+        )
         progress(
             f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
             f"f1 = {chains[name].natural_frequencies_Hz[0]:.1f} Hz"

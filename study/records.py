@@ -13,7 +13,7 @@ METRICS = {
     "body_volume_m3": "link body volume",
     "lumped_mass_kg": "chain mass per link: body + hardware + nest",
     "peak_von_mises_converged_Pa_per_N": "peak von Mises stress per newton of pin load, converged by local refinement away from the clamped bore",
-    "first_natural_frequency_Hz": "lowest natural frequency of the closed chain",
+    "first_natural_frequency_Hz": "lowest natural frequency of the closed chain as it is driven (on its wheels by default)",
     "residual_vibration_m": "max |x - z| inside the dwells at the study's station",
     "max_residual_vibration_m": "the largest residual vibration over every link",
     "rms_acceleration_m_s2": "RMS acceleration at the station",

@@ -77,6 +77,7 @@ class Settings:
     station: str = DEFAULT_STATION  # where the records' metrics are taken
     settling_band_m: float = RunConfig.settling_band_m
     steady_state: bool = RunConfig.steady_state
+    drive: str | None = RunConfig.drive  # None: pipeline.py's default drive (RunConfig.machine_drive)
     fea_cache: bool = True  # each worker's own on-disk FEA cache (no shared disk needed)
 
 
@@ -488,10 +489,13 @@ def _settings(table: dict) -> Settings:
         raise StudyError(f"settings.station: expected one of {', '.join(stations)}, got {table['station']!r}")
     if "settling_band_m" in table:
         _in_limits(table, "settling_band_m")
+    drives = registries.drives()
+    if "drive" in table and table["drive"] not in drives:
+        raise StudyError(f"settings.drive: expected one of {', '.join(drives)}, got {table['drive']!r}")
     for flag in ("steady_state", "fea_cache"):
         if flag in table and not isinstance(table[flag], bool):
             raise StudyError(f"settings.{flag}: expected true or false, got {table[flag]!r}")
-    for key in ("order", "samples_per_degree", "solver", "station", "steady_state", "fea_cache"):
+    for key in ("order", "samples_per_degree", "solver", "station", "steady_state", "drive", "fea_cache"):
         if key in table:
             values[key] = table[key]
     if "settling_band_m" in table:

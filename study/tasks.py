@@ -36,6 +36,7 @@ def base_config(settings: Settings, cache_dir: Path | None = None) -> RunConfig:
         solver=settings.solver,
         settling_band_m=settings.settling_band_m,
         steady_state=settings.steady_state,
+        drive=settings.drive,
         cache_dir=cfg.cache_dir if cache_dir is None else cache_dir,
     )
 
@@ -142,8 +143,7 @@ def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings, part:
 def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: Settings) -> dict:
     """The chain of every point in the batch, on one FEA result; one record per point."""
     from dynamics.errors import DynamicsError
-    from dynamics.models.reduction import lowest_natural_frequencies_Hz
-    from stages.chain import chain_model, simulate_scenario
+    from stages.chain import chain_model, chain_scene, natural_frequencies_Hz, simulate_scenario
 
     start, cpu_start = time.perf_counter(), time.process_time()
     rows = []
@@ -160,8 +160,9 @@ def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: S
             cfg = point_config(settings, p["inputs"])
             model = chain_model(cfg, fea)
             try:
-                if model not in frequencies:
-                    frequencies[model] = float(lowest_natural_frequencies_Hz(model, 1)[0])
+                scene = chain_scene(cfg, fea.pitch_m)
+                if (model, scene) not in frequencies:
+                    frequencies[model, scene] = float(natural_frequencies_Hz(scene, model, 1)[0])
                 scenario = simulate_scenario(
                     cfg, model, material, p["inputs"]["cam"], fea.pitch_m, settings.samples_per_degree
                 )
@@ -170,7 +171,7 @@ def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: S
                 continue
             metrics = {
                 **fea_metrics(fea),
-                **chain_metrics(scenario, fea, settings.station, model.link_mass_kg, frequencies[model]),
+                **chain_metrics(scenario, fea, settings.station, model.link_mass_kg, frequencies[model, scene]),
             }
             rows.append(record(p, "ok", "", metrics, fea.warnings))
     return {"rows": rows, **_timing(start, cpu_start)}

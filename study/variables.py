@@ -61,6 +61,14 @@ VARIABLES: dict[str, Variable] = {
         _run("tensioner_rate_N_per_m", float),
         _run("tensioner_mass_kg", float),
         _run("tensioner_damping_N_s_per_m", float),
+        # the machine on its wheels (issue #22; they act when the run's drive is the wheels)
+        _run("sprocket_teeth", int),
+        _run("sprocket_wrap_links", int),
+        _run("drive_stiffness_N_m_per_rad", float),
+        _run("sprocket_inertia_kg_m2", float),
+        _run("idler_teeth", int),
+        _run("idler_wrap_links", int),
+        _run("idler_inertia_kg_m2", float),
         # `geometry` in the study file: its column is geometry_file (the table's `geometry` is the FEA group's id)
         Variable("geometry_file", STEP, "geometry", str),
     ]

@@ -14,7 +14,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# Coarse on purpose (P1, 14 mm, 12 links, 1 sample per degree): each FEA takes a few seconds. A bore
+# Coarse on purpose (P1, 14 mm, 12 links on the link drive, 1 sample per degree): each FEA takes a few seconds. A bore
 # larger than its lug makes two geometries infeasible; two speeds and two cam laws give the front
 # something to choose from.
 #: One material, a 12-link chain, P1 FEA at 14 mm: each FEA a few seconds (ends in [sampling]).
@@ -27,6 +27,7 @@ links = 12
 mesh_size_m = 0.014
 order = 1
 samples_per_degree = 1
+drive = "link"
 
 [sampling]
 method = "grid"

@@ -120,6 +120,8 @@ def test_pipeline_takes_the_hardware_mass_from_an_assembly(parts, tmp_path):
         "8",
         "--order",
         "1",
+        "--drive",
+        "link",
         "--links",
         "12",
         "--samples-per-degree",
@@ -169,6 +171,8 @@ def test_pipeline_runs_the_link_with_nest_screw_holes(parts, tmp_path):
     r = pipeline(
         "--geometry",
         parts["nest_holes"][0],
+        "--drive",
+        "link",
         "--links",
         "12",
         "--samples-per-degree",

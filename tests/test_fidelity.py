@@ -39,7 +39,7 @@ def test_tolerance_outside_zero_one_is_refused():
 
 def test_stiffness_sensitivity_of_the_chain_metrics_is_measured_not_assumed():
     # A real scenario: metrics move when k moves by 1 %, and not at all when it does not move.
-    cfg = pipeline.parse_cli(["--links", "12", "--friction", "0", "--cams", "modified-sine"])
+    cfg = pipeline.parse_cli(["--drive", "link", "--links", "12", "--friction", "0", "--cams", "modified-sine"])
     fea = MaterialFea(
         "al6061-t6",
         9e7,

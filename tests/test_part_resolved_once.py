@@ -28,6 +28,8 @@ from geometry import DEFAULT_LINK, EXAMPLE_STEP, resolve_part
 FAST = [
     "--mesh-size",
     "10",
+    "--drive",
+    "link",
     "--links",
     "12",
     "--samples-per-degree",

@@ -13,6 +13,8 @@ import pipeline
 FAST = [
     "--mesh-size",
     "10",
+    "--drive",
+    "link",
     "--links",
     "12",
     "--samples-per-degree",

@@ -18,7 +18,7 @@ from settings import cam_ids
 
 ROOT = Path(__file__).resolve().parents[1]
 # Coarse on purpose: 3 FEA levels ending at 10 mm and a short chain keep one run to seconds.
-COARSE = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "-q"]
+COARSE = ["--mesh-size", "10", "--drive", "link", "--links", "12", "--samples-per-degree", "2", "-q"]
 STATIONS = ("drive-end", "tight-side", "idler-end", "slack-side")
 STATION_KEYS = (
     "link",
@@ -291,6 +291,8 @@ def test_tolerance_picks_the_resolution_and_reports_an_estimate_within_it(cache_
     assert (
         pipeline.main(
             [
+                "--drive",
+                "link",
                 "--links",
                 "12",
                 "--cams",
@@ -365,6 +367,8 @@ def test_a_locking_prone_material_with_p1_is_warned_about_in_one_line(tmp_path):
         "1",
         "--mesh-size",
         "4.5",
+        "--drive",
+        "link",
         "--links",
         "12",
         "--cams",

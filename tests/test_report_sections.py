@@ -14,6 +14,8 @@ from reporting import html, sections
 COARSE = [
     "--mesh-size",
     "10",
+    "--drive",
+    "link",
     "--links",
     "12",
     "--samples-per-degree",

@@ -27,7 +27,7 @@ from study.spec import Settings, parse_study
 from study.tasks import base_config
 from study.variables import RUN, VARIABLES
 
-COARSE = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "--no-images", "-q"]
+COARSE = ["--mesh-size", "10", "--drive", "link", "--links", "12", "--samples-per-degree", "2", "--no-images", "-q"]
 
 
 def test_the_command_line_defaults_are_run_config_defaults():

@@ -117,3 +117,12 @@ def pitch_radius_m(pitch_m: float, teeth: int) -> float:
 def steel_disc_inertia_kg_m2(radius_m: float, thickness_m: float) -> float:
     """J = 1/2 rho pi r^4 t of a solid steel disc: an upper bound for a plate wheel of that radius."""
     return float(0.5 * STEEL_DENSITY_KG_PER_M3 * np.pi * radius_m**4 * thickness_m)
+
+
+DEFAULT_WHEEL_THICKNESS_M = 0.025
+
+
+def default_wheel_inertia_kg_m2(pitch_m: float, teeth: int) -> float:
+    """The run's default wheel inertia: a solid steel disc of the pitch radius, DEFAULT_WHEEL_THICKNESS_M
+    thick (0.688 kg m^2 at z = 12 on the 112.5 mm pitch); an upper bound, a plate or spoked wheel is lighter."""
+    return steel_disc_inertia_kg_m2(pitch_radius_m(pitch_m, teeth), DEFAULT_WHEEL_THICKNESS_M)

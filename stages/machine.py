@@ -1,0 +1,132 @@
+"""The machine a run's chain runs on (issue #22): the run's drive and wheel settings as the dynamics'
+`MachineLayout`, and what the outputs say about it (which parts ran, the stations as places on the
+machine, the seat changes of an index).
+
+The wheels need the chain's pitch, which is the link's and comes from the FEA stage
+(`MaterialFea.pitch_m`, measured on the part). The settings therefore hold only what does not depend
+on the part (teeth, seated links, drive stiffness, inertias or None for the default of the wheel's
+own size), and the layout is built where the chain is simulated, from the settings and that pitch
+(`machine_layout`, called by `stages.chain.chain_scene`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Protocol
+
+from settings import RunConfig
+
+if TYPE_CHECKING:
+    from dynamics.models.chain import ChainModel
+    from dynamics.models.layout import MachineLayout
+    from dynamics.models.machine import MachineOnWheels
+    from dynamics.models.wheels import Wheel
+    from dynamics.scene import Scene
+
+WHEEL_NAMES = ("sprocket", "idler")  # in dynamics.models.machine.MachineOnWheels.wheel_ends order
+
+
+def machine_layout(cfg: RunConfig, pitch_m: float) -> MachineLayout:
+    """The run's drive and wheels on a chain of pitch `pitch_m` (the settings are checked already)."""
+    from dynamics.models.layout import LINK_DRIVE, MachineLayout
+
+    if cfg.machine_drive == "link":
+        return LINK_DRIVE
+    phase = cfg.tooth_phase
+    sprocket = _wheel(cfg.sprocket_teeth, pitch_m, cfg.sprocket_wrap_links, cfg.sprocket_inertia_kg_m2, phase)
+    idler = None
+    if cfg.idler_wrap_links_used > 0:
+        idler = _wheel(cfg.idler_teeth_used, pitch_m, cfg.idler_wrap_links_used, cfg.idler_inertia_kg_m2, phase)
+    return MachineLayout("wheels", sprocket, idler, cfg.drive_stiffness_N_m_per_rad, cfg.polygonal_action)
+
+
+def _wheel(teeth: int, pitch_m: float, wrap: int, inertia_kg_m2: float | None, tooth_phase: float) -> Wheel:
+    """A wheel on the chain's pitch; no inertia given: the default wheel of its own pitch radius."""
+    from dynamics.models.wheels import Wheel, default_wheel_inertia_kg_m2
+
+    inertia = default_wheel_inertia_kg_m2(pitch_m, teeth) if inertia_kg_m2 is None else inertia_kg_m2
+    return Wheel(int(teeth), pitch_m, int(wrap), inertia, tooth_phase)
+
+
+def scene_machine(scene: Scene, model: ChainModel) -> MachineOnWheels:
+    """The machine of one material's chain in a scene. Its places, matrices and wheels do not depend
+    on the guide's friction, which the linear machine model refuses: it is built without it."""
+    return scene.layout.machine(replace(model, friction_coefficient=0.0), scene.tensioner)
+
+
+@dataclass(frozen=True)
+class WheelParts:
+    """One wheel as it ran (SI)."""
+
+    teeth: int
+    pitch_radius_m: float  # R = p / (2 sin(pi / z))
+    feed_radius_m: float  # R_m = p z / (2 pi)
+    wrap_links: int
+    inertia_kg_m2: float
+
+
+@dataclass(frozen=True)
+class MachineParts:
+    """Which parts of the machine ran for one material's chain, and where its stations are."""
+
+    drive: str  # "link" (link 1 driven through k_d) or "wheels"
+    wheels: dict[str, WheelParts]  # "sprocket", "idler" (no idler wheel: today's idler point)
+    drive_stiffness_N_m_per_rad: float | None  # k_theta, inf: the sprocket held to the cam; None: link drive
+    polygonal_action: bool  # the chordal feed ran
+    idler_carriage: bool  # the idler sits on the tensioner's carriage (else a fixed axle)
+    stations: dict[str, int]  # 1-based link at each station (the link at that place at the start of an index)
+
+
+def machine_parts(scene: Scene, model: ChainModel) -> MachineParts:
+    from dynamics.response.metrics import station_links
+
+    carriage = scene.tensioner is not None
+    if not scene.layout.on_wheels:
+        return MachineParts("link", {}, None, False, carriage, station_links(model.n_links))
+    machine = scene_machine(scene, model)
+    wheels = {
+        name: WheelParts(w.teeth, w.pitch_radius_m, w.feed_radius_m, w.wrap_links, w.inertia_kg_m2)
+        for name, w in zip(WHEEL_NAMES, (end.wheel for end in machine.wheel_ends))
+    }
+    return MachineParts(
+        "wheels",
+        wheels,
+        machine.drive_stiffness_N_m_per_rad,
+        machine.polygonal,
+        carriage,
+        {name: link + 1 for name, link in machine.stations().items()},
+    )
+
+
+class SeatChanges(Protocol):
+    """What the dynamics report of the seat changes at the end of an index, per wheel in `wheel_ends`
+    order (dynamics.solvers.machine_verlet.Seating, in `ContactSummary.seating`)."""
+
+    speed_m_s: tuple[float, ...]
+    impact_energy_J: tuple[float, ...]
+    transfer_energy_change_J: float
+
+
+@dataclass(frozen=True)
+class WheelSeating:
+    """The link that seats on a wheel at the end of an index."""
+
+    speed_m_s: float  # |y'_in - c u'|: its speed along the strand relative to its tooth
+    impact_energy_J: float  # the kinetic energy its plastic seating impact takes
+
+
+@dataclass(frozen=True)
+class MachineCycle:
+    """The seat changes at the end of a scenario's last index on the wheels."""
+
+    frame: str | None  # "relabelled": the periodic steady state as the machine runs; None: from rest
+    seating: dict[str, WheelSeating]  # per wheel, as in MachineParts.wheels
+    transfer_energy_change_J: float  # stored energy after the seat changes minus before (all wheels)
+
+
+def machine_cycle(changes: SeatChanges, steady_state: bool) -> MachineCycle:
+    seating = {
+        name: WheelSeating(float(speed), float(energy))
+        for name, speed, energy in zip(WHEEL_NAMES, changes.speed_m_s, changes.impact_energy_J)
+    }
+    return MachineCycle("relabelled" if steady_state else None, seating, float(changes.transfer_energy_change_J))
