@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
 from typing import NamedTuple
 
@@ -35,6 +35,8 @@ import numpy as np
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.layout import LINK_DRIVE, MachineLayout
+from dynamics.response.fidelity import relative_change
+from dynamics.response.metrics import link_metrics, station_links
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
 from dynamics.solvers.simulate import ChainResponse, SlackChainWarning, simulate
@@ -43,6 +45,10 @@ MODEL_CHOICES = ("auto", "linear", "clearance")
 MAX_SUBHARMONIC = 6
 DEFAULT_TOL = 1e-6
 DEFAULT_MAX_CYCLES = 60
+# The clearance chain's step is refined by doubling until the station metrics' estimated relative
+# error is within this (issue 24), at most MAX_STEP_DOUBLINGS times (16x the stability-set steps).
+DEFAULT_ACCURACY = 1e-3
+MAX_STEP_DOUBLINGS = 4
 
 
 class ChainModelKind(StrEnum):
@@ -80,6 +86,7 @@ class Scene:
     steady_state: bool  # periodic steady state (False: from rest)
     solver: str  # the linear chain's method (dynamics.solvers.METHODS)
     layout: MachineLayout = LINK_DRIVE  # how the chain is driven and carried (dynamics.models.layout)
+    accuracy: float | None = DEFAULT_ACCURACY  # the clearance chain's step error target (simulate_chain)
 
 
 @dataclass(frozen=True)
@@ -156,6 +163,9 @@ class ContactSummary:
     steps_per_output: int | None = None
     diagnostics: dict = field(default_factory=dict)
     impacts: ImpactStatistics = ImpactStatistics()
+    # the clearance chain's station metrics' estimated relative error from its step (the last step
+    # doubling's change, `_controlled`); None: the linear chain, or the step was not controlled
+    step_error_estimate: float | None = None
 
 
 def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float) -> ModelChoice:
@@ -203,6 +213,7 @@ def simulate_chain(
     tol: float = DEFAULT_TOL,
     max_cycles: int = DEFAULT_MAX_CYCLES,
     predictor: str | None = None,
+    accuracy: float | None = DEFAULT_ACCURACY,
 ) -> tuple[ChainResponse, ContactSummary]:
     """The response of the scene's model at t_eval_s and what it says about contact. The clearance
     chain's step: a fraction `safety` (default `verlet.default_safety`) of the stability limit of the
@@ -239,9 +250,11 @@ def simulate_chain(
         return out, summary
     predictor = verlet.default_predictor(model) if predictor is None else predictor
     safety = verlet.default_safety(model, predictor) if safety is None else safety
+    if accuracy is not None and not (0 < accuracy < 1):
+        raise DynamicsError(f"accuracy: expected a relative error in (0, 1) or None, got {accuracy!r}")
     with serial_blas():
         return _clearance_response(
-            model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor
+            model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor, accuracy
         )
 
 
@@ -256,23 +269,23 @@ def _cam_nodes(cam, t0: float, step: float, n_steps: int):
     return np.asarray(v, dtype=float), np.asarray(a, dtype=float)
 
 
-def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor):
+def _clearance_response(
+    model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor, accuracy
+):
     h_out = np.diff(t)
     if np.max(np.abs(h_out - h_out[0])) > 1e-9 * h_out[0]:
         raise DynamicsError("t_eval_s: the clearance model needs equally spaced output times")
     sub = verlet.substeps_for(model, float(h_out[0]), safety, predictor)
-    h = float(h_out[0]) / sub
     n = model.n_links
     y0 = lin.x_m[0] - lin.z_m[0]
     w0 = lin.v_m_s[0] - lin.zdot_m_s[0]
-    state = (y0, w0, 0.0, 0.0)
-    ss = None
-    if steady_state:
-        state, ss = _periodic_state(model, cam, t[0], h, state, tol, max_cycles, predictor)
-    zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
-    run = verlet.integrate(
-        model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub, predictor=predictor
-    )
+    start = (y0, w0, 0.0, 0.0)
+    level = _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor)
+    estimate = None
+    if accuracy is not None:
+        level, estimate = _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy)
+    sub, run, ss = level.sub, level.run, level.steady_state
+    h = float(h_out[0]) / sub
     s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
     cols = list(range(n)) if links is None else [int(i) for i in np.atleast_1d(links)]
     tension = model.tension_N(run.y, run.u)
@@ -296,6 +309,7 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
             "steps_per_output": sub,
             "step_s": h,
             "steady_state": ss,
+            "step_error_estimate": estimate,
             "carriage_m": run.u if model.tensioner is not None else None,
         },
     )
@@ -313,8 +327,75 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
         ss,
         sub,
         impacts=impact_statistics(run, cycles),
+        step_error_estimate=estimate,
     )
     return response, summary
+
+
+class _Level(NamedTuple):
+    """One step size's output window: its steps per output sample, run, state at the window's start
+    and how that state was found."""
+
+    sub: int
+    run: verlet.Run
+    state: tuple
+    steady_state: SteadyState | None
+
+
+def _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor) -> _Level:
+    """The output window at `sub` steps per output sample, from the periodic state at that step
+    (searched from `start`) or, without steady state, from `start` itself."""
+    h = float(t[1] - t[0]) / sub
+    state, ss = start, None
+    if steady_state:
+        state, ss = _periodic_state(model, cam, t[0], h, start, tol, max_cycles, predictor)
+    zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
+    run = verlet.integrate(
+        model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub, predictor=predictor
+    )
+    return _Level(sub, run, state, ss)
+
+
+def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy):
+    """Step doubling on the output window until the station metrics' estimated error is within
+    `accuracy` (or MAX_STEP_DOUBLINGS are spent): returns the finest level and its estimate, the
+    change from step h to h/2. The scheme is second order, so that change is about 3x the error left
+    at h/2 once the steps are in the asymptotic range; the 3x is kept as margin, because the ab2
+    predictor's error is not monotone in the step before it (benchmarks/bench_accuracy.py). The finer
+    level's periodic state is searched from the coarser one's (a few cycles: they differ by the
+    coarser step's error); without steady state both start where the run starts."""
+    coarse = _station_values(model, cam, t, level.run)
+    estimate = math.inf
+    for _ in range(MAX_STEP_DOUBLINGS):
+        previous = level
+        # a coarser level without a periodic state hands on its last state (the motion after
+        # max_cycles): both windows start there, and no steady state is claimed for the finer one
+        search = steady_state and previous.steady_state.found
+        begin = previous.state if steady_state else start
+        level = _window_run(model, cam, t, 2 * previous.sub, begin, search, tol, max_cycles, predictor)
+        ss = previous.steady_state
+        if search:
+            ss = replace(level.steady_state, cycles=previous.steady_state.cycles + level.steady_state.cycles)
+        level = level._replace(steady_state=ss)
+        fine = _station_values(model, cam, t, level.run)
+        estimate = relative_change(fine, coarse)
+        if estimate <= accuracy:
+            break
+        coarse = fine
+    return level, estimate
+
+
+def _station_values(model, cam, t, run) -> np.ndarray:
+    """The per-link metrics of the four stations (dynamics.response.metrics) of one window, as one vector."""
+    cols = [link - 1 for link in station_links(model.n_links).values()]
+    s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
+    mask = cam.dwell_mask(t) if hasattr(cam, "dwell_mask") else np.ones(t.size, dtype=bool)
+    if not np.any(mask):
+        mask = np.ones(t.size, dtype=bool)
+    lm = link_metrics(
+        s[:, None] + run.y[:, cols], v[:, None] + run.w[:, cols], a[:, None] + run.a[:, cols], s, v, a, mask
+    )
+    return np.concatenate([np.ravel(getattr(lm, f.name)) for f in fields(lm)])
 
 
 def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler"):
@@ -423,4 +504,5 @@ def simulate_scene(
         links=links,
         n_modes=n_modes,
         method=scene.solver,
+        accuracy=scene.accuracy,
     )
