@@ -10,8 +10,10 @@ not depend on the preload, so that preload is P - min T_linear), and it decides 
 - "clearance": asked for; or, with "auto", the linear solution leaves pulling contact somewhere, or
   an idler tensioner is modelled (only the clearance model carries it). Solved by the explicit
   integrator dynamics.solvers.clearance_verlet, by default with its `default_predictor` at its
-  `default_safety` (the global law: "ab2" at 0.31 of its stability limit, station metrics within 1e-3
-  of converged on the default scene; benchmarks/bench_accuracy.py).
+  `default_safety` (the global law: "ab2" at 0.31 of its stability limit; the 32 station metrics
+  within 1.5e-3 of converged on the default scene, 1.6e-2 and 4.6e-2 on two others:
+  benchmarks/bench_accuracy.py). With `accuracy` the step is then halved until the station metrics
+  change by at most that (`_controlled`).
 
 Periodic steady state of the clearance chain: started from the linear chain's periodic state, the
 chain is stepped one cam period at a time until the state at the period's start changes by less
@@ -45,9 +47,10 @@ MODEL_CHOICES = ("auto", "linear", "clearance")
 MAX_SUBHARMONIC = 6
 DEFAULT_TOL = 1e-6
 DEFAULT_MAX_CYCLES = 60
-# The clearance chain's step is refined by doubling until the station metrics' estimated relative
-# error is within this (issue 24), at most MAX_STEP_DOUBLINGS times (16x the stability-set steps).
-DEFAULT_ACCURACY = 1e-3
+# simulate_chain(accuracy=...): the clearance chain's step is halved until the station metrics'
+# estimated relative error is within it, at most MAX_STEP_DOUBLINGS times (16x the stability-set
+# steps). Not by default: 1e-3 costs about 5x the default dynamics stage (docs/physics.md, "Default
+# accuracy"); --tolerance asks for it.
 MAX_STEP_DOUBLINGS = 4
 
 
@@ -86,7 +89,7 @@ class Scene:
     steady_state: bool  # periodic steady state (False: from rest)
     solver: str  # the linear chain's method (dynamics.solvers.METHODS)
     layout: MachineLayout = LINK_DRIVE  # how the chain is driven and carried (dynamics.models.layout)
-    accuracy: float | None = DEFAULT_ACCURACY  # the clearance chain's step error target (simulate_chain)
+    accuracy: float | None = None  # the clearance chain's step error target (simulate_chain; None: stability-set step)
 
 
 @dataclass(frozen=True)
@@ -213,11 +216,12 @@ def simulate_chain(
     tol: float = DEFAULT_TOL,
     max_cycles: int = DEFAULT_MAX_CYCLES,
     predictor: str | None = None,
-    accuracy: float | None = DEFAULT_ACCURACY,
+    accuracy: float | None = None,
 ) -> tuple[ChainResponse, ContactSummary]:
     """The response of the scene's model at t_eval_s and what it says about contact. The clearance
     chain's step: a fraction `safety` (default `verlet.default_safety`) of the stability limit of the
-    velocity `predictor` (default `verlet.default_predictor`)."""
+    velocity `predictor` (default `verlet.default_predictor`); with `accuracy` (a relative error) that
+    step halved until the station metrics change by at most it (ContactSummary.step_error_estimate)."""
     t = np.asarray(t_eval_s, dtype=float)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SlackChainWarning)  # reported through the summary

@@ -65,7 +65,7 @@ def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.
 
 def chain_scene(cfg: RunConfig) -> Scene:
     """The chain beyond its linear model, as the dynamics take it (the settings are checked already)."""
-    from dynamics.scene import DEFAULT_ACCURACY, Scene, tensioner_from
+    from dynamics.scene import Scene, tensioner_from
 
     return Scene(
         cfg.pin_clearance_m,
@@ -74,7 +74,7 @@ def chain_scene(cfg: RunConfig) -> Scene:
         cfg.model,
         cfg.steady_state,
         cfg.solver,
-        accuracy=DEFAULT_ACCURACY if cfg.tolerance is None else min(DEFAULT_ACCURACY, cfg.tolerance / 4),
+        accuracy=None if cfg.tolerance is None else cfg.tolerance / 4,
     )
 
 
@@ -161,7 +161,7 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
         result.stiffness_rel_error_estimate,
         stations,
     )
-    # the clearance chain's own step error (its doubling's change, at most tolerance / 4: chain_scene)
+    # the clearance chain's own step error (its halvings' last change, at most tolerance / 4: chain_scene)
     # adds to the output sampling's
     integrator = runs[spd].contact.step_error_estimate or 0.0
     estimate = {

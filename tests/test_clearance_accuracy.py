@@ -1,6 +1,6 @@
-"""The clearance chain's default step control (dynamics.scene.simulate_chain, issue 24): on a small,
-fast scene whose stability-set step alone is more than 1e-3 off, the default run's station metrics
-are within DEFAULT_ACCURACY of a converged run, and its own estimate is not below its error."""
+"""The clearance chain's step control (dynamics.scene.simulate_chain(accuracy=), issue 24): on a small,
+fast scene whose stability-set step alone is more than 1e-3 off, the controlled run's station metrics
+are within the accuracy of a converged run, and its own estimate is not below its error."""
 
 from __future__ import annotations
 
@@ -11,9 +11,10 @@ from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain
 from dynamics.response.fidelity import metric_values, relative_change
 from dynamics.response.metrics import link_metrics, station_metrics
-from dynamics.scene import DEFAULT_ACCURACY, simulate_chain
+from dynamics.scene import simulate_chain
 
 RPM = 300.0
+ACCURACY = 1e-3
 
 
 def _scene():
@@ -32,15 +33,15 @@ def _metrics(**options):
     return metric_values(station_metrics(lm)), contact
 
 
-def test_default_run_is_within_its_accuracy_of_converged_where_the_stability_step_is_not():
+def test_controlled_run_is_within_its_accuracy_of_converged_where_the_stability_step_is_not():
     # converged: euler at a fixed 1/32 of its quarter-limit step; its change from 1/16 (1.0e-4 here)
     # bounds its own error (second order: about a third of that change)
     converged, _ = _metrics(predictor="euler", safety=0.25 / 32, accuracy=None)
     half_as_fine, _ = _metrics(predictor="euler", safety=0.25 / 16, accuracy=None)
-    assert relative_change(half_as_fine, converged) < 0.2 * DEFAULT_ACCURACY
-    fixed, _ = _metrics(accuracy=None)
-    assert relative_change(fixed, converged) > DEFAULT_ACCURACY  # the control has work to do here
-    default, contact = _metrics()
-    error = relative_change(default, converged)
-    assert error <= DEFAULT_ACCURACY
-    assert contact.step_error_estimate <= DEFAULT_ACCURACY and contact.step_error_estimate >= error
+    assert relative_change(half_as_fine, converged) < 0.2 * ACCURACY
+    fixed, _ = _metrics()  # the default: the stability-set step alone
+    assert relative_change(fixed, converged) > ACCURACY  # the control has work to do here
+    controlled, contact = _metrics(accuracy=ACCURACY)
+    error = relative_change(controlled, converged)
+    assert error <= ACCURACY
+    assert contact.step_error_estimate <= ACCURACY and contact.step_error_estimate >= error
