@@ -10,7 +10,9 @@ velocity-dependent forces (damping, friction) are evaluated at the predicted vel
 is off by O(h^2), so the scheme stays second order with one force evaluation per step. The span law
 is continuous and piecewise linear in e (a kink at each contact change, no jump), so every contact
 change is resolved by the step itself without event location, at second order: the kink costs an
-O(h^2) local velocity error at each of the O(1) changes per unit time. The predicted velocity may
+O(h^2) local velocity error at each of the O(1) changes per unit time. The Kelvin-Voigt law's
+dashpot force does jump at a contact change: that jump is located within the step (`_switch_impulse`,
+an impulse correction at the span law's crossing fraction), else it costs O(h) per impact. The predicted velocity may
 instead be the Adams-Bashforth extrapolation w + h (3/2 a - 1/2 a_prev) (`predictor="ab2"`, global
 law only, see PREDICTORS): still one force evaluation per step, still second order, smaller error.
 Why not the exact linear propagator between switching events: with 85 spans each in one of three
@@ -78,9 +80,10 @@ SPEED_CAPACITY = 1 << 16
 PREDICTORS = {"euler": 0.0, "ab2": 0.5}
 # The default run of the global law (issue 24): "ab2" at 0.31 of its own (lower) stability limit: the
 # same steps per output sample as euler at 0.25 on the default scene's two materials (9 aluminium, 10
-# titanium; 0.30 gives titanium 11), so the same cost, and the station metrics within 6e-4 of the
-# converged answer on the default scene instead of 2.7e-2 (the scenes and figures:
-# benchmarks/bench_accuracy.py; at 0.33, 8 steps, 2.2e-3). The Kelvin-Voigt law keeps euler.
+# titanium; 0.30 gives titanium 11), so the same cost, and the 32 station metrics within 1.5e-3 of the
+# converged answer on the default scene (benchmarks/bench_accuracy.py; its error is not monotone in the
+# step below about 20 steps per sample). The Kelvin-Voigt law keeps euler. Tighter: dynamics.scene's
+# step control (simulate_chain(accuracy=)).
 DEFAULT_PREDICTOR = "ab2"
 DEFAULT_SAFETIES = {
     ("global", "euler"): DEFAULT_SAFETY,
