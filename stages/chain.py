@@ -74,7 +74,8 @@ def chain_scene(cfg: RunConfig) -> Scene:
         cfg.model,
         cfg.steady_state,
         cfg.solver,
-        accuracy=None if cfg.tolerance is None else cfg.tolerance / 4,
+        # --tolerance: a quarter of it to the clearance chain's step, a quarter to the output sampling
+        accuracy=None if cfg.tolerance is None or cfg.model == "linear" else cfg.tolerance / 4,
     )
 
 
@@ -153,7 +154,9 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
         runs[spd] = simulate_scenario(cfg, model, material, cam_id, result.pitch_m, spd)
         return runs[spd].stations
 
-    choice, stations = choose_samples_per_degree(stations_at, cfg.tolerance / 2)
+    # the time step's half of the tolerance: the output sampling's, less the clearance chain step's share
+    integrator_share = chain_scene(cfg).accuracy or 0.0
+    choice, stations = choose_samples_per_degree(stations_at, cfg.tolerance / 2 - integrator_share)
     spd = choice.samples_per_degree
     k_error = stiffness_sensitivity(
         lambda k: simulate_scenario(cfg, chain_model(cfg, result, k), material, cam_id, result.pitch_m, spd).stations,
@@ -162,7 +165,7 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
         stations,
     )
     # the clearance chain's own step error (its halvings' last change, at most tolerance / 4: chain_scene)
-    # adds to the output sampling's
+    # adds to the output sampling's (at most the other quarter)
     integrator = runs[spd].contact.step_error_estimate or 0.0
     estimate = {
         "time_step": choice.rel_error_estimate + integrator,
