@@ -49,7 +49,7 @@ DEFAULT_TOL = 1e-6
 DEFAULT_MAX_CYCLES = 60
 # simulate_chain(accuracy=...): the clearance chain's step is halved until the station metrics'
 # estimated relative error is within it, at most MAX_STEP_DOUBLINGS times (16x the stability-set
-# steps). Not by default: 1e-3 costs about 5x the default dynamics stage (docs/physics.md, "Default
+# steps). Not by default: 1e-3 costs 2-5x the default dynamics stage (docs/physics.md, "Default
 # accuracy"); --tolerance asks for it.
 MAX_STEP_DOUBLINGS = 4
 
