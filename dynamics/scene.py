@@ -10,8 +10,10 @@ not depend on the preload, so that preload is P - min T_linear), and it decides 
 - "clearance": asked for; or, with "auto", the linear solution leaves pulling contact somewhere, or
   an idler tensioner is modelled (only the clearance model carries it). Solved by the explicit
   integrator dynamics.solvers.clearance_verlet, by default with its `default_predictor` at its
-  `default_safety` (the global law: "ab2" at 0.31 of its stability limit, station metrics within 1e-3
-  of converged on the default scene; benchmarks/bench_accuracy.py).
+  `default_safety` (the global law: "ab2" at 0.31 of its stability limit; the 32 station metrics
+  within 1.5e-3 of converged on the default scene, 1.6e-2 and 4.6e-2 on two others:
+  benchmarks/bench_accuracy.py). With `accuracy` the step is then halved until the station metrics
+  change by at most that (`_controlled`).
 
 Periodic steady state of the clearance chain: started from the linear chain's periodic state, the
 chain is stepped one cam period at a time until the state at the period's start changes by less
@@ -26,7 +28,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
 from typing import NamedTuple
 
@@ -35,6 +37,8 @@ import numpy as np
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.layout import LINK_DRIVE, MachineLayout
+from dynamics.response.fidelity import relative_change
+from dynamics.response.metrics import link_metrics, station_links
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
 from dynamics.solvers.simulate import ChainResponse, SlackChainWarning, simulate
@@ -43,6 +47,11 @@ MODEL_CHOICES = ("auto", "linear", "clearance")
 MAX_SUBHARMONIC = 6
 DEFAULT_TOL = 1e-6
 DEFAULT_MAX_CYCLES = 60
+# simulate_chain(accuracy=...): the clearance chain's step is halved until the station metrics'
+# estimated relative error is within it, at most MAX_STEP_DOUBLINGS times (16x the stability-set
+# steps). Not by default: 1e-3 costs 2-5x the default dynamics stage (docs/physics.md, "Default
+# accuracy"); --tolerance asks for it.
+MAX_STEP_DOUBLINGS = 4
 
 
 class ChainModelKind(StrEnum):
@@ -80,6 +89,7 @@ class Scene:
     steady_state: bool  # periodic steady state (False: from rest)
     solver: str  # the linear chain's method (dynamics.solvers.METHODS)
     layout: MachineLayout = LINK_DRIVE  # how the chain is driven and carried (dynamics.models.layout)
+    accuracy: float | None = None  # the clearance chain's step error target (simulate_chain; None: stability-set step)
 
 
 @dataclass(frozen=True)
@@ -159,6 +169,9 @@ class ContactSummary:
     # the machine on its wheels (drive "wheels"): the seat changes at the end of the window's last
     # index (dynamics.solvers.machine_verlet.Seating); None for the single-link drive
     seating: object = None
+    # the clearance chain's station metrics' estimated relative error from its step (the last step
+    # doubling's change, `_controlled`); None: the linear chain, or the step was not controlled
+    step_error_estimate: float | None = None
 
 
 def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float) -> ModelChoice:
@@ -206,10 +219,12 @@ def simulate_chain(
     tol: float = DEFAULT_TOL,
     max_cycles: int = DEFAULT_MAX_CYCLES,
     predictor: str | None = None,
+    accuracy: float | None = None,
 ) -> tuple[ChainResponse, ContactSummary]:
     """The response of the scene's model at t_eval_s and what it says about contact. The clearance
     chain's step: a fraction `safety` (default `verlet.default_safety`) of the stability limit of the
-    velocity `predictor` (default `verlet.default_predictor`)."""
+    velocity `predictor` (default `verlet.default_predictor`); with `accuracy` (a relative error) that
+    step halved until the station metrics change by at most it (ContactSummary.step_error_estimate)."""
     t = np.asarray(t_eval_s, dtype=float)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SlackChainWarning)  # reported through the summary
@@ -242,9 +257,11 @@ def simulate_chain(
         return out, summary
     predictor = verlet.default_predictor(model) if predictor is None else predictor
     safety = verlet.default_safety(model, predictor) if safety is None else safety
+    if accuracy is not None and not (0 < accuracy < 1):
+        raise DynamicsError(f"accuracy: expected a relative error in (0, 1) or None, got {accuracy!r}")
     with serial_blas():
         return _clearance_response(
-            model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor
+            model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor, accuracy
         )
 
 
@@ -259,23 +276,23 @@ def _cam_nodes(cam, t0: float, step: float, n_steps: int):
     return np.asarray(v, dtype=float), np.asarray(a, dtype=float)
 
 
-def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor):
+def _clearance_response(
+    model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor, accuracy
+):
     h_out = np.diff(t)
     if np.max(np.abs(h_out - h_out[0])) > 1e-9 * h_out[0]:
         raise DynamicsError("t_eval_s: the clearance model needs equally spaced output times")
     sub = verlet.substeps_for(model, float(h_out[0]), safety, predictor)
-    h = float(h_out[0]) / sub
     n = model.n_links
     y0 = lin.x_m[0] - lin.z_m[0]
     w0 = lin.v_m_s[0] - lin.zdot_m_s[0]
-    state = (y0, w0, 0.0, 0.0)
-    ss = None
-    if steady_state:
-        state, ss = _periodic_state(model, cam, t[0], h, state, tol, max_cycles, predictor)
-    zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
-    run = verlet.integrate(
-        model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub, predictor=predictor
-    )
+    start = (y0, w0, 0.0, 0.0)
+    level = _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor)
+    estimate = None
+    if accuracy is not None:
+        level, estimate = _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy)
+    sub, run, ss = level.sub, level.run, level.steady_state
+    h = float(h_out[0]) / sub
     s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
     cols = list(range(n)) if links is None else [int(i) for i in np.atleast_1d(links)]
     tension = model.tension_N(run.y, run.u)
@@ -299,6 +316,7 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
             "steps_per_output": sub,
             "step_s": h,
             "steady_state": ss,
+            "step_error_estimate": estimate,
             "carriage_m": run.u if model.tensioner is not None else None,
         },
     )
@@ -316,8 +334,75 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
         ss,
         sub,
         impacts=impact_statistics(run, cycles),
+        step_error_estimate=estimate,
     )
     return response, summary
+
+
+class _Level(NamedTuple):
+    """One step size's output window: its steps per output sample, run, state at the window's start
+    and how that state was found."""
+
+    sub: int
+    run: verlet.Run
+    state: tuple
+    steady_state: SteadyState | None
+
+
+def _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor) -> _Level:
+    """The output window at `sub` steps per output sample, from the periodic state at that step
+    (searched from `start`) or, without steady state, from `start` itself."""
+    h = float(t[1] - t[0]) / sub
+    state, ss = start, None
+    if steady_state:
+        state, ss = _periodic_state(model, cam, t[0], h, start, tol, max_cycles, predictor)
+    zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
+    run = verlet.integrate(
+        model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub, predictor=predictor
+    )
+    return _Level(sub, run, state, ss)
+
+
+def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy):
+    """Step doubling on the output window until the station metrics' estimated error is within
+    `accuracy` (or MAX_STEP_DOUBLINGS are spent): returns the finest level and its estimate, the
+    change from step h to h/2. The scheme is second order, so that change is about 3x the error left
+    at h/2 once the steps are in the asymptotic range; the 3x is kept as margin, because the ab2
+    predictor's error is not monotone in the step before it (benchmarks/bench_accuracy.py). The finer
+    level's periodic state is searched from the coarser one's (a few cycles: they differ by the
+    coarser step's error); without steady state both start where the run starts."""
+    coarse = _station_values(model, cam, t, level.run)
+    estimate = math.inf
+    for _ in range(MAX_STEP_DOUBLINGS):
+        previous = level
+        # a coarser level without a periodic state hands on its last state (the motion after
+        # max_cycles): both windows start there, and no steady state is claimed for the finer one
+        search = steady_state and previous.steady_state.found
+        begin = previous.state if steady_state else start
+        level = _window_run(model, cam, t, 2 * previous.sub, begin, search, tol, max_cycles, predictor)
+        ss = previous.steady_state
+        if search:
+            ss = replace(level.steady_state, cycles=previous.steady_state.cycles + level.steady_state.cycles)
+        level = level._replace(steady_state=ss)
+        fine = _station_values(model, cam, t, level.run)
+        estimate = relative_change(fine, coarse)
+        if estimate <= accuracy:
+            break
+        coarse = fine
+    return level, estimate
+
+
+def _station_values(model, cam, t, run) -> np.ndarray:
+    """The per-link metrics of the four stations (dynamics.response.metrics) of one window, as one vector."""
+    cols = [link - 1 for link in station_links(model.n_links).values()]
+    s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
+    mask = cam.dwell_mask(t) if hasattr(cam, "dwell_mask") else np.ones(t.size, dtype=bool)
+    if not np.any(mask):
+        mask = np.ones(t.size, dtype=bool)
+    lm = link_metrics(
+        s[:, None] + run.y[:, cols], v[:, None] + run.w[:, cols], a[:, None] + run.a[:, cols], s, v, a, mask
+    )
+    return np.concatenate([np.ravel(getattr(lm, f.name)) for f in fields(lm)])
 
 
 def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler"):
@@ -416,11 +501,13 @@ def simulate_scene(
 ) -> tuple[ChainResponse, ContactSummary]:
     """What the orchestrators call: the scene's model (auto, linear or clearance) for one cam."""
     if scene.layout.on_wheels:
-        from dynamics.machine_scene import machine_model, simulate_machine
+        from dynamics.machine_scene import machine_model, simulate_machine, simulate_machine_to_accuracy
 
-        return simulate_machine(
-            machine_model(scene, chain), cam, t_eval_s, choice=scene.model, steady_state=scene.steady_state, links=links
-        )
+        model = machine_model(scene, chain)
+        options = dict(choice=scene.model, steady_state=scene.steady_state, links=links)
+        if scene.accuracy is None:
+            return simulate_machine(model, cam, t_eval_s, **options)
+        return simulate_machine_to_accuracy(model, cam, t_eval_s, accuracy=scene.accuracy, **options)
     return simulate_chain(
         scene_model(scene, chain),
         cam,
@@ -430,4 +517,5 @@ def simulate_scene(
         links=links,
         n_modes=n_modes,
         method=scene.solver,
+        accuracy=scene.accuracy,
     )

@@ -80,6 +80,8 @@ def chain_scene(cfg: RunConfig, pitch_m: float) -> Scene:
         cfg.steady_state,
         cfg.solver,
         machine_layout(cfg, pitch_m),
+        # --tolerance: a quarter of it to the clearance chain's step, a quarter to the output sampling
+        accuracy=None if cfg.tolerance is None or cfg.model == "linear" else cfg.tolerance / 4,
     )
 
 
@@ -178,7 +180,9 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
         runs[spd] = simulate_scenario(cfg, model, material, cam_id, result.pitch_m, spd)
         return runs[spd].stations
 
-    choice, stations = choose_samples_per_degree(stations_at, cfg.tolerance / 2)
+    # the time step's half of the tolerance: the output sampling's, less the clearance chain step's share
+    integrator_share = chain_scene(cfg).accuracy or 0.0
+    choice, stations = choose_samples_per_degree(stations_at, cfg.tolerance / 2 - integrator_share)
     spd = choice.samples_per_degree
     k_error = stiffness_sensitivity(
         lambda k: simulate_scenario(cfg, chain_model(cfg, result, k), material, cam_id, result.pitch_m, spd).stations,
@@ -186,10 +190,13 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
         result.stiffness_rel_error_estimate,
         stations,
     )
+    # the clearance chain's own step error (its halvings' last change, at most tolerance / 4: chain_scene)
+    # adds to the output sampling's (at most the other quarter)
+    integrator = runs[spd].contact.step_error_estimate or 0.0
     estimate = {
-        "time_step": choice.rel_error_estimate,
+        "time_step": choice.rel_error_estimate + integrator,
         "stiffness": k_error,
-        "total": choice.rel_error_estimate + k_error,
+        "total": choice.rel_error_estimate + integrator + k_error,
     }
     return replace(runs[spd], rel_error_estimate=estimate)
 

@@ -3,6 +3,8 @@ convergence order of the explicit integrator, stability limit on both sides, ste
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -11,7 +13,7 @@ from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain, Tensioner, contact_state, span_energy_J, span_force_N
 from dynamics.models.system import SampledForce
-from dynamics.scene import Validity, choose_model, simulate_chain
+from dynamics.scene import MAX_STEP_DOUBLINGS, Validity, choose_model, simulate_chain
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import solve
 from dynamics.solvers.simulate import simulate
@@ -406,10 +408,14 @@ def test_the_default_run_takes_ab2_for_the_global_law_and_euler_for_kelvin_voigt
         assert verlet.default_predictor(model) == predictor
         _, s = simulate_chain(model, _cam(), t, steady_state=False)
         h_limit = verlet.stable_step_s(model, 1.0, predictor)
-        assert s.steps_per_output == verlet.substeps_for(
-            model, t[1], verlet.default_safety(model, predictor), predictor
-        )
+        start = verlet.substeps_for(model, t[1], verlet.default_safety(model, predictor), predictor)
+        assert s.steps_per_output == start and s.step_error_estimate is None
         assert (t[1] / s.steps_per_output) <= verlet.default_safety(model, predictor) * h_limit * (1 + 1e-12)
+        # with an accuracy: that step halved until the metrics change by at most it
+        _, s = simulate_chain(model, _cam(), t, steady_state=False, accuracy=1e-3)
+        doublings = round(math.log2(s.steps_per_output / start))
+        assert s.steps_per_output == start * 2**doublings and 1 <= doublings <= MAX_STEP_DOUBLINGS
+        assert s.step_error_estimate <= 1e-3 or doublings == MAX_STEP_DOUBLINGS
 
 
 def _fake_period_map(flip_every: int):

@@ -53,3 +53,13 @@ def test_no_second_pass_when_k_is_good_enough(monkeypatch):
     cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q"])
     tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
     assert calls == [pytest.approx(0.01)]
+
+
+def test_the_clearance_chains_step_gets_a_quarter_of_the_tolerance():
+    """--tolerance: half to the time step, split between the output sampling and the clearance
+    chain's step control (dynamics.scene.simulate_chain(accuracy=)); none without it or for --model linear."""
+    from stages.chain import chain_scene
+
+    assert chain_scene(pipeline.parse_cli(["--tolerance", "0.02", "-q"])).accuracy == pytest.approx(0.005)
+    assert chain_scene(pipeline.parse_cli(["-q"])).accuracy is None
+    assert chain_scene(pipeline.parse_cli(["--tolerance", "0.02", "--model", "linear", "-q"])).accuracy is None

@@ -10,7 +10,9 @@ velocity-dependent forces (damping, friction) are evaluated at the predicted vel
 is off by O(h^2), so the scheme stays second order with one force evaluation per step. The span law
 is continuous and piecewise linear in e (a kink at each contact change, no jump), so every contact
 change is resolved by the step itself without event location, at second order: the kink costs an
-O(h^2) local velocity error at each of the O(1) changes per unit time. The predicted velocity may
+O(h^2) local velocity error at each of the O(1) changes per unit time. The Kelvin-Voigt law's
+dashpot force does jump at a contact change: that jump is located within the step (`_switch_impulse`,
+an impulse correction at the span law's crossing fraction), else it costs O(h) per impact. The predicted velocity may
 instead be the Adams-Bashforth extrapolation w + h (3/2 a - 1/2 a_prev) (`predictor="ab2"`, global
 law only, see PREDICTORS): still one force evaluation per step, still second order, smaller error.
 Why not the exact linear propagator between switching events: with 85 spans each in one of three
@@ -78,9 +80,10 @@ SPEED_CAPACITY = 1 << 16
 PREDICTORS = {"euler": 0.0, "ab2": 0.5}
 # The default run of the global law (issue 24): "ab2" at 0.31 of its own (lower) stability limit: the
 # same steps per output sample as euler at 0.25 on the default scene's two materials (9 aluminium, 10
-# titanium; 0.30 gives titanium 11), so the same cost, and the station metrics within 6e-4 of the
-# converged answer on the default scene instead of 2.7e-2 (the scenes and figures:
-# benchmarks/bench_accuracy.py; at 0.33, 8 steps, 2.2e-3). The Kelvin-Voigt law keeps euler.
+# titanium; 0.30 gives titanium 11), so the same cost, and the 32 station metrics within 1.5e-3 of the
+# converged answer on the default scene (benchmarks/bench_accuracy.py; its error is not monotone in the
+# step below about 20 steps per sample). The Kelvin-Voigt law keeps euler. Tighter: dynamics.scene's
+# step control (simulate_chain(accuracy=)).
 DEFAULT_PREDICTOR = "ab2"
 DEFAULT_SAFETIES = {
     ("global", "euler"): DEFAULT_SAFETY,
@@ -205,6 +208,7 @@ def _run(
     bound = par[12]
     a, au, t_el, contact, pc, pd, pf = _accel(y, w, u, ud, zd[0], zdd[0], par, ipar, cmat)
     a_prev, au_prev = a, au  # the first step's predictor is w + h a whatever theta
+    wp_prev, up_prev = w, ud  # the velocities the last dashpot forces were taken at
     powers = np.array([pc, pd, pf])
     free = ~contact
     phase = np.zeros(y.shape[0], dtype=np.bool_)
@@ -224,6 +228,14 @@ def _run(
         a, au, t_el, contact, pc2, pd2, pf2 = _accel(y, wp, u, up, zd[i + 1], zdd[i + 1], par, ipar, cmat)
         w = wh + 0.5 * h * a
         ud = uh + 0.5 * h * au
+        if ipar[2]:
+            before = _kinetic_J(w, ud, par, ipar)
+            w, ud = _dashpot_switch_array(
+                h, y - h * wh, y, u - h * uh, u, wp_prev, wp, up_prev, up, ~free, par, ipar, w, ud
+            )
+            wp_prev, up_prev = wp, up
+            if track_energy:  # the impulses' work, dissipated by the dashpots
+                energy[1] += before - _kinetic_J(w, ud, par, ipar)
         on_output = (i + 1) % out_every == 0
         if track_energy or on_output:
             a_out, au_out, t_el, contact, pc2, pd2, pf2 = _accel(y, w, u, ud, zd[i + 1], zdd[i + 1], par, ipar, cmat)
@@ -422,6 +434,89 @@ def _sqrt_product(coefficients, weights, factors, sm, acc, y, w, out):
     out[0] += coefficients[2] * w[0] + coefficients[4] * acc[0]
 
 
+def _switch_impulse(h, d_old, d_new, was_in_contact, ed_old, ed_new, kg, beta_k):
+    """The dashpot impulse a Kelvin-Voigt span's contact change within the step needs beyond the
+    step's own (trapezoidal: h/2 of the force at each end): its dashpot force jumps there, and the
+    step would place the jump at mid-step, an O(h) impulse error per impact (first order). Located at
+    the crossing fraction f of the span law's threshold (`_crossing`): entering contact, the force acts
+    (1 - f) h, not h/2; leaving, f h. 0 for a span whose contact did not change."""
+    now = (d_new >= 0.0) | (d_new <= -kg)
+    if now == was_in_contact:
+        return 0.0
+    if now:
+        f = _crossing(d_old, d_new, 0.0 if d_new >= 0.0 else -kg)
+        return (0.5 - f) * h * beta_k * ed_new
+    f = _crossing(d_old, d_new, 0.0 if d_old >= 0.0 else -kg)
+    return (f - 0.5) * h * beta_k * ed_old
+
+
+def _dashpot_switch_loop(h, y, wh, u, uh, wp_old, wp, up_old, up, free, par, ipar, w):
+    """`_switch_impulse` of every span added to w (and the carriage's ud, returned); y is the step's
+    end, y - h wh its start, `free` the start's free-play flags, wp_old / wp the velocities the
+    dashpot forces at the start / end were taken at."""
+    m, k, preload, kg, beta = par[0], par[1], par[3], par[4], par[5]
+    s, tens = ipar[0], ipar[1]
+    n = y.shape[0]
+    ud_change = 0.0
+    for j in range(n):
+        l = j + 1 if j + 1 < n else 0
+        e_new = y[l] - y[j]
+        e_old = e_new - h * (wh[l] - wh[j])
+        ed_old = wp_old[l] - wp_old[j]
+        ed_new = wp[l] - wp[j]
+        if tens and j == s:
+            e_new += 2.0 * u
+            e_old += 2.0 * (u - h * uh)
+            ed_old += 2.0 * up_old
+            ed_new += 2.0 * up
+        impulse = _switch_impulse(
+            h, preload + k * e_old, preload + k * e_new, not free[j], ed_old, ed_new, kg, beta * k
+        )
+        w[j] += impulse / m
+        w[l] -= impulse / m
+        if tens and j == s:
+            ud_change -= 2.0 * impulse / par[8]
+    return ud_change
+
+
+def _kinetic_J(w, ud, par, ipar):
+    """Kinetic energy of the links' velocities w relative to the cam and of the carriage (a kick
+    whose link parts sum to zero changes the absolute kinetic energy by the change of this)."""
+    ke = 0.0
+    for i in range(w.shape[0]):
+        ke += w[i] * w[i]
+    ke *= 0.5 * par[0]
+    if ipar[1]:
+        ke += 0.5 * par[8] * ud * ud
+    return ke
+
+
+def _dashpot_switch_array(h, y_old, y, u_old, u, wp_old, wp, up_old, up, was_in_contact, par, ipar, w, ud):
+    """`_dashpot_switch_loop` on whole arrays (the numpy path): (w, ud) with the impulses added."""
+    m, k, preload, kg, beta = par[0], par[1], par[3], par[4], par[5]
+    s, tens = ipar[0], ipar[1]
+
+    def stretch(q, qu):
+        e = np.roll(q, -1) - q
+        if tens:
+            e[s] += 2.0 * qu
+        return e
+
+    d_old, d_new = preload + k * stretch(y_old, u_old), preload + k * stretch(y, u)
+    ed_old, ed_new = stretch(wp_old, up_old), stretch(wp, up)
+    now = (d_new >= 0.0) | (d_new <= -kg)
+    threshold = np.where(now, np.where(d_new >= 0.0, 0.0, -kg), np.where(d_old >= 0.0, 0.0, -kg))
+    span = d_old - d_new
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = np.where(span == 0.0, 1.0, np.clip((d_old - threshold) / span, 0.0, 1.0))
+    impulse = np.where(now, (0.5 - f) * ed_new, (f - 0.5) * ed_old) * (h * beta * k)
+    impulse = np.where(now != was_in_contact, impulse, 0.0)
+    w = w + (impulse - np.roll(impulse, 1)) / m
+    if tens:
+        ud = ud - 2.0 * impulse[s] / par[8]
+    return w, ud
+
+
 def _span_law_into(y, u, par, ipar, t_el, contact):
     """Elastic span forces and contact flags of the positions y (and the carriage's u)."""
     k, preload, kg = par[1], par[3], par[4]
@@ -590,6 +685,8 @@ def _run_loops(
     au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, blocks, work, cw, fr, a, t_el, contact)
     a_prev = a.copy()  # the first step's predictor is w + h a whatever theta
     au_prev = au
+    wp_prev = w.copy()  # the velocities the last dashpot forces were taken at (Kelvin-Voigt)
+    up_prev = ud
     powers = np.array([pc, pd, pf])
     p_new = np.empty(3)
     for j in range(n):
@@ -620,6 +717,14 @@ def _run_loops(
             w[j] = wh[j] + hh * a[j]
         au, _ = _carriage(u, up, t_el[ipar[0]] + dash_s, par, ipar)
         ud = uh + hh * au
+        if ipar[2]:
+            before = _kinetic_J(w, ud, par, ipar) if track_energy else 0.0
+            ud += _dashpot_switch_loop(h, y, wh, u, uh, wp_prev, wp, up_prev, up, free, par, ipar, w)
+            if track_energy:  # the impulses' work, dissipated by the dashpots
+                energy[1] += before - _kinetic_J(w, ud, par, ipar)
+            for j in range(n):
+                wp_prev[j] = wp[j]
+            up_prev = up
         _impacts_loop(
             h,
             y,
@@ -910,6 +1015,9 @@ if numba is not None:
         "_record_step",
         "_impact_duration_s",
         "_crossing",
+        "_switch_impulse",
+        "_dashpot_switch_loop",
+        "_kinetic_J",
         "_impacts_loop",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
