@@ -21,17 +21,18 @@ options that help. DEFAULT_MAX_MEMORY_GB suits a 2-core, 24 GB machine shared wi
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
+
+from settings.run import LIMITS, MIN_MAX_MEMORY_GB
 
 from .errors import FemError
 
 DEFAULT_MAX_MEMORY_GB = 6.0
 # Fitted to the measured peaks in the module docstring so that the model covers the largest ones
-# (they decide whether a run fits): bytes.
-BASE_BYTES = 0.55e9
+# (they decide whether a run fits): bytes. The base is also the smallest budget settings.LIMITS allows.
+BASE_BYTES = MIN_MAX_MEMORY_GB * 1e9
 PER_DOF_POWER_BYTES = 125.0
 DOF_EXPONENT = 4 / 3
 # Coarsen default sizes by at least this factor per retry (the estimate is rough; a few retries).
@@ -46,10 +47,7 @@ class MemoryBudget:
     max_bytes: float
 
     def __post_init__(self) -> None:
-        if not (math.isfinite(self.max_bytes) and self.max_bytes > BASE_BYTES):
-            raise FemError(
-                f"--max-memory: expected more than {BASE_BYTES / 1e9:.2g} GB, got {self.max_bytes / 1e9:g} GB"
-            )
+        check_max_memory_gb(self.max_bytes / 1e9)
 
     @classmethod
     def gigabytes(cls, gb: float) -> MemoryBudget:
@@ -67,6 +65,14 @@ class MemoryBudget:
         (unknowns scale as size^-3)."""
         over = (peak_bytes(level_dofs) - BASE_BYTES) / (self.max_bytes - BASE_BYTES)
         return max(MIN_COARSENING, over ** (1 / (3 * DOF_EXPONENT)))
+
+
+def check_max_memory_gb(gb: float) -> float:
+    """`gb` if settings.LIMITS allows it as a memory budget (the range's one home), else FemError."""
+    problem = LIMITS["max_memory_gb"].problem(gb)
+    if problem:
+        raise FemError(problem)
+    return gb
 
 
 def peak_bytes(level_dofs: list[int]) -> float:
