@@ -111,5 +111,5 @@ def over_budget_message(what: str, level_dofs: list[float], budget: MemoryBudget
     return (
         f"{what}: {how} {int(sum(level_dofs))} unknowns over the levels{when} would need {how} "
         f"{peak_bytes(level_dofs) / 1e9:.1f} GB, over the memory budget of {budget.gb:g} GB; pass a larger "
-        "--mesh-size MM or a larger --max-memory GB"
+        "--mesh-size in mm or a larger --max-memory GB"
     )
