@@ -115,6 +115,13 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _number(text: str, what: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise FemError(f"{what}: expected a number, got {text!r}") from None
+
+
 def _positive(text: str, what: str) -> float:
     try:
         value = float(text)
@@ -230,7 +237,7 @@ def run(argv: list[str] | None = None) -> dict:
         load_N=load_N,
         solver=args.solver,
         mirror_symmetry=not args.full_model,
-        max_memory_gb=_positive(args.max_memory, "--max-memory"),
+        max_memory_gb=_number(args.max_memory, "--max-memory"),  # its range: settings.LIMITS, via FeaSettings
     )
     part = resolve_part(source, symmetry=settings.mirror_symmetry)
     record = _inspect(part.summary, args, materials) if part.is_step else None

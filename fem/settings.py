@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .budget import DEFAULT_MAX_MEMORY_GB
+from .budget import DEFAULT_MAX_MEMORY_GB, check_max_memory_gb
 from .errors import FemError
 from .problem import element
 from .solvers import resolve
@@ -80,6 +80,7 @@ class FeaSettings:
             raise FemError(f"load_N must be a positive number, got {self.load_N!r}")
         if not (isinstance(self.stress_tolerance, (int, float)) and 0 < self.stress_tolerance < 1):
             raise FemError(f"tolerance={self.stress_tolerance!r}: expected a relative change in (0, 1), e.g. 0.05")
+        check_max_memory_gb(self.max_memory_gb)
 
     @classmethod
     def with_finest(cls, finest_m: float | None, **fields) -> FeaSettings:

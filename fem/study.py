@@ -122,6 +122,7 @@ def stiffness_studies(
     (`whole_link_dofs`). False: every level on the whole link.
     """
     import geometry
+    from geometry.mesh_estimate import estimated_dofs
 
     if not materials:
         raise FemError("stiffness_studies: expected at least one material")
@@ -141,10 +142,20 @@ def stiffness_studies(
             mirror=mirror_symmetry and level == len(level_sizes) - 1,
         )
 
+    def estimate_levels(level_sizes: tuple[float, ...]) -> list[float]:
+        """Unknowns of every level (finest first) estimated before meshing."""
+        features = part.geometry.mesh_features
+        half = mirror_symmetry and part.mirror_plane is not None
+        return [
+            estimated_dofs(features, h, settings.bore_refinement * h, settings.mesh_order, half and i == 0)
+            for i, h in enumerate(reversed(level_sizes))
+        ]
+
     start = time.perf_counter()
     sizes, finest_link = _within_budget(
         sizes,
         mesh_level,
+        estimate_levels,
         order,
         budget.MemoryBudget.gigabytes(settings.max_memory_gb),
         given=settings.mesh_sizes_m is not None,
@@ -199,11 +210,29 @@ def stiffness_studies(
     }
 
 
-def _within_budget(sizes: tuple[float, ...], mesh_level, order: int, memory: budget.MemoryBudget, given: bool):
-    """(sizes, finest level's mesh) whose levels' solves fit the memory budget: the finest level is
+def _fit_before_meshing(sizes: tuple[float, ...], estimate_levels, memory: budget.MemoryBudget, given: bool):
+    """Sizes whose levels' unknowns estimated before meshing, at the estimate's low end, fit the
+    budget: default sizes coarsened, given ones refused (FemError naming the options)."""
+    for _ in range(budget.MAX_ESTIMATE_RETRIES):
+        low = [budget.ESTIMATE_LOW_RATIO * n for n in estimate_levels(sizes)]
+        if memory.fits(low):
+            return sizes
+        what = f"--mesh-size {sizes[-1] * 1e3:g}" if given else f"elements of {sizes[-1] * 1e3:.3g} mm"
+        if given:
+            raise FemError(budget.over_budget_message(what, low, memory, estimated=True))
+        sizes = tuple(h * memory.coarsening(low) for h in sizes)
+    raise FemError(budget.over_budget_message(what, low, memory, estimated=True))
+
+
+def _within_budget(
+    sizes: tuple[float, ...], mesh_level, estimate_levels, order: int, memory: budget.MemoryBudget, given: bool
+):
+    """(sizes, finest level's mesh) whose levels' solves fit the memory budget: sizes that cannot
+    fit by the estimate before meshing are coarsened or refused at once; then the finest level is
     meshed and its unknowns counted before any solve; default sizes are coarsened until the
-    estimate fits (FemWarning), given sizes that do not fit are a FemError naming the options."""
+    count fits (FemWarning), given sizes that do not fit are a FemError naming the options."""
     requested = sizes
+    sizes = _fit_before_meshing(sizes, estimate_levels, memory, given)
     for _ in range(budget.MAX_RETRIES + 1):
         link = mesh_level(len(sizes) - 1, sizes)
         copies = 2 if link.mirror_plane is not None else 1

@@ -39,6 +39,10 @@ SMALL_HOLE_SIZE_FRACTION = 1.0
 FLAT_TET_QUALITY = 1e-9
 # Two pin bores whose radii differ by more than this fraction are sized each for itself.
 UNEQUAL_BORES_TOL = 0.01
+# The pin bores' field: their size within this many radii of the bore faces (the bearing and clamp
+# stress concentrations), graded to the far size by the outer distance.
+BORE_FIELD_INNER_RADII = 0.5
+BORE_FIELD_OUTER_RADII = 2.5
 # Grading from a small hole's size to the far size: the size grows by at most this much per unit
 # distance (a gentle gradient keeps the tets' shape).
 SIZE_GRADIENT = 0.5
@@ -224,10 +228,8 @@ def _refine_near(
     field.setNumber(threshold, "InField", distance)
     field.setNumber(threshold, "SizeMin", size_near)
     field.setNumber(threshold, "SizeMax", size_far)
-    # Fine within half a radius of the bore (the bearing and clamp stress concentrations), graded
-    # to the far size over two radii.
-    field.setNumber(threshold, "DistMin", 0.5 * radius)
-    field.setNumber(threshold, "DistMax", 2.5 * radius)
+    field.setNumber(threshold, "DistMin", BORE_FIELD_INNER_RADII * radius)
+    field.setNumber(threshold, "DistMax", BORE_FIELD_OUTER_RADII * radius)
     extra = [_ball(ball, size_far) for ball in _REFINEMENTS.get()] + [_hole_field(h, size_far) for h in small_holes]
     if extra:
         smallest = field.add("Min")

@@ -33,6 +33,7 @@ from geometry.bores import BoreOverride, bores_from_override
 from geometry.dimensions import DEFAULT_LINK, LinkDimensions
 from geometry.errors import GeometryError
 from geometry.link_mesh import MirrorPlane
+from geometry.mesh_estimate import Hole, MeshFeatures
 from geometry.parametric import add_link
 from geometry.pin_pair import PinBores
 from geometry.session import gmsh_model
@@ -63,6 +64,7 @@ class PartGeometry:
     diagonal_m: float  # the body's bounding-box diagonal: the part's length scale
     all_solids_diagonal_m: float  # the file's, hardware included (fem.adaptive's start size, as before)
     mirror_plane: MirrorPlane | None  # the plane through both bore axes if the body is symmetric about it
+    mesh_features: MeshFeatures  # volume, surface and holes: a mesh's unknowns estimated before meshing
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,6 +168,7 @@ def _measure(part: Part) -> PartGeometry:
         volume_m3 = float(gmsh.model.occ.getMass(3, body))
         diagonal_m = _model_diagonal_m()
         plane = symmetry_plane([body], pins.fixed.bore, pins.loaded.bore) if part.symmetry_checked else None
+        features = _mesh_features(body, volume_m3, pins)
     return PartGeometry(
         summary=summary,
         scale=_scale(pins, None if data is not None else part.origin),
@@ -173,6 +176,22 @@ def _measure(part: Part) -> PartGeometry:
         diagonal_m=diagonal_m,
         all_solids_diagonal_m=all_solids_diagonal_m,
         mirror_plane=plane,
+        mesh_features=features,
+    )
+
+
+def _mesh_features(body: int, volume_m3: float, pins: PinBores) -> MeshFeatures:
+    """The body's volume, boundary area and holes' face areas, from the current gmsh model."""
+    boundary = gmsh.model.getBoundary([(3, body)], oriented=False)
+
+    def hole(detected) -> Hole:
+        return Hole(detected.bore.radius_m, sum(gmsh.model.occ.getMass(2, face) for face in detected.faces))
+
+    return MeshFeatures(
+        volume_m3=volume_m3,
+        area_m2=sum(gmsh.model.occ.getMass(2, face) for _, face in boundary),
+        pin_bores=(hole(pins.fixed), hole(pins.loaded)),
+        small_holes=tuple(hole(ignored.hole) for ignored in pins.ignored),
     )
 
 

@@ -199,6 +199,9 @@ class Limit:
 
 AT_LEAST_ZERO = Bounds(0.0, lower_included=True)
 ABOVE_ZERO = Bounds(0.0)
+# The smallest memory budget: the FEA memory model's fixed base (fem.budget.BASE_BYTES is this),
+# what a stiffness study takes before its first unknown.
+MIN_MAX_MEMORY_GB = 0.55
 
 #: The numeric fields' allowed values (a field set to None, where allowed, is not checked).
 LIMITS: dict[str, Limit] = {
@@ -209,7 +212,7 @@ LIMITS: dict[str, Limit] = {
     "preload_N": Limit("--preload", "a tension", AT_LEAST_ZERO, "N"),
     "hardware_mass_kg": Limit("--hardware-mass", "a mass", AT_LEAST_ZERO, "kg"),
     "nest_mass_kg": Limit("--nest-mass", "a mass", AT_LEAST_ZERO, "kg"),
-    "max_memory_gb": Limit("--max-memory", "a memory budget", ABOVE_ZERO, "GB"),
+    "max_memory_gb": Limit("--max-memory", "a memory budget", Bounds(MIN_MAX_MEMORY_GB), "GB"),
     "mesh_size_m": Limit("--mesh-size", "an element size", ABOVE_ZERO, "mm", MM_PER_M),
     "samples_per_degree": Limit("--samples-per-degree", "a whole number", Bounds(1, True), whole=True),
     "tolerance": Limit("--tolerance", "a relative tolerance (e.g. 0.01)", Bounds(0.0, False, 1.0, False)),

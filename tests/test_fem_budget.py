@@ -30,3 +30,20 @@ def test_the_estimate_grows_with_the_unknowns_from_the_base():
 def test_a_budget_below_the_base_is_refused_naming_the_option():
     with pytest.raises(FemError, match="--max-memory"):
         MemoryBudget.gigabytes(0.1)
+
+
+def test_the_memory_budget_range_has_one_home_in_settings_limits_that_both_clis_and_the_fea_apply():
+    from fem.cli import main as fem_main
+    from fem.settings import FeaSettings
+    from settings import LIMITS
+    from settings.run import MIN_MAX_MEMORY_GB
+
+    assert BASE_BYTES == MIN_MAX_MEMORY_GB * 1e9  # the smallest budget is the model's base
+    expected = LIMITS["max_memory_gb"].problem(0.5)
+    assert expected.startswith("--max-memory: expected a memory budget > 0.55 GB")
+    for make in (lambda: FeaSettings(max_memory_gb=0.5), lambda: MemoryBudget.gigabytes(0.5)):
+        with pytest.raises(FemError) as raised:
+            make()
+        assert str(raised.value) == expected
+    assert fem_main(["--max-memory", "0.5"]) == 2
+    assert LIMITS["max_memory_gb"].problem(0.56) is None
