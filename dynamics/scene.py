@@ -24,7 +24,6 @@ saying so. A steady state is never claimed unless the residual test passed.
 
 from __future__ import annotations
 
-import math
 import warnings
 from dataclasses import dataclass, field, replace
 from enum import StrEnum
@@ -35,6 +34,7 @@ import numpy as np
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.layout import LINK_DRIVE, MachineLayout
+from dynamics.solvers import cache, shooting
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
 from dynamics.solvers.simulate import ChainResponse, SlackChainWarning, simulate
@@ -317,35 +317,42 @@ def _clearance_response(model, cam, t, lin, links, steady_state, safety, tol, ma
     return response, summary
 
 
-def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler"):
+def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler", depth=shooting.DEFAULT_DEPTH):
     period = getattr(cam, "period_s", None)
     if period is None:
         raise DynamicsError("steady_state: the cam program is not periodic (period_s is None); use steady_state=False")
+    n = model.n_links
     n_p = max(int(round(period / h)), 1)
     h_p = period / n_p
     every = max(n_p // 90, 1)
     while n_p % every:
         every -= 1
     zd, zdd = _cam_nodes(cam, t0, h_p, n_p)
-    ends = [np.concatenate([state[0], state[1], [state[2], state[3]]])]
-    scale = None
-    residual = math.inf
-    for cycle in range(1, max_cycles + 1):
+
+    def one_period(x):
         run = verlet.integrate(
-            model, zd, zdd, h_p, state[0], state[1], u0=state[2], ud0=state[3], out_every=every, predictor=predictor
+            model, zd, zdd, h_p, x[:n], x[n : 2 * n], u0=x[-2], ud0=x[-1], out_every=every, predictor=predictor
         )
-        state = (run.y[-1], run.w[-1], float(run.u[-1]), float(run.ud[-1]))
-        ends.append(np.concatenate([state[0], state[1], [state[2], state[3]]]))
-        scale = _scale(run, model.n_links)
-        residual = float(np.max(np.abs(ends[-1] - ends[-2]) / scale))
-        if residual <= tol:
-            return state, SteadyState(
-                True,
-                1,
-                cycle,
-                residual,
-                f"periodic steady state found after {cycle} cam cycles (change per cycle {residual:.2g} <= {tol:g})",
-            )
+        end = np.concatenate([run.y[-1], run.w[-1], [run.u[-1], run.ud[-1]]])
+        return end, _scale(run, n)
+
+    x0 = np.concatenate([state[0], state[1], [state[2], state[3]]])
+    precondition = _slow_mode_newton(model, period) if depth else None
+    search = shooting.accelerated_fixed_point(
+        one_period, x0, tol=tol, max_periods=max_cycles, depth=depth, precondition=precondition
+    )
+    end = search.state
+    state = (end[:n], end[n : 2 * n], float(end[-2]), float(end[-1]))
+    cycle, residual = search.periods, search.residual
+    if search.converged:
+        return state, SteadyState(
+            True,
+            1,
+            cycle,
+            residual,
+            f"periodic steady state found after {cycle} cam cycles (change per cycle {residual:.2g} <= {tol:g})",
+        )
+    ends, scale = search.plain_ends, search.plain_scale
     for k in range(2, MAX_SUBHARMONIC + 1):
         if len(ends) > k:
             res_k = float(np.max(np.abs(ends[-1] - ends[-1 - k]) / scale))
@@ -369,6 +376,23 @@ def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler"
         "(a chaotic or very slowly settling response); the results are the motion after "
         f"{max_cycles} cycles, not a steady state",
     )
+
+
+def _slow_mode_newton(model, period_s: float):
+    """The linear chain's Newton step on its slow modes (dynamics.solvers.shooting.slow_mode_newton),
+    computed once per chain and period."""
+    from dynamics.response.sweep import stiffness_matrix_sparse
+
+    def compute():
+        return shooting.slow_mode_newton(
+            stiffness_matrix_sparse(model.chain),
+            model.chain.link_mass_kg,
+            model.damping_ratio_at,
+            period_s,
+            shooting.SLOW_DECAY,
+        )
+
+    return cache.cached(("slow-mode newton", model.chain, model.span_damping, model.beta_s, period_s), compute)
 
 
 def _scale(run, n: int) -> np.ndarray:
