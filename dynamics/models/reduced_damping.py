@@ -108,47 +108,45 @@ class ReducedDamping:
         a0, a1 = self.rayleigh
         n, m, k, kd = self.n_links, self.mass_kg, self.stiffness_N_per_m, self.drive_stiffness_N_per_m
         coefficients = np.array([a0 * m, a1 * k, a1 * kd, 2.0 * self.zeta * k, 2.0 * self.zeta * kd, -k / m])
-        factors = np.zeros((self.taus.size, 3, n))
-        sm = np.zeros((self.taus.size, 2))
-        for j, tau in enumerate(self.taus):
-            factors[j], sm[j] = _factor(m, k, kd, float(tau), n)
+        factors, sm = _factors(m, k, kd, np.asarray(self.taus, dtype=float), n)
         return coefficients, np.ascontiguousarray(self.weights, dtype=float), factors, sm
 
 
-def _factor(m, k, kd, tau, n):
-    """Factors of A = K / m + tau I = T + u v^T (Numerical Recipes' cyclic form, gamma = -A_00):
-    u = (gamma, 0.., e), v = (1, 0.., e / gamma), e = -k / m the off-diagonal and corner entries; T
-    tridiagonal, factored by Thomas. Returns ((inverse pivots, forward coefficients, z = T^-1 u),
-    (1 / (1 + v.z), e / gamma))."""
+def _factors(m, k, kd, taus, n):
+    """Factors of A_j = K / m + tau_j I = T_j + u v^T for every node (Numerical Recipes' cyclic form,
+    gamma = -A_00): u = (gamma, 0.., e), v = (1, 0.., e / gamma), e = -k / m the off-diagonal and
+    corner entries; T tridiagonal, factored by Thomas, the recurrences over the links with the nodes
+    as the vector. Returns (p, 3, N) (inverse pivots, forward coefficients, z = T^-1 u) and (p, 2)
+    (1 / (1 + v.z), e / gamma)."""
     e = -k / m
-    diag = np.full(n, 2.0 * k / m + tau)
-    diag[0] += kd / m
-    gamma = -diag[0]
-    t = diag.copy()
-    t[0] -= gamma
-    t[-1] -= e * e / gamma
-    inv, cp = np.empty(n), np.empty(n)
-    inv[0] = 1.0 / t[0]
-    cp[0] = e * inv[0]
+    p = taus.size
+    diag = np.broadcast_to(2.0 * k / m + taus[:, None], (p, n)).copy()
+    diag[:, 0] += kd / m
+    gamma = -diag[:, 0]
+    t = diag
+    t[:, 0] -= gamma
+    t[:, -1] -= e * e / gamma
+    inv, cp = np.empty((p, n)), np.empty((p, n))
+    inv[:, 0] = 1.0 / t[:, 0]
+    cp[:, 0] = e * inv[:, 0]
     for i in range(1, n):
-        inv[i] = 1.0 / (t[i] - e * cp[i - 1])
-        cp[i] = e * inv[i]
-    u = np.zeros(n)
-    u[0], u[-1] = gamma, e
-    z = thomas(inv, cp, e, u)
+        inv[:, i] = 1.0 / (t[:, i] - e * cp[:, i - 1])
+        cp[:, i] = e * inv[:, i]
+    u = np.zeros((p, n))
+    u[:, 0], u[:, -1] = gamma, e
+    z = _thomas_stacked(inv, cp, e, u)
     ratio = e / gamma
-    return np.array([inv, cp, z]), np.array([1.0 / (1.0 + z[0] + ratio * z[-1]), ratio])
+    return np.stack([inv, cp, z], axis=1), np.column_stack([1.0 / (1.0 + z[:, 0] + ratio * z[:, -1]), ratio])
 
 
-def thomas(inv, cp, e, b):
-    """T^-1 b from the Thomas factors (T symmetric tridiagonal, off-diagonal e)."""
-    n = b.shape[0]
-    y = np.empty(n)
-    y[0] = b[0] * inv[0]
-    for i in range(1, n):
-        y[i] = (b[i] - e * y[i - 1]) * inv[i]
-    for i in range(n - 2, -1, -1):
-        y[i] -= cp[i] * y[i + 1]
+def _thomas_stacked(inv, cp, e, b):
+    """T_j^-1 b_j for every node (rows)."""
+    y = np.empty(b.shape)
+    y[:, 0] = b[:, 0] * inv[:, 0]
+    for i in range(1, b.shape[1]):
+        y[:, i] = (b[:, i] - e * y[:, i - 1]) * inv[:, i]
+    for i in range(b.shape[1] - 2, -1, -1):
+        y[:, i] -= cp[:, i] * y[:, i + 1]
     return y
 
 
