@@ -35,6 +35,9 @@ DEFAULT_STALL = 8
 # 180 rpm, from the linear chain's periodic state, with depth 8: 12 periods instead of 15 to 1e-6
 # at 1,000 links, 18 instead of 25 at 2,000.
 SLOW_DECAY = 1e-2
+# Up to this many links the slow modes come from one dense eigensolve (faster there than the sparse
+# shift-invert one).
+DENSE_EIGENSOLVE_UP_TO = 400
 # Least-squares columns below this fraction of the largest singular value are dropped (a
 # near-dependent history would only amplify noise in the extrapolation).
 RCOND = 1e-10
@@ -125,13 +128,17 @@ def slow_mode_newton(stiffness, mass_kg: float, damping_ratio_at, period_s: floa
     count = 0
     lam = vec = None
     while True:  # widen until the last mode found decays fast enough, or all are found
-        count = min(max(2 * count, 8), n - 2)
-        lam, vec = eigsh(x, k=count, sigma=0.0, which="LM")
-        order = np.argsort(lam)
-        lam, vec = lam[order], vec[:, order]
+        if n <= DENSE_EIGENSOLVE_UP_TO:
+            count = n
+            lam, vec = np.linalg.eigh(x.toarray())
+        else:
+            count = min(max(2 * count, 8), n - 2)
+            lam, vec = eigsh(x, k=count, sigma=0.0, which="LM")
+            order = np.argsort(lam)
+            lam, vec = lam[order], vec[:, order]
         omega = np.sqrt(np.maximum(lam, 0.0))
         slow = np.exp(-np.array([damping_ratio_at(o) * o for o in omega]) * period_s) > decay
-        if not slow[-1] or count >= n - 2:
+        if not slow[-1] or count >= n - 2 or n <= DENSE_EIGENSOLVE_UP_TO:
             break
     omega, vec = omega[slow], np.ascontiguousarray(vec[:, slow])
     blocks = np.empty((omega.size, 2, 2))
