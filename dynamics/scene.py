@@ -14,9 +14,12 @@ not depend on the preload, so that preload is P - min T_linear), and it decides 
   of converged on the default scene; benchmarks/bench_accuracy.py).
 
 Periodic steady state of the clearance chain: started from the linear chain's periodic state, the
-chain is stepped one cam period at a time until the state at the period's start changes by less
-than `tol` (relative to the largest |y| and |y'| over the period). If it does not settle within
-`max_cycles`, the period ends are searched for a repeat after k = 2..MAX_SUBHARMONIC periods (a
+one-period map (the chain stepped one cam period) is iterated until the state at the period's start
+changes by less than `tol` over one period (relative to the largest |y| and |y'| over the period),
+the iteration accelerated (dynamics.solvers.shooting: Anderson acceleration, with the linear chain's
+Newton step on its slowly decaying modes), so that long chains, whose low modes lose little per
+period, settle in a few periods. If it does not settle within `max_cycles` periods, the period ends
+of its final plain stretch are searched for a repeat after k = 2..MAX_SUBHARMONIC periods (a
 subharmonic response: impacting systems have them); if none repeats, no periodic state is found and
 the response is reported as what it is, the motion after `max_cycles` periods, with a statement
 saying so. A steady state is never claimed unless the residual test passed.

@@ -9,14 +9,20 @@ to build it). Here sqrt(X) is applied without forming it, from
 the trapezoidal rule in s = ln t (nodes t_j = e^(s_j), spacing h). The integrand is
 sqrt(x) / (2 cosh(s - ln sqrt x)), the same bump shifted for every eigenvalue x, so the rule's relative
 error is the same for every mode: about 2 exp(-pi^2 / h) from the spacing (the bump's poles lie pi/2
-off the real axis) plus exp(-L) from stopping L past ln sqrt of the smallest and largest eigenvalue.
-`nodes_for(tolerance)` takes h = pi^2 / ln(8 / tolerance) and L = ln(4 / tolerance): each mode's
-damping ratio is zeta (1 +- tolerance) (measured: 0.6 tolerance at N = 85 and 400). Each node is one solve with X + t_j^2 I, the chain's ring of
-springs plus the drive spring: cyclic tridiagonal, solved in O(N) (Thomas on the tridiagonal part,
-Sherman-Morrison for the ring's corner), factors precomputed. So a product costs about 10 N per node
-(25-30 nodes for 1e-4 at N = 10,000) and storage is 3 N per node: linear in N. Every term is a
-positive function of X, so C stays symmetric positive semi-definite; the top mode's ratio, which sets
-the explicit step's limit, is zeta (1 +- tolerance). Rayleigh damping needs no nodes: a0 M + a1 K.
+off the real axis) plus what the nodes beyond the last ones kept would add. Those tails are taken in
+closed form (`nodes_for`): far below sqrt(x) the integrand is e^s, far above it x e^-s, so the
+missing nodes sum to a + b x, an identity and a K term (Rayleigh's, no solves), to a relative
+(2 / pi) h e^(-3 L) / (e^(3 h) - 1) (0.044 e^(-3 L) at 1e-4), L the distance from ln sqrt of the
+extreme eigenvalues to the last nodes. So
+`nodes_for(tolerance)` takes h = pi^2 / ln(8 / tolerance) and L about ln(1 / tolerance) / 3 (2.5 at
+1e-4, where untreated tails would need ln(4 / tolerance) = 10.6): each mode's damping ratio is
+zeta (1 +- tolerance) (measured: 0.53 tolerance at N = 85 and 400). Each node is one solve with
+X + t_j^2 I, the chain's ring of springs plus the drive spring: cyclic tridiagonal, solved in O(N)
+(Thomas on the tridiagonal part, Sherman-Morrison for the ring's corner), factors precomputed. So a
+product costs about 10 N per node (12-17 nodes for 1e-4 from 85 to 10,000 links) and storage is 3 N
+per node: linear in N. Every term is a positive function of X, so C stays symmetric positive
+semi-definite; the top mode's ratio, which sets the explicit step's limit, is zeta (1 +- tolerance).
+Rayleigh damping needs no nodes: a0 M + a1 K.
 With a tight tolerance (1e-13) the form equals the dense C to round-off (tests/test_reduced_damping.py).
 """
 
