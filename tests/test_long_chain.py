@@ -12,6 +12,7 @@ solve in its modal basis stepped mode by mode.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from dynamics.cams import CamProgram
 from dynamics.models.chain import ChainModel
@@ -113,3 +114,26 @@ def test_uncoupled_system_is_stepped_mode_by_mode_as_the_dense_loop_steps_it():
     y_dense = propagate(coupled, grid, forces @ q.T, np.concatenate([q @ y0[:n], q @ y0[n:]]), rotated_friction)
     back = np.hstack([y_dense[:, :n] @ q, y_dense[:, n:] @ q])
     np.testing.assert_allclose(y_modal, back, rtol=0, atol=1e-11 * np.max(np.abs(back)))
+
+
+def test_an_extrapolated_start_the_step_cannot_take_falls_back_to_the_last_period_end():
+    from dynamics.errors import SolverDivergedError
+
+    starts = []
+
+    def period(x):
+        starts.append(x.copy())
+        if len(starts) == 3:  # the first extrapolated start (two periods of history)
+            raise SolverDivergedError("diverged")
+        return 2.0 + 0.5 * (x - 2.0), np.ones_like(x)
+
+    search = accelerated_fixed_point(period, np.zeros(2), tol=1e-9, max_periods=30)
+    np.testing.assert_array_equal(starts[3], 2.0 + 0.5 * (starts[1] - 2.0))  # the second period's end
+    assert search.converged
+    np.testing.assert_allclose(search.state, 2.0, rtol=0, atol=1e-8)
+
+    def diverges(_x):
+        raise SolverDivergedError("diverged")
+
+    with pytest.raises(SolverDivergedError):  # a start the chain really reached is not hidden
+        accelerated_fixed_point(diverges, np.zeros(2), tol=1.0, max_periods=3)

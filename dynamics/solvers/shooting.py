@@ -25,6 +25,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from dynamics.errors import SolverDivergedError
+
 # Residuals kept for the extrapolation: enough for the slow low modes of a 2,000-link chain
 # (measured: fewer periods to 1e-6 than depth 4 or 6 on 1,000 and 2,000 links), small next to N.
 DEFAULT_DEPTH = 8
@@ -77,8 +79,20 @@ def accelerated_fixed_point(
     accelerating = depth > 0
     plain_ends = [x.copy()]
     residual, scale, image = math.inf, None, x
+    last_image = None  # the last period end the chain reached: a state the extrapolation may fall back to
     for period in range(1, max_periods + 1):
-        image, scale = one_period(x)
+        try:
+            image, scale = one_period(x)
+        except SolverDivergedError:
+            if last_image is None or x is last_image:
+                raise
+            # an extrapolated start the step cannot take (far outside the motion seen): restart the
+            # history from the last period end reached
+            x, f_prev, g_prev = last_image, None, None
+            d_f.clear()
+            d_g.clear()
+            continue
+        last_image = image
         f = (image - x) / scale
         residual = float(np.max(np.abs(f)))
         if residual <= tol:
