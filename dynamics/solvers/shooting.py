@@ -8,7 +8,10 @@ as the combination of the last `depth` images P(x_i) whose residuals f_i = P(x_i
 the least-squares smallest one: on the few slowly decaying directions it acts like GMRES on the
 linearised map, so the slow modes are removed in a few periods, whatever their decay; the fast ones
 decay by themselves in each period. It needs no Jacobian, only the periods already stepped, and
-O(depth N) memory.
+O(depth N) memory. It is applied to the map preconditioned by the linear chain's Newton step on its
+slow modes (`slow_mode_newton`: x + (I - Phi_T)^-1 (P(x) - x) on the modes that keep more than
+SLOW_DECAY of themselves per period, plain elsewhere), which removes the linear part of the slow
+directions in one step and leaves Anderson the part the impacts change.
 
 Its result keeps the plain search's meaning: a state is accepted only when one period from it
 changes it by at most `tol` (relative to the scale of the period's motion), and the state returned
@@ -140,7 +143,6 @@ def slow_mode_newton(stiffness, mass_kg: float, damping_ratio_at, period_s: floa
     x = (stiffness / mass_kg).tocsc()
     n = x.shape[0]
     count = 0
-    lam = vec = None
     while True:  # widen until the last mode found decays fast enough, or all are found
         if n <= DENSE_EIGENSOLVE_UP_TO:
             count = n
@@ -158,7 +160,9 @@ def slow_mode_newton(stiffness, mass_kg: float, damping_ratio_at, period_s: floa
     blocks = np.empty((omega.size, 2, 2))
     for j, o in enumerate(omega):
         a = np.array([[0.0, 1.0], [-o * o, -2.0 * damping_ratio_at(o) * o]])
-        blocks[j] = np.linalg.inv(np.eye(2) - expm(a * period_s))
+        one_minus = np.eye(2) - expm(a * period_s)
+        # an undamped mode whose period divides T has no Newton step (I - Phi singular): plain there
+        blocks[j] = np.linalg.inv(one_minus) if np.linalg.cond(one_minus) < 1e8 else np.eye(2)
 
     def newton_step(r: np.ndarray) -> np.ndarray:
         q = np.stack([vec.T @ r[:n], vec.T @ r[n : 2 * n]], axis=1)  # (m, 2)
