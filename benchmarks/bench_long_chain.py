@@ -40,9 +40,9 @@ KEYS = (
     "residual_vibration_m",
 )
 SIZES = (100, 400, 1000, 2000, 10000)
-# Above this the steady-state search is not run (10,000 links: about 25 cam cycles at 6-8 s each,
-# see docs/performance.md): the window alone is timed (two cam cycles from the linear chain's
-# periodic state), with its time per cam cycle.
+# Above this the steady-state search is not run (10,000 links: 10 s per cam cycle on a loaded 2-core
+# machine, times the cycles the search takes, 18 at 2,000 links): the window alone is timed (two cam
+# cycles from the linear chain's periodic state), with its time per cam cycle.
 STEADY_STATE_UP_TO = 2000
 TARGETS_S = {1000: 2.0, 10000: 20.0}
 # A checkout of the old code (e.g. `git worktree add /tmp/old main`): each N is run with it too, in
