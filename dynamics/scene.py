@@ -11,14 +11,17 @@ not depend on the preload, so that preload is P - min T_linear), and it decides 
   an idler tensioner is modelled (only the clearance model carries it). Solved by the explicit
   integrator dynamics.solvers.clearance_verlet, by default with its `default_predictor` at its
   `default_safety` (the global law: "ab2" at 0.31 of its stability limit; the 32 station metrics
-  within 1.5e-3 of converged on the default scene, 1.6e-2 and 4.6e-2 on two others:
+  within 1.5e-3 of converged on the default scene, 1.6e-2 and 2.1e-2 on two others:
   benchmarks/bench_accuracy.py). With `accuracy` the step is then halved until the station metrics
   change by at most that (`_controlled`).
 
 Periodic steady state of the clearance chain: started from the linear chain's periodic state, the
-chain is stepped one cam period at a time until the state at the period's start changes by less
-than `tol` (relative to the largest |y| and |y'| over the period). If it does not settle within
-`max_cycles`, the period ends are searched for a repeat after k = 2..MAX_SUBHARMONIC periods (a
+one-period map (the chain stepped one cam period) is iterated until the state at the period's start
+changes by less than `tol` over one period (relative to the largest |y| and |y'| over the period),
+the iteration accelerated (dynamics.solvers.shooting: Anderson acceleration, with the linear chain's
+Newton step on its slowly decaying modes), so that long chains, whose low modes lose little per
+period, settle in a few periods. If it does not settle within `max_cycles` periods, the period ends
+of its final plain stretch are searched for a repeat after k = 2..MAX_SUBHARMONIC periods (a
 subharmonic response: impacting systems have them); if none repeats, no periodic state is found and
 the response is reported as what it is, the motion after `max_cycles` periods, with a statement
 saying so. A steady state is never claimed unless the residual test passed.
@@ -26,7 +29,6 @@ saying so. A steady state is never claimed unless the residual test passed.
 
 from __future__ import annotations
 
-import math
 import warnings
 from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
@@ -39,6 +41,7 @@ from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.layout import LINK_DRIVE, MachineLayout
 from dynamics.response.fidelity import relative_change
 from dynamics.response.metrics import link_metrics, station_links
+from dynamics.solvers import cache, shooting
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
 from dynamics.solvers.simulate import ChainResponse, SlackChainWarning, simulate
@@ -372,7 +375,7 @@ def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, pred
     level's periodic state is searched from the coarser one's (a few cycles: they differ by the
     coarser step's error); without steady state both start where the run starts."""
     coarse = _station_values(model, cam, t, level.run)
-    estimate = math.inf
+    estimate = np.inf
     for _ in range(MAX_STEP_DOUBLINGS):
         previous = level
         # a coarser level without a periodic state hands on its last state (the motion after
@@ -405,35 +408,42 @@ def _station_values(model, cam, t, run) -> np.ndarray:
     return np.concatenate([np.ravel(getattr(lm, f.name)) for f in fields(lm)])
 
 
-def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler"):
+def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler", depth=shooting.DEFAULT_DEPTH):
     period = getattr(cam, "period_s", None)
     if period is None:
         raise DynamicsError("steady_state: the cam program is not periodic (period_s is None); use steady_state=False")
+    n = model.n_links
     n_p = max(int(round(period / h)), 1)
     h_p = period / n_p
     every = max(n_p // 90, 1)
     while n_p % every:
         every -= 1
     zd, zdd = _cam_nodes(cam, t0, h_p, n_p)
-    ends = [np.concatenate([state[0], state[1], [state[2], state[3]]])]
-    scale = None
-    residual = math.inf
-    for cycle in range(1, max_cycles + 1):
+
+    def one_period(x):
         run = verlet.integrate(
-            model, zd, zdd, h_p, state[0], state[1], u0=state[2], ud0=state[3], out_every=every, predictor=predictor
+            model, zd, zdd, h_p, x[:n], x[n : 2 * n], u0=x[-2], ud0=x[-1], out_every=every, predictor=predictor
         )
-        state = (run.y[-1], run.w[-1], float(run.u[-1]), float(run.ud[-1]))
-        ends.append(np.concatenate([state[0], state[1], [state[2], state[3]]]))
-        scale = _scale(run, model.n_links)
-        residual = float(np.max(np.abs(ends[-1] - ends[-2]) / scale))
-        if residual <= tol:
-            return state, SteadyState(
-                True,
-                1,
-                cycle,
-                residual,
-                f"periodic steady state found after {cycle} cam cycles (change per cycle {residual:.2g} <= {tol:g})",
-            )
+        end = np.concatenate([run.y[-1], run.w[-1], [run.u[-1], run.ud[-1]]])
+        return end, _scale(run, n)
+
+    x0 = np.concatenate([state[0], state[1], [state[2], state[3]]])
+    precondition = _slow_mode_newton(model, period) if depth else None
+    search = shooting.accelerated_fixed_point(
+        one_period, x0, tol=tol, max_periods=max_cycles, depth=depth, precondition=precondition
+    )
+    end = search.state
+    state = (end[:n], end[n : 2 * n], float(end[-2]), float(end[-1]))
+    cycle, residual = search.periods, search.residual
+    if search.converged:
+        return state, SteadyState(
+            True,
+            1,
+            cycle,
+            residual,
+            f"periodic steady state found after {cycle} cam cycles (change per cycle {residual:.2g} <= {tol:g})",
+        )
+    ends, scale = search.plain_ends, search.plain_scale
     for k in range(2, MAX_SUBHARMONIC + 1):
         if len(ends) > k:
             res_k = float(np.max(np.abs(ends[-1] - ends[-1 - k]) / scale))
@@ -457,6 +467,23 @@ def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler"
         "(a chaotic or very slowly settling response); the results are the motion after "
         f"{max_cycles} cycles, not a steady state",
     )
+
+
+def _slow_mode_newton(model, period_s: float):
+    """The linear chain's Newton step on its slow modes (dynamics.solvers.shooting.slow_mode_newton),
+    computed once per chain and period."""
+    from dynamics.response.sweep import stiffness_matrix_sparse
+
+    def compute():
+        return shooting.slow_mode_newton(
+            stiffness_matrix_sparse(model.chain),
+            model.chain.link_mass_kg,
+            model.damping_ratio_at,
+            period_s,
+            shooting.SLOW_DECAY,
+        )
+
+    return cache.cached(("slow-mode newton", model.chain, model.span_damping, model.beta_s, period_s), compute)
 
 
 def _scale(run, n: int) -> np.ndarray:

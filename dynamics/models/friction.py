@@ -22,7 +22,9 @@ def regularised_coulomb_N(v_m_s: np.ndarray, coulomb_force_N: float, velocity_sc
 class CamFrameFriction:
     """Friction as a force g(t, y, y') on coordinates relative to the cam (y = x - z 1): the link's
     absolute velocity is z'(t) + y'. z' is looked up at the table times (the solver's grid nodes)
-    and linear in between (sub-steps, adaptive methods)."""
+    and linear in between (sub-steps, adaptive methods). It does not read y (`uses_positions`)."""
+
+    uses_positions = False
 
     def __init__(
         self, coulomb_force_N: float, velocity_scale_m_s: float, t_table_s: np.ndarray, zdot_table_m_s: np.ndarray

@@ -9,14 +9,20 @@ to build it). Here sqrt(X) is applied without forming it, from
 the trapezoidal rule in s = ln t (nodes t_j = e^(s_j), spacing h). The integrand is
 sqrt(x) / (2 cosh(s - ln sqrt x)), the same bump shifted for every eigenvalue x, so the rule's relative
 error is the same for every mode: about 2 exp(-pi^2 / h) from the spacing (the bump's poles lie pi/2
-off the real axis) plus exp(-L) from stopping L past ln sqrt of the smallest and largest eigenvalue.
-`nodes_for(tolerance)` takes h = pi^2 / ln(8 / tolerance) and L = ln(4 / tolerance): each mode's
-damping ratio is zeta (1 +- tolerance) (measured: 0.6 tolerance at N = 85 and 400). Each node is one solve with X + t_j^2 I, the chain's ring of
-springs plus the drive spring: cyclic tridiagonal, solved in O(N) (Thomas on the tridiagonal part,
-Sherman-Morrison for the ring's corner), factors precomputed. So a product costs about 10 N per node
-(25-30 nodes for 1e-4 at N = 10,000) and storage is 3 N per node: linear in N. Every term is a
-positive function of X, so C stays symmetric positive semi-definite; the top mode's ratio, which sets
-the explicit step's limit, is zeta (1 +- tolerance). Rayleigh damping needs no nodes: a0 M + a1 K.
+off the real axis) plus what the nodes beyond the last ones kept would add. Those tails are taken in
+closed form (`nodes_for`): far below sqrt(x) the integrand is e^s, far above it x e^-s, so the
+missing nodes sum to a + b x, an identity and a K term (Rayleigh's, no solves), to a relative
+(2 / pi) h e^(-3 L) / (e^(3 h) - 1) (0.044 e^(-3 L) at 1e-4), L the distance from ln sqrt of the
+extreme eigenvalues to the last nodes. So
+`nodes_for(tolerance)` takes h = pi^2 / ln(8 / tolerance) and L about ln(1 / tolerance) / 3 (2.5 at
+1e-4, where untreated tails would need ln(4 / tolerance) = 10.6): each mode's damping ratio is
+zeta (1 +- tolerance) (measured: 0.53 tolerance at N = 85 and 400). Each node is one solve with
+X + t_j^2 I, the chain's ring of springs plus the drive spring: cyclic tridiagonal, solved in O(N)
+(Thomas on the tridiagonal part, Sherman-Morrison for the ring's corner), factors precomputed. So a
+product costs about 10 N per node (12-17 nodes for 1e-4 from 85 to 10,000 links) and storage is 3 N
+per node: linear in N. Every term is a positive function of X, so C stays symmetric positive
+semi-definite; the top mode's ratio, which sets the explicit step's limit, is zeta (1 +- tolerance).
+Rayleigh damping needs no nodes: a0 M + a1 K.
 With a tight tolerance (1e-13) the form equals the dense C to round-off (tests/test_reduced_damping.py).
 """
 
@@ -35,14 +41,26 @@ from dynamics.models.chain import ChainModel
 DEFAULT_DAMPING_TOLERANCE = 1e-4
 
 
-def nodes_for(tolerance: float, x_min: float, x_max: float) -> tuple[np.ndarray, np.ndarray]:
-    """(tau_j = t_j^2, c_j = (2 / pi) h t_j) of the trapezoidal rule for sqrt(x) on [x_min, x_max]."""
-    h = math.pi**2 / math.log(8.0 / tolerance)
-    tail = math.log(4.0 / tolerance)
+def nodes_for(tolerance: float, x_min: float, x_max: float) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """(tau_j = t_j^2, c_j = (2 / pi) h t_j, a, b) of the trapezoidal rule for sqrt(x) on [x_min, x_max]
+    with its tails in closed form: sqrt(x) = a + b x + x sum_j c_j / (x + tau_j) to `tolerance`
+    relative, for every x in the range.
+
+    The rule's nodes beyond the last ones kept, s_lo - i h and s_hi + i h (i >= 1), would add
+    (2 / pi) h sum x t / (x + t^2): far below sqrt(x) each term is t (1 - t^2 / x + ...), far above
+    x / t (1 - x / t^2 + ...), so their sums are a = (2 / pi) h t_lo / (e^h - 1) and b = (2 / pi) h /
+    (t_hi (e^h - 1)) to a relative error of (2 / pi) h / (e^(3 h) - 1) e^(-3 L) at most, L the
+    distance (in ln t) from the range's ends to the last nodes. That is one identity term and one K
+    term (Rayleigh's), no solves, and L falls from ln(4 / tolerance) (10.6 at 1e-4) to about a third of
+    it: about half the nodes at 1,000 links."""
+    h = math.pi**2 / math.log(8.0 / tolerance)  # spacing error 2 exp(-pi^2 / h) = tolerance / 4
+    tail_factor = (2.0 / math.pi) * h / math.expm1(3.0 * h)
+    tail = max(math.log(4.0 * tail_factor / tolerance) / 3.0, 0.0)  # each tail's error tolerance / 4
     lo, hi = 0.5 * math.log(x_min) - tail, 0.5 * math.log(x_max) + tail
     s = lo + h * np.arange(int(math.ceil((hi - lo) / h)) + 1)
     t = np.exp(s)
-    return t * t, (2.0 / math.pi) * h * t
+    c = (2.0 / math.pi) * h
+    return t * t, c * t, c * t[0] / math.expm1(h), c / (t[-1] * math.expm1(h))
 
 
 @dataclass(frozen=True, eq=False)
@@ -96,47 +114,45 @@ class ReducedDamping:
         a0, a1 = self.rayleigh
         n, m, k, kd = self.n_links, self.mass_kg, self.stiffness_N_per_m, self.drive_stiffness_N_per_m
         coefficients = np.array([a0 * m, a1 * k, a1 * kd, 2.0 * self.zeta * k, 2.0 * self.zeta * kd, -k / m])
-        factors = np.zeros((self.taus.size, 3, n))
-        sm = np.zeros((self.taus.size, 2))
-        for j, tau in enumerate(self.taus):
-            factors[j], sm[j] = _factor(m, k, kd, float(tau), n)
+        factors, sm = _factors(m, k, kd, np.asarray(self.taus, dtype=float), n)
         return coefficients, np.ascontiguousarray(self.weights, dtype=float), factors, sm
 
 
-def _factor(m, k, kd, tau, n):
-    """Factors of A = K / m + tau I = T + u v^T (Numerical Recipes' cyclic form, gamma = -A_00):
-    u = (gamma, 0.., e), v = (1, 0.., e / gamma), e = -k / m the off-diagonal and corner entries; T
-    tridiagonal, factored by Thomas. Returns ((inverse pivots, forward coefficients, z = T^-1 u),
-    (1 / (1 + v.z), e / gamma))."""
+def _factors(m, k, kd, taus, n):
+    """Factors of A_j = K / m + tau_j I = T_j + u v^T for every node (Numerical Recipes' cyclic form,
+    gamma = -A_00): u = (gamma, 0.., e), v = (1, 0.., e / gamma), e = -k / m the off-diagonal and
+    corner entries; T tridiagonal, factored by Thomas, the recurrences over the links with the nodes
+    as the vector. Returns (p, 3, N) (inverse pivots, forward coefficients, z = T^-1 u) and (p, 2)
+    (1 / (1 + v.z), e / gamma)."""
     e = -k / m
-    diag = np.full(n, 2.0 * k / m + tau)
-    diag[0] += kd / m
-    gamma = -diag[0]
-    t = diag.copy()
-    t[0] -= gamma
-    t[-1] -= e * e / gamma
-    inv, cp = np.empty(n), np.empty(n)
-    inv[0] = 1.0 / t[0]
-    cp[0] = e * inv[0]
+    p = taus.size
+    diag = np.broadcast_to(2.0 * k / m + taus[:, None], (p, n)).copy()
+    diag[:, 0] += kd / m
+    gamma = -diag[:, 0]
+    t = diag
+    t[:, 0] -= gamma
+    t[:, -1] -= e * e / gamma
+    inv, cp = np.empty((p, n)), np.empty((p, n))
+    inv[:, 0] = 1.0 / t[:, 0]
+    cp[:, 0] = e * inv[:, 0]
     for i in range(1, n):
-        inv[i] = 1.0 / (t[i] - e * cp[i - 1])
-        cp[i] = e * inv[i]
-    u = np.zeros(n)
-    u[0], u[-1] = gamma, e
-    z = thomas(inv, cp, e, u)
+        inv[:, i] = 1.0 / (t[:, i] - e * cp[:, i - 1])
+        cp[:, i] = e * inv[:, i]
+    u = np.zeros((p, n))
+    u[:, 0], u[:, -1] = gamma, e
+    z = _thomas_stacked(inv, cp, e, u)
     ratio = e / gamma
-    return np.array([inv, cp, z]), np.array([1.0 / (1.0 + z[0] + ratio * z[-1]), ratio])
+    return np.stack([inv, cp, z], axis=1), np.column_stack([1.0 / (1.0 + z[:, 0] + ratio * z[:, -1]), ratio])
 
 
-def thomas(inv, cp, e, b):
-    """T^-1 b from the Thomas factors (T symmetric tridiagonal, off-diagonal e)."""
-    n = b.shape[0]
-    y = np.empty(n)
-    y[0] = b[0] * inv[0]
-    for i in range(1, n):
-        y[i] = (b[i] - e * y[i - 1]) * inv[i]
-    for i in range(n - 2, -1, -1):
-        y[i] -= cp[i] * y[i + 1]
+def _thomas_stacked(inv, cp, e, b):
+    """T_j^-1 b_j for every node (rows)."""
+    y = np.empty(b.shape)
+    y[:, 0] = b[:, 0] * inv[:, 0]
+    for i in range(1, b.shape[1]):
+        y[:, i] = (b[:, i] - e * y[:, i - 1]) * inv[:, i]
+    for i in range(b.shape[1] - 2, -1, -1):
+        y[:, i] -= cp[:, i] * y[:, i + 1]
     return y
 
 
@@ -177,5 +193,7 @@ def reduced_damping(chain: ChainModel, tolerance: float = DEFAULT_DAMPING_TOLERA
     if chain.rayleigh_coefficients is not None:
         return ReducedDamping(n, m, k, kd, tuple(chain.rayleigh_coefficients), 0.0, np.zeros(0), np.zeros(0))
     x_min, x_max = eigenvalue_bounds(chain)
-    taus, weights = nodes_for(tolerance, x_min, x_max)
-    return ReducedDamping(n, m, k, kd, (0.0, 0.0), chain.damping_ratio, taus, weights)
+    taus, weights, a, b = nodes_for(tolerance, x_min, x_max)
+    # the tails a + b X of sqrt(X): 2 zeta m (a I + b K / m) = Rayleigh (2 zeta a, 2 zeta b)
+    zeta = chain.damping_ratio
+    return ReducedDamping(n, m, k, kd, (2.0 * zeta * a, 2.0 * zeta * b), zeta, taus, weights)

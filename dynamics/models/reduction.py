@@ -45,10 +45,18 @@ class ProjectedForce:
         self.shapes = shapes
 
     def __call__(self, t: float, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        return self.shapes.T @ self.force(t, self.shapes @ q, self.shapes @ qd)
+        y = self.shapes @ q if self._positions else None
+        return self.shapes.T @ self.force(t, y, self.shapes @ qd)
 
     def batch(self, t: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        return self.force.batch(t, q @ self.shapes.T, qd @ self.shapes.T) @ self.shapes
+        y = q @ self.shapes.T if self._positions else None
+        return self.force.batch(t, y, qd @ self.shapes.T) @ self.shapes
+
+    @property
+    def _positions(self) -> bool:
+        """False for a force that says it reads the velocities only (friction): then one (N x r)
+        product of the three per call is left out."""
+        return getattr(self.force, "uses_positions", True)
 
 
 # Above this many links the pipeline solves in the lowest MODES_FOR_LONG_CHAINS modes: the dense

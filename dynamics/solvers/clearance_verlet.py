@@ -405,27 +405,40 @@ def _sqrt_product(coefficients, weights, factors, sm, acc, y, w, out):
     """out = C w for the reduced global law (dynamics.models.reduced_damping): a0 m w + a1 K w + 2 zeta K acc,
     acc = sum_j c_j (K / m + tau_j I)^-1 w by one cyclic tridiagonal solve per node (Thomas, then
     Sherman-Morrison with the node's z), all nodes at once: `factors` is (3, N, p), so the recurrences
-    run over the links with the nodes as the (vectorised) inner loop. y: (N, p) scratch.
+    run over the links with the nodes as the (vectorised) inner loop. y: (N + 1, p) scratch, its last
+    row the backward recurrence's running value. The backward pass takes the forward coefficient as
+    e times the pivot's inverse (what factors[1] holds, to the bit) and sums the weighted solutions as
+    it goes, so a product reads two (N, p) arrays and y twice instead of three arrays and y four times.
     coefficients = [a0 m, a1 k, a1 k_d, 2 zeta k, 2 zeta k_d, -k / m]."""
     n = w.shape[0]
     p = weights.shape[0]
     e = coefficients[5]
+    run = y[n]
     for j in range(p):
         y[0, j] = w[0] * factors[0, 0, j]
     for i in range(1, n):
         wi = w[i]
         for j in range(p):
             y[i, j] = (wi - e * y[i - 1, j]) * factors[0, i, j]
+    s = 0.0
+    for j in range(p):
+        run[j] = y[n - 1, j]
+        s += weights[j] * run[j]
+    acc[n - 1] = s
     for i in range(n - 2, -1, -1):
+        s = 0.0
         for j in range(p):
-            y[i, j] -= factors[1, i, j] * y[i + 1, j]
-    for j in range(p):  # Sherman-Morrison's factor per node, weighted: kept in row 0's spare use below
-        sm[j, 2] = weights[j] * sm[j, 0] * (y[0, j] + sm[j, 1] * y[n - 1, j])
+            v = y[i, j] - e * factors[0, i, j] * run[j]
+            run[j] = v
+            s += weights[j] * v
+        acc[i] = s
+    for j in range(p):  # Sherman-Morrison's factor per node, weighted (run holds the solutions' row 0)
+        sm[j, 2] = weights[j] * sm[j, 0] * (run[j] + sm[j, 1] * y[n - 1, j])
     for i in range(n):
         s = 0.0
         for j in range(p):
-            s += weights[j] * y[i, j] - sm[j, 2] * factors[2, i, j]
-        acc[i] = s
+            s += sm[j, 2] * factors[2, i, j]
+        acc[i] -= s
     c0, c1, c3 = coefficients[0], coefficients[1], coefficients[3]
     for i in range(n):
         ip = i - 1 if i > 0 else n - 1
@@ -680,7 +693,7 @@ def _run_loops(
         np.zeros(blocks[0].shape[0]),
         np.zeros(blocks[1].shape[0]),
         np.zeros(n),
-        np.zeros((n, blocks[3].shape[0])),
+        np.zeros((n + 1, blocks[3].shape[0])),
     )
     au, pc, pd, pf = _accel_into(y, w, u, ud, zd[0], zdd[0], par, ipar, blocks, work, cw, fr, a, t_el, contact)
     a_prev = a.copy()  # the first step's predictor is w + h a whatever theta

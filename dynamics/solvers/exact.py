@@ -187,6 +187,8 @@ def propagate(system, grid: np.ndarray, forces: np.ndarray, y0: np.ndarray, extr
     modes = _modes_for_blocks(system, grid_steps, extra)
     if modes is not None:
         return modal_response(modes, grid_steps, forces, y0, accelerations=False)[0]
+    if extra is not None and all(is_diagonal(a) for a in (system.mass, system.damping, system.stiffness)):
+        return _propagate_uncoupled(system, grid, grid_steps, forces, y0, extra)
     inputs = _force_support(forces) if extra is None else None
     if inputs is not None:
         forces = forces[:, list(inputs)]
@@ -218,6 +220,41 @@ def propagate(system, grid: np.ndarray, forces: np.ndarray, y0: np.ndarray, extr
         y[k + 1] = u
         state[: 2 * n] = u
         state[2 * n :] = extra(grid[k + 1], u[:n], u[n:])
+    return y  # a runaway turns into inf/nan, which propagates to the end and is caught there
+
+
+def _propagate_uncoupled(system, grid, grid_steps, forces, y0, extra) -> np.ndarray:
+    """`propagate` with a nonlinear force on an uncoupled system (diagonal M, C, K: a long chain in
+    its modal basis, dynamics.models.reduction). Each DOF's exact step is its own 2 x 2
+    (mode_scan.mode_steps), so a step costs O(n) instead of the dense [Phi | G0] product's 6 n^2
+    (400 modes: 1e6 multiply-adds per step). The same splitting as the dense loop, term by term."""
+    reps, which = grid_steps
+    n = system.n_dof
+    mass = np.diag(system.mass)
+    steps = [
+        cached(
+            ("uncoupled steps", *system.cache_key, _step_key(h)),
+            lambda h=h: mode_scan.mode_steps(np.diag(system.stiffness) / mass, np.diag(system.damping) / mass, h),
+        )
+        for h in reps
+    ]
+    p = forces / mass
+    y = np.empty((grid.size, 2 * n))
+    y[0] = y0
+    x, v = y0[:n], y0[n:]
+    g = extra(grid[0], x, v) / mass
+    for k in range(grid.size - 1):
+        s = steps[which[k]]
+        e, g0, g1 = s.e, s.g0, s.g1
+        held = p[k] + g
+        x1 = e[:, 0, 0] * x + e[:, 0, 1] * v + g0[:, 0] * held + g1[:, 0] * p[k + 1]
+        v1 = e[:, 1, 0] * x + e[:, 1, 1] * v + g0[:, 1] * held + g1[:, 1] * p[k + 1]
+        corrected = extra(grid[k + 1], x1 + g1[:, 0] * g, v1 + g1[:, 1] * g) / mass
+        x = x1 + g1[:, 0] * corrected
+        v = v1 + g1[:, 1] * corrected
+        y[k + 1, :n] = x
+        y[k + 1, n:] = v
+        g = extra(grid[k + 1], x, v) / mass
     return y  # a runaway turns into inf/nan, which propagates to the end and is caught there
 
 
