@@ -60,6 +60,8 @@ def test_the_clearance_chains_step_gets_a_quarter_of_the_tolerance():
     chain's step control (dynamics.scene.simulate_chain(accuracy=)); none without it or for --model linear."""
     from stages.chain import chain_scene
 
-    assert chain_scene(pipeline.parse_cli(["--tolerance", "0.02", "-q"])).accuracy == pytest.approx(0.005)
-    assert chain_scene(pipeline.parse_cli(["-q"])).accuracy is None
-    assert chain_scene(pipeline.parse_cli(["--tolerance", "0.02", "--model", "linear", "-q"])).accuracy is None
+    pitch_m = 0.1125
+    assert chain_scene(pipeline.parse_cli(["--tolerance", "0.02", "-q"]), pitch_m).accuracy == pytest.approx(0.005)
+    assert chain_scene(pipeline.parse_cli(["-q"]), pitch_m).accuracy is None
+    linear = pipeline.parse_cli(["--tolerance", "0.02", "--model", "linear", "-q"])
+    assert chain_scene(linear, pitch_m).accuracy is None
