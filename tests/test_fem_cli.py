@@ -149,3 +149,15 @@ def test_converge_stress_reports_the_converged_peak_and_what_it_is():
     assert isinstance(report["stress_converged"], bool)
     assert (report["peak_von_mises_converged_rel_change"] <= 0.05) == report["stress_converged"]
     assert "away from the clamped bore" in report["stress_description"]
+
+
+def test_the_stiffness_levels_peak_stress_is_not_a_folded_cells_artefact():
+    """The default study keeps nearly folded curved cells for the volume of the rounds they follow
+    (fem.link.closest_to_cad): they carry the stiffness, but their stress is the map's, not the
+    part's; on the default link's 4.5 mm level one gave 39.8 MPa/kN. The reported peak skips them
+    and lies near the converged peak (13.84 MPa/kN +- 0.015 % on the whole link, the stress study's
+    reference: docs/physics.md); 10 % is the coarse level's own discretisation (its levels moved 6-8 %)."""
+    result = run_cli("--json")
+    assert result.returncode == 0, result.stderr
+    report = json.loads(result.stdout)
+    assert report["peak_von_mises_Pa_per_N"] == pytest.approx(13.84e3, rel=0.10)
