@@ -36,7 +36,10 @@ def draw_figures(jobs: dict[Hashable, FigureJob], workers: int | None = None) ->
     """Draw every job (in worker processes where there are several cores and fork exists, else here,
     one after the other); returns each job's PNG path under its key, in the jobs' order."""
     workers = min(usable_cores() if workers is None else workers, len(jobs))
-    if workers < 2 or "fork" not in multiprocessing.get_all_start_methods():
+    # a daemonic process (a Dask worker drawing a study's best designs) may not start children, and
+    # its cores are the cluster's already
+    daemon = multiprocessing.current_process().daemon
+    if workers < 2 or daemon or "fork" not in multiprocessing.get_all_start_methods():
         return {key: job.draw() for key, job in jobs.items()}
     with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
         pending = {key: pool.submit(job.plot, *job.args) for key, job in jobs.items()}

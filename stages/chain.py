@@ -181,7 +181,7 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
         return runs[spd].stations
 
     # the time step's half of the tolerance: the output sampling's, less the clearance chain step's share
-    integrator_share = chain_scene(cfg).accuracy or 0.0
+    integrator_share = chain_scene(cfg, result.pitch_m).accuracy or 0.0
     choice, stations = choose_samples_per_degree(stations_at, cfg.tolerance / 2 - integrator_share)
     spd = choice.samples_per_degree
     k_error = stiffness_sensitivity(

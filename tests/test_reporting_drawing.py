@@ -3,6 +3,7 @@ the jobs' order, the same files as drawn one after the other, a failing figure f
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 from pathlib import Path
 
@@ -34,6 +35,23 @@ def test_every_figure_is_drawn_once_and_returned_under_its_key(tmp_path, workers
         assert path == tmp_path / f"{i}.txt" and path.read_text().startswith(f"figure {i} ")
     drawn_by = {int(path.read_text().split()[-1]) for path in paths.values()}
     assert (drawn_by == {os.getpid()}) == (workers == 1)  # side by side: in worker processes
+
+
+def _draw_in_daemon(folder: Path, queue) -> None:
+    paths = draw_figures(_jobs(folder), workers=2)
+    queue.put(sorted({int(path.read_text().split()[-1]) for path in paths.values()}) == [os.getpid()])
+
+
+def test_a_daemonic_process_draws_its_figures_itself(tmp_path):
+    """A Dask worker (a daemonic process: it may not start children) drawing a study's best
+    designs draws one figure after the other, in its own process."""
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    worker = context.Process(target=_draw_in_daemon, args=(tmp_path, queue), daemon=True)
+    worker.start()
+    drawn_by_itself = queue.get(timeout=60)
+    worker.join(timeout=60)
+    assert worker.exitcode == 0 and drawn_by_itself
 
 
 def test_a_figure_that_fails_fails_the_drawing(tmp_path):
