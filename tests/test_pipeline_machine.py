@@ -296,6 +296,11 @@ def _assert_same(ours, theirs, where="summary"):
         assert len(ours) == len(theirs), where
         for i, (a, b) in enumerate(zip(ours, theirs)):
             _assert_same(a, b, f"{where}[{i}]")
+    elif isinstance(theirs, float) and where.endswith("steady_state.residual"):
+        # the steady-state search's last change per period (about 1e-9 here), a convergence
+        # diagnostic: its accelerated search's least-squares step differs in the last digits of
+        # the state from run to run; what matters is that it stays far below the 1e-6 it is tested against
+        assert ours == pytest.approx(theirs, rel=0.0, abs=1e-12), where
     elif isinstance(theirs, float):
         assert ours == pytest.approx(theirs, rel=1e-12, abs=0.0), where
     else:
@@ -303,22 +308,25 @@ def _assert_same(ours, theirs, where="summary"):
 
 
 def test_drive_link_gives_todays_summary(tmp_path):
-    """Against tests/data/link_drive_summary_d46096f.json, written by main at d46096f (before the wheels
-    were wired in) with a fresh FEA cache:
+    """Against tests/data/link_drive_summary.json, written with a fresh FEA cache by
         python pipeline.py --mesh-size 10 --links 12 --samples-per-degree 2 --no-images -q
-            --cams modified-sine,cycloidal --out OUT --cache-dir EMPTY
-    Every key and value equal (numbers to 1e-12) except the wall times; the only new keys are the
-    machine's (the drive, which parts ran)."""
+            --cams modified-sine,cycloidal --drive link --out OUT --cache-dir EMPTY
+    Every key and value equal (numbers to 1e-12) except the wall times and the keys of the machine
+    (the drive, which parts ran). First written by main at d46096f, before the wheels were wired in;
+    rewritten when the stress study moved to the mirror half and the stiffness level's peak stopped
+    counting folded cells: against d46096f every chain figure was then still equal to 1e-12, only
+    the FEA's stress fields (3-8 %, drive-independent), what is computed from them (link stress,
+    safety factors) and the steady state's residual (a diagnostic, 1e-7) had moved."""
     out = tmp_path / "out"
     args = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "--no-images", "-q"]
     args += ["--cams", "modified-sine,cycloidal", "--drive", "link"]
     assert pipeline.main([*args, "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
     ours = json.loads((out / "summary.json").read_text())
-    theirs = json.loads((DATA / "link_drive_summary_d46096f.json").read_text())
+    theirs = json.loads((DATA / "link_drive_summary.json").read_text())
     assert ours["inputs"]["drive"] == ours["machine"]["drive"] == "link"
     new = [("inputs", "drive"), ("machine",), *(("materials", m, "machine") for m in ours["materials"])]
     ours = _without(ours, [*new, ("timing_s",)])
-    theirs = _without(theirs, [("timing_s",)])
+    theirs = _without(theirs, [*new, ("timing_s",)])
     _assert_same(ours, theirs)
 
 
