@@ -32,6 +32,7 @@ from dynamics.solvers.clearance_verlet import (
     SPEED_CAPACITY,
     TANH_IS_ONE,
     _rows_times,
+    _switch_impulse,
     _tanh,
     stable_omega_h,
 )
@@ -142,6 +143,60 @@ def _accel_into(
     powers[2] = p_fric
 
 
+def _stretch_into(q, z_rel, span_int, span_float, wheel_float, work, e):
+    """Each span's stretch e at the positions q and the cam's z_rel (as `_accel_into` forms it)."""
+    wd = work[0]
+    _wheels_into(q, q, z_rel, 0.0, wheel_float, wd, work[1], work[2])
+    for j in range(span_int.shape[0]):
+        b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
+        s = 0.0
+        if fw >= 0:
+            s += q[fw]
+        if b >= 0:
+            s -= q[b]
+        if c >= 0:
+            s += span_float[j, 0] * q[c]
+        if wi >= 0:
+            s += span_float[j, 1] * wd[wi]
+        e[j] = s
+
+
+def _kinetic_abs_J(v, zd, dof_float):
+    """Kinetic energy of the DOFs' absolute velocities v + r z'."""
+    ke = 0.0
+    for i in range(v.shape[0]):
+        x = v[i] + dof_float[i, 1] * zd
+        ke += 0.5 * dof_float[i, 6] * x * x
+    return ke
+
+
+def _dashpot_switch_into(
+    h, e_old, e_new, was_in_contact, ed_old, ed_new, span_int, span_float, dof_float, wheel_float, par, work, v
+):
+    """clearance_verlet's located Kelvin-Voigt dashpot switch on the topology's spans: each span's
+    `_switch_impulse` applied to its ends through the same B^T as its force (the carriage's share, the
+    wheel-end span's gain dd/du at the step's end, work[1]), divided by the DOFs' masses, added to v."""
+    k, preload, kg, beta_k = par[0], par[1], par[2], par[3]
+    wsl = work[1]
+    for j in range(span_int.shape[0]):
+        impulse = _switch_impulse(
+            h, preload + k * e_old[j], preload + k * e_new[j], was_in_contact[j], ed_old[j], ed_new[j], kg, beta_k
+        )
+        if impulse == 0.0:
+            continue
+        b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
+        if fw >= 0:
+            v[fw] -= impulse * dof_float[fw, 0]
+        if b >= 0:
+            v[b] += impulse * dof_float[b, 0]
+        if c >= 0:
+            v[c] -= span_float[j, 0] * impulse * dof_float[c, 0]
+        if wi >= 0:
+            dof = int(wheel_float[wi, 3])
+            if dof >= 0:
+                v[dof] -= span_float[j, 1] * wsl[wi] * impulse * dof_float[dof, 0]
+
+
 def _run_loops(
     q,
     v,
@@ -218,6 +273,11 @@ def _run_loops(
         a,
     )
     p_prev = work[6].copy()
+    kv = par[4] > 0.5
+    e_old = np.empty(ns)  # the Kelvin-Voigt switch's stretches at the step's start and end
+    e_new = np.empty(ns)
+    ed_old = ed.copy()  # the span rates the last dashpot forces were taken at
+    _stretch_into(q, z_rel[0], span_int, span_float, wheel_float, work, e_old)
     for j in range(n):
         a_prev[j] = a[j]
     for j in range(ns):
@@ -256,6 +316,17 @@ def _run_loops(
         )
         for j in range(n):
             v[j] = wh[j] + hh * a[j]
+        if kv:
+            before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy else 0.0
+            _stretch_into(q, z_rel[i + 1], span_int, span_float, wheel_float, work, e_new)
+            _dashpot_switch_into(
+                h, e_old, e_new, ~free, ed_old, ed, span_int, span_float, dof_float, wheel_float, par, work, v
+            )
+            if track_energy:  # the impulses' work, dissipated by the dashpots
+                energy[1] += before - _kinetic_abs_J(v, zd[i + 1], dof_float)
+            for j in range(ns):
+                e_old[j] = e_new[j]
+                ed_old[j] = ed[j]
         recording = i + 1 >= record_from
         for j in range(ns):
             p_dash = par[3] * ed[j] * ed[j] if contact[j] else 0.0  # the Kelvin-Voigt dashpot's power
@@ -332,7 +403,7 @@ def _record(t_el, contact, stats):
 
 
 if numba is not None:
-    for _name in ("_wheels_into", "_accel_into", "_record"):
+    for _name in ("_wheels_into", "_accel_into", "_record", "_stretch_into", "_kinetic_abs_J", "_dashpot_switch_into"):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
 else:  # pragma: no cover
