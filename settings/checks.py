@@ -100,13 +100,6 @@ def _check_machine(cfg: RunConfig) -> None:
     )
     if cfg.machine_drive != "wheels":
         return
-    from dynamics.models.reduction import DENSE_LINK_LIMIT
-
-    _require(
-        cfg.links <= DENSE_LINK_LIMIT,
-        f"--links: the machine on its wheels is solved with dense matrices up to {DENSE_LINK_LIMIT} links this far, "
-        f"got {cfg.links}; expected --drive link for a longer chain",
-    )
     _require(
         cfg.tooth_phase == 0.0,
         f"--tooth-phase: expected 0 (a pin seats at the dwell); other phases put the seat change inside the "

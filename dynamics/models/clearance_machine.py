@@ -33,6 +33,7 @@ import numpy as np
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M, SPAN_DAMPING_LAWS, span_energy_J, span_force_N
 from dynamics.models.machine import MachineOnWheels
+from dynamics.models.machine_damping import of_machine
 from dynamics.models.reduction import DENSE_LINK_LIMIT
 from dynamics.solvers import cache
 from dynamics.solvers._common import serial_blas
@@ -50,6 +51,9 @@ class MachineArrays:
     par: np.ndarray  # k, P, k g, beta k, kv flag, F_c, 1 / v_s, m (one link)
     # the global law's C, padded for the four-row product (clearance_verlet._padded); zeros for Kelvin-Voigt
     cmat: np.ndarray
+    # the O(N) global law above DENSE_LINK_LIMIT links: (chain DOFs, tri, scalars, factors, sm,
+    # weights, scratch (6, n)) of dynamics.models.machine_damping; empty DOFs: the dense cmat
+    reduced: tuple
 
 
 @dataclass(frozen=True)
@@ -65,13 +69,6 @@ class ClearanceMachine:
     def __post_init__(self) -> None:
         if not (self.clearance_m >= 0 and not np.isnan(self.clearance_m)):
             raise DynamicsError(f"clearance_m: expected a free play >= 0 m (inf allowed), got {self.clearance_m!r}")
-        if self.machine.n_links > DENSE_LINK_LIMIT:
-            # the machine's damping is its dense modal C (no O(N) form on wheels yet), and the
-            # linear machine that chooses the model always takes it
-            raise DynamicsError(
-                f"links: the machine on its wheels takes at most {DENSE_LINK_LIMIT} links, got "
-                f"{self.machine.n_links} (use --drive link for longer chains)"
-            )
         if self.span_damping not in SPAN_DAMPING_LAWS:
             raise DynamicsError(
                 f"span_damping: expected one of {', '.join(SPAN_DAMPING_LAWS)}, got {self.span_damping!r}"
@@ -112,6 +109,12 @@ class ClearanceMachine:
         return 2.0 * c.damping_ratio / float(np.sqrt(2.0 * c.stiffness_N_per_m / c.link_mass_kg))
 
     @property
+    def reduced_damping(self) -> bool:
+        """The global law in the O(N) form (dynamics.models.machine_damping, each mode's ratio to
+        1e-4) above DENSE_LINK_LIMIT links; the dense C up to it (today's numbers unchanged)."""
+        return self.machine.n_links > DENSE_LINK_LIMIT
+
+    @property
     def damping_matrix(self) -> np.ndarray:
         """The machine's C (computed once per machine: the solvers' cache, read-only)."""
         return cache.cached(("machine-damping", self.machine), lambda: _damping_matrix(self.machine))
@@ -120,7 +123,8 @@ class ClearanceMachine:
     def max_frequency_rad_s(self) -> float:
         """Highest full-contact frequency; with the polygonal action the wheel ends' stiffness is
         scaled by (R / R_m)^2 at most (dd/du <= R / R_m - 1), so the frequency is bounded by R / R_m times."""
-        omega = cache.cached(("machine-top-frequency", self.machine), lambda: _top_frequency(self.machine))
+        top = _top_frequency_sparse if self.reduced_damping else _top_frequency
+        omega = cache.cached(("machine-top-frequency", self.machine), lambda: top(self.machine))
         if self.machine.polygonal:
             omega *= max(e.wheel.pitch_radius_m / e.wheel.feed_radius_m for e in self.machine.wheel_ends)
         return omega
@@ -135,8 +139,10 @@ class ClearanceMachine:
         return c.damping_ratio
 
     @cached_property
-    def _incidence(self) -> np.ndarray:
-        return self.topology.incidence().toarray()
+    def _incidence(self):
+        # sparse on long chains (memory linear in N); dense below, as the results were computed
+        b = self.topology.incidence()
+        return b if self.reduced_damping else b.toarray()
 
     @cached_property
     def arrays(self) -> MachineArrays:
@@ -166,7 +172,9 @@ class ClearanceMachine:
         ground = topo.ground_vector()
         ground_c = np.zeros(topo.n_dof)
         if mach.tensioner is not None:
-            ground_c[-1] = mach.tensioner.damping_N_s_per_m if kv else 0.0  # the global law's C holds c_t
+            # the dense global law's C holds c_t; the O(N) form leaves it to the carriage's own dashpot
+            own = kv or self.reduced_damping
+            ground_c[-1] = mach.tensioner.damping_N_s_per_m if own else 0.0
             drive = [d for d, _ in topo.ground if d != topo.n_dof - 1]
         else:
             drive = [d for d, _ in topo.ground]
@@ -178,7 +186,7 @@ class ClearanceMachine:
             [1.0 if (carried and d not in wheel_dofs) else 0.0 for d, carried in enumerate(topo.links)]
         )
         b = self._incidence
-        f0 = topo.preload_N * b.sum(axis=0)
+        f0 = topo.preload_N * np.asarray(b.sum(axis=0)).reshape(-1)
         dof_float = np.column_stack([1.0 / masses, moves, ground, ground_c, friction_links, f0, masses])
         k = topo.span_stiffness_N_per_m
         par = np.array(
@@ -193,8 +201,10 @@ class ClearanceMachine:
                 c.link_mass_kg,
             ]
         )
-        cmat = _padded(np.zeros((1, 1)) if kv else self.damping_matrix)
-        return MachineArrays(span_int, span_float, np.ascontiguousarray(dof_float), wheel_float, par, cmat)
+        dense = not (kv or self.reduced_damping)
+        cmat = _padded(self.damping_matrix if dense else np.zeros((1, 1)))
+        reduced = _reduced_arrays(self.machine) if (self.reduced_damping and not kv) else _NO_REDUCED
+        return MachineArrays(span_int, span_float, np.ascontiguousarray(dof_float), wheel_float, par, cmat, reduced)
 
     # --- the span law on the machine -------------------------------------------------------------
 
@@ -202,7 +212,8 @@ class ClearanceMachine:
         """Span stretches (..., n_spans) of DOF states (..., n_dof) at the cam's lift since the dwell."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         z_rel = np.broadcast_to(np.asarray(z_rel_m, dtype=float), q.shape[:1])
-        e = q @ self._incidence.T
+        b = self._incidence
+        e = np.asarray((b @ q.T).T) if self.reduced_damping else q @ b.T
         arr = self.arrays
         for i, (r, rm, g0, dof) in enumerate(arr.wheel_float):
             u = q[:, int(dof)] if dof >= 0 else 0.0
@@ -228,6 +239,34 @@ class ClearanceMachine:
         kinetic = 0.5 * float(np.sum(masses * (v + moves * zdot_m_s) ** 2))
         elastic = float(np.sum(span_energy_J(e, c.preload_N, c.stiffness_N_per_m, self.clearance_m)))
         return kinetic + elastic + 0.5 * float(np.sum(ground * q**2)) - float(f0 @ q)
+
+
+_NO_REDUCED = (
+    np.zeros(0, dtype=np.int64),
+    np.zeros((0, 6)),
+    np.zeros(5),
+    np.zeros((0, 3, 0)),
+    np.zeros((0, 2)),
+    np.zeros(0),
+    np.zeros((6, 0)),
+)
+
+
+def _reduced_arrays(machine: MachineOnWheels) -> tuple:
+    r = of_machine(machine)
+    return (r.dofs, r.tri, r.scalars, r.factors, r.sm, r.weights, np.zeros((6, r.dofs.size)))
+
+
+def _top_frequency_sparse(machine: MachineOnWheels) -> float:
+    """As _top_frequency from the sparse K (no N x N array on long chains)."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import eigsh
+
+    topo = machine.topology
+    r = sp.diags(1.0 / np.sqrt(np.asarray(topo.masses_kg, dtype=float)))
+    s = (r @ topo.stiffness_matrix_sparse() @ r).tocsc()
+    lam = eigsh(s, k=1, which="LA", return_eigenvectors=False, tol=1e-10)[0]
+    return float(np.sqrt(max(lam, 0.0)))
 
 
 def _damping_matrix(machine: MachineOnWheels) -> np.ndarray:

@@ -26,6 +26,7 @@ from functools import lru_cache
 import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError
+from dynamics.models.machine_damping import chain_damping_into
 from dynamics.solvers.clearance_verlet import (
     FASTMATH,
     PREDICTORS,
@@ -60,7 +61,7 @@ def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
 
 
 def _accel_into(
-    q, v, z_rel, zd, zdd, span_int, span_float, dof_float, wheel_float, par, cmat, work, t_el, ed, contact, a
+    q, v, z_rel, zd, zdd, span_int, span_float, dof_float, wheel_float, par, cmat, red, work, t_el, ed, contact, a
 ):
     """a = M^-1 (forces) - r z'' of one state; span forces t_el, their rates ed and contact flags;
     into work[6] the powers (cam, damping, friction) of the absolute-frame energy balance:
@@ -114,7 +115,16 @@ def _accel_into(
             dof = int(wheel_float[wi, 3])
             if dof >= 0:
                 f[dof] -= span_float[j, 1] * wsl[wi] * t
-    if not kv:  # C v, four rows at a time on the padded C (clearance_verlet._rows_times)
+    if not kv and red[0].shape[0] > 0:  # the O(N) form (dynamics.models.machine_damping) on the chain's DOFs
+        dofs, scratch = red[0], red[6]
+        wv, cw = scratch[4], scratch[5]
+        for i in range(dofs.shape[0]):
+            wv[i] = v[dofs[i]]
+        chain_damping_into(red[1], red[2], red[3], red[4], red[5], wv, cw, scratch)
+        for i in range(dofs.shape[0]):
+            f[dofs[i]] -= cw[i]
+            p_damp += wv[i] * cw[i]
+    elif not kv:  # C v, four rows at a time on the padded C (clearance_verlet._rows_times)
         vp, cv_out = work[4], work[5]
         for i in range(n):
             vp[i] = v[i]
@@ -213,6 +223,7 @@ def _run_loops(
     wheel_float,
     par,
     cmat,
+    red,
     bound,
     out_q,
     out_v,
@@ -266,6 +277,7 @@ def _run_loops(
         wheel_float,
         par,
         cmat,
+        red,
         work,
         t_el,
         ed,
@@ -308,6 +320,7 @@ def _run_loops(
             wheel_float,
             par,
             cmat,
+            red,
             work,
             t_el,
             ed,
@@ -370,6 +383,7 @@ def _run_loops(
                 wheel_float,
                 par,
                 cmat,
+                red,
                 work,
                 t_el,
                 ed,
@@ -485,6 +499,7 @@ def integrate(
             arr.wheel_float,
             arr.par,
             arr.cmat,
+            arr.reduced,
             1e6 * scale,
             *out,
             stats,

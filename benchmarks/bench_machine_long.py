@@ -1,0 +1,63 @@
+"""Long clearance chains on wheels (issue #24): memory and time of the machine's step with the O(N)
+global damping (dynamics.models.machine_damping) at N = 500 .. 4,000 links.
+
+    python benchmarks/bench_machine_long.py
+
+Each N: the default wheels (12 teeth, 6 wrapped, idler wheel, polygonal feed), a tensioned carriage,
+0.094 mm free play, friction 0.1, 180 rpm modified sine; building the model's arrays and 400 steps
+from a disturbed state. Memory: the peak of Python-tracked allocations (tracemalloc: numpy arrays)
+over both; time: wall seconds of the 400 steps (numba cache warm: one short run first).
+"""
+
+from __future__ import annotations
+
+import time
+import tracemalloc
+
+import numpy as np
+
+from dynamics.cams import CamProgram
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import Tensioner
+from dynamics.models.clearance_machine import ClearanceMachine
+from dynamics.models.layout import MachineLayout
+from dynamics.models.wheels import Wheel
+from dynamics.solvers import machine_verlet as mv
+
+PITCH_M = 0.1125
+STEPS = 400
+
+
+def one(n_links: int) -> tuple[float, float]:
+    """(peak MB, seconds for STEPS steps) of one machine."""
+    wheel = Wheel(12, PITCH_M, 6, 0.688)
+    chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=0.13, friction_coefficient=0.1)
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180)
+    tracemalloc.start()
+    model = ClearanceMachine.of(
+        chain, MachineLayout("wheels", wheel, wheel, None, True), Tensioner(1e5, 5.0, 100.0), 94e-6
+    )
+    h = mv.stable_step_s(model, 0.25, "euler")
+    zr, zd, zdd = mv.cycle_nodes(cam, h, STEPS)
+    n = model.arrays.dof_float.shape[0]
+    rng = np.random.default_rng(2)
+    q0, v0 = 1e-5 * rng.standard_normal(n), 1e-3 * rng.standard_normal(n)
+    start = time.perf_counter()
+    mv.integrate(model, zr, zd, zdd, h, q0, v0, out_every=STEPS)
+    seconds = time.perf_counter() - start
+    peak = tracemalloc.get_traced_memory()[1] / 1e6
+    tracemalloc.stop()
+    return peak, seconds
+
+
+def main() -> None:
+    one(500)  # warm the numba cache
+    print("| N | peak memory | 400 steps |")
+    print("|---|---|---|")
+    for n in (500, 1000, 2000, 4000):
+        peak, seconds = one(n)
+        print(f"| {n} | {peak:.1f} MB | {seconds:.2f} s |")
+
+
+if __name__ == "__main__":
+    main()
