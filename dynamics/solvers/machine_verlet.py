@@ -4,6 +4,9 @@ velocity predictors and stability limit) on any chain topology, the spans as a l
 arrays (behind, ahead, carriage, wheel), the forces back through the transposed incidence, the
 polygonal feed d(a) of each wheel as a time-dependent offset of its two wheel-end spans evaluated at
 every step, the global damping law as the plain product C q' (the machine has no mirror symmetry).
+The Kelvin-Voigt dashpot's force jump at a contact change is located within the step as the ring's
+(clearance_verlet._switch_impulse, `_dashpot_switch_into`: an impulse through the span's incidence,
+its work counted as damping), so the step stays second order through the switches.
 Compiled with numba when installed (the same functions run as Python otherwise, slowly).
 
 One index cycle at a time: the polygonal feed's angle is counted from the dwell at the cycle's start
