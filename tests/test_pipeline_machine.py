@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from threadpoolctl import threadpool_limits
 
 import pipeline
 from settings import LIMITS, RunConfig, check_run_config, registries
@@ -295,23 +296,26 @@ def _assert_same(ours, theirs, where="summary"):
         assert len(ours) == len(theirs), where
         for i, (a, b) in enumerate(zip(ours, theirs)):
             _assert_same(a, b, f"{where}[{i}]")
-    elif isinstance(theirs, float) and where.endswith(("steady_state.residual", "rel_error_estimate")):
-        # differences of nearly equal figures, so their rounding is the figures' over the difference:
-        # the steady-state search's last change per period (about 1e-9 here: its least-squares step
-        # differs in the state's last digits from run to run) and k's estimate from two levels' k
-        # (PARDISO's threaded sums: 1e-12 of 0.08 measured in the full suite)
+    elif isinstance(theirs, float) and where.endswith("steady_state.residual"):
+        # the steady-state search's last change per period (about 1e-9 here), a convergence
+        # diagnostic: a difference of nearly equal states, so its rounding is theirs over it
         assert ours == pytest.approx(theirs, rel=0.0, abs=1e-12), where
     elif isinstance(theirs, float):
-        assert ours == pytest.approx(theirs, rel=1e-12, abs=0.0), where
+        # 1e-10: the FEA's figures are not bitwise reproducible between processes (its levels are
+        # solved concurrently; measured 1e-14 in k, 3e-12 in the stress's relative change), and the
+        # chain's small figures carry that to about 1e-12; every deliberate change of the numbers
+        # seen so far moved them by 1e-7 or more
+        assert ours == pytest.approx(theirs, rel=1e-10, abs=0.0), where
     else:
         assert ours == theirs, where
 
 
 def test_drive_link_gives_todays_summary(tmp_path):
-    """Against tests/data/link_drive_summary.json, written with a fresh FEA cache by
+    """Against tests/data/link_drive_summary.json, written with a fresh FEA cache, on one thread
+    (threadpoolctl.threadpool_limits(1)), by
         python pipeline.py --mesh-size 10 --links 12 --samples-per-degree 2 --no-images -q
             --cams modified-sine,cycloidal --drive link --out OUT --cache-dir EMPTY
-    Every key and value equal (numbers to 1e-12) except the wall times and the keys of the machine
+    Every key and value equal (numbers to 1e-10, see _assert_same) except the wall times and the keys of the machine
     (the drive, which parts ran). First written by main at d46096f, before the wheels were wired in;
     rewritten when the stress study moved to the mirror half and the stiffness level's peak stopped
     counting folded cells: against d46096f every chain figure was then still equal to 1e-12, only
@@ -320,7 +324,10 @@ def test_drive_link_gives_todays_summary(tmp_path):
     out = tmp_path / "out"
     args = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "--no-images", "-q"]
     args += ["--cams", "modified-sine,cycloidal", "--drive", "link"]
-    assert pipeline.main([*args, "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
+    # one thread: MKL PARDISO's threaded sums change k's last bits with the machine's load, and the
+    # chain's small figures (a 12-link chain's residual of 6 um) carry that to 1e-12
+    with threadpool_limits(limits=1):
+        assert pipeline.main([*args, "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
     ours = json.loads((out / "summary.json").read_text())
     theirs = json.loads((DATA / "link_drive_summary.json").read_text())
     assert ours["inputs"]["drive"] == ours["machine"]["drive"] == "link"
