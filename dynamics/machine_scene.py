@@ -33,6 +33,7 @@ from dynamics.scene import (
     ContactSummary,
     ImpactStatistics,
     SteadyState,
+    _select,
     choose_model,
 )
 from dynamics.solvers import clearance_verlet as verlet
@@ -331,7 +332,7 @@ def simulate_machine_to_accuracy(
             break
         coarse = fine
     summary = replace(summary, step_error_estimate=estimate)
-    return (response if links is None else _select_places(response, links)), summary
+    return (response if links is None else _select(response, links)), summary
 
 
 def _station_values(model: ClearanceMachine, cam, t_eval_s, response: ChainResponse) -> np.ndarray:
@@ -347,16 +348,3 @@ def _station_values(model: ClearanceMachine, cam, t_eval_s, response: ChainRespo
         response.x_m[:, cols], response.v_m_s[:, cols], response.a_m_s2[:, cols], s, v, a, mask if mask.any() else ~mask
     )
     return np.concatenate([np.ravel(getattr(lm, f.name)) for f in fields(lm)])
-
-
-def _select_places(response: ChainResponse, links) -> ChainResponse:
-    from dataclasses import replace
-
-    cols = [int(i) for i in np.atleast_1d(links)]
-    return replace(
-        response,
-        x_m=response.x_m[:, cols],
-        v_m_s=response.v_m_s[:, cols],
-        a_m_s2=response.a_m_s2[:, cols],
-        links=tuple(cols),
-    )
