@@ -87,12 +87,13 @@ def chain_scene(cfg: RunConfig, pitch_m: float) -> Scene:
 
 def natural_frequencies_Hz(scene: Scene, model: ChainModel, count: int = REPORTED_MODES) -> np.ndarray:
     """The lowest `count` natural frequencies of the chain as the scene carries it (the link drive's
-    chain, or the machine on its wheels)."""
+    chain, or the machine on its wheels), with the idler tensioner's carriage where there is one."""
     from dynamics.models.reduction import lowest_natural_frequencies_Hz
     from stages.machine import scene_machine
 
-    if not scene.layout.on_wheels:
+    if not scene.layout.on_wheels and scene.tensioner is None:
         return lowest_natural_frequencies_Hz(model, count)
+    # the carriage is a DOF of the chain's topology; the link drive's machine carries it too
     return scene_machine(scene, model).natural_frequencies_Hz()[:count]
 
 

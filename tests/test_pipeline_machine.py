@@ -135,7 +135,7 @@ def _machine_scene(n_links: int, **settings):
     from stages.chain import chain_scene
 
     chain = ChainModel(n_links, 2.03, 9.3e7, damping_ratio=0.13, preload_N=2224.0, friction_coefficient=0.35)
-    return chain_scene(RunConfig(drive="wheels", links=n_links, **settings), PITCH_M), chain
+    return chain_scene(RunConfig(**{"drive": "wheels", "links": n_links, **settings}), PITCH_M), chain
 
 
 def test_the_stations_are_places_on_the_machine():
@@ -153,6 +153,22 @@ def test_the_stations_are_places_on_the_machine():
     link = machine_parts(replace(scene, layout=LINK_DRIVE), chain)
     assert (link.drive, link.wheels) == ("link", {})
     assert link.stations == {"drive-end": 1, "tight-side": 18, "idler-end": 12, "slack-side": 6}  # today's
+
+
+def test_the_link_drives_first_frequency_carries_the_tensioners_carriage():
+    from scipy.linalg import eigh
+
+    from dynamics.models.clearance import ClearanceChain
+    from stages.chain import natural_frequencies_Hz
+
+    scene, chain = _machine_scene(24, drive="link", tensioner_rate_N_per_m=2e5, tensioner_mass_kg=4.0)
+    # the ring model's own linearisation (dynamics.models.clearance) is the reference: another module
+    # than the topology's machine that natural_frequencies_Hz uses
+    k, m = ClearanceChain(chain, 0.0, tensioner=scene.tensioner).full_contact_stiffness()
+    reference_Hz = np.sqrt(eigh(k, m, eigvals_only=True)[:3]) / (2 * np.pi)
+    assert natural_frequencies_Hz(scene, chain, 3) == pytest.approx(reference_Hz, rel=1e-9)
+    # a soft carriage adds a mode below the carriage-free chain's first
+    assert reference_Hz[0] < natural_frequencies_Hz(replace(scene, tensioner=None), chain, 1)[0]
 
 
 @pytest.fixture(scope="module")
