@@ -19,7 +19,7 @@ import numpy as np
 
 from dynamics.response.metrics import rank_cams, rms, station_links
 from dynamics.scene import ChainModelKind
-from reporting import html, plots
+from reporting import html, plots, replica_sections
 from reporting.drawing import FigureJob, draw_figures
 from reporting.history import CamHistory
 from reporting.sections import Report, build_sections
@@ -778,29 +778,6 @@ def write_replica_outputs(cfg, runs: dict[str, ReplicaRun], timing: dict, progre
         _close_timing(timing, progress)
         summary = replica_summary(cfg, runs, timing)
         staged.write_text("summary.json", json.dumps(summary, indent=1))
-        sections = [
-            html.Section(
-                "Run",
-                html.paragraph(
-                    f"Preset mqp2012: the 2012 report's MATLAB model, quirks included (mm units inside, K(1,1) = 3k, "
-                    f"damping vector from sorted eigenfrequencies, preload acting as 2.224 N, friction ~500x too small). "
-                    f"N = {cfg.links}, {cfg.rpm:g} rpm, friction {cfg.friction:g}, from rest, 181 one-degree samples. "
-                    "Table 1's link is round(3N/4); Table 2's is floor(3N/4), as the report printed them."
-                ),
-            )
-        ]
-        sections.append(html.Section("Against the report", html.table_html(comparison)))
-        sections.append(
-            html.Section(
-                "Tables 1 and 2",
-                html.table_html(tables["rms_table"]) + html.table_html(tables["max_acceleration_table"]),
-            )
-        )
-        for m, f in figures.items():
-            sections.append(
-                html.Section(
-                    f"Time histories: {m}", "".join(html.image_html(p, f"{m}: {label}") for label, p in f.items())
-                )
-            )
-        staged.write_text("report.html", html.render_page("link-conveyor: mqp2012 replica", sections))
+        page = replica_sections.PAGE.build(replica_sections.ReplicaReport(cfg, comparison, report_tables, figures))
+        staged.write_text("report.html", html.render_page("link-conveyor: mqp2012 replica", page))
     _announce(cfg, staged, timing, progress, comparison)

@@ -18,7 +18,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from dynamics.scene import ChainModelKind, Validity
 from reporting import html
@@ -51,28 +51,45 @@ SectionBuilder = Callable[[Report], list[html.Section]]
 @dataclass(frozen=True)
 class SectionEntry:
     name: str
-    build: SectionBuilder
+    build: Callable[[Any], list[html.Section]]
 
 
-_BUILDERS: list[SectionEntry] = []
+class SectionRegistry:
+    """The ordered section builders of one kind of page (the run's report, the mqp2012 replica's)."""
+
+    def __init__(self) -> None:
+        self.entries: list[SectionEntry] = []
+
+    def register(self, name: str, build: Callable[[Any], list[html.Section]], *, before: str | None = None) -> None:
+        """Add a builder at the end of the page, or before the builder called `before`."""
+        names = self.names()
+        if name in names:
+            raise ValueError(f"section {name!r} is already registered; expected a new name")
+        if before is not None and before not in names:
+            raise ValueError(f"before: no section {before!r}; expected one of {', '.join(names)}")
+        self.entries.insert(len(self.entries) if before is None else names.index(before), SectionEntry(name, build))
+
+    def names(self) -> tuple[str, ...]:
+        return tuple(entry.name for entry in self.entries)
+
+    def build(self, report) -> list[html.Section]:
+        return [section for entry in self.entries for section in entry.build(report)]
+
+
+PAGE = SectionRegistry()  # report.html of a run; the replica's page is reporting.replica_sections.PAGE
 
 
 def register_section(name: str, build: SectionBuilder, *, before: str | None = None) -> None:
-    """Add a builder at the end of the page, or before the builder called `before`."""
-    names = [entry.name for entry in _BUILDERS]
-    if name in names:
-        raise ValueError(f"section {name!r} is already registered; expected a new name")
-    if before is not None and before not in names:
-        raise ValueError(f"before: no section {before!r}; expected one of {', '.join(names)}")
-    _BUILDERS.insert(len(_BUILDERS) if before is None else names.index(before), SectionEntry(name, build))
+    """Add a builder to the run's report, at the end or before the builder called `before`."""
+    PAGE.register(name, build, before=before)
 
 
 def section_names() -> tuple[str, ...]:
-    return tuple(entry.name for entry in _BUILDERS)
+    return PAGE.names()
 
 
 def build_sections(report: Report) -> list[html.Section]:
-    return [section for entry in _BUILDERS for section in entry.build(report)]
+    return PAGE.build(report)
 
 
 def _model_paragraphs(results: RunResults) -> str:

@@ -32,7 +32,7 @@ COARSE = [
 @pytest.fixture
 def registry(monkeypatch):
     """The section list, restored after the test."""
-    monkeypatch.setattr(sections, "_BUILDERS", list(sections._BUILDERS))
+    monkeypatch.setattr(sections.PAGE, "entries", list(sections.PAGE.entries))
 
 
 def _cam_count(report: sections.Report) -> list[html.Section]:
@@ -71,3 +71,23 @@ def test_the_model_paragraph_is_a_warning_by_the_validity_field(validity, warned
     # the same words either way: the style follows the data
     text = sections._model_paragraphs(_results(validity, "a reason that says nothing of validity"))
     assert text.startswith('<p class="warn">') == warned and "Model: linear chain" in text
+
+
+def _replica_note(report) -> list[html.Section]:
+    return [html.Section("Replica note", html.paragraph(f"{report.cfg.links} links, as the 2012 script"))]
+
+
+def test_the_replica_page_is_built_from_its_own_registered_sections(monkeypatch, tmp_path):
+    from reporting import replica_sections
+
+    assert replica_sections.PAGE.names() == ("run", "against the report", "tables 1 and 2", "time histories")
+    monkeypatch.setattr(replica_sections.PAGE, "entries", list(replica_sections.PAGE.entries))
+    replica_sections.PAGE.register("replica note", _replica_note, before="time histories")
+    out = tmp_path / "replica"
+    args = ["--preset", "mqp2012", "--links", "24", "--cams", "modified-sine", "-q", "--out", str(out)]
+    assert pipeline.main(args) == 0
+    page = (out / "report.html").read_text()
+    titles = ["Run", "Against the report", "Tables 1 and 2", "Replica note", "Time histories: al6061-t6"]
+    positions = [page.index(f">{title}</h2>") for title in titles]
+    assert positions == sorted(positions)
+    assert "<p>24 links, as the 2012 script</p>" in page
