@@ -82,8 +82,9 @@ def existing_out(tmp_path) -> Path:
         (["--drive", "wheels", "--idler-teeth", "5", "--idler-wrap-links", "7"], "--idler-wrap-links"),
         (["--drive", "wheels", "--idler-teeth", "5"], "--idler-wrap-links"),  # the sprocket's 6 on 5 teeth
         (["--preset", "mqp2012", "--drive", "wheels"], "--drive"),
-        (["--drive", "wheels", "--tooth-phase", "0.25"], "--tooth-phase"),
         (["--tooth-phase", "1"], "--tooth-phase"),
+        (["--tooth-phase", "-0.25"], "--tooth-phase"),
+        (["--tooth-phase", "nan"], "--tooth-phase"),
         (["--drive", "wheels", "--links", "13"], "--links"),
         (["--drive", "wheels", "--rpm-sweep", "120:200:20"], "--rpm-sweep"),
         (["--drive-stiffness", "0"], "--drive-stiffness"),
