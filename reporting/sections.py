@@ -163,8 +163,6 @@ def machine_line(summary: dict) -> str:
 
 def _tooth_phase_words(run: dict) -> str:
     phase = run.get("tooth_phase", 0.0)
-    if not run["polygonal_action"]:
-        return f" (tooth phase {phase:g} unused: no teeth modelled, the seats change at the dwell)"
     if phase == 0.0:
         return ", tooth phase 0 (the seats change at the dwell)"
     return (

@@ -35,7 +35,11 @@ Parts:
   (`seat_change_lift_m`; both wheels at once, one phase for both): the solvers stop there, apply
   the transfer (dynamics.solvers.machine_steady.transfer, with the cam's speed at that instant)
   and go on with the angles counted one tooth back, which is the next index's frame. Without the
-  polygonal action no teeth are modelled and the seats change at the dwell whatever the phase.
+  polygonal action the feed is the mean one but the seats still change at that instant (the limit
+  z -> infinity of the polygonal model at the same phase). Rigid seating puts the arriving link at
+  its seat: inside the index, under the strands' inertial tension, that moves it by its span's
+  stretch and changes the spans' elastic energy by about k e1 e2 (the transfer's energy change),
+  which at the dwell is small (the residual vibration's stretches) and inside the index is not.
 
 Damping: modal ratio zeta on every mode of the machine's (K, M) with the carriage held (or
 Rayleigh alpha M + beta K on those DOFs), the carriage's dashpot c_t on its own, as the clearance
@@ -133,9 +137,10 @@ class MachineOnWheels:
     @property
     def seat_change_lift_m(self) -> float | None:
         """The cam's lift since the dwell at which the seats change inside the index, (1 - phase) p
-        (dynamics.models.wheels); None where they change at the dwell: tooth phase 0, no polygonal
-        action (no teeth modelled, the phase has no meaning) or the link drive."""
-        if self.drive != "wheels" or not self.polygonal or self.sprocket.tooth_phase == 0.0:
+        (dynamics.models.wheels); None where they change at the dwell: tooth phase 0 or the link
+        drive. Without the polygonal action the seats still change one at a time at that instant
+        (the feed is the mean one, the seating is not)."""
+        if self.drive != "wheels" or self.sprocket.tooth_phase == 0.0:
             return None
         return self.sprocket.seat_change_angle_rad * self.sprocket.feed_radius_m
 

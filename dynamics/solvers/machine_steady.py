@@ -51,7 +51,7 @@ from dynamics.models.machine import MachineOnWheels
 from dynamics.models.system import SampledForce
 from dynamics.solvers import solve
 from dynamics.solvers.exact import propagate
-from dynamics.solvers.machine_ivp import integrate_cycle, seat_change_time_s
+from dynamics.solvers.machine_ivp import MachineResponse, integrate_cycle, seat_change_time_s
 from dynamics.solvers.steady_state import monodromy
 
 
@@ -246,6 +246,8 @@ def _run(machine, x0, t, s, a, zdot):
             machine, lambda x: np.interp(x, t, a), lambda x: np.interp(x, t, s), t, x0[:n], x0[n:], zdot=zdot
         )
         return r.q_m, r.v_m_s, r
+    if machine.seat_change_lift_m is not None:
+        return _run_linear_split(machine, x0, t, s, a, zdot)
     resp = solve(
         machine.system(),
         SampledForce(t, -np.outer(a, machine.inertial_load())),
@@ -255,6 +257,32 @@ def _run(machine, x0, t, s, a, zdot):
         v0=x0[n:],
     )
     return resp.x, resp.v, None
+
+
+def _run_linear_split(machine, x0, t, s, a, zdot):
+    """The polygon-free model with its seat change inside the cycle: the exact solver to the instant
+    (the cam's acceleration held linearly between the samples as on the whole grid), the transfer
+    there, the exact solver on."""
+    n = x0.size // 2
+    t_seat = seat_change_time_s(lambda x: np.interp(x, t, s), t[0], t[-1], s[0], machine.seat_change_lift_m)
+    a_seat = np.interp(t_seat, t, a)
+    load = machine.inertial_load()
+    t1, a1 = np.append(t[t < t_seat], t_seat), np.append(a[t < t_seat], a_seat)
+    t2, a2 = np.insert(t[t > t_seat], 0, t_seat), np.insert(a[t > t_seat], 0, a_seat)
+    first = solve(machine.system(), SampledForce(t1, -np.outer(a1, load)), t1, method="exact", x0=x0[:n], v0=x0[n:])
+    radii = np.array([e.wheel.feed_radius_m for e in machine.wheel_ends])
+    angles = (np.interp(t_seat, t, s) - s[0]) / radii
+    zd = float(zdot(t_seat))
+    q1, v1, speeds, impacts = transfer(machine, first.x[-1], first.v[-1], angles_rad=angles, zdot_m_s=zd)
+    tooth = np.array([e.wheel.tooth_angle_rad for e in machine.wheel_ends])
+    change = machine.stored_energy_J(q1, v1, zd, angles - tooth) - machine.stored_energy_J(
+        first.x[-1], first.v[-1], zd, angles
+    )
+    second = solve(machine.system(), SampledForce(t2, -np.outer(a2, load)), t2, method="exact", x0=q1, v0=v1)
+    after = 0 if np.any(t == t_seat) else 1  # a sample at the instant itself is the state after it
+    q = np.concatenate([first.x[:-1], second.x[after:]])
+    v = np.concatenate([first.v[:-1], second.v[after:]])
+    return q, v, MachineResponse(t, q, v, 0, t_seat, (speeds, impacts, float(change)))
 
 
 def _end_state(machine, x0, t, s, a, relabel, zdot=None):
