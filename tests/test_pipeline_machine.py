@@ -386,3 +386,19 @@ def test_a_figure_the_machine_does_not_measure_is_null_in_summary_json():
     )  # fmt: skip
     summary = json.loads(json.dumps(_contact_summary(contact), allow_nan=False))
     assert summary["impact_dissipated_per_cycle_J"] is None and summary["impact_energy_per_cycle_J"] == 0.2
+
+
+@pytest.mark.slow  # 15 s: a whole pipeline run
+def test_a_run_with_a_tooth_phase_says_so(tmp_path):
+    """--tooth-phase 0.5: the seats change at mid-index; summary.json's machine and the report say the
+    phase, the seating figures are there."""
+    out = tmp_path / "out"
+    args = ["--mesh-size", "10", "--links", "16", "--samples-per-degree", "2", "--no-images", "-q"]
+    args += ["--materials", "al6061-t6", "--cams", "modified-sine", "--tooth-phase", "0.5"]
+    assert pipeline.main([*args, "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["machine"]["tooth_phase"] == 0.5 and s["machine"]["steady_state_frame"] == "relabelled"
+    seating = s["materials"]["al6061-t6"]["cams"]["modified-sine"]["machine"]["seating"]
+    assert all(seat["speed_m_s"] > 0.0 and seat["impact_energy_J"] > 0.0 for seat in seating.values())
+    report = (out / "report.html").read_text()
+    assert "tooth phase 0.5 (the seats change inside the index, when the cam has lifted 0.5 of a pitch)" in report
