@@ -566,12 +566,12 @@ def cycle_nodes(cam, step_s: float, n_steps: int):
     return s - s[0], np.asarray(v, dtype=float), np.asarray(a, dtype=float)
 
 
-def seat_change(model, q, v, z_rel_m: float):
+def seat_change(model, q, v, z_rel_end_m: float):
     """(q, v) after the transfer at the dwell, and its Seating."""
     from dynamics.solvers.machine_steady import transfer
 
     q_new, v_new, speeds, impacts = transfer(model.machine, q, v)
-    change = model.stored_energy_J(q_new, v_new, 0.0, 0.0) - model.stored_energy_J(q, v, 0.0, z_rel_m)
+    change = model.stored_energy_J(q_new, v_new, 0.0, 0.0) - model.stored_energy_J(q, v, 0.0, z_rel_end_m)
     return q_new, v_new, Seating(speeds, impacts, float(change))
 
 
@@ -591,14 +591,15 @@ def seat_change_inside(model, q, v, z_rel_m: float, zdot_m_s: float):
 
 def index_cycle(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str):
     """One index cycle from its start over the cam's `nodes` (cycle_nodes), outputs every `out_every`
-    steps: (MachineRun, Seating of a seat change inside it or None). At tooth phase 0 (and without
-    the polygonal action) this is `integrate` and the seats change after it (`seat_change`). Else
+    steps: (MachineRun, Seating of a seat change inside it or None). At tooth phase 0 this is
+    `integrate` and the seats change after it (`seat_change`). Else
     the cycle is stepped in pieces: to the last output node before the seat change's instant (the
     cam's lift since the dwell at MachineOnWheels.seat_change_lift_m, located by brentq on the cam's
     law), a uniform sub-step (<= step_s) to the instant, the transfer there, a uniform sub-step to
     the next output node, then the remaining nodes with the lift counted one pitch on (the next
     index's frame, so nothing is left to do at the cycle's end); outputs at or after the instant
-    are in the new labels. The statistics are merged over the pieces."""
+    are in the new labels. The statistics are merged over the pieces (the free-play fraction
+    weighted by their durations)."""
     from dynamics.solvers.machine_ivp import seat_change_time_s
 
     zr, zd, zdd = nodes
@@ -619,7 +620,7 @@ def index_cycle(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, pre
     before = (int(math.ceil(t_seat / h_out - 1e-9)) - 1) * out_every  # last output node before the instant
     nxt = before + out_every
     on_node = abs(nxt * step_s - t_seat) <= 1e-9 * step_s
-    pieces, rows = [], []
+    pieces, rows, durations = [], [], []
     if before > 0:
         head = integrate(
             model,
@@ -633,10 +634,12 @@ def index_cycle(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, pre
             predictor=predictor,
         )
         pieces.append(head)
+        durations.append(before * step_s)
         rows.append(head)
         q0, v0 = head.q[-1], head.v[-1]
     to_seat = _sub_steps(model, cam, before * step_s, t_seat, step_s, s0, q0, v0, predictor)
     pieces.append(to_seat)
+    durations.append(t_seat - before * step_s)
     if before == 0:
         rows.append(_first_row(to_seat))
     q1, v1, seating = seat_change_inside(
@@ -645,6 +648,7 @@ def index_cycle(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, pre
     if not on_node:
         to_node = _sub_steps(model, cam, t_seat, nxt * step_s, step_s, s0 + pitch, q1, v1, predictor)
         pieces.append(to_node)
+        durations.append(nxt * step_s - t_seat)
         rows.append(_last_row(to_node))
         q1, v1 = to_node.q[-1], to_node.v[-1]
     if nxt < n_steps:
@@ -652,8 +656,9 @@ def index_cycle(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, pre
             model, zr[nxt:] - pitch, zd[nxt:], zdd[nxt:], step_s, q1, v1, out_every=out_every, predictor=predictor
         )
         pieces.append(tail)
+        durations.append((n_steps - nxt) * step_s)
         rows.append(tail if on_node else _rows_from(tail, 1))
-    return _merged(pieces, rows, step_s), seating
+    return _merged(pieces, rows, durations, step_s), seating
 
 
 def _sub_steps(model, cam, t0: float, t1: float, step_s: float, s_ref: float, q0, v0, predictor):
@@ -697,10 +702,10 @@ def _last_row(run) -> _Rows:
     return _rows_from(run, -1)
 
 
-def _merged(pieces, rows, step_s: float) -> MachineRun:
+def _merged(pieces, rows, durations, step_s: float) -> MachineRun:
     """One MachineRun of consecutive pieces: the output rows given, the statistics over all pieces
-    (the free-play fraction weighted by each piece's steps)."""
-    steps = np.array([max(p.q.shape[0] - 1, 1) for p in pieces], dtype=float)
+    (the free-play fraction weighted by the pieces' durations)."""
+    steps = np.asarray(durations, dtype=float)
     return MachineRun(
         *(np.concatenate([getattr(r, name) for r in rows]) for name in ("q", "v", "a", "tension_N")),
         impacts=sum(p.impacts for p in pieces),
