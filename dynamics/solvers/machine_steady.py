@@ -67,7 +67,8 @@ class CycleResponse:
     v_m_s: np.ndarray
     a_m_s2: np.ndarray  # relative acceleration y''
     zddot_m_s2: np.ndarray
-    seating_speed_m_s: tuple[float, ...]  # per wheel: |y'_in - c u'| of the link that seats
+    # per wheel: |(y'_in + z') - c (u' + z')| of the link that seats (z' = 0 at the dwell)
+    seating_speed_m_s: tuple[float, ...]
     seating_impact_J: tuple[float, ...]  # per wheel: kinetic energy lost in the plastic seating impact
     transfer_energy_change_J: float  # stored energy after the transfer minus before (all wheels)
 

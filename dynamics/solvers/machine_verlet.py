@@ -549,9 +549,10 @@ def substeps_for(model, output_step_s: float, safety: float, predictor: str) -> 
 
 @dataclass(frozen=True)
 class Seating:
-    """The seat changes at the end of an index cycle (dynamics.solvers.machine_steady.transfer): per
-    wheel the seating speed |y'_in - c u'| and the kinetic energy its plastic impact takes, and the
-    transfer's whole change of stored energy (the clearance law's span energy), SI."""
+    """The seat changes of an index cycle, at its end or inside it at a tooth phase other than 0
+    (dynamics.solvers.machine_steady.transfer): per wheel the seating speed |(y'_in + z') - c (u' + z')|
+    (z' = 0 at the dwell) and the kinetic energy its plastic impact takes, and the transfer's whole
+    change of stored energy (the clearance law's span energy), SI."""
 
     speed_m_s: tuple[float, ...]
     impact_energy_J: tuple[float, ...]
