@@ -100,8 +100,8 @@ def machine_parts(scene: Scene, model: ChainModel) -> MachineParts:
 
 class SeatChanges(Protocol):
     """What the dynamics report of the seat changes of an index (at its end; inside it at a tooth phase
-    other than 0), per wheel in `wheel_ends`
-    order (dynamics.solvers.machine_verlet.Seating, in `ContactSummary.seating`)."""
+    other than 0), per wheel in `wheel_ends` order (dynamics.solvers.machine_verlet.Seating, in
+    `ContactSummary.seating`)."""
 
     speed_m_s: tuple[float, ...]
     impact_energy_J: tuple[float, ...]
