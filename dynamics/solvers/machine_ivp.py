@@ -80,18 +80,12 @@ def integrate_cycle(
     t_seat = seat_change_time_s(z, float(t[0]), float(t[-1]), z_dwell, machine.seat_change_lift_m)
     if t_seat is None:
         return _integrate(machine, zddot, z, t, q0, v0, z_dwell, rtol, scale_m, scale_m_s)
-    from dynamics.solvers.machine_steady import transfer
-
     if zdot is None:
         raise SolverFailedError("integrate_cycle: the seats change inside the cycle; expected the cam's speed zdot")
     first = _integrate(machine, zddot, z, np.append(t[t < t_seat], t_seat), q0, v0, z_dwell, rtol, scale_m, scale_m_s)
-    radii = np.array([ends.wheel.feed_radius_m for ends in machine.wheel_ends])
-    tooth = np.array([ends.wheel.tooth_angle_rad for ends in machine.wheel_ends])
-    angles = (float(z(t_seat)) - z_dwell) / radii
-    zd = float(zdot(t_seat))
-    q_end, v_end = first.q_m[-1], first.v_m_s[-1]
-    q1, v1, speeds, impacts = transfer(machine, q_end, v_end, angles_rad=angles, zdot_m_s=zd)
-    change = machine.stored_energy_J(q1, v1, zd, angles - tooth) - machine.stored_energy_J(q_end, v_end, zd, angles)
+    q1, v1, seating = seat_change_inside(
+        machine, first.q_m[-1], first.v_m_s[-1], float(z(t_seat)) - z_dwell, float(zdot(t_seat))
+    )
     # after the seat change the dwell's lift counts one pitch on: the next pin's angle is one tooth
     # back, the next index's frame
     z_next = z_dwell + machine.sprocket.pitch_m
@@ -105,8 +99,22 @@ def integrate_cycle(
         np.concatenate([first.v_m_s[:-1], second.v_m_s[after:]]),
         first.n_rhs + second.n_rhs,
         t_seat,
-        (speeds, impacts, float(change)),
+        seating,
     )
+
+
+def seat_change_inside(machine: MachineOnWheels, q, v, z_rel_m: float, zdot_m_s: float):
+    """(q, v) after the transfer inside the index at the cam's lift since the dwell `z_rel_m` and speed
+    `zdot_m_s`, and its (per-wheel seating speeds, per-wheel impact energies, change of stored energy:
+    after, with the angles one tooth back, minus before)."""
+    from dynamics.solvers.machine_steady import transfer
+
+    radii = np.array([ends.wheel.feed_radius_m for ends in machine.wheel_ends])
+    tooth = np.array([ends.wheel.tooth_angle_rad for ends in machine.wheel_ends])
+    angles = z_rel_m / radii
+    q1, v1, speeds, impacts = transfer(machine, q, v, angles_rad=angles, zdot_m_s=zdot_m_s)
+    change = machine.stored_energy_J(q1, v1, zdot_m_s, angles - tooth) - machine.stored_energy_J(q, v, zdot_m_s, angles)
+    return q1, v1, (speeds, impacts, float(change))
 
 
 def _integrate(machine, zddot, z, t, q0, v0, z_dwell, rtol, scale_m, scale_m_s) -> MachineResponse:

@@ -30,10 +30,11 @@ For the linear (polygon-free) model P(x) = Phi x + r and T(x) = A x are linear, 
 polygonal feed P is dynamics.solvers.machine_ivp's integrator and the transfer is nonlinear only through
 d(a_end); x0 comes from Newton shooting with the linear model's A Phi as the Jacobian.
 
-Tooth phase phi != 0 (with the polygonal action, dynamics.models.machine): the transfer happens inside
-the cycle, when the cam has lifted (1 - phi) p, with the cam's speed z' there; the steady state is
-x0 = P_2(T(P_1(x0))) (P_1, P_2 the motion before and after it), the same relabelling by one link per
-index, found by the same Newton shooting with the linear model's Phi_2 A Phi_1 as the Jacobian.
+Tooth phase phi != 0 (dynamics.models.machine): the transfer happens inside the cycle, when the cam has
+lifted (1 - phi) p, with the cam's speed z' there; the steady state is x0 = P_2(T(P_1(x0))) (P_1, P_2
+the motion before and after it), the same relabelling by one link per index: for the polygon-free
+model one linear solve with Phi_2 A Phi_1 (T is still linear: with c = 1 the cam's speed cancels),
+with the polygonal feed the same Newton shooting with that as the Jacobian.
 
 `labelled_periodic_state` is the other steady state: the same links stay seated every cycle
 (x0 = P(x0)), the frame the issue's first figures were computed in; it is kept to compare with them.
@@ -51,7 +52,7 @@ from dynamics.models.machine import MachineOnWheels
 from dynamics.models.system import SampledForce
 from dynamics.solvers import solve
 from dynamics.solvers.exact import propagate
-from dynamics.solvers.machine_ivp import MachineResponse, integrate_cycle, seat_change_time_s
+from dynamics.solvers.machine_ivp import MachineResponse, integrate_cycle, seat_change_inside, seat_change_time_s
 from dynamics.solvers.steady_state import monodromy
 
 
@@ -224,14 +225,23 @@ def _linear_cycle_map(machine: MachineOnWheels, t, s, a, relabel: bool):
         phi = monodromy(system, t)
         r = propagate(system, t, -np.outer(a, load), np.zeros(2 * n))[-1]
         return (transfer_matrix(machine) @ phi, transfer_matrix(machine) @ r) if relabel else (phi, r)
-    a_seat = np.interp(t_seat, t, a)
-    t1, a1 = np.append(t[t < t_seat], t_seat), np.append(a[t < t_seat], a_seat)
-    t2, a2 = np.insert(t[t > t_seat], 0, t_seat), np.insert(a[t > t_seat], 0, a_seat)
+    (t1, a1), (t2, a2) = _split(t, a, t_seat)
     phi1, phi2 = monodromy(system, t1), monodromy(system, t2)
     r1 = propagate(system, t1, -np.outer(a1, load), np.zeros(2 * n))[-1]
     r2 = propagate(system, t2, -np.outer(a2, load), np.zeros(2 * n))[-1]
     shift = transfer_matrix(machine)
     return phi2 @ shift @ phi1, phi2 @ (shift @ r1) + r2
+
+
+def _split(t, a, t_seat):
+    """The sample grid and the cam's acceleration split at t_seat, both pieces with it as a node (the
+    acceleration held linearly between the samples as on the whole grid)."""
+    a_seat = np.interp(t_seat, t, a)
+    before, after = t < t_seat, t > t_seat
+    return (np.append(t[before], t_seat), np.append(a[before], a_seat)), (
+        np.insert(t[after], 0, t_seat),
+        np.insert(a[after], 0, a_seat),
+    )
 
 
 def labelled_periodic_state(machine: MachineOnWheels, cam, samples_per_cycle: int = 360) -> CycleResponse:
@@ -266,24 +276,16 @@ def _run_linear_split(machine, x0, t, s, a, zdot):
     there, the exact solver on."""
     n = x0.size // 2
     t_seat = seat_change_time_s(lambda x: np.interp(x, t, s), t[0], t[-1], s[0], machine.seat_change_lift_m)
-    a_seat = np.interp(t_seat, t, a)
-    load = machine.inertial_load()
-    t1, a1 = np.append(t[t < t_seat], t_seat), np.append(a[t < t_seat], a_seat)
-    t2, a2 = np.insert(t[t > t_seat], 0, t_seat), np.insert(a[t > t_seat], 0, a_seat)
-    first = solve(machine.system(), SampledForce(t1, -np.outer(a1, load)), t1, method="exact", x0=x0[:n], v0=x0[n:])
-    radii = np.array([e.wheel.feed_radius_m for e in machine.wheel_ends])
-    angles = (np.interp(t_seat, t, s) - s[0]) / radii
-    zd = float(zdot(t_seat))
-    q1, v1, speeds, impacts = transfer(machine, first.x[-1], first.v[-1], angles_rad=angles, zdot_m_s=zd)
-    tooth = np.array([e.wheel.tooth_angle_rad for e in machine.wheel_ends])
-    change = machine.stored_energy_J(q1, v1, zd, angles - tooth) - machine.stored_energy_J(
-        first.x[-1], first.v[-1], zd, angles
-    )
-    second = solve(machine.system(), SampledForce(t2, -np.outer(a2, load)), t2, method="exact", x0=q1, v0=v1)
+    load, system = machine.inertial_load(), machine.system()
+    (t1, a1), (t2, a2) = _split(t, a, t_seat)
+    first = solve(system, SampledForce(t1, -np.outer(a1, load)), t1, method="exact", x0=x0[:n], v0=x0[n:])
+    z_rel = float(np.interp(t_seat, t, s) - s[0])
+    q1, v1, seating = seat_change_inside(machine, first.x[-1], first.v[-1], z_rel, float(zdot(t_seat)))
+    second = solve(system, SampledForce(t2, -np.outer(a2, load)), t2, method="exact", x0=q1, v0=v1)
     after = 0 if np.any(t == t_seat) else 1  # a sample at the instant itself is the state after it
     q = np.concatenate([first.x[:-1], second.x[after:]])
     v = np.concatenate([first.v[:-1], second.v[after:]])
-    return q, v, MachineResponse(t, q, v, 0, t_seat, (speeds, impacts, float(change)))
+    return q, v, MachineResponse(t, q, v, 0, t_seat, seating)
 
 
 def _end_state(machine, x0, t, s, a, relabel, zdot=None):
