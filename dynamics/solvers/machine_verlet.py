@@ -590,7 +590,9 @@ def seat_change_inside(model, q, v, z_rel_m: float, zdot_m_s: float):
     return q_new, v_new, Seating(speeds, impacts, float(change))
 
 
-def index_cycle(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str):
+def index_cycle(
+    model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str, track_energy: bool = False
+):
     """One index cycle from its start over the cam's `nodes` (cycle_nodes), outputs every `out_every`
     steps: (MachineRun, Seating of a seat change inside it or None). At tooth phase 0 this is
     `integrate` and the seats change after it (`seat_change`). Else
@@ -606,7 +608,10 @@ def index_cycle(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, pre
     zr, zd, zdd = nodes
     lift = model.machine.seat_change_lift_m
     if lift is None:
-        return integrate(model, zr, zd, zdd, step_s, q0, v0, out_every=out_every, predictor=predictor), None
+        run = integrate(
+            model, zr, zd, zdd, step_s, q0, v0, out_every=out_every, predictor=predictor, track_energy=track_energy
+        )
+        return run, None
     n_steps = zd.size - 1
 
     def lift_at(time):
@@ -633,12 +638,13 @@ def index_cycle(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, pre
             v0,
             out_every=out_every,
             predictor=predictor,
+            track_energy=track_energy,
         )
         pieces.append(head)
         durations.append(before * step_s)
         rows.append(head)
         q0, v0 = head.q[-1], head.v[-1]
-    to_seat = _sub_steps(model, cam, before * step_s, t_seat, step_s, s0, q0, v0, predictor)
+    to_seat = _sub_steps(model, cam, (before * step_s, t_seat), step_s, s0, q0, v0, predictor, track_energy)
     pieces.append(to_seat)
     durations.append(t_seat - before * step_s)
     if before == 0:
@@ -647,14 +653,23 @@ def index_cycle(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, pre
         model, to_seat.q[-1], to_seat.v[-1], lift_at(t_seat) - s0, float(cam.svaj(np.array([t_seat]))[1][0])
     )
     if not on_node:
-        to_node = _sub_steps(model, cam, t_seat, nxt * step_s, step_s, s0 + pitch, q1, v1, predictor)
+        to_node = _sub_steps(model, cam, (t_seat, nxt * step_s), step_s, s0 + pitch, q1, v1, predictor, track_energy)
         pieces.append(to_node)
         durations.append(nxt * step_s - t_seat)
         rows.append(_last_row(to_node))
         q1, v1 = to_node.q[-1], to_node.v[-1]
     if nxt < n_steps:
         tail = integrate(
-            model, zr[nxt:] - pitch, zd[nxt:], zdd[nxt:], step_s, q1, v1, out_every=out_every, predictor=predictor
+            model,
+            zr[nxt:] - pitch,
+            zd[nxt:],
+            zdd[nxt:],
+            step_s,
+            q1,
+            v1,
+            out_every=out_every,
+            predictor=predictor,
+            track_energy=track_energy,
         )
         pieces.append(tail)
         durations.append((n_steps - nxt) * step_s)
@@ -662,9 +677,10 @@ def index_cycle(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, pre
     return _merged(pieces, rows, durations, step_s), seating
 
 
-def _sub_steps(model, cam, t0: float, t1: float, step_s: float, s_ref: float, q0, v0, predictor):
-    """From t0 to t1 in the fewest equal steps of at most step_s, the lift counted from s_ref; outputs
-    at both ends."""
+def _sub_steps(model, cam, span_s, step_s: float, s_ref: float, q0, v0, predictor, track_energy):
+    """Over span_s = (t0, t1) in the fewest equal steps of at most step_s, the lift counted from s_ref;
+    outputs at both ends."""
+    t0, t1 = span_s
     n = max(1, int(math.ceil((t1 - t0) / step_s - 1e-9)))
     t = t0 + (t1 - t0) * np.arange(n + 1) / n
     s, v, a, _ = cam.svaj(t)
@@ -679,6 +695,7 @@ def _sub_steps(model, cam, t0: float, t1: float, step_s: float, s_ref: float, q0
         v0,
         out_every=n,
         predictor=predictor,
+        track_energy=track_energy,
     )
 
 
