@@ -296,8 +296,9 @@ def _add_machine_arguments(p: argparse.ArgumentParser, d: RunConfig) -> None:
         type=float,
         default=d.tooth_phase,
         metavar="F",
-        help="where the teeth stand at the dwell, as a fraction of a tooth (default: %(default)s, a pin seats at "
-        "the dwell; other phases are not modelled yet)",
+        help="where the teeth stand at the dwell, as a fraction of a tooth in [0, 1) (default: %(default)s, a pin "
+        "seats at the dwell; a phase F puts the seat change inside the index, when the cam has lifted 1 - F of a "
+        "pitch)",
     )
 
 

@@ -9,8 +9,11 @@ Each row is a periodic steady state; "relabelled" moves every link one place per
 as it runs), "labelled" keeps the same links seated (the frame of the issue's first figures).
 
     PYTHONPATH=. python benchmarks/machine_parts.py [--no-polygon]
+    PYTHONPATH=. python benchmarks/machine_parts.py --tooth-phases 0 0.25 0.5 0.75
 
 The polygonal rows run the DOP853 reference integrator (about a minute each on a quiet machine).
+`--tooth-phases` instead runs the whole machine ("all together") at each tooth phase: the seat change
+at the dwell (0) or inside the index, when the cam has lifted (1 - phase) of a pitch.
 """
 
 from __future__ import annotations
@@ -74,11 +77,39 @@ def metrics(machine: MachineOnWheels, cam, relabel: bool, links: tuple[int, ...]
     return [link_residual_and_peak(machine, r, dwell, link) for link in links], r
 
 
+def print_tooth_phases(cam, phases) -> None:
+    """The whole machine (all parts, polygonal action) at each tooth phase, relabelled steady state."""
+    chain = ChainModel(85, BODY_MASS_AL_KG + DEFAULT_HARDWARE_MASS_KG + NEST_MASS_KG, K_AL_N_PER_M)
+    j = steel_disc_inertia_kg_m2(pitch_radius_m(PITCH_M, TEETH), DISC_THICKNESS_M)
+    print("all together (polygonal action), relabelled steady state; station: the tight strand's middle")
+    print(
+        f"{'phase':>6s} {'resid mm':>9s} {'peak a':>8s} {'max peak a':>10s} {'seat m/s':>9s} {'impact J':>9s} "
+        f"{'dE J':>9s} {'s':>5s}"
+    )
+    for phase in phases:
+        wheel = Wheel(TEETH, PITCH_M, WRAP, inertia_kg_m2=j, tooth_phase=phase)
+        machine = MachineOnWheels(chain, sprocket=wheel, idler=wheel)
+        start = time.perf_counter()
+        ((res, peak),), r = metrics(machine, cam, True, (machine.stations()["tight-side"],))
+        top = float(np.max(np.abs(r.a_m_s2 + r.zddot_m_s2[:, None])))
+        print(
+            f"{phase:6.2f} {res * 1e3:9.3f} {peak:8.1f} {top:10.1f} {max(r.seating_speed_m_s):9.2e} "
+            f"{sum(r.seating_impact_J):9.2e} {r.transfer_energy_change_J:9.2e} {time.perf_counter() - start:5.1f}",
+            flush=True,
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--no-polygon", action="store_true", help="leave out the polygonal rows (integrator)")
+    parser.add_argument(
+        "--tooth-phases", type=float, nargs="+", metavar="F", help="run the whole machine at these tooth phases"
+    )
     args = parser.parse_args()
     cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180.0)
+    if args.tooth_phases:
+        print_tooth_phases(cam, args.tooth_phases)
+        return
     rows, j = machines(not args.no_polygon)
     print(
         f"sprocket/idler: z = {TEETH}, R = {pitch_radius_m(PITCH_M, TEETH) * 1e3:.1f} mm, "

@@ -13,7 +13,9 @@ Frame of the output (the machine as it runs): every index moves each link one pl
 response's columns are places: column j is the link at link j's place at the start of each index
 (a seated link's column is its wheel's pitch-circle motion, a link seated on a sprocket held to the
 cam moves with the cam). The seat changes happen at each index's start, where the output sample
-is the state after them. The spans between two links seated on the same wheel do not stretch
+is the state after them; at a tooth phase other than 0 inside the index, when the cam has lifted
+(1 - phase) of a pitch (dynamics.solvers.machine_verlet.index_cycle), and the samples from then on
+are in the next index's places (a column then shows the link one place behind). The spans between two links seated on the same wheel do not stretch
 (rigid seating); their column in `tension_N` is the larger of the wheel's two strand-end spans
 (an upper bound of what the seated spans carry). `drive_force_N` is the force the sprocket's drive
 puts on the chain along its path: k_theta / R_m^2 times the sprocket's lag behind the cam, or, for
@@ -183,13 +185,16 @@ def _window(model, cam, t, per_cycle, sub, state, predictor, periodic=False) -> 
         if periodic and runs:
             run = runs[0]
         else:
-            run = mv.integrate(model, zr, zd, zdd, h, q0, v0, out_every=sub, predictor=predictor)
+            run, inside = mv.index_cycle(model, cam, (zr, zd, zdd), h, q0, v0, out_every=sub, predictor=predictor)
         runs.append(run)
         take = min(per_cycle, remaining)
         for rows, out in ((rows_q, run.q), (rows_v, run.v), (rows_a, run.a), (rows_t, run.tension_N)):
             rows.append(out[:take])
         remaining -= take
-        q0, v0, seating = mv.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
+        if inside is None:
+            q0, v0, seating = mv.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
+        else:  # the seats changed inside the index: its end is the next index's start
+            q0, v0, seating = run.q[-1], run.v[-1], inside
     return _Window(*(np.concatenate(r) for r in (rows_q, rows_v, rows_a, rows_t)), runs, seating, h)
 
 

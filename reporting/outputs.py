@@ -232,7 +232,8 @@ def machine_cycle_summary(cycle) -> dict:
 
 
 def _machine(results: RunResults) -> dict:
-    """What ran for the whole run: the drive, the polygonal action, the steady state's frame."""
+    """What ran for the whole run: the drive, the polygonal action, the steady state's frame, the tooth
+    phase (on the wheels)."""
     first = next(iter(results.chains.values())).machine
     frames = sorted({sc.machine.frame for sc in results.scenarios.values() if sc.machine is not None})
     return {
@@ -242,6 +243,9 @@ def _machine(results: RunResults) -> dict:
         "stations_are": "places on the machine: the link there at the start of an index"
         if first.drive == "wheels"
         else "links",
+        # on the wheels: where the teeth stand at the dwell (the seats change inside the index when != 0
+        # with the polygonal action); the link drive has no teeth
+        **({"tooth_phase": results.cfg.tooth_phase} if first.drive == "wheels" else {}),
     }
 
 

@@ -172,8 +172,18 @@ def machine_line(summary: dict) -> str:
     return (
         f"Machine: on its wheels: {_wheel_words('drive sprocket', wheels['sprocket'])}, {drive}); {idler}; "
         f"polygonal action {'on' if run['polygonal_action'] else 'off'}"
+        + _tooth_phase_words(run)
         + ("" if frame is None else f"; periodic steady state {frame} (one link seats per index)")
         + "; stations are places on the machine."
+    )
+
+
+def _tooth_phase_words(run: dict) -> str:
+    phase = run.get("tooth_phase", 0.0)
+    if phase == 0.0:
+        return ", tooth phase 0 (the seats change at the dwell)"
+    return (
+        f", tooth phase {phase:g} (the seats change inside the index, when the cam has lifted {1 - phase:g} of a pitch)"
     )
 
 

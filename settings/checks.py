@@ -100,11 +100,6 @@ def _check_machine(cfg: RunConfig) -> None:
     )
     if cfg.machine_drive != "wheels":
         return
-    _require(
-        cfg.tooth_phase == 0.0,
-        f"--tooth-phase: expected 0 (a pin seats at the dwell); other phases put the seat change inside the "
-        f"index, which is not modelled yet, got {cfg.tooth_phase:g}",
-    )
     for option, wrap, teeth in (
         ("--sprocket-wrap-links", cfg.sprocket_wrap_links, cfg.sprocket_teeth),
         ("--idler-wrap-links", cfg.idler_wrap_links_used, cfg.idler_teeth_used),

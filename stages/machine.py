@@ -99,8 +99,9 @@ def machine_parts(scene: Scene, model: ChainModel) -> MachineParts:
 
 
 class SeatChanges(Protocol):
-    """What the dynamics report of the seat changes at the end of an index, per wheel in `wheel_ends`
-    order (dynamics.solvers.machine_verlet.Seating, in `ContactSummary.seating`)."""
+    """What the dynamics report of the seat changes of an index (at its end; inside it at a tooth phase
+    other than 0), per wheel in `wheel_ends` order (dynamics.solvers.machine_verlet.Seating, in
+    `ContactSummary.seating`)."""
 
     speed_m_s: tuple[float, ...]
     impact_energy_J: tuple[float, ...]
@@ -109,9 +110,9 @@ class SeatChanges(Protocol):
 
 @dataclass(frozen=True)
 class WheelSeating:
-    """The link that seats on a wheel at the end of an index."""
+    """The link that seats on a wheel in an index (at its end at tooth phase 0)."""
 
-    speed_m_s: float  # |y'_in - c u'|: its speed along the strand relative to its tooth
+    speed_m_s: float  # |(y'_in + z') - c (u' + z')|: its speed along the strand relative to its tooth
     impact_energy_J: float  # the kinetic energy its plastic seating impact takes
 
 

@@ -183,7 +183,10 @@ def test_the_issues_frequency_figure_on_the_default_scene():
         (dict(drive="belt"), "drive"),
         (dict(drive="wheels"), "sprocket"),
         (dict(drive="wheels", sprocket=Wheel(12, P, 6), drive_torsional_stiffness_N_m_per_rad=-1.0), "drive_torsional"),
-        (dict(drive="wheels", sprocket=Wheel(12, P, 6, tooth_phase=0.5)), "tooth_phase"),
+        (
+            dict(drive="wheels", sprocket=Wheel(12, P, 6, tooth_phase=0.5), idler=Wheel(12, P, 6, tooth_phase=0.25)),
+            "tooth_phase",
+        ),
     ],
 )
 def test_bad_machines_are_refused(kwargs, match):

@@ -82,8 +82,9 @@ def existing_out(tmp_path) -> Path:
         (["--drive", "wheels", "--idler-teeth", "5", "--idler-wrap-links", "7"], "--idler-wrap-links"),
         (["--drive", "wheels", "--idler-teeth", "5"], "--idler-wrap-links"),  # the sprocket's 6 on 5 teeth
         (["--preset", "mqp2012", "--drive", "wheels"], "--drive"),
-        (["--drive", "wheels", "--tooth-phase", "0.25"], "--tooth-phase"),
         (["--tooth-phase", "1"], "--tooth-phase"),
+        (["--tooth-phase", "-0.25"], "--tooth-phase"),
+        (["--tooth-phase", "nan"], "--tooth-phase"),
         (["--drive", "wheels", "--links", "13"], "--links"),
         (["--drive", "wheels", "--rpm-sweep", "120:200:20"], "--rpm-sweep"),
         (["--drive-stiffness", "0"], "--drive-stiffness"),
@@ -401,3 +402,19 @@ def test_a_figure_the_machine_does_not_measure_is_null_in_summary_json():
     )  # fmt: skip
     summary = json.loads(json.dumps(_contact_summary(contact), allow_nan=False))
     assert summary["impact_dissipated_per_cycle_J"] is None and summary["impact_energy_per_cycle_J"] == 0.2
+
+
+@pytest.mark.slow  # 15 s: a whole pipeline run
+def test_a_run_with_a_tooth_phase_says_so(tmp_path):
+    """--tooth-phase 0.5: the seats change at mid-index; summary.json's machine and the report say the
+    phase, the seating figures are there."""
+    out = tmp_path / "out"
+    args = ["--mesh-size", "10", "--links", "16", "--samples-per-degree", "2", "--no-images", "-q"]
+    args += ["--materials", "al6061-t6", "--cams", "modified-sine", "--tooth-phase", "0.5"]
+    assert pipeline.main([*args, "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["machine"]["tooth_phase"] == 0.5 and s["machine"]["steady_state_frame"] == "relabelled"
+    seating = s["materials"]["al6061-t6"]["cams"]["modified-sine"]["machine"]["seating"]
+    assert all(seat["speed_m_s"] > 0.0 and seat["impact_energy_J"] > 0.0 for seat in seating.values())
+    report = (out / "report.html").read_text()
+    assert "tooth phase 0.5 (the seats change inside the index, when the cam has lifted 0.5 of a pitch)" in report

@@ -154,10 +154,21 @@ def drive_spring_power_W(machine: MachineOnWheels, q, v, zdot_m_s: float) -> flo
 
 
 def integrate_cycle_energy(
-    machine: MachineOnWheels, cam, q0, v0, t0_s: float = 0.0, *, rtol: float = 1e-12, energy_scale_J: float = 1.0
+    machine: MachineOnWheels,
+    cam,
+    q0,
+    v0,
+    t0_s: float = 0.0,
+    *,
+    rtol: float = 1e-12,
+    energy_scale_J: float = 1.0,
+    t1_s: float | None = None,
+    z_dwell_m: float | None = None,
 ) -> CycleEnergy:
     """One index cycle from t0_s (a dwell's end, where the pins that pull the strands seated) with the
-    drive's work and the dissipation as extra states; the cam exact (its law, not samples)."""
+    drive's work and the dissipation as extra states; the cam exact (its law, not samples). A piece
+    of a cycle with `t1_s` (default: the cycle's end) and `z_dwell_m`, the lift the wheels' angles
+    count from (default: the lift at t0_s)."""
     m = np.diag(machine.mass_matrix())
     k = machine.stiffness_matrix()
     c = machine.damping_matrix()
@@ -165,7 +176,7 @@ def integrate_cycle_energy(
     moves = _moves(machine)
     n = m.size
     radii = np.array([ends.wheel.feed_radius_m for ends in machine.wheel_ends])
-    z_dwell = _cam_at(cam, t0_s)[0]
+    z_dwell = _cam_at(cam, t0_s)[0] if z_dwell_m is None else float(z_dwell_m)
     polygonal = machine.polygonal and radii.size > 0
 
     def rhs(time, y):
@@ -183,17 +194,17 @@ def integrate_cycle_energy(
 
     atol = np.concatenate([np.full(n, rtol * 1e-3), np.full(n, rtol * 1.0), np.full(2, rtol * energy_scale_J)])
     y0 = np.concatenate([q0, v0, [0.0, 0.0]])
-    t1 = t0_s + cam.cycle_s
+    t1 = t0_s + cam.cycle_s if t1_s is None else float(t1_s)
     sol = solve_ivp(rhs, (t0_s, t1), y0, method="DOP853", rtol=rtol, atol=atol)
     if sol.status != 0:
         raise SolverFailedError(f"machine energy (DOP853): {sol.message}")
     q1, v1 = sol.y[:n, -1], sol.y[n : 2 * n, -1]
     zd0, zd1 = _cam_at(cam, t0_s)[1], _cam_at(cam, t1)[1]
-    zeros = np.zeros(radii.size)
+    start = (_cam_at(cam, t0_s)[0] - z_dwell) / radii
     return CycleEnergy(
         float(sol.y[2 * n, -1]),
         float(sol.y[2 * n + 1, -1]),
-        machine.stored_energy_J(np.asarray(q0, float), np.asarray(v0, float), zd0, zeros),
+        machine.stored_energy_J(np.asarray(q0, float), np.asarray(v0, float), zd0, start),
         machine.stored_energy_J(q1, v1, zd1, (_cam_at(cam, t1)[0] - z_dwell) / radii),
         q1,
         v1,
@@ -201,32 +212,39 @@ def integrate_cycle_energy(
     )
 
 
-def seating_energy(machine: MachineOnWheels, q: np.ndarray, v: np.ndarray) -> tuple[list[float], list[float]]:
-    """Per wheel, from the state at the end of an index (before the transfer): the arriving link's
-    impact loss and the seat snap's elastic change (module docstring)."""
+def seating_energy(
+    machine: MachineOnWheels, q: np.ndarray, v: np.ndarray, angles_rad=None, zdot_m_s: float = 0.0
+) -> tuple[list[float], list[float]]:
+    """Per wheel, from the state at the seat change (before the transfer): the arriving link's
+    impact loss and the seat snap's elastic change (module docstring). By default at the end of an
+    index (the wheels' nominal angles one tooth, the cam at rest); inside it (tooth phase != 0) at
+    the wheels' nominal angles since the dwell and the cam's speed there: the slip is then taken in
+    the absolute frame, s = (y'_in + z') - c (u' + z'), and delta = d(a - T + u/R_m) - d(a + u/R_m)."""
     topo = machine.topology
     k, preload = topo.span_stiffness_N_per_m, topo.preload_N
     b = topo.incidence().toarray()
     link_mass = machine.chain.link_mass_kg
     masses = np.asarray(topo.masses_kg)
     tooth = np.array([ends.wheel.tooth_angle_rad for ends in machine.wheel_ends])
-    e = polygonal_stretches_m(machine, q, tooth)
+    angles = tooth if angles_rad is None else np.asarray(angles_rad, dtype=float)
+    e = polygonal_stretches_m(machine, q, angles)
     impacts, snaps = [], []
-    for ends in machine.wheel_ends:
+    for ends, angle in zip(machine.wheel_ends, angles):
         w = ends.wheel
         u = 0.0 if ends.dof is None else q[ends.dof]
         ud = 0.0 if ends.dof is None else v[ends.dof]
         eps = u / w.feed_radius_m
         if machine.polygonal:
-            c = 1.0 + float(w.feed_departure_slope(w.tooth_angle_rad + eps)) / w.feed_radius_m
-            delta = float(w.feed_departure_m(eps) - w.feed_departure_m(w.tooth_angle_rad + eps))
+            c = 1.0 + float(w.feed_departure_slope(angle + eps)) / w.feed_radius_m
+            delta = float(w.feed_departure_m(angle - w.tooth_angle_rad + eps) - w.feed_departure_m(angle + eps))
         else:
             c, delta = 1.0, 0.0
         behind = ends.behind_span
         arriving = int(np.flatnonzero(b[behind] == -1.0)[0])  # the behind end of the wheel's behind span
         before = int(np.flatnonzero(b[:, arriving] == 1.0)[0])  # the span whose ahead end it is
         e1, e2 = e[before], e[behind]
-        slip = v[arriving] - c * ud  # the model's seated links move with u alone (not the carriage)
+        # the model's seated links move with u alone (not the carriage)
+        slip = (v[arriving] + zdot_m_s) - c * (ud + zdot_m_s)
         flexibility = 1.0 / link_mass + (0.0 if ends.dof is None else c**2 / masses[ends.dof])
         impacts.append(0.5 * slip**2 / flexibility)
         e_new = e1 + e2 + delta
@@ -237,9 +255,12 @@ def seating_energy(machine: MachineOnWheels, q: np.ndarray, v: np.ndarray) -> tu
 
 
 def energy_window(machine: MachineOnWheels, cam, n_cycles: int, *, rtol: float = 1e-12) -> WindowEnergy:
-    """n_cycles index cycles from rest, each followed by the transfer (the machine as it runs)."""
+    """n_cycles index cycles from rest, each followed by the transfer (the machine as it runs); at a
+    tooth phase other than 0 the transfer is inside each cycle (`_energy_window_inside`)."""
     n = machine.topology.n_dof
     q, v = np.zeros(n), np.zeros(n)
+    if machine.seat_change_lift_m is not None:
+        return _energy_window_inside(machine, cam, n_cycles, q, v, rtol)
     tooth = np.array([ends.wheel.tooth_angle_rad for ends in machine.wheel_ends])
     cycles, transfers = [], []
     for i in range(n_cycles):
@@ -251,3 +272,32 @@ def energy_window(machine: MachineOnWheels, cam, n_cycles: int, *, rtol: float =
         after = machine.stored_energy_J(q, v, 0.0, np.zeros(tooth.size))
         transfers.append(SeatingEnergy(tuple(impacts), tuple(snaps), before, after))
     return WindowEnergy(tuple(cycles), tuple(transfers))
+
+
+def _energy_window_inside(machine: MachineOnWheels, cam, n_cycles: int, q, v, rtol: float) -> WindowEnergy:
+    """Each cycle in two pieces around its seat change (the lift since the dwell at
+    MachineOnWheels.seat_change_lift_m, located here on the cam's law by brentq): the first piece's
+    angles from the dwell, the transfer with the cam's speed, the second piece's angles one tooth
+    back (the dwell's lift one pitch on). The window's pieces are its `cycles`."""
+    from scipy.optimize import brentq
+
+    tooth = np.array([ends.wheel.tooth_angle_rad for ends in machine.wheel_ends])
+    radii = np.array([ends.wheel.feed_radius_m for ends in machine.wheel_ends])
+    pitch = machine.sprocket.pitch_m
+    pieces, transfers = [], []
+    for i in range(n_cycles):
+        t0, t1 = i * cam.cycle_s, (i + 1) * cam.cycle_s
+        z0 = _cam_at(cam, t0)[0]
+        t_seat = brentq(lambda t, z0=z0: _cam_at(cam, t)[0] - z0 - machine.seat_change_lift_m, t0, t1, xtol=1e-15)
+        first = integrate_cycle_energy(machine, cam, q, v, t0, rtol=rtol, t1_s=t_seat, z_dwell_m=z0)
+        z_seat, zd_seat, _ = _cam_at(cam, t_seat)
+        angles = (z_seat - z0) / radii
+        impacts, snaps = seating_energy(machine, first.q_end, first.v_end, angles, zd_seat)
+        q, v, _, _ = transfer(machine, first.q_end, first.v_end, angles_rad=angles, zdot_m_s=zd_seat)
+        before = machine.stored_energy_J(first.q_end, first.v_end, zd_seat, angles)
+        after = machine.stored_energy_J(q, v, zd_seat, angles - tooth)
+        transfers.append(SeatingEnergy(tuple(impacts), tuple(snaps), before, after))
+        second = integrate_cycle_energy(machine, cam, q, v, t_seat, rtol=rtol, t1_s=t1, z_dwell_m=z0 + pitch)
+        pieces += [first, second]
+        q, v = second.q_end, second.v_end
+    return WindowEnergy(tuple(pieces), tuple(transfers))

@@ -30,7 +30,16 @@ Parts:
   scipy's solve_ivp (DOP853, tight tolerances) as the reference. The wrap is taken as a whole number
   of teeth, so both ends of a wrap share gamma (two equal wheels with parallel strands: the wrap is
   z / 2 teeth). The default tooth phase (0) puts the seat change at the dwell; within an index the
-  pin seated at the dwell pulls the strand, so the model integrates one index cycle at a time.
+  pin seated at the dwell pulls the strand, so the model integrates one index cycle at a time. A
+  phase phi in (0, 1) puts the seat change inside the index, when the cam has lifted (1 - phi) p
+  (`seat_change_lift_m`; both wheels at once, one phase for both): the solvers stop there, apply
+  the transfer (dynamics.solvers.machine_steady.transfer, with the cam's speed at that instant)
+  and go on with the angles counted one tooth back, which is the next index's frame. Without the
+  polygonal action the feed is the mean one but the seats still change at that instant (the limit
+  z -> infinity of the polygonal model at the same phase). Rigid seating puts the arriving link at
+  its seat: inside the index, under the strands' inertial tension, that moves it by its span's
+  stretch and changes the spans' elastic energy by about k e1 e2 (the transfer's energy change),
+  which at the dwell is small (the residual vibration's stretches) and inside the index is not.
 
 Damping: modal ratio zeta on every mode of the machine's (K, M) with the carriage held (or
 Rayleigh alpha M + beta K on those DOFs), the carriage's dashpot c_t on its own, as the clearance
@@ -106,12 +115,11 @@ class MachineOnWheels:
         wrap = self.sprocket.wrap_links + (0 if self.idler is None else self.idler.wrap_links)
         if self.chain.n_links - wrap < 2:
             raise DynamicsError(f"wrap links: {wrap} seated of {self.chain.n_links}; expected at least two free links")
-        for wheel in (self.sprocket, self.idler):
-            if wheel is not None and (self.polygonal and wheel.tooth_phase != 0.0):
-                raise DynamicsError(
-                    f"tooth_phase: got {wheel.tooth_phase!r}; the polygonal model changes seats "
-                    "at the dwell only (phase 0) this far"
-                )
+        if self.idler is not None and self.idler.tooth_phase != self.sprocket.tooth_phase:
+            raise DynamicsError(
+                f"tooth_phase: the idler's {self.idler.tooth_phase!r} differs from the sprocket's "
+                f"{self.sprocket.tooth_phase!r}; expected one phase (the seats change on both wheels at once)"
+            )
 
     # --- layout ----------------------------------------------------------------------------------
 
@@ -125,6 +133,16 @@ class MachineOnWheels:
         if self.drive_torsional_stiffness_N_m_per_rad is not None:
             return float(self.drive_torsional_stiffness_N_m_per_rad)
         return self.chain.drive_stiffness * self.sprocket.feed_radius_m**2
+
+    @property
+    def seat_change_lift_m(self) -> float | None:
+        """The cam's lift since the dwell at which the seats change inside the index, (1 - phase) p
+        (dynamics.models.wheels); None where they change at the dwell: tooth phase 0 or the link
+        drive. Without the polygonal action the seats still change one at a time at that instant
+        (the feed is the mean one, the seating is not)."""
+        if self.drive != "wheels" or self.sprocket.tooth_phase == 0.0:
+            return None
+        return self.sprocket.seat_change_angle_rad * self.sprocket.feed_radius_m
 
     @property
     def drive_held(self) -> bool:

@@ -21,7 +21,12 @@ default) puts gamma = -pi/z at the dwell, i.e. a pin seats while the wheel is at
 -pi/z .. pi/z during the index, symmetric about mid-index where the cam is fastest. It is the phase
 that keeps the strand end's velocity and acceleration continuous (the seat change, with its kink in
 the feed, happens at rest, where the cam laws have zero velocity and acceleration), so the chordal
-action adds no impact of its own; any other phase moves the seat change into the index.
+action adds no impact of its own. Any other phase phi moves the seat change into the index: it
+happens when the wheel has turned (1 - phi) of a tooth since the dwell (`seat_change_angle_rad`),
+i.e. when the cam has lifted (1 - phi) p, at the wheel's pitch-circle speed; after it the pin one
+tooth behind pulls the strand, whose departure from the mean feed is the same function one tooth
+back, d(a - 2 pi / z) (continuous there: R sin(pi/z) - R sin(-pi/z) = p). phi -> 1 puts the seat
+change at the index's start: phase 0 with the seat change moved by one index.
 """
 
 from __future__ import annotations
@@ -72,6 +77,12 @@ class Wheel:
     def feed_radius_m(self) -> float:
         """Mean chain advance per radian, p z / (2 pi)."""
         return self.pitch_m * self.teeth / (2.0 * np.pi)
+
+    @property
+    def seat_change_angle_rad(self) -> float:
+        """The wheel's angle since the dwell at which the pin seated at the dwell hands the strand to
+        the next one, (1 - phase) of a tooth: the end of the index (the next dwell) at phase 0."""
+        return (1.0 - self.tooth_phase) * self.tooth_angle_rad
 
     def gamma_at_dwell_rad(self) -> float:
         return (self.tooth_phase - 0.5) * self.tooth_angle_rad

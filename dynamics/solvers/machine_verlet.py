@@ -549,9 +549,10 @@ def substeps_for(model, output_step_s: float, safety: float, predictor: str) -> 
 
 @dataclass(frozen=True)
 class Seating:
-    """The seat changes at the end of an index cycle (dynamics.solvers.machine_steady.transfer): per
-    wheel the seating speed |y'_in - c u'| and the kinetic energy its plastic impact takes, and the
-    transfer's whole change of stored energy (the clearance law's span energy), SI."""
+    """The seat changes of an index cycle, at its end or inside it at a tooth phase other than 0
+    (dynamics.solvers.machine_steady.transfer): per wheel the seating speed |(y'_in + z') - c (u' + z')|
+    (z' = 0 at the dwell) and the kinetic energy its plastic impact takes, and the transfer's whole
+    change of stored energy (the clearance law's span energy), SI."""
 
     speed_m_s: tuple[float, ...]
     impact_energy_J: tuple[float, ...]
@@ -575,6 +576,172 @@ def seat_change(model, q, v, z_rel_end_m: float):
     return q_new, v_new, Seating(speeds, impacts, float(change))
 
 
+def seat_change_inside(model, q, v, z_rel_m: float, zdot_m_s: float):
+    """(q, v) after the transfer inside the index (tooth phase != 0) at the cam's lift since the dwell
+    `z_rel_m` and speed `zdot_m_s`, and its Seating; after it the lift counts one pitch on."""
+    from dynamics.solvers.machine_steady import transfer
+
+    mach = model.machine
+    radii = np.array([ends.wheel.feed_radius_m for ends in mach.wheel_ends])
+    q_new, v_new, speeds, impacts = transfer(mach, q, v, angles_rad=z_rel_m / radii, zdot_m_s=zdot_m_s)
+    pitch = mach.sprocket.pitch_m
+    after = model.stored_energy_J(q_new, v_new, zdot_m_s, z_rel_m - pitch)
+    change = after - model.stored_energy_J(q, v, zdot_m_s, z_rel_m)
+    return q_new, v_new, Seating(speeds, impacts, float(change))
+
+
+def index_cycle(
+    model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str, track_energy: bool = False
+):
+    """One index cycle from its start over the cam's `nodes` (cycle_nodes), outputs every `out_every`
+    steps: (MachineRun, Seating of a seat change inside it or None). At tooth phase 0 this is
+    `integrate` and the seats change after it (`seat_change`). Else
+    the cycle is stepped in pieces: to the last output node before the seat change's instant (the
+    cam's lift since the dwell at MachineOnWheels.seat_change_lift_m, located by brentq on the cam's
+    law), a uniform sub-step (<= step_s) to the instant, the transfer there, a uniform sub-step to
+    the next output node, then the remaining nodes with the lift counted one pitch on (the next
+    index's frame, so nothing is left to do at the cycle's end); outputs at or after the instant
+    are in the new labels. The statistics are merged over the pieces (the free-play fraction
+    weighted by their durations)."""
+    from dynamics.solvers.machine_ivp import seat_change_time_s
+
+    zr, zd, zdd = nodes
+    lift = model.machine.seat_change_lift_m
+    if lift is None:
+        run = integrate(
+            model, zr, zd, zdd, step_s, q0, v0, out_every=out_every, predictor=predictor, track_energy=track_energy
+        )
+        return run, None
+    n_steps = zd.size - 1
+
+    def lift_at(time):
+        return float(cam.svaj(np.array([time]))[0][0])
+
+    s0 = lift_at(0.0)
+    t_seat = seat_change_time_s(lift_at, 0.0, n_steps * step_s, s0, lift)
+    if t_seat is None:
+        raise DynamicsError("index_cycle: the cam's lift does not reach the seat change within the cycle")
+    pitch = model.machine.sprocket.pitch_m
+    h_out = out_every * step_s
+    before = (int(math.ceil(t_seat / h_out - 1e-9)) - 1) * out_every  # last output node before the instant
+    nxt = before + out_every
+    on_node = abs(nxt * step_s - t_seat) <= 1e-9 * step_s
+    pieces, rows, durations = [], [], []
+    if before > 0:
+        head = integrate(
+            model,
+            zr[: before + 1],
+            zd[: before + 1],
+            zdd[: before + 1],
+            step_s,
+            q0,
+            v0,
+            out_every=out_every,
+            predictor=predictor,
+            track_energy=track_energy,
+        )
+        pieces.append(head)
+        durations.append(before * step_s)
+        rows.append(head)
+        q0, v0 = head.q[-1], head.v[-1]
+    to_seat = _sub_steps(model, cam, (before * step_s, t_seat), step_s, s0, q0, v0, predictor, track_energy)
+    pieces.append(to_seat)
+    durations.append(t_seat - before * step_s)
+    if before == 0:
+        rows.append(_first_row(to_seat))
+    q1, v1, seating = seat_change_inside(
+        model, to_seat.q[-1], to_seat.v[-1], lift_at(t_seat) - s0, float(cam.svaj(np.array([t_seat]))[1][0])
+    )
+    if not on_node:
+        to_node = _sub_steps(model, cam, (t_seat, nxt * step_s), step_s, s0 + pitch, q1, v1, predictor, track_energy)
+        pieces.append(to_node)
+        durations.append(nxt * step_s - t_seat)
+        rows.append(_last_row(to_node))
+        q1, v1 = to_node.q[-1], to_node.v[-1]
+    if nxt < n_steps:
+        tail = integrate(
+            model,
+            zr[nxt:] - pitch,
+            zd[nxt:],
+            zdd[nxt:],
+            step_s,
+            q1,
+            v1,
+            out_every=out_every,
+            predictor=predictor,
+            track_energy=track_energy,
+        )
+        pieces.append(tail)
+        durations.append((n_steps - nxt) * step_s)
+        rows.append(tail if on_node else _rows_from(tail, 1))
+    return _merged(pieces, rows, durations, step_s), seating
+
+
+def _sub_steps(model, cam, span_s, step_s: float, s_ref: float, q0, v0, predictor, track_energy):
+    """Over span_s = (t0, t1) in the fewest equal steps of at most step_s, the lift counted from s_ref;
+    outputs at both ends."""
+    t0, t1 = span_s
+    n = max(1, int(math.ceil((t1 - t0) / step_s - 1e-9)))
+    t = t0 + (t1 - t0) * np.arange(n + 1) / n
+    s, v, a, _ = cam.svaj(t)
+    z_rel = np.asarray(s, dtype=float) - s_ref
+    return integrate(
+        model,
+        z_rel,
+        np.asarray(v, float),
+        np.asarray(a, float),
+        (t1 - t0) / n,
+        q0,
+        v0,
+        out_every=n,
+        predictor=predictor,
+        track_energy=track_energy,
+    )
+
+
+@dataclass(frozen=True)
+class _Rows:
+    q: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    tension_N: np.ndarray
+
+
+def _rows_from(run, first: int, last: int | None = None) -> _Rows:
+    pick = slice(first, last)
+    return _Rows(run.q[pick], run.v[pick], run.a[pick], run.tension_N[pick])
+
+
+def _first_row(run) -> _Rows:
+    return _rows_from(run, 0, 1)
+
+
+def _last_row(run) -> _Rows:
+    return _rows_from(run, -1)
+
+
+def _merged(pieces, rows, durations, step_s: float) -> MachineRun:
+    """One MachineRun of consecutive pieces: the output rows given, the statistics over all pieces
+    (the free-play fraction weighted by the pieces' durations)."""
+    steps = np.asarray(durations, dtype=float)
+    return MachineRun(
+        *(np.concatenate([getattr(r, name) for r in rows]) for name in ("q", "v", "a", "tension_N")),
+        impacts=sum(p.impacts for p in pieces),
+        free_play_fraction=float(sum(p.free_play_fraction * w for p, w in zip(pieces, steps)) / steps.sum()),
+        peak_tension_N=max(p.peak_tension_N for p in pieces),
+        min_tension_N=min(p.min_tension_N for p in pieces),
+        impact_force_spike_N=max(p.impact_force_spike_N for p in pieces),
+        impact_kinetic_energy_J=sum(p.impact_kinetic_energy_J for p in pieces),
+        impact_max_speed_m_s=max(p.impact_max_speed_m_s for p in pieces),
+        impact_speeds_m_s=np.concatenate([p.impact_speeds_m_s for p in pieces]),
+        step_s=float(step_s),
+        impact_dissipated_J=sum(p.impact_dissipated_J for p in pieces),
+        cam_work_J=sum(p.cam_work_J for p in pieces),
+        dissipated_damping_J=sum(p.dissipated_damping_J for p in pieces),
+        dissipated_friction_J=sum(p.dissipated_friction_J for p in pieces),
+    )
+
+
 def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor):
     """The state at the start of an index with x0 = T(P(x0)) (dynamics.solvers.machine_steady), by
     stepping cycle after cycle with the seat change between them until the start state changes by
@@ -586,8 +753,11 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
         every -= 1
     residual = math.inf
     for cycle in range(1, max_cycles + 1):
-        run = integrate(model, zr, zd, zdd, step_s, q0, v0, out_every=every, predictor=predictor)
-        q1, v1, _ = seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
+        run, inside = index_cycle(model, cam, (zr, zd, zdd), step_s, q0, v0, out_every=every, predictor=predictor)
+        if inside is None:
+            q1, v1, _ = seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
+        else:
+            q1, v1 = run.q[-1], run.v[-1]
         tiny = np.finfo(float).tiny
         sq, sv = max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
         residual = max(float(np.max(np.abs(q1 - q0))) / sq, float(np.max(np.abs(v1 - v0))) / sv)
