@@ -129,7 +129,7 @@ def test_stress_study_converges_to_five_percent(part, tmp_path):
     assert len(estimate.levels) >= 2
     # Away from the clamp: the reported point is farther than the documented distance from both
     # rims (circles) of the clamped bore.
-    bore = estimate.finest.link.fixed_bore
+    bore = estimate.global_solution.link.fixed_bore
     rel = np.asarray(estimate.location_m) - bore.center_m
     axial = rel @ bore.axis
     radial = np.linalg.norm(rel - axial * bore.axis)
