@@ -58,7 +58,7 @@ class GlobalField:
             best_local = _curved_local(basis.mapping, points_m, best, best_local)
         values = np.zeros((3, points_m.shape[1]))
         for i in range(basis.Nbfun):
-            phi = basis.elem.gbasis(basis.mapping, best_local[:, :, None], i, tind=best)[0].value[:, 0]
+            phi = np.asarray(basis.elem.gbasis(basis.mapping, best_local[:, :, None], i, tind=best)[0])[:, 0]
             dofs = basis.element_dofs[i, best]
             values += self.solution.displacement_m[:, dofs] * phi
         return values

@@ -25,7 +25,8 @@ from geometry.symmetry import faces_on_plane, keep_positive_half
 # A face is on the cut sphere where its sample points are within this fraction of the ball's radius
 # of the sphere (OpenCASCADE places them on it to its 1e-7 m tolerance).
 ON_SPHERE_TOLERANCE = 1e-6
-_SAMPLES = 5  # per parameter direction of a face, to tell the cut faces
+_SAMPLES = 5
+_SKEW_AXIS, _SKEW_ANGLE = (0.3, 0.5, 0.8), 0.7  # per parameter direction of a face, to tell the cut faces
 
 
 @dataclass(frozen=True)
@@ -58,7 +59,7 @@ def ball_mesher(part: Part, centers_m, radius_m: float, *, mirror: bool = False)
             volumes = keep_positive_half(volumes, plane)
         volumes = split_at_loaded_half(volumes, fixed.bore, loaded.bore)
         occ = gmsh.model.occ
-        spheres = [(3, occ.addSphere(*c, radius_m)) for c in centers]
+        spheres = [_sphere(c, radius_m) for c in centers]
         if len(spheres) > 1:
             spheres, _ = occ.fuse(spheres[:1], spheres[1:])
         pieces, _ = occ.intersect([(3, v) for v in volumes], spheres)
@@ -122,6 +123,17 @@ class BallMesher:
             radius_m=self.radius_m,
             cad_volume_m3=self.cad_volume_m3,
         )
+
+
+def _sphere(center: np.ndarray, radius_m: float) -> tuple[int, int]:
+    """An OpenCASCADE sphere turned about a skew axis before it is placed: its seam and poles off the
+    part's axis-aligned faces and edges (a sphere as made, its poles on the default link's faces,
+    made the intersection empty at some radii, measured)."""
+    occ = gmsh.model.occ
+    sphere = (3, occ.addSphere(0.0, 0.0, 0.0, radius_m))
+    occ.rotate([sphere], 0.0, 0.0, 0.0, *_SKEW_AXIS, _SKEW_ANGLE)
+    occ.translate([sphere], *center)
+    return sphere
 
 
 def _index_of_tag(order: int) -> np.ndarray:
