@@ -24,7 +24,6 @@ from . import problem, solvers
 from .assembly import DIM, elasticity_parts
 from .errors import FemError
 from .link import (
-    CLAMP_EXCLUSION_RADIUS_FRACTION,
     MIN_CURVED_JACOBIAN_RATIO,
     LinkSolution,
     bearing_traction,
@@ -42,6 +41,29 @@ class GlobalField:
     bearing pressure it carried, and where the clamp's rims are."""
 
     solution: LinkSolution
+
+    @property
+    def material(self) -> Material:
+        return self.solution.material
+
+    @property
+    def load_N(self) -> float:
+        return self.solution.load_N
+
+    @property
+    def mirror_axis(self) -> int | None:
+        """The normal of the global's mirror plane (held on a sub-model's faces there), if a half."""
+        plane = self.solution.link.mirror_plane
+        return None if plane is None else plane.axis
+
+    @property
+    def clamp_exclusion_m(self) -> float:
+        return self.solution.clamp_exclusion_radius_m
+
+    def bearing_traction(self, p0_Pa: float):
+        """The loaded bore's bearing traction at p0 (fem.link.bearing_traction)."""
+        link = self.solution.link
+        return bearing_traction(link.loaded_bore, link.load_direction, p0_Pa)
 
     def displacement_m(self, points_m: np.ndarray) -> np.ndarray:
         """The global displacement (3, n) at points (3, n), at the global's load: the cell holding a
@@ -180,10 +202,10 @@ def solve_submodel(
     cut_scalar = np.unique(basis.get_dofs(facets=facets["cut"]).flatten())
     clamped = problem.fixed_vector_dofs(basis, facets["fixed"]) if facets["fixed"].size else np.zeros(0, np.int64)
     held = [DIM * cut_scalar[:, None] + np.arange(DIM), clamped.reshape(-1, 1)]
-    plane = fields[0].solution.link.mirror_plane
-    if facets["mirror"].size and plane is not None:
+    axis = fields[0].mirror_axis
+    if facets["mirror"].size and axis is not None:
         on_plane = np.unique(basis.get_dofs(facets=facets["mirror"]).flatten())
-        held.append((DIM * on_plane + plane.axis).reshape(-1, 1))
+        held.append((DIM * on_plane + axis).reshape(-1, 1))
     held_dofs = np.unique(np.concatenate([h.ravel() for h in held]))
     free = np.setdiff1d(np.arange(DIM * basis.N), held_dofs)
     parts = elasticity_parts(basis)
@@ -191,17 +213,14 @@ def solve_submodel(
     stress_points = _TrustedPoints(basis, ball, fields[0], trusted_margin_m)
     unit_bearing = None
     if facets["loaded"].size:
-        link = fields[0].solution.link
-        unit_bearing = problem.traction_load(
-            basis, facets["loaded"], bearing_traction(link.loaded_bore, link.load_direction, 1.0)
-        )
+        unit_bearing = problem.traction_load(basis, facets["loaded"], fields[0].bearing_traction(1.0))
     driving = fields[0].displacement_m(locations[:, cut_scalar])
     results: dict[str, SubModelSolution] = {}
     factor = None
     first_u = None
     try:
         for field in fields:
-            material = field.solution.material
+            material = field.material
             if field is not fields[0]:
                 driving = field.displacement_m(locations[:, cut_scalar])
             u = np.zeros(DIM * basis.N)
@@ -214,13 +233,13 @@ def solve_submodel(
                 factor = solvers.Factorization(K_free)
                 u[free] = factor.solve(rhs)
             elif factor is not None:
-                scale = fields[0].solution.material.youngs_modulus_Pa / material.youngs_modulus_Pa
+                scale = fields[0].material.youngs_modulus_Pa / material.youngs_modulus_Pa
                 u[free], _ = solvers.preconditioned_cg(K_free, rhs, factor.solve, first_u * scale)
             else:
                 u[free] = solvers.solve(K_free, rhs, solver)
             if first_u is None:
                 first_u = u[free].copy()
-            results[material.name] = stress_points.solution(material, u, field.solution.load_N)
+            results[material.name] = stress_points.solution(material, u, field.load_N)
     finally:
         if factor is not None:
             factor.free()
@@ -242,9 +261,9 @@ class _TrustedPoints:
         radii = np.broadcast_to(np.asarray(ball.radius_m, dtype=float), (centers.shape[0],))
         depth = np.max([r - np.linalg.norm(flat.T - c, axis=1) for c, r in zip(centers, radii)], axis=0)
         inside = depth >= margin_m
-        solution = field.solution
-        exclusion = CLAMP_EXCLUSION_RADIUS_FRACTION * solution.link.fixed_bore.radius_m
-        distance, _ = cKDTree(field.clamp_rim_points_m()).query(flat.T)
+        rims = field.clamp_rim_points_m()
+        distance = cKDTree(rims).query(flat.T)[0] if len(rims) else np.full(flat.shape[1], np.inf)
+        exclusion = field.clamp_exclusion_m
         self.trusted = (inside & (distance > exclusion)).reshape(self.where.shape[1:])
         self.element_dofs = basis.element_dofs.T
         near = np.bincount(self.element_dofs.ravel(), ~self.trusted.ravel(), basis.N)

@@ -1,6 +1,6 @@
 """The stress sub-model (fem.submodel, geometry.ball_mesh): on the global's own mesh it is the global
-solution; its interpolation of the global is exact where it must be; cut from the CAD it reaches the
-converged peak of the default link."""
+solution; its interpolation of the global is exact where it must be; a sub-model of a plate with a
+hole reaches Peterson's stress concentration factor."""
 
 from __future__ import annotations
 
@@ -106,3 +106,89 @@ def test_the_global_field_is_the_global_solution_at_its_nodes_and_inside_its_cel
     points = np.asarray(solution.basis.mapping.F(centre))[:, cells, 0]
     expected = np.array([np.asarray(at_centres.interpolate(solution.displacement_m[c]))[cells, 0] for c in range(3)])
     assert np.abs(field.displacement_m(points) - expected).max() <= 1e-10 * np.abs(expected).max()
+
+
+class PlateField:
+    """The eighth plate's global solution (tests/test_fem_stress_kt.py) as a sub-model's driving
+    field on the whole plate: u_i(x) = sign(x_i) u_i(|x|) by its three symmetry planes."""
+
+    mirror_axis = None
+    clamp_exclusion_m = 0.0
+    load_N = 1.0  # the sub-model's peak "per newton" is then the stress in Pa
+
+    def __init__(self, basis, u: np.ndarray, material):
+        self.material = material
+        self._eighth = GlobalField(SimpleNamespace(basis=basis, displacement_m=u.reshape(-1, 3).T))
+
+    def displacement_m(self, points_m: np.ndarray) -> np.ndarray:
+        sign = np.where(points_m < 0, -1.0, 1.0)
+        return sign * self._eighth.displacement_m(np.abs(points_m))
+
+    def clamp_rim_points_m(self) -> np.ndarray:
+        return np.zeros((0, 3))
+
+
+def plate_submodel_peaks(global_hole_size_m: float, radius_m: float, sizes_m: tuple[float, ...]) -> list[float]:
+    """Peak von Mises / net-section nominal stress of a sub-model of the whole plate: a ball about
+    the hole's peak point (0, d/2, 0), driven by the eighth plate's global solution on its cut,
+    meshed at 4 x size and refined to each size within a third of the ball about that point."""
+    import gmsh
+    from test_fem_stress_kt import D_M, HOLE_D_M, LENGTH_M, STRESS_PA, T_M, eighth_plate
+
+    from fem import problem
+    from fem.assembly import elasticity_matrix
+    from geometry.ball_mesh import BallMesher, _on_sphere, _sphere
+    from geometry.bores import boundary_faces
+    from geometry.meshing import Refinement
+    from geometry.session import gmsh_model
+
+    lam, mu = ALUMINIUM.lame_Pa
+    mesh = eighth_plate(global_hole_size_m, 4 * global_hole_size_m)
+    basis = problem.scalar_basis(mesh, 2)
+    x = mesh.p[:, mesh.facets].mean(axis=1)
+    boundary = mesh.boundary_facets()
+    on = {
+        name: boundary[np.abs(x[axis, boundary] - value) < 1e-9]
+        for name, axis, value in (("x0", 0, 0.0), ("y0", 1, 0.0), ("z0", 2, 0.0), ("end", 0, LENGTH_M))
+    }
+    fixed = np.concatenate(
+        [problem.fixed_vector_dofs(basis, on[name], components=(c,)) for name, c in (("x0", 0), ("y0", 1), ("z0", 2))]
+    )
+    f = problem.traction_load(
+        basis, on["end"], lambda p: np.stack([np.full(p.shape[1:], STRESS_PA), 0 * p[0], 0 * p[0]])
+    )
+    u = problem.solve_displacement(elasticity_matrix(basis, lam, mu), f, fixed, problem.dof_locations(basis))
+    field = PlateField(basis, u, ALUMINIUM)
+    center = np.array([0.0, HOLE_D_M / 2, 0.0])
+    nominal = STRESS_PA * D_M / (D_M - HOLE_D_M)
+    peaks = []
+    with gmsh_model("plate"):
+        occ = gmsh.model.occ
+        plate = occ.addBox(-LENGTH_M, -D_M / 2, -T_M / 2, 2 * LENGTH_M, D_M, T_M)
+        hole = occ.addCylinder(0, 0, -T_M, 0, 0, 2 * T_M, HOLE_D_M / 2)
+        body, _ = occ.cut([(3, plate)], [(3, hole)])
+        pieces, _ = occ.intersect(body, [_sphere(center, radius_m)])
+        occ.synchronize()
+        volumes = [tag for dim, tag in pieces if dim == 3]
+        cut = [f for f in boundary_faces(volumes) if _on_sphere(f, center, radius_m)]
+        faces = {"fixed": [], "loaded": [], "mirror": [], "cut": cut}
+        mesher = BallMesher(faces, center.reshape(1, 3), radius_m, 0.0)
+        for size in sizes_m:
+            ball = mesher.mesh([Refinement(tuple(center), radius_m / 3, size)], 4 * size)
+            sub = solve_submodel(ball, [field], trusted_margin_m=radius_m / 4)[ALUMINIUM.name]
+            peaks.append(sub.peak_Pa_per_N / nominal)
+    return peaks
+
+
+def test_the_submodel_of_a_plate_with_a_hole_converges_to_petersons_kt():
+    """Driven by the coarsest global of tests/test_fem_stress_kt.py (3.2 mm at the hole), a ball of
+    6 mm about the hole's edge refined to 0.8 and 0.4 mm: within 5 % of Peterson's K_t (the
+    whole-plate test's tolerance) and converged to 5 % (3D effects put the thin plate's mid-plane
+    peak about 1 % above the plane-stress K_t, see that test). Measured: 2.266 and 2.258 against
+    K_t = 2.236 (+1.0 %) and the whole eighth plate's 2.256 at 0.8 mm."""
+    from test_fem_stress_kt import D_M, HOLE_D_M, peterson_kt_net
+
+    peaks = plate_submodel_peaks(0.0032, 0.006, (0.0008, 0.0004))
+    kt = peterson_kt_net(HOLE_D_M / D_M)
+    assert abs(peaks[-1] - peaks[-2]) <= 0.05 * peaks[-1]
+    assert peaks[-1] == pytest.approx(kt, rel=0.05)
