@@ -148,8 +148,8 @@ def stress_study(
     # The global drives the sub-model, so its error reaches the peak through the cut: it is solved
     # no coarser than the part's own default finest size (fem.study) even where the run's base is
     # coarser. Measured on the default link: driven by a 10 mm global the sub-model's levels agreed
-    # to 1.6-4.5 % at 12.95-13.23 MPa/kN, 4-6 % below the converged 13.84; driven by the 4.5 mm
-    # default (k study's cells, straightened cells, or the whole link) 13.81-13.90.
+    # to 1.6-4.5 % at 12.95-13.23 MPa/kN, 6-8 % below the finely converged 14.0 (docs/physics.md);
+    # driven by the 4.5 mm default (k study's cells, straightened cells, or the whole link) 13.81-13.90.
     size = min(base_mesh_size_m, default_mesh_sizes(part)[-1])
     if not _drives(base, names, half, size):
         link = geometry.mesh_part(
