@@ -17,6 +17,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 from skfem import Basis, MeshTet1, MeshTet2
 
@@ -199,8 +201,10 @@ def solve_submodel(
         name: problem.facet_indices(sk_mesh, index[tri]) if tri.shape[1] else np.zeros(0, dtype=np.int64)
         for name, tri in triangles.items()
     }
-    cut_scalar = np.unique(basis.get_dofs(facets=facets["cut"]).flatten())
     clamped = problem.fixed_vector_dofs(basis, facets["fixed"]) if facets["fixed"].size else np.zeros(0, np.int64)
+    cut_scalar = np.unique(basis.get_dofs(facets=facets["cut"]).flatten())
+    floating = _floating_dofs(basis, np.concatenate([cut_scalar, clamped // DIM]))
+    cut_scalar = np.union1d(cut_scalar, floating)  # a piece held by nothing follows the global
     held = [DIM * cut_scalar[:, None] + np.arange(DIM), clamped.reshape(-1, 1)]
     axis = fields[0].mirror_axis
     if facets["mirror"].size and axis is not None:
@@ -210,7 +214,7 @@ def solve_submodel(
     free = np.setdiff1d(np.arange(DIM * basis.N), held_dofs)
     parts = elasticity_parts(basis)
     locations = problem.dof_locations(basis)
-    stress_points = _TrustedPoints(basis, ball, fields[0], trusted_margin_m)
+    stress_points = _TrustedPoints(basis, ball, fields[0], trusted_margin_m, floating)
     unit_bearing = None
     if facets["loaded"].size:
         unit_bearing = problem.traction_load(basis, facets["loaded"], fields[0].bearing_traction(1.0))
@@ -246,12 +250,24 @@ def solve_submodel(
     return results
 
 
+def _floating_dofs(basis: Basis, anchored: np.ndarray) -> np.ndarray:
+    """Scalar DOFs of the pieces of the mesh (cells joined through shared nodes) that hold none of
+    the `anchored` DOFs: a ball can clip a thin feature off the rest of the part inside it, and such
+    a piece, neither cut nor clamped, would be a free body. The sub-model drives it by the global
+    displacements and does not take its stress."""
+    cells = basis.element_dofs  # (n_local, n_cells)
+    first = np.broadcast_to(cells[:1], cells[1:].shape)
+    graph = sp.coo_matrix((np.ones(first.size), (first.ravel(), cells[1:].ravel())), shape=(basis.N, basis.N))
+    _, piece = connected_components(graph, directed=False)
+    return np.flatnonzero(~np.isin(piece, piece[anchored]))
+
+
 class _TrustedPoints:
     """Element-node points of a sub-model, and which are trusted: at least the margin inside every
     cut sphere's surface (far enough from the driven boundary) and beyond the clamp exclusion
     distance from the clamped bore's rims."""
 
-    def __init__(self, basis: Basis, ball, field: GlobalField, margin_m: float):
+    def __init__(self, basis: Basis, ball, field: GlobalField, margin_m: float, floating: np.ndarray):
         local = basis.elem.doflocs.T
         self.basis = basis
         self.at_nodes = Basis(basis.mesh, basis.elem, quadrature=(local, np.ones(local.shape[1])))
@@ -264,8 +280,9 @@ class _TrustedPoints:
         rims = field.clamp_rim_points_m()
         distance = cKDTree(rims).query(flat.T)[0] if len(rims) else np.full(flat.shape[1], np.inf)
         exclusion = field.clamp_exclusion_m
-        self.trusted = (inside & (distance > exclusion)).reshape(self.where.shape[1:])
         self.element_dofs = basis.element_dofs.T
+        held_by_nothing = np.isin(self.element_dofs, floating)
+        self.trusted = (inside & (distance > exclusion)).reshape(self.where.shape[1:]) & ~held_by_nothing
         near = np.bincount(self.element_dofs.ravel(), ~self.trusted.ravel(), basis.N)
         self.trusted_at_dofs = near == 0
 

@@ -91,6 +91,29 @@ def test_the_submodel_on_the_global_mesh_is_the_global_solution(global_half, bor
         assert np.abs(mine.displacement_m - expected).max() <= rel * np.abs(expected).max()
 
 
+def test_a_piece_the_ball_holds_by_nothing_follows_the_global(global_half):
+    """A cell far from the ball added with no cut face (as a thin feature clipped off inside a ball
+    would be): no free body; it takes the global's displacements, the rest is still the global's,
+    and its stress is not taken."""
+    solution = global_half[ALUMINIUM.name]
+    link = solution.link
+    ball = ball_of_the_global_mesh(solution, link.loaded_bore.center_m, 2.5 * link.loaded_bore.radius_m)
+    far = int(
+        np.argmax(
+            np.linalg.norm(solution.basis.mesh.p[:, solution.basis.mesh.t[0]].T - link.loaded_bore.center_m, axis=1)
+        )
+    )
+    ball.tets10 = np.hstack([ball.tets10, solution.basis.element_dofs[:, far : far + 1]])
+    ball.tets = ball.tets10[:4]
+    mine = solve_submodel(ball, [GlobalField(solution)], trusted_margin_m=0.0)[ALUMINIUM.name]
+    distance, at = cKDTree(solution.basis.doflocs.T).query(mine.basis.doflocs.T)
+    assert distance.max() == 0.0
+    expected = solution.displacement_m[:, at]
+    assert np.abs(mine.displacement_m - expected).max() <= 1e-9 * np.abs(expected).max()
+    far_dofs = np.isin(at, solution.basis.element_dofs[:, far])
+    assert far_dofs.sum() == 10 and not mine.trusted_at_dofs[far_dofs].any()
+
+
 def test_the_global_field_is_the_global_solution_at_its_nodes_and_inside_its_cells(global_half):
     solution = global_half[ALUMINIUM.name]
     field = GlobalField(solution)
