@@ -87,8 +87,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument(
         "--converge-stress",
         action="store_true",
-        help="refine the mesh at the stress hot spots until the peak von Mises stress changes by <= 5 %% "
-        "(fem.stress; several more solves); without it the peak is the k mesh's, not converged",
+        help="converge the peak von Mises stress in a sub-model around the stress hot spots, driven by the "
+        "finest k level, until it changes by <= 5 %% (fem.stress; a few small solves); without it the peak "
+        "is the k mesh's, not converged",
     )
     parser.add_argument(
         "--full-model",

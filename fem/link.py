@@ -292,15 +292,22 @@ def bearing_traction(bore: Bore, direction: np.ndarray, p0_Pa: float):
 def _rim_points(mesh, facets: np.ndarray, mirror_plane=None, samples_per_edge: int = 4) -> np.ndarray:
     """Points (n, 3) along the boundary curves of a facet set (edges used by one facet only), less
     the edges on a mirror plane (there the facet set continues in the other half)."""
-    tri = mesh.facets[:, facets]
+    return rim_points_of_triangles(mesh.p, mesh.facets[:, facets], mirror_plane, samples_per_edge)
+
+
+def rim_points_of_triangles(
+    points_m: np.ndarray, triangles: np.ndarray, mirror_plane=None, samples_per_edge: int = 4
+) -> np.ndarray:
+    """`_rim_points` of triangles (3, m) of vertex indices into points (3, n)."""
+    tri = np.asarray(triangles)
     edges = np.sort(np.hstack([tri[[0, 1]], tri[[1, 2]], tri[[0, 2]]]), axis=0)
     unique, counts = np.unique(edges, axis=1, return_counts=True)
     rim = unique[:, counts == 1]
     if mirror_plane is not None:
-        on_plane = mirror_plane.on_plane(mesh.p[:, rim], part_size_m(mesh.p))  # (2, n_edges)
+        on_plane = mirror_plane.on_plane(points_m[:, rim], part_size_m(points_m))  # (2, n_edges)
         rim = rim[:, ~on_plane.all(axis=0)]
     s = np.linspace(0.0, 1.0, samples_per_edge + 1)
-    a, b = mesh.p[:, rim[0]], mesh.p[:, rim[1]]
+    a, b = points_m[:, rim[0]], points_m[:, rim[1]]
     return (a[:, :, None] * (1 - s) + b[:, :, None] * s).reshape(3, -1).T
 
 

@@ -282,6 +282,8 @@ def _mesh_arrays(
 
 def _facets(faces: list[int], index_of_tag: np.ndarray, order: int) -> np.ndarray:
     n_nodes_per_triangle = 3 if order == 1 else 6
+    if not faces:  # e.g. a stress sub-model's ball that holds no bore (geometry.ball_mesh)
+        return np.zeros((3, 0), dtype=np.int64)
     blocks = []
     for face in faces:
         _, nodes = gmsh.model.mesh.getElementsByType(_TRIANGLE[order], tag=face)

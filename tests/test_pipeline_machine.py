@@ -337,7 +337,13 @@ def test_drive_link_gives_todays_summary(tmp_path):
     rewritten when the stress study moved to the mirror half and the stiffness level's peak stopped
     counting folded cells: against d46096f every chain figure was then still equal to 1e-12, only
     the FEA's stress fields (3-8 %, drive-independent), what is computed from them (link stress,
-    safety factors) and the steady state's residual (a diagnostic, 1e-7) had moved."""
+    safety factors) and the steady state's residual (a diagnostic, 1e-7) had moved.
+    Rewritten again when the stress study moved to sub-models (fem.submodel): only the stress
+    fields, the link stresses and safety factors from them and the FEA's warnings changed: the
+    converged stress -2.7 % (al6061-t6, 14.18 +- 3.9 % to 13.79 +- 3.7 %) and -2.3 % (ti-grade2,
+    14.00 +- 3.4 % to 13.68 +- 4.7 %), inside both estimates; at this 10 mm base the sub-model is
+    driven by a 4.5 mm global (the part's default finest size), and the warning about the old
+    study's finest whole-link level went with that level."""
     out = tmp_path / "out"
     args = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "--no-images", "-q"]
     args += ["--cams", "modified-sine,cycloidal", "--drive", "link"]
