@@ -131,6 +131,10 @@ def stiffness_studies(
     start = study_start = time.perf_counter()
     part = geometry.as_part(source, symmetry=mirror_symmetry)
     sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
+    # Thin walls are judged against the finest size asked for, also where the budget coarsens the
+    # levels: their elements then coarsen by the same factor (a wall refined to a fixed size would
+    # keep its unknowns however far the rest is coarsened).
+    wall_reference_m = sizes[-1]
     mesh_time = time.perf_counter() - start
 
     def mesh_level(level: int, level_sizes: tuple[float, ...]):
@@ -140,6 +144,7 @@ def stiffness_studies(
             order=settings.mesh_order,
             bore_refinement=settings.bore_refinement,
             mirror=mirror_symmetry and level == len(level_sizes) - 1,
+            wall_reference_m=wall_reference_m,  # every level refines the same walls alike
         )
 
     def estimate_levels(level_sizes: tuple[float, ...]) -> list[float]:
@@ -147,7 +152,9 @@ def stiffness_studies(
         features = part.geometry.mesh_features
         half = mirror_symmetry and part.mirror_plane is not None
         return [
-            estimated_dofs(features, h, settings.bore_refinement * h, settings.mesh_order, half and i == 0)
+            estimated_dofs(
+                features, h, settings.bore_refinement * h, settings.mesh_order, half and i == 0, wall_reference_m
+            )
             for i, h in enumerate(reversed(level_sizes))
         ]
 

@@ -25,7 +25,9 @@ from geometry.meshing import (
     BORE_FIELD_OUTER_RADII,
     SIZE_GRADIENT,
     SMALL_HOLE_SIZE_FRACTION,
+    THIN_WALL_FRACTION,
     UNEQUAL_BORES_TOL,
+    thin_wall_size,
 )
 
 # Least squares in relative error over the built-in link's meshes (module docstring).
@@ -45,6 +47,14 @@ class Hole:
 
 
 @dataclass(frozen=True)
+class WallFeature:
+    """A planar wall of the part (geometry.walls): its thickness and the area across it (metres)."""
+
+    thickness_m: float
+    area_m2: float
+
+
+@dataclass(frozen=True)
 class MeshFeatures:
     """What the estimate needs of the part, measured at resolution (SI)."""
 
@@ -52,12 +62,23 @@ class MeshFeatures:
     area_m2: float  # the whole boundary
     pin_bores: tuple[Hole, Hole]
     small_holes: tuple[Hole, ...]  # every other full hole
+    walls: tuple[WallFeature, ...] = ()  # planar walls up to WALL_SEARCH_DIAGONALS x the part's diagonal
 
 
-def estimated_dofs(features: MeshFeatures, mesh_size_m: float, bore_size_m: float, order: int, half: bool) -> float:
+def estimated_dofs(
+    features: MeshFeatures,
+    mesh_size_m: float,
+    bore_size_m: float,
+    order: int,
+    half: bool,
+    wall_reference_m: float | None = None,
+) -> float:
     """Estimated unknowns (3 per node) of the part meshed at `mesh_size_m` (`bore_size_m` at the pin
-    bores), with elements of `order`; `half`: a mirror half (half the part)."""
+    bores), with elements of `order`; `half`: a mirror half (half the part); `wall_reference_m`: the
+    size its thin walls are refined against (geometry.meshing; None: `mesh_size_m`)."""
     per_volume, per_area = _size_field_integrals(features, mesh_size_m, bore_size_m)
+    wall_volume, wall_area = _wall_integrals(features.walls, mesh_size_m, wall_reference_m or mesh_size_m)
+    per_volume, per_area = per_volume + wall_volume, per_area + wall_area
     dofs = VOLUME_COEF * per_volume + AREA_COEF * per_area
     if order == 1:
         dofs /= P2_NODES_PER_VERTEX
@@ -87,4 +108,17 @@ def _size_field_integrals(features: MeshFeatures, h: float, bore_size: float) ->
         growth = 1 + d / hole.radius_m  # the zone round a cylinder widens with the distance from it
         per_volume += hole.area_m2 * float(np.trapezoid(growth * (s**-3 - h**-3), d))
         per_area += hole.area_m2 * (near**-2 - h**-2)
+    return per_volume, per_area
+
+
+def _wall_integrals(walls: tuple[WallFeature, ...], h: float, reference_m: float) -> tuple[float, float]:
+    """The thin walls' share of the integrals: each wall's material (area x thickness) and its two
+    faces at the wall's size instead of h (the grading round the wall's edges left out)."""
+    per_volume = per_area = 0.0
+    for wall in walls:
+        if wall.thickness_m >= THIN_WALL_FRACTION * reference_m:
+            continue
+        s = thin_wall_size(wall.thickness_m, h, reference_m)
+        per_volume += wall.area_m2 * wall.thickness_m * (s**-3 - h**-3)
+        per_area += 2 * wall.area_m2 * (s**-2 - h**-2)
     return per_volume, per_area
