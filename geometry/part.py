@@ -22,7 +22,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -38,7 +38,7 @@ from geometry.parametric import add_link
 from geometry.pin_pair import PinBores
 from geometry.session import gmsh_model
 from geometry.step_io import import_step_bytes, read_step
-from geometry.symmetry import symmetry_plane
+from geometry.symmetry import faces_on_plane, keep_positive_half, symmetry_plane
 from geometry.walls import thin_walls
 
 # The unknowns estimate knows the planar walls up to this fraction of the part's diagonal thick:
@@ -176,6 +176,8 @@ def _measure(part: Part) -> PartGeometry:
         diagonal_m = _model_diagonal_m()
         plane = symmetry_plane([body], pins.fixed.bore, pins.loaded.bore) if part.symmetry_checked else None
         features = _mesh_features(body, volume_m3, pins, diagonal_m)
+        if plane is not None:  # last: the half replaces the body in the model
+            features = replace(features, mirror_cut_area_m2=_cut_face_area_m2(body, plane))
     return PartGeometry(
         summary=summary,
         scale=_scale(pins, None if data is not None else part.origin),
@@ -204,6 +206,12 @@ def _mesh_features(body: int, volume_m3: float, pins: PinBores, diagonal_m: floa
             for wall in thin_walls([body], WALL_SEARCH_DIAGONALS * diagonal_m)
         ),
     )
+
+
+def _cut_face_area_m2(body: int, plane: MirrorPlane) -> float:
+    """Area of the face a mirror half gets on its plane (the body is replaced by that half)."""
+    half = keep_positive_half([body], plane)
+    return sum(gmsh.model.occ.getMass(2, face) for face in faces_on_plane(half, plane))
 
 
 def as_part(source=None, *, bores: BoreOverride | None = None, symmetry: bool = True) -> Part:

@@ -11,6 +11,7 @@ from fem.errors import FemError
 from fem.materials import get_material
 from fem.settings import DEFAULT_BORE_REFINEMENT
 from fem.study import stiffness_study
+from geometry import DEFAULT_LINK
 from geometry.mesh_estimate import AREA_COEF, VOLUME_COEF, Hole, MeshFeatures, estimated_dofs
 
 # real / estimate on every mesh measured (built-in link 2.25-15 mm, the corpus' default levels)
@@ -62,3 +63,18 @@ def test_default_sizes_that_cannot_fit_are_coarsened_before_meshing(monkeypatch)
     with pytest.warns(Warning, match="memory budget"):
         stiffness_study(None, get_material("al6061-t6"), order=2, max_memory_gb=0.6)
     assert min(meshed) > 0.0045  # the default 4.5 mm was never meshed
+
+
+def test_a_mirror_half_is_estimated_as_half_the_part_plus_its_cut_face():
+    features = geometry.resolve_part(None).geometry.mesh_features
+    # the built-in link's section in its plane through both bore axes: less than its bounding
+    # rectangle there (length x height), more than the web's section
+    length = 2 * DEFAULT_LINK.lug_radius_m + DEFAULT_LINK.pitch_m
+    assert (
+        DEFAULT_LINK.web_thickness_m * DEFAULT_LINK.pitch_m
+        < features.mirror_cut_area_m2
+        < length * DEFAULT_LINK.body_height_m
+    )
+    h = 0.0045
+    whole, half = (estimated_dofs(features, h, DEFAULT_BORE_REFINEMENT * h, 2, m) for m in (False, True))
+    assert half == pytest.approx(whole / 2 + AREA_COEF * features.mirror_cut_area_m2 / h**2, rel=1e-12)
