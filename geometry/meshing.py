@@ -141,7 +141,7 @@ def mesh_volumes(
     small_holes = small_hole_fields(volumes, (fixed, loaded), mesh_size_m)
     pin_faces, pin_radius, smaller_pin = _pin_bore_fields(fixed, fixed_faces, loaded, loaded_faces, bore_size_m)
     small_holes += smaller_pin
-    small_holes += thin_wall_fields(volumes, mesh_size_m, wall_reference_m or mesh_size_m)
+    small_holes += thin_wall_fields(volumes, mesh_size_m, wall_reference_m or mesh_size_m, mirror_faces or ())
     _refine_near(pin_faces, mesh_size_m, bore_size_m, pin_radius, small_holes)
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT: 4-6x faster than Delaunay here
     # One thread: HXT then gives the same mesh on every run (with two it did not, and it was no
@@ -215,12 +215,15 @@ def thin_wall_size(thickness_m: float, size_far: float, reference_m: float) -> f
     return size_far * min(1.0, max(relative, (relative / THIN_WALL_FRACTION) ** 2))
 
 
-def thin_wall_fields(volumes: list[int], size_far: float, reference_m: float) -> list[FaceRefinement]:
+def thin_wall_fields(
+    volumes: list[int], size_far: float, reference_m: float, cut_faces: Sequence[int] = ()
+) -> list[FaceRefinement]:
     """The planar walls thinner than THIN_WALL_FRACTION x `reference_m`, each refined from its
-    smaller face: within a wall's thickness of that face lies the wall's material across from it."""
+    smaller face: within a wall's thickness of that face lies the wall's material across from it.
+    A mirror half's `cut_faces` are no wall's side (the part goes on past them)."""
     return [
         FaceRefinement(wall.faces[:1], wall.thickness_m, thin_wall_size(wall.thickness_m, size_far, reference_m))
-        for wall in thin_walls(volumes, THIN_WALL_FRACTION * reference_m)
+        for wall in thin_walls(volumes, THIN_WALL_FRACTION * reference_m, exclude=cut_faces)
     ]
 
 

@@ -14,6 +14,7 @@ bore) are not found: round the pin bores and small holes their own size fields r
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import gmsh
@@ -48,9 +49,11 @@ class _Plane:
     samples: np.ndarray  # (n, 3) points on the trimmed face
 
 
-def thin_walls(volumes: list[int], max_thickness_m: float) -> list[Wall]:
-    """The walls of the solid (`volumes` in the current gmsh model) thinner than `max_thickness_m`."""
-    planes = [_plane(tag, volumes) for tag in _boundary_faces(volumes) if gmsh.model.getType(2, tag) == "Plane"]
+def thin_walls(volumes: list[int], max_thickness_m: float, exclude: Sequence[int] = ()) -> list[Wall]:
+    """The walls of the solid (`volumes` in the current gmsh model) thinner than `max_thickness_m`;
+    faces in `exclude` (a mirror half's cut face: the wall goes on past it) are not wall faces."""
+    faces = [tag for tag in _boundary_faces(volumes) if tag not in set(exclude)]
+    planes = [_plane(tag, volumes) for tag in faces if gmsh.model.getType(2, tag) == "Plane"]
     walls = []
     for i, a in enumerate(planes):
         for b in planes[i + 1 :]:
