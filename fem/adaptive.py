@@ -147,11 +147,11 @@ def stiffnesses_to_tolerance(
         keys = {m.name: (*level, m) for m in materials}
         if any(key not in known for key in keys.values()):
             try:
-                # No thin-wall fields: the finest size is not known in advance, and walls judged
-                # level by level are refined on the coarse levels only, which broke the levels'
-                # monotone refinement (the built-in link: 42,612 DOFs at 12 mm, 41,475 at 9 mm).
+                # No thin-wall fields (no wall_reference_m): the finest size is not known in advance,
+                # and walls judged level by level were refined on the coarse levels only, which
+                # broke the monotone refinement (the built-in link: 42,612 DOFs at 12 mm, 41,475 at 9).
                 link = geometry.mesh_part(
-                    part, mesh_size_m=h, order=fea.mesh_order, bore_refinement=fea.bore_refinement, thin_walls=False
+                    part, mesh_size_m=h, order=fea.mesh_order, bore_refinement=fea.bore_refinement
                 )
             except geometry.GeometryError as exc:
                 if not sizes:

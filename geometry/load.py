@@ -60,13 +60,12 @@ def mesh_part(
     bore_refinement: float = 0.4,
     mirror: bool = False,
     wall_reference_m: float | None = None,
-    thin_walls: bool = True,
 ) -> LinkMesh:
     """Mesh a resolved part (see `load_link` for the options): its body is loaded into a fresh gmsh
     model from the part's own copy, with the bores chosen at resolution. `wall_reference_m`: the
-    size thin walls are judged against (a study's finest level, so that every level refines the
-    same walls alike; geometry.meshing.THIN_WALL_FRACTION); None: this mesh's own size.
-    `thin_walls=False`: no thin-wall fields (levels whose finest size is not known in advance)."""
+    size thin walls are judged against (a study's finest size, so that every level refines the
+    same walls alike; geometry.meshing.THIN_WALL_FRACTION); None: no thin-wall fields (the mesh as
+    `load_link` makes it)."""
     _check_mesh_options(order, bore_refinement)
     if mirror and not part.symmetry_checked:
         raise GeometryError(
@@ -92,7 +91,6 @@ def mesh_part(
                 order=order,
                 mirror_plane=plane,
                 wall_reference_m=wall_reference_m,
-                thin_walls=thin_walls,
             )
         except Exception as exc:  # gmsh reports a failed mesh as a bare Exception
             if type(exc) is not Exception:

@@ -81,10 +81,11 @@ def estimated_dofs(
 ) -> float:
     """Estimated unknowns (3 per node) of the part meshed at `mesh_size_m` (`bore_size_m` at the pin
     bores), with elements of `order`; `half`: a mirror half (half the part); `wall_reference_m`: the
-    size its thin walls are refined against (geometry.meshing; None: `mesh_size_m`)."""
+    size its thin walls are refined against (geometry.meshing; None: not refined)."""
     per_volume, per_area = _size_field_integrals(features, mesh_size_m, bore_size_m)
-    wall_volume, wall_area = _wall_integrals(features.walls, mesh_size_m, wall_reference_m or mesh_size_m)
-    per_volume, per_area = per_volume + wall_volume, per_area + wall_area
+    if wall_reference_m is not None:
+        wall_volume, wall_area = _wall_integrals(features.walls, mesh_size_m, wall_reference_m)
+        per_volume, per_area = per_volume + wall_volume, per_area + wall_area
     dofs = VOLUME_COEF * per_volume + AREA_COEF * per_area
     if half:  # half the part, and the cut face it gets on the mirror plane at the far size
         dofs = dofs / 2 + AREA_COEF * features.mirror_cut_area_m2 / mesh_size_m**2

@@ -129,12 +129,10 @@ def mesh_volumes(
     order: int,
     mirror_plane: MirrorPlane | None = None,
     wall_reference_m: float | None = None,
-    thin_walls: bool = True,
 ) -> MeshArrays:
     """Mesh the volumes with tetrahedra of `order`; size `bore_size_m` at the bores, `mesh_size_m` away.
     With a `mirror_plane` (the volumes are a half link) the facets on that plane are returned too.
-    Thin walls are refined relative to `wall_reference_m` (THIN_WALL_FRACTION; None: `mesh_size_m`)
-    unless `thin_walls` is False."""
+    Thin walls are refined relative to `wall_reference_m` (THIN_WALL_FRACTION; None: not refined)."""
     fixed_faces = faces_on_bore(volumes, fixed.bore)
     loaded_faces = faces_on_bore(volumes, loaded.bore)
     mirror_faces = faces_on_plane(volumes, mirror_plane) if mirror_plane is not None else None
@@ -143,8 +141,8 @@ def mesh_volumes(
     small_holes = small_hole_fields(volumes, (fixed, loaded), mesh_size_m)
     pin_faces, pin_radius, smaller_pin = _pin_bore_fields(fixed, fixed_faces, loaded, loaded_faces, bore_size_m)
     small_holes += smaller_pin
-    if thin_walls:
-        small_holes += thin_wall_fields(volumes, mesh_size_m, wall_reference_m or mesh_size_m, mirror_faces or ())
+    if wall_reference_m is not None:
+        small_holes += thin_wall_fields(volumes, mesh_size_m, wall_reference_m, mirror_faces or ())
     _refine_near(pin_faces, mesh_size_m, bore_size_m, pin_radius, small_holes)
     gmsh.option.setNumber("Mesh.Algorithm3D", 10)  # HXT: 4-6x faster than Delaunay here
     # One thread: HXT then gives the same mesh on every run (with two it did not, and it was no

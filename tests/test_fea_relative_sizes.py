@@ -70,14 +70,12 @@ def test_roller_plate_gets_elements_well_inside_its_thickness(parts):
     assert finest < ROLLER_THICKNESS_M / 2.5
 
 
-def test_thin_wall_is_measured_and_refined_instead_of_warned_about(parts):
-    # 4 mm elements over a 1.5 mm plate: its planar faces get elements of the wall's size from the
-    # thin-wall field (geometry.meshing.THIN_WALL_FRACTION), so no element is more than twice the
-    # wall thick there; the warning itself (a wall under half its own elements, e.g. a curved one)
-    # is tested in tests/test_fea_thin_walls.py
-    coarse = load_link(parts["plate"], mesh_size_m=0.004)
+def test_thin_wall_is_measured_and_warned_about(parts):
+    coarse = load_link(parts["plate"], mesh_size_m=0.004)  # elements much thicker than the plate
     assert thinnest_wall_m(coarse.points_m, coarse.tets, 0.005) == pytest.approx(ROLLER_THICKNESS_M, rel=1e-6)
-    assert thin_wall_warning(coarse) is None
+    message = thin_wall_warning(coarse)
+    assert message is not None and "1.5 mm thick" in message and "--mesh-size" in message
+    assert "\n" not in message
     assert thin_wall_warning(load_link(parts["plate"], mesh_size_m=0.001)) is None
 
 

@@ -1,7 +1,8 @@
-"""Thin walls: found on the CAD (geometry.walls), refined by a size field on every level of a study
-where the finest level's elements would be more than twice the wall's thickness
-(geometry.meshing.THIN_WALL_FRACTION), counted by the unknowns estimate, and warned about only where
-a wall is still thinner than half the elements there (a curved one)."""
+"""Thin walls: found on the CAD (geometry.walls), refined by a size field on every level of a
+stiffness study where its finest size is more than twice the wall's thickness
+(geometry.meshing.THIN_WALL_FRACTION; `mesh_part(..., wall_reference_m=)`, none without it),
+counted by the unknowns estimate, and warned about where a wall is thinner than half the elements
+there (a curved one, or a mesh made without the fields)."""
 
 from __future__ import annotations
 
@@ -79,7 +80,9 @@ def test_a_plate_thinner_than_half_the_elements_is_found_and_refined_without_a_w
     assert wall.thickness_m == pytest.approx(PLATE_THICKNESS_M, rel=1e-9)
     assert wall.area_m2 == pytest.approx(plate.geometry.mesh_features.walls[0].area_m2, rel=1e-9)
     h = 0.004
-    link = geometry.mesh_part(plate, mesh_size_m=h, order=2, bore_refinement=DEFAULT_BORE_REFINEMENT)
+    link = geometry.mesh_part(
+        plate, mesh_size_m=h, order=2, bore_refinement=DEFAULT_BORE_REFINEMENT, wall_reference_m=h
+    )
     assert thinnest_wall_m(link.points_m, link.tets, h) == pytest.approx(PLATE_THICKNESS_M, rel=1e-6)
     # away from the bores' fields the plate's faces carry elements of the wall's size, not 4 mm
     tri, _ = boundary_facets(link.tets)
@@ -100,10 +103,12 @@ def test_the_plates_wall_is_in_the_unknowns_estimate(plate):
     features = plate.geometry.mesh_features
     assert [w.thickness_m for w in features.walls] == pytest.approx([PLATE_THICKNESS_M])
     h = 0.004
-    link = geometry.mesh_part(plate, mesh_size_m=h, order=2, bore_refinement=DEFAULT_BORE_REFINEMENT)
+    link = geometry.mesh_part(
+        plate, mesh_size_m=h, order=2, bore_refinement=DEFAULT_BORE_REFINEMENT, wall_reference_m=h
+    )
     real = mesh_dofs(link.tets, link.tets10, 2)
-    with_wall = estimated_dofs(features, h, DEFAULT_BORE_REFINEMENT * h, 2, False)
-    without = estimated_dofs(replace(features, walls=()), h, DEFAULT_BORE_REFINEMENT * h, 2, False)
+    with_wall = estimated_dofs(features, h, DEFAULT_BORE_REFINEMENT * h, 2, False, h)
+    without = estimated_dofs(features, h, DEFAULT_BORE_REFINEMENT * h, 2, False)
     assert BAND[0] <= real / with_wall <= BAND[1]
     assert real / without > 2
 
@@ -129,8 +134,9 @@ def test_the_estimate_counts_a_wall_only_below_half_the_reference_size():
     bore = Hole(0.01, 2e-3)
     plain = MeshFeatures(1e-4, 0.04, (bore, bore), ())
     walled = MeshFeatures(1e-4, 0.04, (bore, bore), (), (WallFeature(0.002, 1e-3),))
-    assert estimated_dofs(walled, 0.005, 0.003, 2, False) > estimated_dofs(plain, 0.005, 0.003, 2, False)
+    assert estimated_dofs(walled, 0.005, 0.003, 2, False, 0.005) > estimated_dofs(plain, 0.005, 0.003, 2, False, 0.005)
     assert estimated_dofs(walled, 0.005, 0.003, 2, False, 0.004) == estimated_dofs(plain, 0.005, 0.003, 2, False)
+    assert estimated_dofs(walled, 0.005, 0.003, 2, False) == estimated_dofs(plain, 0.005, 0.003, 2, False)  # no fields
 
 
 def test_a_wall_thinner_than_half_its_own_elements_warns_naming_the_option():
