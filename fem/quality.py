@@ -150,18 +150,6 @@ def thinnest_wall_m(points_m: np.ndarray, tets: np.ndarray, search_radius_m: flo
     of a mirrored link (`mirror_plane`, a geometry.link_mesh.MirrorPlane) a wall that ends on the
     plane goes on in the other half: it is twice as thick as seen from the half.
     """
-    walls = _facet_walls(points_m, tets, search_radius_m, mirror_plane)
-    return _thinnest(walls.thickness, walls.area)
-
-
-@dataclass(frozen=True)
-class _FacetWalls:
-    thickness: np.ndarray  # per boundary facet, inf where no facet faces it within the search
-    area: np.ndarray
-    edge: np.ndarray  # the facet's mean edge length: the local element size
-
-
-def _facet_walls(points_m: np.ndarray, tets: np.ndarray, search_radius_m: float, mirror_plane=None) -> _FacetWalls:
     from scipy.spatial import cKDTree
 
     tri, opposite = boundary_facets(np.asarray(tets))
@@ -185,35 +173,21 @@ def _facet_walls(points_m: np.ndarray, tets: np.ndarray, search_radius_m: float,
     across = (depth > 0) & (lateral < np.maximum(depth, np.sqrt(area[i])))
     thickness = np.full(len(area), np.inf)
     np.minimum.at(thickness, i[across], depth[across])
-    edge = np.mean(
-        [np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1), np.linalg.norm(a - c, axis=1)], axis=0
-    )
-    return _FacetWalls(thickness, area, edge)
-
-
-def _thinnest(value: np.ndarray, area: np.ndarray) -> float:
-    """The smallest `value` held over >= WALL_AREA_FRACTION of the surface."""
-    order = np.argsort(value)
+    order = np.argsort(thickness)
     covered = np.cumsum(area[order]) / area.sum()
     k = int(np.searchsorted(covered, WALL_AREA_FRACTION))
-    return float(value[order[min(k, len(order) - 1)]])
+    return float(thickness[order[min(k, len(order) - 1)]])
 
 
 def thin_wall_warning(link) -> str | None:
-    """One-line warning when a wall of the link (a geometry.LinkMesh) is thinner than half its
-    elements there: the thickness against the wall's own facets' size, since planar thin walls are
-    refined by geometry.meshing's size fields (a curved one is not)."""
+    """One-line warning when a wall of the link (a geometry.LinkMesh) is thinner than its elements."""
     size = float(link.mesh_size_m)
-    walls = _facet_walls(
+    wall = thinnest_wall_m(
         link.points_m, link.tets, search_radius_m=THIN_WALL_ELEMENT_FRACTION * size, mirror_plane=link.mirror_plane
     )
-    ratio = _thinnest(walls.thickness / walls.edge, walls.area)
-    if not ratio < THIN_WALL_ELEMENT_FRACTION:
+    if not wall < THIN_WALL_ELEMENT_FRACTION * size:
         return None
-    thin = walls.thickness / walls.edge < THIN_WALL_ELEMENT_FRACTION
-    wall = _thinnest(np.where(thin, walls.thickness, np.inf), walls.area)
-    local = float(np.median(walls.edge[thin]))
     return (
-        f"mesh: a wall about {wall * 1e3:.3g} mm thick is thinner than half the {local * 1e3:.3g} mm elements there; "
+        f"mesh: a wall about {wall * 1e3:.3g} mm thick is thinner than half the {size * 1e3:.3g} mm elements; "
         f"k and stresses in it are unreliable, pass a smaller mesh size (--mesh-size)"
     )

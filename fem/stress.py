@@ -147,7 +147,6 @@ def stress_study(
                 order=mesh_order,
                 bore_refinement=settings.bore_refinement,
                 mirror=on_half,
-                wall_reference_m=base_mesh_size_m,  # its thin walls refined as on the k study's finest
             )
 
     def solve(link) -> dict[str, LinkSolution]:

