@@ -97,8 +97,7 @@ def assert_unknowns_as_estimated(run: Run, name: str, *options: str) -> None:
     for i, level in enumerate(levels):
         half = i == len(levels) - 1 and run.result["mirror_plane"] is not None  # the finest on a mirror half
         size = level["mesh_size_m"]
-        finest = levels[-1]["mesh_size_m"]  # thin walls are judged against the finest size
-        estimate = estimated_dofs(features, size, DEFAULT_BORE_REFINEMENT * size, 2, half, finest)
+        estimate = estimated_dofs(features, size, DEFAULT_BORE_REFINEMENT * size, 2, half)
         assert ESTIMATE_LOW_RATIO <= level["dofs"] / estimate <= ESTIMATE_HIGH_RATIO, (size, level["dofs"], estimate)
 
 
