@@ -50,11 +50,16 @@ def run(quick: bool) -> list[str]:
             half = level == len(sizes) - 1 and part.mirror_plane is not None
             start = time.perf_counter()
             link = geometry.mesh_part(
-                part, mesh_size_m=size, order=2, bore_refinement=DEFAULT_BORE_REFINEMENT, mirror=half
+                part,
+                mesh_size_m=size,
+                order=2,
+                bore_refinement=DEFAULT_BORE_REFINEMENT,
+                mirror=half,
             )
             seconds = time.perf_counter() - start
             real = mesh_dofs(link.tets, link.tets10, 2)
-            estimate = estimated_dofs(part.geometry.mesh_features, size, DEFAULT_BORE_REFINEMENT * size, 2, half)
+            features = part.geometry.mesh_features
+            estimate = estimated_dofs(features, size, DEFAULT_BORE_REFINEMENT * size, 2, half)
             which = "finest" + (" (half)" if half else "") if level == len(sizes) - 1 else "coarse"
             lines.append(
                 f"{label} | {which} | {size * 1e3:.3g} | {real} | {estimate:.0f} | {real / estimate:.3f} | {seconds:.1f}"

@@ -257,13 +257,26 @@ def _facets(mesh, index: np.ndarray, triangles: np.ndarray, name: str) -> np.nda
     return facets
 
 
-def _discretise(link: LinkMesh, sk_mesh, index: np.ndarray, order: int):
+def _discretise_curved(link: LinkMesh, sk_mesh, index: np.ndarray, order: int):
+    """`_discretise`, retried with the facet map inverted to round-off (problem.ROUNDOFF_NEWTON_TOL)
+    where scikit-fem's Newton iteration stops short of its tolerance; meshes it inverts as before
+    are discretised as before."""
+    try:
+        return _discretise(link, sk_mesh, index, order)
+    except Exception as exc:  # scikit-fem raises a bare Exception when its inverse map fails
+        if sk_mesh.affine or "Newton iteration" not in str(exc):
+            raise
+        return _discretise(link, sk_mesh, index, order, roundoff_tolerant=True)
+
+
+def _discretise(link: LinkMesh, sk_mesh, index: np.ndarray, order: int, roundoff_tolerant: bool = False):
     """Basis, clamped facets, the load vector of a unit bearing pressure p0 = 1 Pa, and the scalar
     DOFs on the mirror plane of a half link (none for a whole one)."""
     fixed = _facets(sk_mesh, index, link.fixed_bore_facets, "fixed_bore_facets")
     loaded = _facets(sk_mesh, index, link.loaded_bore_facets, "loaded_bore_facets")
     basis = problem.scalar_basis(sk_mesh, order)
-    unit = problem.traction_load(basis, loaded, bearing_traction(link.loaded_bore, link.load_direction, 1.0))
+    traction = bearing_traction(link.loaded_bore, link.load_direction, 1.0)
+    unit = problem.traction_load(basis, loaded, traction, roundoff_tolerant=roundoff_tolerant)
     on_plane = np.zeros(0, dtype=np.int64)
     if link.mirror_plane is not None:
         if link.mirror_facets is None:
@@ -360,7 +373,7 @@ def analyse_link_materials(
         check_mesh_and_materials(mesh, materials, order)
     sk_mesh, index = skfem_mesh(mesh, order, away_ratios=away_ratios)
     try:
-        basis, fixed, unit, on_plane = _discretise(mesh, sk_mesh, index, order)
+        basis, fixed, unit, on_plane = _discretise_curved(mesh, sk_mesh, index, order)
     except Exception as exc:  # scikit-fem raises a bare Exception when its inverse map fails
         if sk_mesh.affine or "Newton iteration" not in str(exc):
             raise

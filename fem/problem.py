@@ -10,6 +10,7 @@ from collections.abc import Callable
 import numpy as np
 import scipy.sparse as sp
 from skfem import Basis, ElementTetP1, ElementTetP2, FacetBasis, LinearForm, Mesh
+from skfem.mapping import MappingIsoparametric
 
 from . import solvers
 from .assembly import DIM, rigid_body_modes, vector_dofs
@@ -27,6 +28,13 @@ TRACTION_INTORDER = 4
 CURVED_INTORDER = 2
 # The curved cells' Jacobian check (link.straighten_distorted) samples more points than that.
 JACOBIAN_CHECK_INTORDER = 4
+# scikit-fem's inverse isoparametric map (facet quadrature points to reference coordinates) stops
+# its Newton iteration when every cell's step, summed over coordinates and points, is below 1e-12.
+# Round-off alone is about eps |x| / h per coordinate: 1.3e-12 on the arm bar with slots, whose
+# 0.9 mm cells at its r 2.5 mm loaded bore lie 370 mm from the origin (its Newton had converged:
+# 5 cells kept stepping by round-off for 200 iterations). Retried with this tolerance, still far
+# below anything the load vector can see (reference coordinates to 1e-10 of a cell).
+ROUNDOFF_NEWTON_TOL = 1e-10
 
 
 def element(order: int):
@@ -45,13 +53,26 @@ def scalar_basis(mesh: Mesh, order: int) -> Basis:
     return Basis(mesh, element(order), intorder=intorder)
 
 
+class RoundoffTolerantMapping(MappingIsoparametric):
+    """scikit-fem's isoparametric mapping whose inverse stops at ROUNDOFF_NEWTON_TOL."""
+
+    def invF(self, x, tind=None, newton_max_iters=50, newton_tol=ROUNDOFF_NEWTON_TOL):
+        return super().invF(x, tind=tind, newton_max_iters=newton_max_iters, newton_tol=newton_tol)
+
+
 def traction_load(
     basis: Basis,
     facets: np.ndarray,
     traction_Pa: Callable[[np.ndarray], np.ndarray],
+    roundoff_tolerant: bool = False,
 ) -> np.ndarray:
-    """Interleaved load vector (N) of a traction t(x) (Pa, shape (3, ...) from x (3, ...)) on facets."""
-    fbasis = FacetBasis(basis.mesh, basis.elem, facets=np.asarray(facets), intorder=TRACTION_INTORDER)
+    """Interleaved load vector (N) of a traction t(x) (Pa, shape (3, ...) from x (3, ...)) on facets.
+    `roundoff_tolerant` (curved cells): invert the facet map to ROUNDOFF_NEWTON_TOL."""
+    mesh = basis.mesh
+    mapping = None
+    if roundoff_tolerant and not mesh.affine:
+        mapping = RoundoffTolerantMapping(mesh, mesh.elem(), mesh.bndelem)
+    fbasis = FacetBasis(mesh, basis.elem, mapping=mapping, facets=np.asarray(facets), intorder=TRACTION_INTORDER)
     parts = []
     for c in range(DIM):
         form = LinearForm(lambda v, w, c=c: traction_Pa(np.asarray(w.x))[c] * v)

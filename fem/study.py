@@ -131,6 +131,12 @@ def stiffness_studies(
     start = study_start = time.perf_counter()
     part = geometry.as_part(source, symmetry=mirror_symmetry)
     sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
+    # Thin-wall fields (geometry.meshing.THIN_WALL_FRACTION) are not switched on in the study yet:
+    # on the built-in link at --mesh-size 10 they moved k from 8.687e7 +- 8.0 % to 9.461e7, nearer
+    # the converged ~9.31e7 but outside the old estimate, which the default run's snapshot
+    # (tests/test_pipeline_machine.py) may not do unasked. Where they are, wall_reference_m is the
+    # finest size asked for (kept where the budget coarsens the levels).
+    wall_reference_m = None
     mesh_time = time.perf_counter() - start
 
     def mesh_level(level: int, level_sizes: tuple[float, ...]):
@@ -140,6 +146,7 @@ def stiffness_studies(
             order=settings.mesh_order,
             bore_refinement=settings.bore_refinement,
             mirror=mirror_symmetry and level == len(level_sizes) - 1,
+            wall_reference_m=wall_reference_m,  # every level refines the same walls alike
         )
 
     def estimate_levels(level_sizes: tuple[float, ...]) -> list[float]:
@@ -147,7 +154,9 @@ def stiffness_studies(
         features = part.geometry.mesh_features
         half = mirror_symmetry and part.mirror_plane is not None
         return [
-            estimated_dofs(features, h, settings.bore_refinement * h, settings.mesh_order, half and i == 0)
+            estimated_dofs(
+                features, h, settings.bore_refinement * h, settings.mesh_order, half and i == 0, wall_reference_m
+            )
             for i, h in enumerate(reversed(level_sizes))
         ]
 

@@ -59,9 +59,13 @@ def mesh_part(
     order: int = 1,
     bore_refinement: float = 0.4,
     mirror: bool = False,
+    wall_reference_m: float | None = None,
 ) -> LinkMesh:
     """Mesh a resolved part (see `load_link` for the options): its body is loaded into a fresh gmsh
-    model from the part's own copy, with the bores chosen at resolution."""
+    model from the part's own copy, with the bores chosen at resolution. `wall_reference_m`: the
+    size thin walls are judged against (a study's finest size, so that every level refines the
+    same walls alike; geometry.meshing.THIN_WALL_FRACTION); None: no thin-wall fields (the mesh as
+    `load_link` makes it)."""
     _check_mesh_options(order, bore_refinement)
     if mirror and not part.symmetry_checked:
         raise GeometryError(
@@ -86,6 +90,7 @@ def mesh_part(
                 bore_size_m=bore_refinement * size,
                 order=order,
                 mirror_plane=plane,
+                wall_reference_m=wall_reference_m,
             )
         except Exception as exc:  # gmsh reports a failed mesh as a bare Exception
             if type(exc) is not Exception:

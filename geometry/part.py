@@ -22,7 +22,7 @@ from __future__ import annotations
 import hashlib
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -33,12 +33,19 @@ from geometry.bores import BoreOverride, bores_from_override
 from geometry.dimensions import DEFAULT_LINK, LinkDimensions
 from geometry.errors import GeometryError
 from geometry.link_mesh import MirrorPlane
-from geometry.mesh_estimate import Hole, MeshFeatures
+from geometry.mesh_estimate import Hole, MeshFeatures, WallFeature
 from geometry.parametric import add_link
 from geometry.pin_pair import PinBores
 from geometry.session import gmsh_model
 from geometry.step_io import import_step_bytes, read_step
-from geometry.symmetry import symmetry_plane
+from geometry.symmetry import faces_on_plane, keep_positive_half, symmetry_plane
+from geometry.walls import thin_walls
+
+# The unknowns estimate knows the planar walls up to this fraction of the part's diagonal thick:
+# those refined on levels whose finest size is up to 0.2 diagonals (geometry.meshing's
+# THIN_WALL_FRACTION), far coarser than any default (at most pitch / 25, under 0.04 diagonals) or a
+# useful --mesh-size. Finding them takes 0.1-0.5 s on the corpus parts that resolve.
+WALL_SEARCH_DIAGONALS = 0.1
 
 
 @dataclass(frozen=True)
@@ -168,7 +175,9 @@ def _measure(part: Part) -> PartGeometry:
         volume_m3 = float(gmsh.model.occ.getMass(3, body))
         diagonal_m = _model_diagonal_m()
         plane = symmetry_plane([body], pins.fixed.bore, pins.loaded.bore) if part.symmetry_checked else None
-        features = _mesh_features(body, volume_m3, pins)
+        features = _mesh_features(body, volume_m3, pins, diagonal_m)
+        if plane is not None:  # last: the half replaces the body in the model
+            features = replace(features, mirror_cut_area_m2=_cut_face_area_m2(body, plane))
     return PartGeometry(
         summary=summary,
         scale=_scale(pins, None if data is not None else part.origin),
@@ -180,8 +189,8 @@ def _measure(part: Part) -> PartGeometry:
     )
 
 
-def _mesh_features(body: int, volume_m3: float, pins: PinBores) -> MeshFeatures:
-    """The body's volume, boundary area and holes' face areas, from the current gmsh model."""
+def _mesh_features(body: int, volume_m3: float, pins: PinBores, diagonal_m: float) -> MeshFeatures:
+    """The body's volume, boundary area, holes' face areas and planar walls, from the current gmsh model."""
     boundary = gmsh.model.getBoundary([(3, body)], oriented=False)
 
     def hole(detected) -> Hole:
@@ -192,7 +201,17 @@ def _mesh_features(body: int, volume_m3: float, pins: PinBores) -> MeshFeatures:
         area_m2=sum(gmsh.model.occ.getMass(2, face) for _, face in boundary),
         pin_bores=(hole(pins.fixed), hole(pins.loaded)),
         small_holes=tuple(hole(ignored.hole) for ignored in pins.ignored),
+        walls=tuple(
+            WallFeature(wall.thickness_m, wall.area_m2)
+            for wall in thin_walls([body], WALL_SEARCH_DIAGONALS * diagonal_m)
+        ),
     )
+
+
+def _cut_face_area_m2(body: int, plane: MirrorPlane) -> float:
+    """Area of the face a mirror half gets on its plane (the body is replaced by that half)."""
+    half = keep_positive_half([body], plane)
+    return sum(gmsh.model.occ.getMass(2, face) for face in faces_on_plane(half, plane))
 
 
 def as_part(source=None, *, bores: BoreOverride | None = None, symmetry: bool = True) -> Part:

@@ -11,6 +11,7 @@ from fem.errors import FemError
 from fem.materials import get_material
 from fem.settings import DEFAULT_BORE_REFINEMENT
 from fem.study import stiffness_study
+from geometry import DEFAULT_LINK
 from geometry.mesh_estimate import AREA_COEF, VOLUME_COEF, Hole, MeshFeatures, estimated_dofs
 
 # real / estimate on every mesh measured (built-in link 2.25-15 mm, the corpus' default levels)
@@ -21,9 +22,17 @@ BAND = (budget.ESTIMATE_LOW_RATIO, 1.25)
 @pytest.mark.parametrize(("size_m", "half"), [(0.006, False), (0.0045, True)])
 def test_the_built_in_links_default_levels_have_the_estimated_unknowns(size_m, half):
     part = geometry.resolve_part(None)
-    link = geometry.mesh_part(part, mesh_size_m=size_m, order=2, bore_refinement=DEFAULT_BORE_REFINEMENT, mirror=half)
+    finest = 0.0045  # the study judges thin walls against its finest size
+    link = geometry.mesh_part(
+        part,
+        mesh_size_m=size_m,
+        order=2,
+        bore_refinement=DEFAULT_BORE_REFINEMENT,
+        mirror=half,
+        wall_reference_m=finest,
+    )
     real = mesh_dofs(link.tets, link.tets10, 2)
-    estimate = estimated_dofs(part.geometry.mesh_features, size_m, DEFAULT_BORE_REFINEMENT * size_m, 2, half)
+    estimate = estimated_dofs(part.geometry.mesh_features, size_m, DEFAULT_BORE_REFINEMENT * size_m, 2, half, finest)
     assert BAND[0] <= real / estimate <= BAND[1], (real, estimate)
 
 
@@ -62,3 +71,18 @@ def test_default_sizes_that_cannot_fit_are_coarsened_before_meshing(monkeypatch)
     with pytest.warns(Warning, match="memory budget"):
         stiffness_study(None, get_material("al6061-t6"), order=2, max_memory_gb=0.6)
     assert min(meshed) > 0.0045  # the default 4.5 mm was never meshed
+
+
+def test_a_mirror_half_is_estimated_as_half_the_part_plus_its_cut_face():
+    features = geometry.resolve_part(None).geometry.mesh_features
+    # the built-in link's section in its plane through both bore axes: less than its bounding
+    # rectangle there (length x height), more than the web's section
+    length = 2 * DEFAULT_LINK.lug_radius_m + DEFAULT_LINK.pitch_m
+    assert (
+        DEFAULT_LINK.web_thickness_m * DEFAULT_LINK.pitch_m
+        < features.mirror_cut_area_m2
+        < length * DEFAULT_LINK.body_height_m
+    )
+    h = 0.0045
+    whole, half = (estimated_dofs(features, h, DEFAULT_BORE_REFINEMENT * h, 2, m) for m in (False, True))
+    assert half == pytest.approx(whole / 2 + AREA_COEF * features.mirror_cut_area_m2 / h**2, rel=1e-12)

@@ -1,0 +1,112 @@
+"""Thin walls of a solid, found on its CAD faces: two parallel planar faces facing each other across
+the material a small distance apart (the sides of a channel's web, a pocket's floor over the far
+face, a flange).
+
+For each pair of planar faces whose outward normals are opposite, each lying behind the other
+(material between them, not a gap between two lugs), and whose planes are closer than the largest
+thickness asked for, the smaller face is sampled on a grid of its parameters; a sample counts if
+its foot on the other face's plane lies on that face (gmsh's `isInside` on the trimmed face). The
+wall is the pair, its thickness the planes' distance and its area the smaller face's area times
+the fraction of samples that count. Each face's outward side is found once, by asking whether a
+point just off its centre along gmsh's normal is inside the solid. Curved walls (a tube, the ring of material round a
+bore) are not found: round the pin bores and small holes their own size fields refine already.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import gmsh
+import numpy as np
+
+# Normals within ~2.6 degrees of parallel: CAD walls are drawn parallel, to round-off.
+_PARALLEL_COS = 0.999
+_SAMPLES = 9  # per parameter direction on the smaller face (81 points)
+# A pair is a wall where at least this fraction of the smaller face's samples lie across the
+# material from the other face (a few samples at a corner are not a wall).
+_MIN_OVERLAP = 0.25
+# The point probing a face's outward side lies this fraction of the face's size off its centre.
+_PROBE_FRACTION = 1e-4
+
+
+@dataclass(frozen=True)
+class Wall:
+    """Two planar faces a thickness apart across the material (metres, m^2)."""
+
+    faces: tuple[int, int]  # the smaller face first: its size field covers the wall
+    thickness_m: float
+    area_m2: float  # of the smaller face that lies across the wall from the other
+
+
+@dataclass(frozen=True)
+class _Plane:
+    tag: int
+    point: np.ndarray
+    normal: np.ndarray  # outward
+    area_m2: float
+    box: np.ndarray  # (2, 3) min, max
+    samples: np.ndarray  # (n, 3) points on the trimmed face
+
+
+def thin_walls(volumes: list[int], max_thickness_m: float, exclude: Sequence[int] = ()) -> list[Wall]:
+    """The walls of the solid (`volumes` in the current gmsh model) thinner than `max_thickness_m`;
+    faces in `exclude` (a mirror half's cut face: the wall goes on past it) are not wall faces."""
+    faces = [tag for tag in _boundary_faces(volumes) if tag not in set(exclude)]
+    planes = [_plane(tag, volumes) for tag in faces if gmsh.model.getType(2, tag) == "Plane"]
+    walls = []
+    for i, a in enumerate(planes):
+        for b in planes[i + 1 :]:
+            wall = _wall(a, b, max_thickness_m)
+            if wall is not None:
+                walls.append(wall)
+    return walls
+
+
+def _boundary_faces(volumes: list[int]) -> list[int]:
+    faces = gmsh.model.getBoundary([(3, v) for v in volumes], combined=False, oriented=False)
+    return sorted({tag for _, tag in faces})
+
+
+def _plane(tag: int, volumes: list[int]) -> _Plane:
+    points = _samples(tag)
+    (umin, vmin), (umax, vmax) = gmsh.model.getParametrizationBounds(2, tag)
+    normal = np.asarray(gmsh.model.getNormal(tag, [0.5 * (umin + umax), 0.5 * (vmin + vmax)]))
+    normal /= np.linalg.norm(normal)
+    area = float(gmsh.model.occ.getMass(2, tag))
+    point = points[len(points) // 2] if len(points) else np.asarray(gmsh.model.getValue(2, tag, [umin, vmin]))
+    probe = point + _PROBE_FRACTION * np.sqrt(area) * normal
+    if any(gmsh.model.isInside(3, v, list(probe)) > 0 for v in volumes):
+        normal = -normal  # gmsh's normal pointed into the material
+    box = np.asarray(gmsh.model.getBoundingBox(2, tag)).reshape(2, 3)
+    return _Plane(tag, point, normal, area, box, points)
+
+
+def _wall(a: _Plane, b: _Plane, max_thickness_m: float) -> Wall | None:
+    if float(a.normal @ b.normal) > -_PARALLEL_COS:
+        return None
+    thickness = -float((b.point - a.point) @ a.normal)  # b behind a: material between them
+    if not 0 < thickness < max_thickness_m:
+        return None
+    if np.any(a.box[0] > b.box[1] + thickness) or np.any(b.box[0] > a.box[1] + thickness):
+        return None
+    small, large = (a, b) if a.area_m2 <= b.area_m2 else (b, a)
+    points = small.samples
+    if len(points) == 0:
+        return None
+    feet = points - ((points - large.point) @ large.normal)[:, None] * large.normal
+    fraction = gmsh.model.isInside(2, large.tag, feet.ravel().tolist()) / len(points)
+    if fraction < _MIN_OVERLAP:
+        return None
+    return Wall((small.tag, large.tag), thickness, fraction * small.area_m2)
+
+
+def _samples(tag: int) -> np.ndarray:
+    """Points on the trimmed face on a grid of its parameters (inset from the bounds)."""
+    (umin, vmin), (umax, vmax) = gmsh.model.getParametrizationBounds(2, tag)
+    t = (np.arange(_SAMPLES) + 0.5) / _SAMPLES
+    u, v = np.meshgrid(umin + t * (umax - umin), vmin + t * (vmax - vmin))
+    uv = np.column_stack([u.ravel(), v.ravel()]).ravel().tolist()
+    points = np.asarray(gmsh.model.getValue(2, tag, uv)).reshape(-1, 3)
+    inside = [gmsh.model.isInside(2, tag, list(uv[2 * k : 2 * k + 2]), parametric=True) > 0 for k in range(len(points))]
+    return points[np.asarray(inside, bool)]
