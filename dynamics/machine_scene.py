@@ -37,6 +37,7 @@ from dynamics.scene import (
     choose_model,
 )
 from dynamics.solvers import clearance_verlet as verlet
+from dynamics.solvers import machine_shooting
 from dynamics.solvers import machine_verlet as mv
 from dynamics.solvers.simulate import ChainResponse
 
@@ -147,7 +148,7 @@ def _found(ss) -> bool:
 def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor):
     if not steady_state:
         return state, None, None
-    q0, v0, cycles, residual, found, last = mv.relabelled_periodic_state(
+    q0, v0, cycles, residual, found, last = machine_shooting.relabelled_periodic_state(
         model, cam, h_out / sub, per_cycle * sub, *state, tol=tol, max_cycles=max_cycles, predictor=predictor
     )
     if found:

@@ -93,7 +93,7 @@ def natural_frequencies_Hz(scene: Scene, model: ChainModel, count: int = REPORTE
 
     if not scene.layout.on_wheels:
         return lowest_natural_frequencies_Hz(model, count)
-    return scene_machine(scene, model).natural_frequencies_Hz()[:count]
+    return scene_machine(scene, model).lowest_natural_frequencies_Hz(count)
 
 
 def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None) -> ChainModel:
