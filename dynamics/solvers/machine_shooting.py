@@ -19,9 +19,10 @@ search goes on with plain cycles.
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
 
+from dynamics.solvers import cache, shooting
 from dynamics.solvers import machine_verlet as mv
-from dynamics.solvers import shooting
 
 
 def relabelled_periodic_state(
@@ -45,6 +46,70 @@ def relabelled_periodic_state(
         return np.concatenate([q1, v1]), np.concatenate([np.full(n, sq), np.full(n, sv)])
 
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
-    search = shooting.accelerated_fixed_point(one_cycle, x0, tol=tol, max_periods=max_cycles, depth=depth)
+    precondition = _cached_slow_mode_newton(model, cam.cycle_s) if depth else None
+    search = shooting.accelerated_fixed_point(
+        one_cycle, x0, tol=tol, max_periods=max_cycles, depth=depth, precondition=precondition
+    )
     end = search.state
     return end[:n].copy(), end[n:].copy(), search.periods, search.residual, search.converged, last["run"]
+
+
+def _cached_slow_mode_newton(model, period_s: float):
+    return cache.cached(
+        ("machine slow-mode newton", model.machine, model.span_damping, model.beta_s, period_s),
+        lambda: slow_mode_newton(model, period_s, shooting.SLOW_DECAY),
+    )
+
+
+def slow_mode_newton(model, period_s: float, decay: float):
+    """r -> the Newton step (I - Phi)^-1 r of the machine's linear one-cycle map on its slowly decaying
+    modes (per cycle decay exp(-zeta omega T) above `decay`), r itself on the others: the machine's
+    counterpart of dynamics.solvers.shooting.slow_mode_newton, with a diagonal, non-uniform M.
+
+    The modes are those of (K, M) (the polygon-free machine at rest, the carriage in), found by
+    shift-invert Lanczos on M^(-1/2) K M^(-1/2), widened until the last one decays fast enough. The
+    seat change shifts every free link one place, which leaves these long-wave shapes nearly as they
+    are (measured at 400 links: the relabelled map's slowest multipliers are the fixed frame's, 0.572),
+    so the step removes the linear part of the slow directions and Anderson the rest. O(N m) per step
+    (m the slow modes), no N x N array."""
+    from scipy.linalg import expm
+    from scipy.sparse.linalg import eigsh
+
+    topo = model.topology
+    n = topo.n_dof
+    masses = np.asarray(topo.masses_kg, dtype=float)
+    r = 1.0 / np.sqrt(masses)
+    x = (sp.diags(r) @ topo.stiffness_matrix_sparse() @ sp.diags(r)).tocsc()
+    shift = -1e-9 * float(np.max(x.diagonal()))
+    count = 0
+    while True:  # widen until the last mode found decays fast enough, or all are found
+        if n <= shooting.DENSE_EIGENSOLVE_UP_TO:
+            lam, vec = np.linalg.eigh(x.toarray())
+        else:
+            count = min(max(2 * count, 8), n - 2)
+            lam, vec = eigsh(x, k=count, sigma=shift, which="LM")
+            order = np.argsort(lam)
+            lam, vec = lam[order], vec[:, order]
+        omega = np.sqrt(np.maximum(lam, 0.0))
+        slow = np.exp(-np.array([model.damping_ratio_at(o) * o for o in omega]) * period_s) > decay
+        if not slow[-1] or count >= n - 2 or n <= shooting.DENSE_EIGENSOLVE_UP_TO:
+            break
+    omega, vec = omega[slow], vec[:, slow]
+    to_modes = np.ascontiguousarray((vec / r[:, None]).T)  # a = V^T M^(1/2) q
+    from_modes = np.ascontiguousarray(vec * r[:, None])  # q = M^(-1/2) V a
+    blocks = np.empty((omega.size, 2, 2))
+    for j, o in enumerate(omega):
+        a = np.array([[0.0, 1.0], [-o * o, -2.0 * model.damping_ratio_at(o) * o]])
+        one_minus = np.eye(2) - expm(a * period_s)
+        # an undamped mode whose period divides T has no Newton step (I - Phi singular): plain there
+        blocks[j] = np.linalg.inv(one_minus) if np.linalg.cond(one_minus) < 1e8 else np.eye(2)
+
+    def newton_step(res: np.ndarray) -> np.ndarray:
+        q = np.stack([to_modes @ res[:n], to_modes @ res[n:]], axis=1)  # (m, 2)
+        dq = np.einsum("jab,jb->ja", blocks, q) - q
+        out = res.copy()
+        out[:n] += from_modes @ dq[:, 0]
+        out[n:] += from_modes @ dq[:, 1]
+        return out
+
+    return newton_step
