@@ -1,7 +1,7 @@
 """Long clearance chains on wheels (issue #24): memory and time of the machine's step with the O(N)
 global damping (dynamics.models.machine_damping) at N = 500 .. 4,000 links.
 
-    python benchmarks/bench_machine_long.py
+    python benchmarks/bench_machine_long.py    (or python benchmarks/run.py --only machine_long)
 
 Each N: the default wheels (12 teeth, 6 wrapped, idler wheel, polygonal feed), a tensioned carriage,
 0.094 mm free play, friction 0.1, 180 rpm modified sine; building the model's arrays and 400 steps
@@ -50,14 +50,15 @@ def one(n_links: int) -> tuple[float, float]:
     return peak, seconds
 
 
-def main() -> None:
+def run(quick: bool) -> list[str]:
+    """The table's lines (benchmarks/run.py)."""
     one(500)  # warm the numba cache
-    print("| N | peak memory | 400 steps |")
-    print("|---|---|---|")
-    for n in (500, 1000, 2000, 4000):
+    lines = ["| N | peak memory | 400 steps |", "|---|---|---|"]
+    for n in (500, 1000) if quick else (500, 1000, 2000, 4000):
         peak, seconds = one(n)
-        print(f"| {n} | {peak:.1f} MB | {seconds:.2f} s |")
+        lines.append(f"| {n} | {peak:.1f} MB | {seconds:.2f} s |")
+    return lines
 
 
 if __name__ == "__main__":
-    main()
+    print("\n".join(run(quick=False)))

@@ -94,7 +94,7 @@ def natural_frequencies_Hz(scene: Scene, model: ChainModel, count: int = REPORTE
     if not scene.layout.on_wheels and scene.tensioner is None:
         return lowest_natural_frequencies_Hz(model, count)
     # the carriage is a DOF of the chain's topology; the link drive's machine carries it too
-    return scene_machine(scene, model).natural_frequencies_Hz()[:count]
+    return scene_machine(scene, model).lowest_natural_frequencies_Hz(count)
 
 
 def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None) -> ChainModel:

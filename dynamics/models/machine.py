@@ -325,6 +325,26 @@ class MachineOnWheels:
         lam = eigh(self.stiffness_matrix(), self.mass_matrix(), eigvals_only=True)
         return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
+    def lowest_natural_frequencies_Hz(self, count: int) -> np.ndarray:
+        """The `count` lowest natural frequencies: the dense eigensolve up to DENSE_LINK_LIMIT links (the
+        figures as reported so far), above it shift-invert Lanczos on the sparse K and M (no N x N
+        array: memory and time linear in N), shifted a hair below 0 so that a free mode would not
+        make K singular."""
+        from dynamics.models.reduction import DENSE_LINK_LIMIT
+
+        if self.n_links <= DENSE_LINK_LIMIT:
+            return self.natural_frequencies_Hz()[:count]
+        import scipy.sparse as sp
+        from scipy.sparse.linalg import eigsh
+
+        topo = self.topology
+        k = topo.stiffness_matrix_sparse().tocsc()
+        masses = np.asarray(topo.masses_kg, dtype=float)
+        shift = -1e-9 * float(np.max(k.diagonal() / masses))
+        count = min(count, topo.n_dof - 1)
+        lam = eigsh(k, k=count, M=sp.diags(masses).tocsc(), sigma=shift, which="LM", return_eigenvectors=False)
+        return np.sqrt(np.clip(np.sort(lam), 0.0, None)) / (2 * np.pi)
+
     def link_displacements(self, q: np.ndarray) -> np.ndarray:
         """Every link's relative displacement (..., N) from DOF states (..., n_dof): a seated link
         has its wheel's u (a held one 0)."""

@@ -5,38 +5,33 @@ Rayleigh alpha M + beta K there) plus the carriage's own dashpot c_t: dense, N^2
 the chain-DOF block is applied without forming it. With M diagonal but not uniform (wheel groups,
 idler) the modal C is C = 2 zeta M^(1/2) sqrt(S) M^(1/2), S = M^(-1/2) K M^(-1/2) (the same matrix:
 M Phi diag(2 zeta omega) Phi^T M with Phi = M^(-1/2) V, S = V diag(omega^2) V^T), and sqrt(S) is
-applied as in dynamics.models.reduced_damping: sqrt(x) = x (2 / pi) sum_j h t_j / (x + t_j^2), the
-trapezoidal rule in ln t, the same relative error for every mode (about 2 exp(-pi^2 / h) from the
-spacing plus exp(-L) from the tails), so each mode's ratio is zeta (1 +- tolerance).
+applied as in dynamics.models.reduced_damping: sqrt(x) = a + b x + x sum_j c_j / (x + tau_j), the
+trapezoidal rule in ln t with its tails in closed form (`reduced_damping.nodes_for`), the same relative
+error for every mode, so each mode's ratio is zeta (1 +- tolerance). The tails a + b S are a Rayleigh
+term: 2 zeta M^(1/2) (a I + b S) M^(1/2) = 2 zeta (a M + b K), no solves.
 
 The chain-DOF block of K is the places along the loop joined by spans plus the ground springs
 (drive compliance): cyclic tridiagonal in loop order (tridiagonal when an end is held). Each node's
 shifted solve (S + tau_j I) is Thomas on the tridiagonal part and Sherman-Morrison for the loop's
-corner, factors precomputed: storage about 3 N per node, a product about 10 N per node. The carriage
+corner, factors precomputed. The product runs the recurrences over the places with the nodes as the
+vector (factors stored (N, p) per part, place by place): the p solves are independent, so each place's
+update is one short vector operation instead of p dependent scalar ones, the recurrence's latency
+paid once per place, not once per place and node. Storage about 3 N p, a product about 10 N p
+operations. Building the form is O(N p): the range of S from its Gershgorin bound (the top) and a
+shift-invert Lanczos at 0 (the bottom), the factors' recurrences vectorised over the nodes. The carriage
 is not in the block: its c_t acts as a dashpot on its own DOF, exactly as in the dense C.
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from dynamics.errors import DynamicsError
+from dynamics.models.reduced_damping import nodes_for
 
 DEFAULT_MACHINE_DAMPING_TOLERANCE = 1e-4
-
-
-def sqrt_nodes(tolerance: float, x_min: float, x_max: float) -> tuple[np.ndarray, np.ndarray]:
-    """(tau_j = t_j^2, c_j = (2 / pi) h t_j) of the trapezoidal rule for sqrt(x) on [x_min, x_max]:
-    h = pi^2 / ln(8 / tolerance), tails ln(4 / tolerance) past ln sqrt of the bounds."""
-    h = math.pi**2 / math.log(8.0 / tolerance)
-    tail = math.log(4.0 / tolerance)
-    lo, hi = 0.5 * math.log(x_min) - tail, 0.5 * math.log(x_max) + tail
-    s = lo + h * np.arange(int(math.ceil((hi - lo) / h)) + 1)
-    t = np.exp(s)
-    return t * t, (2.0 / math.pi) * h * t
 
 
 @dataclass(frozen=True, eq=False)
@@ -44,9 +39,10 @@ class MachineDamping:
     """The chain-DOF block of the machine's C as the compiled step takes it (module docstring).
 
     dofs: the chain's DOFs in loop order; tri (n, 6): sqrt(m), m, S's diagonal, S's entry (i, i+1),
-    K's diagonal, K's entry (i, i+1); scalars: S's corner (0, n-1), K's corner, 2 zeta, alpha, beta;
-    factors (p, 3, n) and sm (p, 2): each node's Thomas pivots' inverses, forward coefficients and
-    Sherman-Morrison vector, and (1 / (1 + v.z), corner / gamma); weights (p,)."""
+    K's diagonal, K's entry (i, i+1); scalars: S's corner (0, n-1), K's corner, 2 zeta, alpha, beta
+    (alpha M + beta K: Rayleigh damping, or the modal rule's tails); factors (3, n, p): each node's
+    Thomas pivots' inverses, forward coefficients and Sherman-Morrison vector, place by place; sm
+    (p, 2): (1 / (1 + v.z), corner / gamma); weights (p,)."""
 
     dofs: np.ndarray
     tri: np.ndarray
@@ -55,11 +51,15 @@ class MachineDamping:
     sm: np.ndarray
     weights: np.ndarray
 
+    def scratch(self) -> np.ndarray:
+        """The work array `chain_damping_into` takes: (6, max(n p, n)); rows 4 and 5 are the caller's."""
+        n, p = self.tri.shape[0], self.weights.shape[0]
+        return np.zeros((6, max(n * p, n)))
+
     def times(self, w: np.ndarray) -> np.ndarray:
         """C_chain w on the chain's DOFs (w and the result in loop order)."""
         out = np.zeros(w.shape[0])
-        scratch = np.zeros((4, w.shape[0]))
-        chain_damping_into(self.tri, self.scalars, self.factors, self.sm, self.weights, w, out, scratch)
+        chain_damping_into(self.tri, self.scalars, self.factors, self.sm, self.weights, w, out, self.scratch())
         return out
 
 
@@ -84,20 +84,21 @@ def of_machine(machine, tolerance: float = DEFAULT_MACHINE_DAMPING_TOLERANCE) ->
         alpha, beta = chain.rayleigh_coefficients
         taus, weights, two_zeta = np.zeros(0), np.zeros(0), 0.0
     else:
-        alpha, beta, two_zeta = 0.0, 0.0, 2.0 * chain.damping_ratio
-        x_min, x_max = _eigenvalue_bounds(sd, soff, scorner)
-        taus, weights = sqrt_nodes(tolerance, x_min, x_max)
-    factors = np.zeros((taus.size, 3, n))
-    sm = np.zeros((taus.size, 2))
-    for j, tau in enumerate(taus):
-        factors[j], sm[j] = _factor(sd + tau, soff, scorner)
+        two_zeta = 2.0 * chain.damping_ratio
+        x_min, x_max = eigenvalue_bounds(sd, soff, scorner)
+        taus, weights, a, b = nodes_for(tolerance, x_min, x_max)
+        alpha, beta = two_zeta * a, two_zeta * b  # the rule's tails: 2 zeta (a M + b K)
+    factors, sm = _factors(sd, soff, scorner, np.ascontiguousarray(taus, dtype=float))
     tri = np.ascontiguousarray(np.column_stack([rm, m, sd, soff, kd, koff]))
     scalars = np.array([scorner, kcorner, two_zeta, alpha, beta])
     return MachineDamping(dofs, tri, scalars, factors, sm, np.ascontiguousarray(weights, dtype=float))
 
 
-def _eigenvalue_bounds(sd, soff, scorner) -> tuple[float, float]:
-    """(smallest, largest) eigenvalue of S from its sparse form (no N x N array for long chains)."""
+def eigenvalue_bounds(sd, soff, scorner) -> tuple[float, float]:
+    """(smallest eigenvalue, an upper bound of the largest) of S from its cyclic tridiagonal form, no
+    N x N array for long chains. The top is Gershgorin's bound (the rule only needs the range covered:
+    on a chain of equal links it is the top eigenvalue's limit 4 k / m, at most a few percent above it);
+    the bottom is found by shift-invert Lanczos at 0 (S is positive definite: the drive grounds it)."""
     import scipy.sparse as sp
     from scipy.sparse.linalg import eigsh
 
@@ -109,46 +110,44 @@ def _eigenvalue_bounds(sd, soff, scorner) -> tuple[float, float]:
     if n <= 64:
         lam = np.linalg.eigvalsh(s.toarray())
         return float(lam[0]), float(lam[-1])
-    top = eigsh(s, k=1, which="LA", return_eigenvectors=False, tol=1e-10)[0]
+    top = float(np.max(np.asarray(abs(s).sum(axis=1)).reshape(-1)))
     bottom = eigsh(s, k=1, sigma=0.0, which="LM", return_eigenvectors=False, tol=1e-10)[0]
-    return float(bottom), float(top)
+    return float(bottom), top
 
 
-def _factor(diag, off, corner):
-    """Factors of A = T + u v^T (gamma = -A_00, u = (gamma, 0.., corner), v = (1, 0.., corner / gamma)),
-    T tridiagonal with diagonal `diag` (T_00, T_nn corrected) and entries off[i] at (i, i+1)."""
-    n = diag.size
-    gamma = -diag[0]
-    t = diag.copy()
-    t[0] -= gamma
-    t[-1] -= corner * corner / gamma
-    inv, cp = np.empty(n), np.empty(n)
-    inv[0] = 1.0 / t[0]
-    cp[0] = off[0] * inv[0]
+def _factors(sd, soff, scorner, taus):
+    """Factors of A_j = S + tau_j I = T_j + u_j v_j^T for every node (gamma_j = -A_j[0, 0],
+    u = (gamma, 0.., corner), v = (1, 0.., corner / gamma)): (3, n, p) inverse pivots, forward
+    coefficients and z = T^-1 u, place by place, and (p, 2) (1 / (1 + v.z), corner / gamma)."""
+    n, p = sd.size, taus.size
+    diag0 = sd[0] + taus
+    gamma = -diag0
+    inv, cp, z = np.empty((n, p)), np.empty((n, p)), np.empty((n, p))
+    t = sd[0] + taus - gamma
+    inv[0] = 1.0 / t
+    cp[0] = soff[0] * inv[0]
     for i in range(1, n):
-        inv[i] = 1.0 / (t[i] - off[i - 1] * cp[i - 1])
-        cp[i] = off[i] * inv[i]
-    u = np.zeros(n)
-    u[0], u[-1] = gamma, corner
-    z = np.empty(n)
-    _thomas_into(inv, cp, off, u, z)
-    ratio = corner / gamma
-    return np.array([inv, cp, z]), np.array([1.0 / (1.0 + z[0] + ratio * z[-1]), ratio])
-
-
-def _thomas_into(inv, cp, off, b, y):
-    """y = T^-1 b from the Thomas factors (T symmetric tridiagonal, off[i] at (i, i+1))."""
-    n = b.shape[0]
-    y[0] = b[0] * inv[0]
+        t = sd[i] + taus
+        if i == n - 1:
+            t = t - scorner * scorner / gamma
+        inv[i] = 1.0 / (t - soff[i - 1] * cp[i - 1])
+        cp[i] = soff[i] * inv[i]
+    # z = T^-1 u, u = (gamma, 0.., corner)
+    z[0] = gamma * inv[0]
     for i in range(1, n):
-        y[i] = (b[i] - off[i - 1] * y[i - 1]) * inv[i]
+        u_i = scorner if i == n - 1 else 0.0
+        z[i] = (u_i - soff[i - 1] * z[i - 1]) * inv[i]
     for i in range(n - 2, -1, -1):
-        y[i] -= cp[i] * y[i + 1]
+        z[i] -= cp[i] * z[i + 1]
+    ratio = scorner / gamma
+    sm = np.column_stack([1.0 / (1.0 + z[0] + ratio * z[-1]), ratio])
+    return np.ascontiguousarray(np.stack([inv, cp, z])), np.ascontiguousarray(sm)
 
 
 def _cyclic_times_into(diag, off, corner, x, y):
-    """y = A x, A symmetric cyclic tridiagonal (diagonal, off[i] at (i, i+1), corner at (0, n-1))."""
-    n = x.shape[0]
+    """y = A x, A symmetric cyclic tridiagonal (diagonal, off[i] at (i, i+1), corner at (0, n-1)),
+    on the first diag.shape[0] entries."""
+    n = diag.shape[0]
     for i in range(n):
         y[i] = diag[i] * x[i]
     for i in range(n - 1):
@@ -159,27 +158,50 @@ def _cyclic_times_into(diag, off, corner, x, y):
 
 
 def chain_damping_into(tri, scalars, factors, sm, weights, w, out, scratch):
-    """out = C_chain w (module docstring); scratch (4, n). Modal: 2 zeta M^(1/2) S sum_j c_j
-    (S + tau_j I)^-1 M^(1/2) w; Rayleigh: alpha M w + beta K w."""
-    n = w.shape[0]
+    """out = C_chain w (module docstring) on the first n = tri.shape[0] entries of w and out; scratch
+    (6, >= max(n p, n)), rows 0-3 used. Rayleigh part alpha M w + beta K w (Rayleigh damping, or the
+    modal rule's tails), then 2 zeta M^(1/2) S sum_j c_j (S + tau_j I)^-1 M^(1/2) w, the p solves'
+    recurrences run over the places with the nodes as the inner vector."""
+    n = tri.shape[0]
+    p = weights.shape[0]
     two_zeta, alpha, beta = scalars[2], scalars[3], scalars[4]
-    y, acc, sol, prod = scratch[0], scratch[1], scratch[2], scratch[3]
+    ys, acc, prod, wg = scratch[0], scratch[1], scratch[2], scratch[3]
+    _cyclic_times_into(tri[:, 4], tri[:, 5], scalars[1], w, prod)
     for i in range(n):
-        out[i] = 0.0
-    if alpha != 0.0 or beta != 0.0:
-        _cyclic_times_into(tri[:, 4], tri[:, 5], scalars[1], w, prod)
-        for i in range(n):
-            out[i] = alpha * tri[i, 1] * w[i] + beta * prod[i]
-    if weights.shape[0] == 0:
+        out[i] = alpha * tri[i, 1] * w[i] + beta * prod[i]
+    if p == 0:
         return
+    inv, cp, z = factors[0], factors[1], factors[2]
+    b = tri[0, 0] * w[0]
+    for j in range(p):
+        ys[j] = b * inv[0, j]
+    for i in range(1, n):
+        b = tri[i, 0] * w[i]
+        o = tri[i - 1, 3]
+        base = i * p
+        for j in range(p):
+            ys[base + j] = (b - o * ys[base - p + j]) * inv[i, j]
+    base = (n - 1) * p
+    s = 0.0
+    for j in range(p):
+        s += weights[j] * ys[base + j]
+    acc[n - 1] = s
+    for i in range(n - 2, -1, -1):
+        base = i * p
+        s = 0.0
+        for j in range(p):
+            y = ys[base + j] - cp[i, j] * ys[base + p + j]
+            ys[base + j] = y
+            s += weights[j] * y
+        acc[i] = s
+    last = (n - 1) * p
+    for j in range(p):
+        wg[j] = weights[j] * sm[j, 0] * (ys[j] + sm[j, 1] * ys[last + j])
     for i in range(n):
-        y[i] = tri[i, 0] * w[i]
-        acc[i] = 0.0
-    for j in range(weights.shape[0]):
-        _thomas_into(factors[j, 0], factors[j, 1], tri[:, 3], y, sol)
-        g = sm[j, 0] * (sol[0] + sm[j, 1] * sol[n - 1])
-        for i in range(n):
-            acc[i] += weights[j] * (sol[i] - g * factors[j, 2, i])
+        s = 0.0
+        for j in range(p):
+            s += wg[j] * z[i, j]
+        acc[i] -= s
     _cyclic_times_into(tri[:, 2], tri[:, 3], scalars[0], acc, prod)
     for i in range(n):
         out[i] += two_zeta * tri[i, 0] * prod[i]
@@ -191,5 +213,6 @@ except ImportError:  # pragma: no cover
     numba = None
 
 if numba is not None:
-    for _name in ("_thomas_into", "_cyclic_times_into", "chain_damping_into"):
-        globals()[_name] = numba.njit(cache=True)(globals()[_name])
+    # the nodes' sums are reassociated (SIMD over the nodes); the form's error is its 1e-4, not round-off
+    _cyclic_times_into = numba.njit(cache=True)(_cyclic_times_into)
+    chain_damping_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(chain_damping_into)

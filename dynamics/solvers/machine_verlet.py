@@ -119,6 +119,8 @@ def _accel_into(
             if dof >= 0:
                 f[dof] -= span_float[j, 1] * wsl[wi] * t
     if not kv and red[0].shape[0] > 0:  # the O(N) form (dynamics.models.machine_damping) on the chain's DOFs
+        # (numba's cache of this file holds chain_damping_into compiled in: a change of its layout
+        # needs this file changed too, or the cache keeps the old one)
         dofs, scratch = red[0], red[6]
         wv, cw = scratch[4], scratch[5]
         for i in range(dofs.shape[0]):

@@ -1,0 +1,177 @@
+"""Long clearance chains on wheels (issue #24): N = 100 .. 10,000 links, the pipeline's scenario on
+the machine on its wheels with clearance and steady state: time, memory, steady-state cycles, the
+check against the dense damping.
+
+    python benchmarks/run.py --only long_wheels
+    BENCH_LONG_CHAIN_OLD_TREE=/tmp/old python benchmarks/run.py --only long_wheels   # old code beside
+
+Each N: the default scene (default wheels: 12-tooth sprocket and idler wheel, 6 links seated on each,
+the report's drive stiffness, polygonal feed), the default link's figures (2.03 kg, k = 9.0092e7 N/m,
+friction 0.35, preload 2224 N, zeta 0.13), 0.094 mm free play, 180 rpm modified sine, the pipeline's
+output grid (180 degrees at 4 per degree), `dynamics.scene.simulate_scene` with `--model auto` and
+steady state, plus the machine's lowest natural frequencies (both are what the pipeline's dynamics
+stage does per cam and material). Every run is its own process (python
+benchmarks/bench_long_wheels.py N FORCE_O_N TREE): time is the wall seconds of the scenario after a
+40-link warm-up (numba cache warm), the median of REPEATS runs (one above 2,000 links); memory the
+process's peak resident set (ru_maxrss) and what the scenario added to it. Check: where the dense
+damping runs (N <= 400) the same run with the O(N) form forced, the worst relative difference of
+the 20 station metrics. With BENCH_LONG_CHAIN_OLD_TREE set to a checkout of the old code, each N
+also runs once with that code, in the same benchmark run, stopped after OLD_TIMEOUT_S.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script in a subprocess
+    sys.path.insert(0, str(ROOT))
+
+KEYS = (
+    "rms_displacement_m",
+    "rms_velocity_m_s",
+    "rms_acceleration_m_s2",
+    "max_abs_acceleration_m_s2",
+    "residual_vibration_m",
+)
+SIZES = (100, 400, 1000, 2000, 10000)
+REPEATS = 3
+REPEATED_UP_TO = 2000
+TARGETS_S = {1000: 2.0, 10000: 20.0}
+OLD_TREE_VARIABLE = "BENCH_LONG_CHAIN_OLD_TREE"
+# the old code's plain cycling had not settled a 2,000-link machine after 11 min
+OLD_TIMEOUT_S = 300.0
+PITCH_M = 0.1125
+
+
+def _rss_MB() -> float:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
+
+
+def _scenario(n: int, force_o_n: bool) -> dict:
+    """One scenario in this process: time, memory, the summary and the station metrics."""
+    from dataclasses import replace
+
+    from dynamics.cams import CamProgram
+    from dynamics.models import clearance_machine
+    from dynamics.models.chain import ChainModel
+    from dynamics.response.metrics import link_metrics
+    from dynamics.scene import simulate_scene
+    from settings import RunConfig
+    from stages.chain import chain_scene, natural_frequencies_Hz, output_times_s
+    from stages.machine import machine_parts
+
+    if force_o_n:
+        clearance_machine.DENSE_LINK_LIMIT = 0
+
+    def run(links):
+        cfg = RunConfig(links=links, drive="wheels")
+        chain = ChainModel(
+            links, 2.03, 9.0092e7, damping_ratio=cfg.damping, preload_N=cfg.preload_N, friction_coefficient=cfg.friction
+        )
+        scene = replace(chain_scene(cfg, PITCH_M), pin_clearance_m=94e-6)
+        cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=cfg.rpm)
+        t = output_times_s(cfg.rpm, 4)
+        cols = [link - 1 for link in machine_parts(scene, chain).stations.values()]
+        start = time.perf_counter()
+        r, contact = simulate_scene(scene, chain, cam, t, links=cols)
+        natural_frequencies_Hz(scene, chain)
+        wall = time.perf_counter() - start
+        lm = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, cam.dwell_mask(t))
+        values = [[float(getattr(lm, k)[i]) for k in KEYS] for i in range(len(cols))]
+        return wall, contact, values
+
+    run(40)  # compile / load the numba cache
+    before = _rss_MB()
+    wall, contact, values = run(n)
+    ss = contact.steady_state
+    return {
+        "wall_s": wall,
+        "added_MB": _rss_MB() - before,
+        "peak_MB": _rss_MB(),
+        "model": str(contact.model),
+        "validity": str(contact.validity),
+        "steps_per_output": contact.steps_per_output,
+        "found": ss.found,
+        "cycles": ss.cycles,
+        "values": values,
+    }
+
+
+def _in_subprocess(n: int, force_o_n: bool = False, tree: Path = ROOT, timeout=None) -> dict | None:
+    """The scenario in a fresh process with the code of `tree`; None when stopped at `timeout`."""
+    args = [sys.executable, __file__, str(n), json.dumps(force_o_n), str(tree)]
+    env = dict(os.environ, PYTHONPATH=str(tree))
+    try:
+        out = subprocess.run(args, capture_output=True, text=True, check=True, cwd=tree, env=env, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return None
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def _median_run(n: int, repeats: int, **options) -> dict | None:
+    runs = [_in_subprocess(n, **options) for _ in range(repeats)]
+    if any(r is None for r in runs):
+        return None
+    out = dict(runs[len(runs) // 2])
+    out["wall_s"] = statistics.median(r["wall_s"] for r in runs)
+    out["runs"] = len(runs)
+    return out
+
+
+def _row(n, res, form, check, label="") -> str:
+    if res is None:
+        return f"| {n}{label} | - | {form} | not finished in {OLD_TIMEOUT_S:.0f} s | - | - | - | - |"
+    target = TARGETS_S.get(n)
+    mark = "" if target is None else f" (target {target:g} s: {'met' if res['wall_s'] <= target else 'NOT met'})"
+    state = f"{'found' if res['found'] else 'NOT found'} after {res['cycles']} index cycles"
+    runs = f"median of {res['runs']}" if res["runs"] > 1 else "one run"
+    return (
+        f"| {n}{label} | {res['model']} ({res['validity']}) | {form} | {res['wall_s']:.2f} s{mark}, {runs} | "
+        f"{res['peak_MB']:.0f} MB (+{res['added_MB']:.0f}) | {state} | {res['steps_per_output']} | {check} |"
+    )
+
+
+def run(quick: bool) -> list[str]:
+    sizes = SIZES[:3] if quick else SIZES
+    lines = [
+        "Long clearance chains on wheels, the pipeline's scenario (default wheels and link, 0.094 mm, 180 rpm, "
+        "steady state) plus the lowest natural frequencies; the global damping dense up to 400 links, its O(N) "
+        "form above (dynamics/models/machine_damping.py)",
+        "",
+        "| N | model | damping form | time (scenario) | peak RSS (added) | steady state | steps/sample | "
+        "check vs dense C |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    old = os.environ.get(OLD_TREE_VARIABLE)
+    for n in sizes:
+        repeats = 1 if (quick or n > REPEATED_UP_TO) else REPEATS
+        res = _median_run(n, repeats)
+        form = "O(N), 1e-4" if n > 400 else "dense"
+        check = "-"
+        if n <= 400:
+            reduced = _in_subprocess(n, True)
+            a, b = np.array(res["values"]), np.array(reduced["values"])
+            check = f"O(N) form: worst station metric {np.max(np.abs(b - a) / np.abs(a)):.1e}"
+        lines.append(_row(n, res, form, check))
+        if old:
+            old_res = _median_run(n, 1, tree=Path(old), timeout=OLD_TIMEOUT_S)
+            lines.append(_row(n, old_res, form, "-", " (old tree)"))
+    return lines
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4:
+        sys.path.insert(0, sys.argv[3])  # the tree whose code runs the scenario
+        print(json.dumps(_scenario(int(sys.argv[1]), json.loads(sys.argv[2]))))
+    else:
+        print("\n".join(run(quick=False)))

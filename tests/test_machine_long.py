@@ -1,0 +1,89 @@
+"""Long clearance chains on wheels (issue #24): the accelerated relabelled steady state against plain
+cycling, the O(N) setup (top frequency, lowest frequencies, the damping rule's range) against the
+dense one where both run, and the model `--model auto` picks at 2,000 links."""
+
+import numpy as np
+import pytest
+from scipy.linalg import eigh
+
+from dynamics.cams import CamProgram
+from dynamics.machine_scene import simulate_machine
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import Tensioner
+from dynamics.models.clearance_machine import ClearanceMachine, _top_frequency, _top_frequency_sparse
+from dynamics.models.layout import MachineLayout
+from dynamics.models.machine_damping import eigenvalue_bounds, of_machine
+from dynamics.models.reduction import DENSE_LINK_LIMIT
+from dynamics.models.wheels import Wheel
+from dynamics.scene import ChainModelKind, Validity
+from dynamics.solvers import machine_shooting
+from dynamics.solvers import machine_verlet as mv
+
+PITCH_M = 0.1125
+WHEEL = Wheel(12, PITCH_M, 6, 0.688)
+LAYOUT = MachineLayout("wheels", WHEEL, WHEEL, None, True)
+
+
+def _cam():
+    return CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180)
+
+
+@pytest.mark.parametrize("tensioner", [None, Tensioner(2e5, 20.0, 500.0)])
+def test_the_accelerated_steady_state_is_plain_cyclings_fixed_point(tensioner):
+    """Anderson-accelerated cycling accepts a start by plain cycling's own test (one index cycle and
+    the seat change move it by <= tol of the cycle's largest |q|, |q'|), so both land on the same
+    fixed point x0 = T(P(x0)) to within tol / (1 - rho) each, rho the contraction per cycle (about
+    0.5 here): with tol = 1e-9 they agree to 1e-8 of the motion, in fewer cycles."""
+    chain = ChainModel(40, 2.03, 9.331e7, friction_coefficient=0.35)
+    model = ClearanceMachine.of(chain, LAYOUT, tensioner, 94e-6)
+    cam = _cam()
+    sub = mv.substeps_for(model, cam.cycle_s / 180, 0.31, "ab2")
+    n = 180 * sub
+    h = cam.cycle_s / n
+    zeros = np.zeros(model.topology.n_dof)
+    options = dict(tol=1e-9, max_cycles=80, predictor="ab2")
+    plain = mv.relabelled_periodic_state(model, cam, h, n, zeros, zeros, **options)
+    fast = machine_shooting.relabelled_periodic_state(model, cam, h, n, zeros, zeros, **options)
+    assert plain[4] and fast[4]
+    assert fast[2] <= plain[2]
+    run = plain[5]
+    assert run.impacts > 0
+    assert np.max(np.abs(fast[0] - plain[0])) < 1e-8 * np.max(np.abs(run.q))
+    assert np.max(np.abs(fast[1] - plain[1])) < 1e-8 * np.max(np.abs(run.v))
+
+
+@pytest.mark.parametrize("tensioner", [None, Tensioner(1e5, 5.0, 100.0)])
+def test_the_o_n_setup_is_the_dense_one_where_both_run(tensioner):
+    """Just above DENSE_LINK_LIMIT, where the O(N) forms take over: the top frequency (the explicit
+    step's limit) by shift-invert Lanczos is the dense eigensolve's to 1e-10, the 10 lowest
+    frequencies (sparse shift-invert) the dense ones to 1e-9, and the damping rule's range covers
+    S's spectrum (its bottom exact to 1e-8, its top Gershgorin's bound, within 1 % above)."""
+    n = DENSE_LINK_LIMIT + 1
+    chain = ChainModel(n, 2.03, 9.331e7, damping_ratio=0.13)
+    machine = LAYOUT.machine(chain, tensioner)
+    assert _top_frequency_sparse(machine) == pytest.approx(_top_frequency(machine), rel=1e-10)
+    np.testing.assert_allclose(
+        machine.lowest_natural_frequencies_Hz(10), machine.natural_frequencies_Hz()[:10], rtol=1e-9
+    )
+    red = of_machine(machine)
+    k, m = machine.stiffness_matrix()[np.ix_(red.dofs, red.dofs)], machine.mass_matrix()[np.ix_(red.dofs, red.dofs)]
+    lam = eigh(k, m, eigvals_only=True)
+    tri = red.tri
+    bottom, top = eigenvalue_bounds(tri[:, 2], tri[:, 3], red.scalars[0])
+    assert bottom == pytest.approx(lam[0], rel=1e-8)
+    assert lam[-1] <= top <= 1.01 * lam[-1]
+
+
+def test_auto_picks_the_clearance_chain_at_2000_links():
+    """`--model auto` on the wheels at 2,000 links (the default link's figures, 0.094 mm free play):
+    the linear machine leaves pulling contact, so the clearance machine runs (valid), on the O(N)
+    damping; one index cycle from rest, no steady state (the choice, not the answer)."""
+    chain = ChainModel(2000, 2.03, 9.0092e7, damping_ratio=0.13, preload_N=2224.0, friction_coefficient=0.35)
+    model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    cam = _cam()
+    t = cam.cycle_s * np.arange(91) / 90
+    response, summary = simulate_machine(model, cam, t, steady_state=False, links=[0, 1000])
+    assert model.reduced_damping
+    assert summary.linear_min_tension_N < 0.0
+    assert summary.model == ChainModelKind.CLEARANCE and summary.validity == Validity.VALID
+    assert np.all(np.isfinite(response.x_m))
