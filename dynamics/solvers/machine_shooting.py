@@ -39,8 +39,9 @@ def relabelled_periodic_state(
     tiny = np.finfo(float).tiny
 
     def one_cycle(x):
-        run = mv.integrate(model, zr, zd, zdd, step_s, x[:n], x[n:], out_every=every, predictor=predictor)
-        q1, v1, _ = mv.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
+        q1, v1, run = mv.next_index_start(
+            model, cam, (zr, zd, zdd), step_s, x[:n], x[n:], out_every=every, predictor=predictor
+        )
         last["run"] = run
         sq, sv = max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
         return np.concatenate([q1, v1]), np.concatenate([np.full(n, sq), np.full(n, sv)])

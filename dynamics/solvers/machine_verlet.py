@@ -744,6 +744,17 @@ def _merged(pieces, rows, durations, step_s: float) -> MachineRun:
     )
 
 
+def next_index_start(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str):
+    """The relabelled map x0 -> T(P(x0)): the state at the start of the next index in the next
+    index's labels, with the seats changed inside the cycle (a tooth phase other than 0) or after it.
+    Returns (q1, v1, the cycle's MachineRun)."""
+    run, inside = index_cycle(model, cam, nodes, step_s, q0, v0, out_every=out_every, predictor=predictor)
+    if inside is not None:
+        return run.q[-1], run.v[-1], run
+    q1, v1, _ = seat_change(model, run.q[-1], run.v[-1], float(nodes[0][-1]))
+    return q1, v1, run
+
+
 def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor):
     """The state at the start of an index with x0 = T(P(x0)) (dynamics.solvers.machine_steady), by
     stepping cycle after cycle with the seat change between them until the start state changes by
@@ -755,11 +766,7 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
         every -= 1
     residual = math.inf
     for cycle in range(1, max_cycles + 1):
-        run, inside = index_cycle(model, cam, (zr, zd, zdd), step_s, q0, v0, out_every=every, predictor=predictor)
-        if inside is None:
-            q1, v1, _ = seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
-        else:
-            q1, v1 = run.q[-1], run.v[-1]
+        q1, v1, run = next_index_start(model, cam, (zr, zd, zdd), step_s, q0, v0, out_every=every, predictor=predictor)
         tiny = np.finfo(float).tiny
         sq, sv = max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
         residual = max(float(np.max(np.abs(q1 - q0))) / sq, float(np.max(np.abs(v1 - v0))) / sv)
