@@ -18,6 +18,7 @@ is one `BesideError`.
 from __future__ import annotations
 
 import multiprocessing
+import os
 from collections.abc import Callable, Iterator
 
 
@@ -41,7 +42,7 @@ class Beside:
         self.what = what
         context = multiprocessing.get_context("spawn")
         receive, send = context.Pipe(duplex=False)
-        self._process = context.Process(target=_run_child, args=(steps, send), name=what)
+        self._process = context.Process(target=_run_child, args=(steps, send, thread_limits()), name=what)
         self._process.start()
         send.close()
         self._receive = receive
@@ -93,10 +94,33 @@ class Beside:
         return f"exit code {code}"
 
 
-def _run_child(steps: Callable[[], Iterator], send) -> None:
+def thread_limits() -> dict[str, int]:
+    """The thread pools' sizes of this process per kind ("blas", "openmp"; threadpoolctl), the
+    smallest of each: a caller limited to one thread (threadpoolctl.threadpool_limits, for bitwise
+    reproducible sums) gets a child on one thread too."""
+    from threadpoolctl import threadpool_info
+
+    limits: dict[str, int] = {}
+    for pool in threadpool_info():
+        kind = pool["user_api"]
+        limits[kind] = min(limits.get(kind, pool["num_threads"]), pool["num_threads"])
+    return limits
+
+
+# the variables each kind of thread pool reads when its library loads (MKL: blas and openmp both)
+_THREAD_VARIABLES = {"blas": ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"), "openmp": ("OMP_NUM_THREADS",)}
+
+
+def _run_child(steps: Callable[[], Iterator], send, limits: dict[str, int]) -> None:
+    from threadpoolctl import threadpool_limits
+
     try:
-        for step in steps():
-            send.send(("step", step))
+        for kind, count in limits.items():  # libraries loaded from now on
+            for variable in _THREAD_VARIABLES.get(kind, ()):
+                os.environ[variable] = str(count)
+        with threadpool_limits(limits=limits):  # libraries loaded already
+            for step in steps():
+                send.send(("step", step))
         send.send(("end", None))
     except BaseException as exc:  # KeyboardInterrupt too: the parent reports it
         try:
