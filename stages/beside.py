@@ -95,30 +95,27 @@ class Beside:
 
 
 def thread_limits() -> dict[str, int]:
-    """The thread pools' sizes of this process per kind ("blas", "openmp"; threadpoolctl), the
-    smallest of each: a caller limited to one thread (threadpoolctl.threadpool_limits, for bitwise
-    reproducible sums) gets a child on one thread too."""
+    """The thread pools' sizes of the libraries loaded in this process, per library kind
+    ("openblas", "mkl", "openmp"; threadpoolctl), the smallest of each: the child runs those
+    libraries as this process would (a caller limited to one thread for bitwise reproducible sums
+    gets a child on one thread), and the ones this process has not loaded at their defaults, as
+    this process would when it loads them."""
     from threadpoolctl import threadpool_info
 
     limits: dict[str, int] = {}
     for pool in threadpool_info():
-        kind = pool["user_api"]
+        kind = pool["internal_api"]
         limits[kind] = min(limits.get(kind, pool["num_threads"]), pool["num_threads"])
     return limits
-
-
-# the variables each kind of thread pool reads when its library loads (MKL: blas and openmp both)
-_THREAD_VARIABLES = {"blas": ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"), "openmp": ("OMP_NUM_THREADS",)}
 
 
 def _run_child(steps: Callable[[], Iterator], send, limits: dict[str, int]) -> None:
     from threadpoolctl import threadpool_limits
 
     try:
-        for kind, count in limits.items():  # libraries loaded from now on
-            for variable in _THREAD_VARIABLES.get(kind, ()):
-                os.environ[variable] = str(count)
-        with threadpool_limits(limits=limits):  # libraries loaded already
+        if "mkl" in limits:  # PARDISO loads MKL later here: it reads its thread count then
+            os.environ["MKL_NUM_THREADS"] = str(limits["mkl"])
+        with threadpool_limits(limits=limits):  # the libraries loaded already
             for step in steps():
                 send.send(("step", step))
         send.send(("end", None))
