@@ -426,11 +426,20 @@ def run(cfg: RunConfig, progress: Progress) -> None:
         # the stress study and images (needed by the outputs' stress lines only) run beside what follows
         fea = timed(timing, "fea", progress, partial(start_fea, part=part, beside=cfg.stress_beside), cfg, progress)
         with fea:  # a failure below stops the process beside
-            chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea.stiffness, progress)
+            _import_chain_and_outputs()  # while the FEA's process starts and meshes
+            stiffness = timed(timing, "fea", progress, lambda: fea.stiffness)
+            chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, stiffness, progress)
             _write_outputs(cfg, fea, chains, scenarios, timing, progress)
     else:
         done, chains, scenarios = run_to_tolerance(cfg, progress, timing, part)
         _write_outputs(cfg, FeaInProgress.done(done), chains, scenarios, timing, progress)
+
+
+def _import_chain_and_outputs() -> None:
+    """The chain's and the outputs' modules (numba's kernels, matplotlib: 1-2 s), imported while the
+    FEA's process imports its own and meshes, before the chain waits for the stiffness."""
+    import dynamics.scene  # noqa: F401
+    import reporting.outputs  # noqa: F401
 
 
 def _write_outputs(cfg: RunConfig, fea, chains, scenarios, timing: dict, progress: Progress) -> None:

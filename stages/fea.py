@@ -204,20 +204,33 @@ def _print_cautions(messages: list[str]) -> None:
 
 
 class FeaInProgress:
-    """A run's FEA once its stiffness is known: `stiffness` (what the chain needs) now, `result()`
-    the complete records, waiting for the stress study where it runs beside (`start_fea`).
-    As a context manager, a failure inside stops the process beside: nothing waits for it."""
+    """A run's FEA under way: `stiffness` (what the chain needs; waits for the stiffness levels where
+    they run beside) and `result()` (the complete records; waits for the stress study where it runs
+    beside), see `start_fea`. As a context manager, a failure inside stops the process beside:
+    nothing waits for it."""
 
-    def __init__(self, stiffness: dict[str, MaterialStiffness], finish: Callable[[], dict[str, MaterialFea]], beside):
-        self.stiffness = stiffness
+    def __init__(
+        self,
+        stiffness: Callable[[], dict[str, MaterialStiffness]],
+        finish: Callable[[], dict[str, MaterialFea]],
+        beside,
+    ):
+        self._stiffness_of = stiffness
+        self._stiffness: dict[str, MaterialStiffness] | None = None
         self._finish = finish
         self._beside = beside
         self._result: dict[str, MaterialFea] | None = None
 
+    @property
+    def stiffness(self) -> dict[str, MaterialStiffness]:
+        if self._stiffness is None:
+            self._stiffness = self._stiffness_of()
+        return self._stiffness
+
     @classmethod
     def done(cls, fea: dict[str, MaterialFea]) -> FeaInProgress:
         """An FEA already complete (the --tolerance passes run it whole)."""
-        return cls(dict(fea), lambda: fea, None)
+        return cls(lambda: dict(fea), lambda: fea, None)
 
     @property
     def beside(self) -> bool:
@@ -226,6 +239,7 @@ class FeaInProgress:
 
     def result(self) -> dict[str, MaterialFea]:
         if self._result is None:
+            self.stiffness  # noqa: B018 (the steps come in order)
             self._result = self._finish()
         return self._result
 
@@ -252,10 +266,11 @@ def start_fea(
     beside: bool = False,
 ) -> FeaInProgress:
     """Stiffness, mass and stress per material, from the cache when nothing they depend on changed.
-    Returns once the stiffness is known; the stress study and the deformed images (which the chain
-    does not need) are solved here before that, or with `beside` in a forked process
-    (stages.beside) that goes on with them while the caller runs the dynamics:
-    `FeaInProgress.result()` waits for them and stores the records in the cache.
+    Without `beside`, everything is solved here before it returns. With `beside`, it returns once a
+    process of its own (stages.beside) is started on the FEA: `FeaInProgress.stiffness` waits for
+    the stiffness levels (what the chain needs), and the process goes on with the stress study and
+    the deformed images while the caller runs the dynamics; `FeaInProgress.result()` waits for them.
+    The records are stored in the cache when complete.
     `concurrent_levels`: see fem.stiffness_studies (False where every core already runs a task).
     `part`: the run's part (stages.geometry.inspect_geometry); None resolves it here."""
     from fem import load_materials
@@ -292,13 +307,24 @@ def start_fea(
         next_step = process.next
     else:  # both steps now: the levels' arrays are freed before the dynamics and the figures
         process, next_step = None, iter(list(steps())).__next__
-    records, cautions = next_step()
-    _print_cautions(cautions)
-    for name, record in records.items():
-        progress(
-            f"FEA {name}: k = {record['stiffness_N_per_m']:.5g} N/m "
-            f"(estimated error {100 * record['stiffness_rel_error_estimate']:.2g} %)"
-        )
+    records: dict[str, dict] = {}
+    cautions: list[str] = []
+
+    def stiffness() -> dict[str, MaterialStiffness]:
+        step, step_cautions = next_step()
+        records.update(step)
+        cautions.extend(step_cautions)
+        _print_cautions(cautions)
+        for name, record in records.items():
+            progress(
+                f"FEA {name}: k = {record['stiffness_N_per_m']:.5g} N/m "
+                f"(estimated error {100 * record['stiffness_rel_error_estimate']:.2g} %)"
+            )
+        fields_of = [f.name for f in fields(MaterialStiffness)]
+        return {
+            name: out[name] if name in out else MaterialStiffness(**{f: records[name][f] for f in fields_of})
+            for name in cfg.materials
+        }
 
     def finish() -> dict[str, MaterialFea]:
         stresses, stress_cautions = next_step()
@@ -313,12 +339,6 @@ def start_fea(
             out[name] = MaterialFea(**stored, cached=False, image=images[name])
         return {name: out[name] for name in cfg.materials}
 
-    stiffness = {
-        name: out[name]
-        if name in out
-        else MaterialStiffness(**{f.name: records[name][f.name] for f in fields(MaterialStiffness)})
-        for name in cfg.materials
-    }
     return FeaInProgress(stiffness, finish, process)
 
 
