@@ -18,7 +18,6 @@ is one `BesideError`.
 from __future__ import annotations
 
 import multiprocessing
-import os
 from collections.abc import Callable, Iterator
 
 
@@ -96,10 +95,9 @@ class Beside:
 
 def thread_limits() -> dict[str, int]:
     """The thread pools' sizes of the libraries loaded in this process, per library kind
-    ("openblas", "mkl", "openmp"; threadpoolctl), the smallest of each: the child runs those
-    libraries as this process would (a caller limited to one thread for bitwise reproducible sums
-    gets a child on one thread), and the ones this process has not loaded at their defaults, as
-    this process would when it loads them."""
+    ("openblas", "mkl", "openmp"; threadpoolctl), the smallest of each: the child's main thread
+    runs them as this one would (a caller limited to one thread for reproducible sums, e.g.
+    tests/test_pipeline_machine.py's snapshot, gets the numbers it got in one process)."""
     from threadpoolctl import threadpool_info
 
     limits: dict[str, int] = {}
@@ -113,9 +111,9 @@ def _run_child(steps: Callable[[], Iterator], send, limits: dict[str, int]) -> N
     from threadpoolctl import threadpool_limits
 
     try:
-        if "mkl" in limits:  # PARDISO loads MKL later here: it reads its thread count then
-            os.environ["MKL_NUM_THREADS"] = str(limits["mkl"])
-        with threadpool_limits(limits=limits):  # the libraries loaded already
+        # on this thread, as threadpoolctl limits the caller's: the stiffness levels' own threads and
+        # the libraries loaded later (MKL, with PARDISO) run at their defaults in either process
+        with threadpool_limits(limits=limits):
             for step in steps():
                 send.send(("step", step))
         send.send(("end", None))
