@@ -96,6 +96,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="output folder (default: %(default)s); existing files of the same name are replaced only when the run succeeds",
     )
     p.add_argument("--no-images", action="store_true", help="skip the pyvista images of the deformed link")
+    p.add_argument(
+        "--serial",
+        action="store_true",
+        help="run the FEA's stress study and images before the dynamics, in this process (default: in a "
+        "second process beside the dynamics and the figures; the same results, more memory at once)",
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     p.add_argument(
         "--mesh-size",
@@ -352,6 +358,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         preset=args.preset,
         out=args.out,
         images=not args.no_images,
+        stress_beside=not args.serial,
         quiet=args.quiet,
         mesh_size_m=d.mesh_size_m if args.mesh_size is None else mm_to_m(args.mesh_size),
         order=args.order,
@@ -401,9 +408,9 @@ def check_writable_out(out: Path) -> None:
 def run(cfg: RunConfig, progress: Progress) -> None:
     from functools import partial
 
-    from reporting.outputs import write_default_outputs, write_replica_outputs
-    from stages.chain import RunResults, run_dynamics, run_rpm_sweeps
-    from stages.fea import run_fea
+    from reporting.outputs import write_replica_outputs
+    from stages.chain import run_dynamics
+    from stages.fea import FeaInProgress, start_fea
     from stages.geometry import inspect_geometry
     from stages.tolerance import run_to_tolerance
 
@@ -417,24 +424,44 @@ def run(cfg: RunConfig, progress: Progress) -> None:
         return
     cfg, part = inspect_geometry(cfg, progress)  # the part resolved once for the whole run
     if cfg.tolerance is None:
-        fea = timed(timing, "fea", progress, partial(run_fea, part=part), cfg, progress)
-        chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
+        # the stress study and images (needed by the outputs' stress lines only) run beside what follows
+        fea = timed(timing, "fea", progress, partial(start_fea, part=part, beside=cfg.stress_beside), cfg, progress)
+        with fea:  # a failure below stops the process beside
+            _import_chain_and_outputs()  # while the FEA's process starts and meshes
+            stiffness = timed(timing, "fea", progress, lambda: fea.stiffness)
+            chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, stiffness, progress)
+            _write_outputs(cfg, fea, chains, scenarios, timing, progress)
     else:
-        fea, chains, scenarios = run_to_tolerance(cfg, progress, timing, part)
-    sweeps = timed(timing, "rpm_sweep", progress, run_rpm_sweeps, cfg, fea, progress) if cfg.rpm_sweep else {}
-    write_default_outputs(RunResults(cfg, fea, chains, scenarios, sweeps, timing), progress)
+        done, chains, scenarios = run_to_tolerance(cfg, progress, timing, part)
+        _write_outputs(cfg, FeaInProgress.done(done), chains, scenarios, timing, progress)
+
+
+def _import_chain_and_outputs() -> None:
+    """The chain's and the outputs' modules (numba's kernels, matplotlib: 1-2 s), imported while the
+    FEA's process imports its own and meshes, before the chain waits for the stiffness."""
+    import dynamics.scene  # noqa: F401
+    import reporting.outputs  # noqa: F401
+
+
+def _write_outputs(cfg: RunConfig, fea, chains, scenarios, timing: dict, progress: Progress) -> None:
+    from reporting.outputs import write_default_outputs
+    from stages.chain import RunInProgress, run_rpm_sweeps
+
+    sweeps = timed(timing, "rpm_sweep", progress, run_rpm_sweeps, cfg, fea.stiffness, progress) if cfg.rpm_sweep else {}
+    write_default_outputs(RunInProgress(cfg, fea, chains, scenarios, sweeps, timing), progress)
 
 
 def main(argv: list[str] | None = None) -> int:
     from dynamics.errors import DynamicsError
     from fem.errors import FemError
     from geometry.errors import GeometryError
+    from stages.beside import BesideError
 
     try:
         cfg = parse_cli(argv)
         check_writable_out(cfg.out)
         run(cfg, Progress(cfg.quiet))
-    except (SettingsError, GeometryError, FemError, DynamicsError) as e:
+    except (SettingsError, GeometryError, FemError, DynamicsError, BesideError) as e:
         print(f"pipeline.py: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -1,22 +1,26 @@
-"""The whole default job from an empty FEA cache: wall time and peak memory per stage (issue #24).
+"""The whole default job from an empty FEA cache: wall time per stage and peak memory (issue #24).
 
-    python benchmarks/bench_whole_job.py [--repeats 3] [--old-tree DIR] [-- PIPELINE OPTIONS]
+    python benchmarks/bench_whole_job.py [--repeats 3] [--old-tree DIR] [--study-point] [-- PIPELINE OPTIONS]
 
 Runs `python pipeline.py --cache-dir EMPTY --out TMP` of this tree (and, with `--old-tree DIR`, of
-another checkout, e.g. `git worktree add --detach /tmp/old main`) in fresh processes, the trees
+another checkout, e.g. `git worktree add --detach DIR main`) in fresh processes, the trees
 alternating, each run with its own empty cache, after one untimed run of each tree at coarse FEA
 levels (numba compiles and caches its kernels in the tree on its first run), and prints the
-medians over `--repeats` runs:
+medians over `--repeats` runs of:
 
-- wall time per stage, from the run's own progress lines (`[  t s] ...`): start-up (interpreter
-  and imports, before the run's clock starts), stiffness (the k levels, up to their `FEA level`
-  lines), stress study (up to the last `stress level` line), rest of the FEA (deformed images,
-  cache), dynamics, outputs (tables, figures, report), and the whole process;
-- peak memory per stage: the largest resident set of the run's process sampled every 20 ms while
-  the stage ran, and beside it the resident sets of its child processes (the outputs stage's
-  figure workers, forked: their shared copy-on-write pages are counted in both, so the sum
-  overstates the memory used); the whole run's peak from the OS (`ru_maxrss` of `wait4`, the
-  largest single process of the run).
+- each stage's wall time, from the run's own progress lines (`[  t s] ...`), as the span from the
+  line that ends the stage before it on the same path to the line that ends it. Since the FEA runs
+  in a process beside the dynamics and the figures (stages.beside), stages overlap: the FEA's path
+  is stiffness (to the last `FEA level` line), stress study (to the last `stress level` line),
+  rest of the FEA (images, cache: to the FEA's last line, `FEA ...: k =` in a one-process run, the
+  outputs' `FEA stress study and images: done` beside); the chain's path is start-up (interpreter
+  and imports, before the run's clock starts), dynamics (from the stiffness, the last `FEA ...: k =`
+  line, to the last `dynamics` line) and outputs (to `done`). The whole job is the process's wall
+  time; the stages add up to more where they overlap;
+- peak memory, sampled every 50 ms: the run's process, its child processes (the FEA beside, the
+  figure workers) summed, and the whole run's proportional set size (PSS: pages shared between the
+  processes counted once, split between them), the memory the run takes from the machine; beside
+  it the summed resident sets (shared pages counted in each process: an overstatement).
 
 With `--study-point`, also the FEA of one design point of `python -m study` at the default
 settings, as a study's worker runs it (`stages.fea.run_fea` with the levels one after the other, no
@@ -44,34 +48,52 @@ import psutil
 ROOT = Path(__file__).resolve().parent.parent
 STAGES = ("start-up", "stiffness", "stress study", "rest of FEA", "dynamics", "outputs")
 LINE = re.compile(r"^\[\s*([0-9.]+) s\] (.*)$")
-SAMPLE_S = 0.02
+SAMPLE_S = 0.05
 WARM_UP_MESH_SIZE_MM = "12"  # a cheap FEA for the untimed first run of each tree
+MEMORY = ("process", "children", "sum of resident sets", "PSS")
 
 
 @dataclass
 class Run:
-    """One run: each stage's wall time (s) and peak resident memory (bytes) of the process and its children."""
+    """One run: each stage's wall time (s), the peak memory (bytes) by MEMORY, and the whole job's wall."""
 
     wall_s: dict[str, float] = field(default_factory=dict)
-    rss: dict[str, int] = field(default_factory=dict)
-    child_rss: dict[str, int] = field(default_factory=dict)
+    memory: dict[str, int] = field(default_factory=dict)
     total_s: float = 0.0
-    maxrss: int = 0
 
 
-def stage_of(message: str, current: str) -> str:
-    """The stage a progress line ends (the stage after it is the next one's)."""
-    if message.startswith("FEA level"):
-        return "stiffness"
-    if message.startswith("stress level"):
-        return "stress study"
-    if message.startswith("FEA ") and " k = " in message:
-        return "rest of FEA"
-    if message.startswith("dynamics"):
-        return "dynamics"
-    if message.startswith("done"):
-        return "outputs"
-    return current
+def stage_ends(lines: list[tuple[float, str]]) -> dict[str, float]:
+    """The run-clock time each path's marks are reached at, from its progress lines."""
+    ends: dict[str, float] = {}
+    for t, message in lines:
+        if message.startswith("FEA level"):
+            ends["stiffness"] = t
+        elif message.startswith("stress level"):
+            ends["stress study"] = t
+        elif message.startswith("FEA ") and " k = " in message:
+            ends["k known"] = t
+        elif message.startswith("FEA stress study and images: done"):
+            ends["fea done"] = t
+        elif message.startswith("dynamics"):
+            ends["dynamics"] = t
+        elif message.startswith("done"):
+            ends["outputs"] = t
+    ends.setdefault("fea done", ends.get("k known", 0.0))  # one process: the k lines come last
+    return ends
+
+
+def stage_walls(ends: dict[str, float], start_up_s: float) -> dict[str, float]:
+    stiffness = ends.get("stiffness", 0.0)
+    stress = ends.get("stress study", stiffness)
+    dynamics_from = ends.get("k known", stress)
+    return {
+        "start-up": start_up_s,
+        "stiffness": stiffness,
+        "stress study": stress - stiffness,
+        "rest of FEA": ends["fea done"] - stress,
+        "dynamics": ends.get("dynamics", dynamics_from) - dynamics_from,
+        "outputs": ends.get("outputs", 0.0) - ends.get("dynamics", dynamics_from),
+    }
 
 
 def run_once(tree: Path, extra: list[str]) -> Run:
@@ -81,58 +103,55 @@ def run_once(tree: Path, extra: list[str]) -> Run:
         start = time.perf_counter()
         proc = subprocess.Popen(command, cwd=tree, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         run = Run()
-        state = {"stage": "start-up", "ended": {}}
         done = threading.Event()
-        threading.Thread(target=_sample, args=(proc.pid, state, run, done), daemon=True).start()
-        clock_start = None
+        sampler = threading.Thread(target=_sample, args=(proc.pid, run, done), daemon=True)
+        sampler.start()
+        lines, start_up_s = [], None
         for line in proc.stdout:
             match = LINE.match(line)
             if not match:
                 continue
-            t, message = float(match.group(1)), match.group(2)
-            if clock_start is None:  # the run's clock starts after its imports
-                clock_start = time.perf_counter() - start - t
-                state["ended"]["start-up"] = clock_start
-                state["stage"] = "stiffness"
-            ended = stage_of(message, "")
-            if ended:
-                state["ended"][ended] = clock_start + t
-                following = STAGES.index(ended) + 1
-                if following < len(STAGES):
-                    state["stage"] = STAGES[following]
-        _, status, usage = os.wait4(proc.pid, 0)
+            t = float(match.group(1))
+            if start_up_s is None:  # the run's clock starts after its imports
+                start_up_s = time.perf_counter() - start - t
+            lines.append((t, match.group(2)))
+        status = proc.wait()
         run.total_s = time.perf_counter() - start
         done.set()
+        sampler.join()
         if status != 0:
             raise SystemExit(f"{tree}: pipeline.py failed (status {status})")
-        run.maxrss = usage.ru_maxrss * 1024
-        previous = 0.0
-        for stage in STAGES:
-            end = state["ended"].get(stage, previous)
-            run.wall_s[stage] = end - previous
-            previous = end
+        run.wall_s = stage_walls(stage_ends(lines), start_up_s or 0.0)
         return run
 
 
-def _sample(pid: int, state: dict, run: Run, done: threading.Event) -> None:
+def _sample(pid: int, run: Run, done: threading.Event) -> None:
     try:
         process = psutil.Process(pid)
         while not done.is_set():
-            stage = state["stage"]
-            rss = process.memory_info().rss
-            children = sum(_rss(c) for c in process.children(recursive=True))
-            run.rss[stage] = max(run.rss.get(stage, 0), rss)
-            run.child_rss[stage] = max(run.child_rss.get(stage, 0), children)
+            children = process.children(recursive=True)
+            own = _memory(process)
+            theirs = [_memory(c) for c in children]
+            sample = {
+                "process": own[0],
+                "children": sum(m[0] for m in theirs),
+                "sum of resident sets": own[0] + sum(m[0] for m in theirs),
+                "PSS": own[1] + sum(m[1] for m in theirs),
+            }
+            for key, value in sample.items():
+                run.memory[key] = max(run.memory.get(key, 0), value)
             time.sleep(SAMPLE_S)
     except psutil.Error:  # the run ended between two samples
         return
 
 
-def _rss(process: psutil.Process) -> int:
+def _memory(process: psutil.Process) -> tuple[int, int]:
+    """(resident set, proportional set size) of a process, 0 if it has ended."""
     try:
-        return process.memory_info().rss
+        info = process.memory_full_info()
+        return info.rss, info.pss
     except psutil.Error:
-        return 0
+        return 0, 0
 
 
 STUDY_POINT = """
@@ -187,22 +206,19 @@ def _median(runs: list[Run], get) -> float:
 
 def report(results: dict[str, list[Run]]) -> list[str]:
     names = list(results)
-    header = "| stage | " + " | ".join(f"{n}: wall (s) | {n}: peak MB (children)" for n in names) + " |"
-    lines = [header, "|" + "---|" * (1 + 2 * len(names))]
+    lines = ["| stage | " + " | ".join(f"{n}: wall (s)" for n in names) + " |", "|" + "---|" * (1 + len(names))]
     for stage in STAGES:
-        cells = []
-        for runs in results.values():
-            cells.append(f"{statistics.median(r.wall_s.get(stage, 0.0) for r in runs):.2f}")
-            rss = statistics.median(r.rss.get(stage, 0) for r in runs) / 1e6
-            kids = statistics.median(r.child_rss.get(stage, 0) for r in runs) / 1e6
-            cells.append(f"{rss:.0f}" + (f" ({kids:.0f})" if kids else ""))
+        cells = [f"{statistics.median(r.wall_s.get(stage, 0.0) for r in runs):.2f}" for runs in results.values()]
         lines.append(f"| {stage} | " + " | ".join(cells) + " |")
     cells = []
     for runs in results.values():
         walls = ", ".join(f"{r.total_s:.1f}" for r in runs)
         cells.append(f"**{_median(runs, lambda r: r.total_s):.2f}** ({walls})")
-        cells.append(f"**{_median(runs, lambda r: r.maxrss) / 1e6:.0f}** (ru_maxrss)")
     lines.append("| whole job | " + " | ".join(cells) + " |")
+    lines += ["", "| peak memory (MB) | " + " | ".join(names) + " |", "|" + "---|" * (1 + len(names))]
+    for key in MEMORY:
+        cells = [f"{statistics.median(r.memory.get(key, 0) for r in runs) / 1e6:.0f}" for runs in results.values()]
+        lines.append(f"| {key} | " + " | ".join(cells) + " |")
     return lines
 
 
@@ -221,8 +237,13 @@ def main(argv=None) -> int:
         for name, tree in trees.items() if repeat % 2 == 0 else reversed(trees.items()):
             run = run_once(tree, args.pipeline_options)
             results[name].append(run)
-            print(f"run {repeat + 1} {name}: {run.total_s:.1f} s, {run.maxrss / 1e6:.0f} MB", flush=True)
-    print(f"medians of {args.repeats} runs from an empty FEA cache, trees alternating; cores: {os.cpu_count()}")
+            print(
+                f"run {repeat + 1} {name}: {run.total_s:.1f} s, PSS {run.memory.get('PSS', 0) / 1e6:.0f} MB", flush=True
+            )
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
+    print(
+        f"medians of {args.repeats} runs from an empty FEA cache, trees alternating; cores: {os.cpu_count()}; load average now {load}"
+    )
     print("\n".join(report(results)))
     if args.study_point:
         points: dict[str, list[dict]] = {name: [] for name in trees}

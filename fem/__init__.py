@@ -1,31 +1,43 @@
-"""FEA stage: link stiffness, mass and stress with scikit-fem linear elasticity (SI units)."""
+"""FEA stage: link stiffness, mass and stress with scikit-fem linear elasticity (SI units).
 
-from .errors import FemError
-from .export import write_solution_vtu
-from .link import LinkSolution, analyse_link, analyse_link_materials
-from .materials import Material, get_material, load_materials
-from .render import render_deformed
-from .richardson import Extrapolation, extrapolate
-from .settings import FeaSettings
-from .stress import StressEstimate, stress_study
-from .study import StiffnessEstimate, stiffness_studies, stiffness_study
+The names below are imported on first use (PEP 562 `__getattr__`), so that `fem.errors`,
+`fem.cache` and `fem.materials` load without scikit-fem and SciPy's solvers: `pipeline.py`'s own
+process needs only those, its FEA runs in a process of its own (stages.beside), and importing the
+whole package took 1.1 s of a loaded machine's start-up (`python -X importtime`).
+"""
 
-__all__ = [
-    "Extrapolation",
-    "FeaSettings",
-    "FemError",
-    "LinkSolution",
-    "Material",
-    "StiffnessEstimate",
-    "analyse_link",
-    "analyse_link_materials",
-    "extrapolate",
-    "get_material",
-    "load_materials",
-    "render_deformed",
-    "stiffness_studies",
-    "stiffness_study",
-    "StressEstimate",
-    "stress_study",
-    "write_solution_vtu",
-]
+from importlib import import_module
+
+_MODULE_OF = {
+    "FemError": "errors",
+    "write_solution_vtu": "export",
+    "LinkSolution": "link",
+    "analyse_link": "link",
+    "analyse_link_materials": "link",
+    "Material": "materials",
+    "get_material": "materials",
+    "load_materials": "materials",
+    "render_deformed": "render",
+    "Extrapolation": "richardson",
+    "extrapolate": "richardson",
+    "FeaSettings": "settings",
+    "StressEstimate": "stress",
+    "stress_study": "stress",
+    "StiffnessEstimate": "study",
+    "stiffness_studies": "study",
+    "stiffness_study": "study",
+}
+
+__all__ = sorted(_MODULE_OF)
+
+
+def __getattr__(name: str):
+    if name not in _MODULE_OF:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(import_module(f"{__name__}.{_MODULE_OF[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_MODULE_OF))

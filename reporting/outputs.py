@@ -26,7 +26,7 @@ from reporting.sections import Report, build_sections
 from reporting.tables import Table, max_acceleration_table, rms_table
 
 if TYPE_CHECKING:
-    from stages.chain import RunResults
+    from stages.chain import RunInProgress, RunResults
     from stages.replica import ReplicaRun
 
 RANKING_METRIC = "residual_vibration_m"
@@ -598,14 +598,35 @@ def _sweep_table(sweeps: dict) -> Table:
     )
 
 
-def write_default_outputs(results: RunResults, progress) -> None:
-    cfg, fea, scenarios, sweeps, timing = results.cfg, results.fea, results.scenarios, results.sweeps, results.timing
+def write_default_outputs(results: RunResults | RunInProgress, progress) -> None:
+    """Write everything into --out. With a `RunInProgress` (the FEA's stress study still running beside,
+    stages.fea.start_fea) the figures, which need the chain only, are drawn first, and the FEA is
+    waited for before the summary, the tables and the report, which give its stresses."""
+    cfg, scenarios, sweeps = results.cfg, results.scenarios, results.sweeps
+    materials = cfg.materials
     with StagedOutput(cfg.out) as staged:
         progress("outputs: tables, plots and report")
         links = _stations(results)
         focus = _focus(cfg)
         focus_link = links[focus]
         histories = {key: sc.history for key, sc in scenarios.items()}
+        residual = {m: {c: scenarios[m, c].stations[focus].residual_vibration_m for c in cfg.cams} for m in materials}
+        material_jobs = {
+            m: _material_plots(staged, [histories[m, c] for c in cfg.cams], links, focus_link) for m in materials
+        }
+        for m, job in _tension_maps(staged, scenarios, materials, cfg.cams).items():
+            material_jobs[m]["tension map"] = job
+        jobs = {("material", m, label): job for m, by_label in material_jobs.items() for label, job in by_label.items()}
+        jobs["residual",] = FigureJob(
+            plots.plot_residual_vibration, (residual, focus, staged.path("residual_vibration.png"))
+        )
+        jobs |= {
+            ("sweep", m): FigureJob(plots.plot_rpm_sweep, (sweep, staged.path(f"{m}_rpm_sweep.png")))
+            for m, sweep in sweeps.items()
+        }
+        paths = draw_figures(jobs)
+        results = results.finished(progress)
+        fea, timing = results.fea, results.timing
         at_link = {key: _link_rms(sc.stations[focus]) for key, sc in scenarios.items()}
         summary = default_summary(results)
         ranking = _ranking_table(summary["ranking"]["by_material"], focus)
@@ -619,21 +640,6 @@ def write_default_outputs(results: RunResults, progress) -> None:
             "tension": _tension_table(summary["materials"]),
         }
         staged.write_text("tables.md", _write_tables(staged, tables))
-        residual = {m: {c: scenarios[m, c].stations[focus].residual_vibration_m for c in cfg.cams} for m in fea}
-        material_jobs = {
-            m: _material_plots(staged, [histories[m, c] for c in cfg.cams], links, focus_link) for m in fea
-        }
-        for m, job in _tension_maps(staged, scenarios, fea, cfg.cams).items():
-            material_jobs[m]["tension map"] = job
-        jobs = {("material", m, label): job for m, by_label in material_jobs.items() for label, job in by_label.items()}
-        jobs["residual",] = FigureJob(
-            plots.plot_residual_vibration, (residual, focus, staged.path("residual_vibration.png"))
-        )
-        jobs |= {
-            ("sweep", m): FigureJob(plots.plot_rpm_sweep, (sweep, staged.path(f"{m}_rpm_sweep.png")))
-            for m, sweep in sweeps.items()
-        }
-        paths = draw_figures(jobs)
         figures = {
             m: {label: paths["material", m, label] for label in by_label} for m, by_label in material_jobs.items()
         }

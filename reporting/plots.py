@@ -28,6 +28,8 @@ CAM_COLOURS = {
     "poly-4567": "black",
     "simple-harmonic": "tab:orange",
 }
+DPI = 110
+PAD_INCHES = 0.1  # around what is drawn, as savefig's bbox_inches="tight" (its default pad)
 QUANTITIES = (
     ("displacement (mm)", lambda h: h.x_m * 1e3, lambda h: h.z_m * 1e3),
     ("velocity (m/s)", lambda h: h.v_m_s, lambda h: h.zdot_m_s),
@@ -40,9 +42,39 @@ def _colour(cam: str) -> str:
 
 
 def _save(fig, path: Path) -> Path:
-    fig.savefig(path, dpi=110, bbox_inches="tight")
+    """The figure as a PNG cropped to what is drawn, in one draw.
+
+    savefig's bbox_inches="tight" draws a figure twice (once to find the artists' extent, once to
+    render): 4.1 of the 5.2 s of the widest figure, profiled. Here it is rendered once at DPI and
+    the pixels are cropped to the ink plus savefig's pad (`cropped_to_ink`); only a figure whose
+    ink reaches its edge (something may lie outside it) is saved the two-draw way, which grows the
+    canvas to fit it."""
+    from PIL import Image
+
+    fig.set_dpi(DPI)
+    fig.canvas.draw()
+    pixels = np.asarray(fig.canvas.buffer_rgba())
+    background = np.round(np.asarray(matplotlib.colors.to_rgba(fig.get_facecolor())) * 255).astype(np.uint8)
+    cropped = cropped_to_ink(pixels, background, round(PAD_INCHES * DPI))
+    if cropped is None:
+        fig.savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=PAD_INCHES)
+    else:
+        Image.fromarray(cropped).save(path, format="png", dpi=(DPI, DPI))
     plt.close(fig)
     return path
+
+
+def cropped_to_ink(pixels: np.ndarray, background: np.ndarray, pad: int) -> np.ndarray | None:
+    """The (rows, columns, 4) image cropped to its pixels that differ from `background`, plus `pad`
+    pixels around them; None where the ink reaches the image's edge (or there is none)."""
+    ink = np.any(pixels != background, axis=2)
+    rows, columns = np.flatnonzero(ink.any(axis=1)), np.flatnonzero(ink.any(axis=0))
+    if rows.size == 0:
+        return None
+    top, bottom, left, right = rows[0], rows[-1], columns[0], columns[-1]
+    if top == 0 or left == 0 or bottom == ink.shape[0] - 1 or right == ink.shape[1] - 1:
+        return None
+    return np.ascontiguousarray(pixels[max(top - pad, 0) : bottom + pad + 1, max(left - pad, 0) : right + pad + 1])
 
 
 def plot_three_links(histories: list[CamHistory], links: list[int], path: Path) -> Path:

@@ -84,6 +84,7 @@ class RunConfig:
     preset: str | None = None
     out: Path = Path("results")
     images: bool = True
+    stress_beside: bool = True  # FEA stress study and images in a process beside the dynamics (pipeline.py)
     quiet: bool = False
     mesh_size_m: float | None = None  # finest FEA level; None: chosen for < 1 % error in k
     order: int = 2

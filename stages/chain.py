@@ -6,7 +6,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from settings import RunConfig
-from stages.fea import MaterialFea
+from stages.fea import FeaInProgress, MaterialFea, MaterialStiffness
 from stages.progress import Progress
 
 if TYPE_CHECKING:  # numpy, scipy and the dynamics load when a stage runs, not when it is imported
@@ -57,6 +57,31 @@ class RunResults:
     sweeps: dict[str, SweepResult]  # material -> its speed sweep (empty without --rpm-sweep)
     timing: dict[str, float]  # wall seconds per stage; the outputs add theirs
 
+    def finished(self, progress: Progress) -> RunResults:
+        return self
+
+
+@dataclass
+class RunInProgress:
+    """A run whose FEA stress study may still run beside (stages.fea.start_fea): everything the
+    figures need (the chain's results), and `finished` to wait for the FEA's records."""
+
+    cfg: RunConfig
+    fea: FeaInProgress
+    chains: dict[str, MaterialChain]
+    scenarios: dict[tuple[str, str], Scenario]
+    sweeps: dict[str, SweepResult]
+    timing: dict[str, float]
+
+    def finished(self, progress: Progress) -> RunResults:
+        """The run's results once the FEA's stress study is done; the wait is booked to the FEA."""
+        start = progress.elapsed()
+        fea = self.fea.result()
+        self.timing["fea"] = self.timing.get("fea", 0.0) + progress.elapsed() - start
+        if self.fea.beside:
+            progress(f"FEA stress study and images: done, waited {progress.elapsed() - start:.1f} s for them")
+        return RunResults(self.cfg, fea, self.chains, self.scenarios, self.sweeps, self.timing)
+
 
 def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> np.ndarray:
     """Output samples over the report's 180 deg window (two index cycles)."""
@@ -97,7 +122,7 @@ def natural_frequencies_Hz(scene: Scene, model: ChainModel, count: int = REPORTE
     return scene_machine(scene, model).lowest_natural_frequencies_Hz(count)
 
 
-def chain_model(cfg: RunConfig, result: MaterialFea, stiffness_N_per_m: float | None = None) -> ChainModel:
+def chain_model(cfg: RunConfig, result: MaterialStiffness, stiffness_N_per_m: float | None = None) -> ChainModel:
     from dynamics.models.chain import ChainModel
 
     return ChainModel(
@@ -168,7 +193,7 @@ def simulate_scenario(
     )
 
 
-def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, cam_id: str) -> Scenario:
+def scenario_to_tolerance(cfg: RunConfig, result: MaterialStiffness, material: str, cam_id: str) -> Scenario:
     """Finest sampling the tolerance needs, with the error estimate from the step and from k."""
     from dataclasses import replace
 
@@ -203,9 +228,10 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialFea, material: str, ca
 
 
 def run_dynamics(
-    cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress
+    cfg: RunConfig, fea: dict[str, MaterialStiffness], progress: Progress
 ) -> tuple[dict[str, MaterialChain], dict[tuple[str, str], Scenario]]:
-    """Simulate every material x cam law; returns each material's chain and the scenarios."""
+    """Simulate every material x cam law; returns each material's chain and the scenarios. The
+    chain needs the FEA's stiffness, mass and pitch only (a `MaterialFea` is one too)."""
     from dynamics.models.reduction import modes_to_keep
     from stages.machine import machine_parts
 
@@ -235,7 +261,7 @@ def run_dynamics(
     return chains, scenarios
 
 
-def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialFea], progress: Progress) -> dict[str, SweepResult]:
+def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialStiffness], progress: Progress) -> dict[str, SweepResult]:
     """Speed sweep per material on the linear chain (the fast modal path cannot carry friction)."""
     from dataclasses import replace
 

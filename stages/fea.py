@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, fields
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -18,8 +20,9 @@ if TYPE_CHECKING:  # importing geometry pulls in gmsh
 
 
 @dataclass(frozen=True)
-class MaterialFea:
-    """What the dynamics and the outputs need of one material's FEA (SI)."""
+class MaterialStiffness:
+    """What the chain needs of one material's FEA (SI): known once the stiffness levels are solved,
+    before the stress study (which `pipeline.py` runs beside the dynamics, see `start_fea`)."""
 
     material: str
     stiffness_N_per_m: float
@@ -28,6 +31,12 @@ class MaterialFea:
     body_volume_m3: float
     pitch_m: float
     bore_radius_m: float
+
+
+@dataclass(frozen=True)
+class MaterialFea(MaterialStiffness):
+    """What the dynamics and the outputs need of one material's FEA (SI)."""
+
     peak_von_mises_Pa_per_N: float
     peak_von_mises_away_from_clamp_Pa_per_N: float
     peak_von_mises_converged_Pa_per_N: float  # converged by local refinement (fem.stress): the design stress
@@ -69,7 +78,8 @@ def fea_cache_settings(cfg: RunConfig, settings: FeaSettings, material, stiffnes
     return key
 
 
-def _fea_record(name: str, material, study, stress) -> dict:
+def _stiffness_record(name: str, study) -> dict:
+    """A material's cache record as far as the stiffness levels give it (its stress fields follow)."""
     fine = study.finest
     return {
         "material": name,
@@ -81,73 +91,191 @@ def _fea_record(name: str, material, study, stress) -> dict:
         "bore_radius_m": fine.bore_radius_m,
         "peak_von_mises_Pa_per_N": fine.peak_von_mises_Pa_per_N,
         "peak_von_mises_away_from_clamp_Pa_per_N": fine.peak_von_mises_away_from_clamp_Pa_per_N,
+        "dofs": fine.dofs,
+        "mesh_size_m": fine.mesh_size_m,
+        "timing_s": study.timing_s,
+    }
+
+
+def _fea_record(stiffness: dict, material, stress: StressAnswer, cautions: list[str]) -> dict:
+    """The whole cache record, its keys in MaterialFea's order."""
+    record = {
+        **stiffness,
         "peak_von_mises_converged_Pa_per_N": stress.peak_Pa_per_N,
         "peak_von_mises_converged_rel_change": stress.rel_change,
         "safety_factor_stress": stress.description,
         "yield_strength_Pa": material.yield_strength_Pa,
-        "dofs": fine.dofs,
-        "mesh_size_m": fine.mesh_size_m,
-        "timing_s": study.timing_s,
-        "warnings": [],
+        "warnings": cautions,
     }
+    return {f.name: record[f.name] for f in fields(MaterialFea) if f.name in record}
 
 
-def _solve_fea(
+@dataclass(frozen=True)
+class StressAnswer:
+    """What the outputs keep of a material's stress study (fem.stress.StressEstimate), small enough
+    to come back from the process that ran it."""
+
+    peak_Pa_per_N: float
+    rel_change: float
+    description: str
+
+
+def _solve_stiffness(
     part: Part,
     settings: FeaSettings,
     materials: list,
     stiffness_tolerance: float | None,
     progress: Progress,
     solved_levels: dict | None,
-) -> tuple[dict, dict]:
-    """FEA studies of the materials not in the cache: fixed levels, or refined to a k tolerance
-    (reusing the levels in `solved_levels`, see fem.adaptive); then the peak stress converged by
-    local refinement from the finest level (fem.stress). Returns (stiffness, stress) per material."""
+) -> dict:
+    """Stiffness studies of the materials not in the cache: fixed levels, or refined to a k tolerance
+    (reusing the levels in `solved_levels`, see fem.adaptive)."""
     from fem import stiffness_studies
     from fem.adaptive import stiffnesses_to_tolerance
-    from fem.stress import stress_study
 
     source = part.name if part.is_step else "built-in default link"
     if stiffness_tolerance is None:
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, 2 mesh levels")
-        studies = stiffness_studies(part, materials, settings, progress=progress)
-    else:
-        progress(
-            f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, refining to a k error <= "
-            f"{100 * stiffness_tolerance:.2g} %"
-        )
-        studies = stiffnesses_to_tolerance(
-            part, materials, stiffness_tolerance, settings, progress=progress, solved=solved_levels
-        )
-    finest = {name: study.finest for name, study in studies.items()}
-    stresses = stress_study(
-        part,
-        materials,
-        settings,
-        base_mesh_size_m=next(iter(finest.values())).mesh_size_m,
-        base=finest,
-        progress=progress,
+        return stiffness_studies(part, materials, settings, progress=progress)
+    progress(
+        f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, refining to a k error <= "
+        f"{100 * stiffness_tolerance:.2g} %"
     )
-    return studies, stresses
+    return stiffnesses_to_tolerance(
+        part, materials, stiffness_tolerance, settings, progress=progress, solved=solved_levels
+    )
 
 
-def run_fea(
+def _fea_steps(
+    part: Part,
+    settings: FeaSettings,
+    materials: list,
+    stiffness_tolerance: float | None,
+    solved_levels: dict | None,
+    images: dict,
+    progress: Progress,
+) -> Iterator[tuple[dict, list[str]]]:
+    """The FEA of the materials not in the cache, in two steps, each with the FemWarnings' messages
+    it raised: first each material's stiffness record (all the chain needs), then its converged
+    stress (StressAnswer), the deformed images rendered where asked for. Run here or in a process
+    beside the run (stages.beside), the same code either way."""
+    import warnings
+
+    from fem import render_deformed
+    from fem.errors import FemWarning
+    from fem.heap import release_free_memory
+    from fem.stress import stress_study
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FemWarning)
+        studies = _solve_stiffness(part, settings, materials, stiffness_tolerance, progress, solved_levels)
+    release_free_memory()  # the levels' threads' freed arrays
+    yield {name: _stiffness_record(name, study) for name, study in studies.items()}, _messages(caught)
+    finest = {name: study.finest for name, study in studies.items()}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FemWarning)
+        stresses = stress_study(
+            part,
+            materials,
+            settings,
+            base_mesh_size_m=next(iter(finest.values())).mesh_size_m,
+            base=finest,
+            progress=progress,
+        )
+    for name, study in studies.items():
+        if images[name] is not None:
+            images[name].parent.mkdir(parents=True, exist_ok=True)
+            render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
+    del studies, finest
+    release_free_memory()  # the levels' arrays, before the dynamics and the figures
+    answers = {name: StressAnswer(s.peak_Pa_per_N, s.rel_change, s.description) for name, s in stresses.items()}
+    yield answers, _messages(caught)
+
+
+def _messages(caught) -> list[str]:
+    from fem.errors import FemWarning
+
+    return list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
+
+
+def _print_cautions(messages: list[str]) -> None:
+    for message in messages:
+        print(f"pipeline.py: warning: {message}", file=sys.stderr)
+
+
+class FeaInProgress:
+    """A run's FEA under way: `stiffness` (what the chain needs; waits for the stiffness levels where
+    they run beside) and `result()` (the complete records; waits for the stress study where it runs
+    beside), see `start_fea`. As a context manager, a failure inside stops the process beside:
+    nothing waits for it."""
+
+    def __init__(
+        self,
+        stiffness: Callable[[], dict[str, MaterialStiffness]],
+        finish: Callable[[], dict[str, MaterialFea]],
+        beside,
+    ):
+        self._stiffness_of = stiffness
+        self._stiffness: dict[str, MaterialStiffness] | None = None
+        self._finish = finish
+        self._beside = beside
+        self._result: dict[str, MaterialFea] | None = None
+
+    @property
+    def stiffness(self) -> dict[str, MaterialStiffness]:
+        if self._stiffness is None:
+            self._stiffness = self._stiffness_of()
+        return self._stiffness
+
+    @classmethod
+    def done(cls, fea: dict[str, MaterialFea]) -> FeaInProgress:
+        """An FEA already complete (the --tolerance passes run it whole)."""
+        return cls(lambda: dict(fea), lambda: fea, None)
+
+    @property
+    def beside(self) -> bool:
+        """Whether the stress study runs in a process beside this one."""
+        return self._beside is not None
+
+    def result(self) -> dict[str, MaterialFea]:
+        if self._result is None:
+            self.stiffness  # noqa: B018 (the steps come in order)
+            self._result = self._finish()
+        return self._result
+
+    def cancel(self) -> None:
+        if self._beside is not None:
+            self._beside.cancel()
+
+    def __enter__(self) -> FeaInProgress:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc_type is not None:
+            self.cancel()
+        return False
+
+
+def start_fea(
     cfg: RunConfig,
     progress: Progress,
     stiffness_tolerance: float | None = None,
     solved_levels: dict | None = None,
     concurrent_levels: bool = True,
     part: Part | None = None,
-) -> dict[str, MaterialFea]:
+    beside: bool = False,
+) -> FeaInProgress:
     """Stiffness, mass and stress per material, from the cache when nothing they depend on changed.
+    Without `beside`, everything is solved here before it returns. With `beside`, it returns once a
+    process of its own (stages.beside) is started on the FEA: `FeaInProgress.stiffness` waits for
+    the stiffness levels (what the chain needs), and the process goes on with the stress study and
+    the deformed images while the caller runs the dynamics; `FeaInProgress.result()` waits for them.
+    The records are stored in the cache when complete.
     `concurrent_levels`: see fem.stiffness_studies (False where every core already runs a task).
     `part`: the run's part (stages.geometry.inspect_geometry); None resolves it here."""
-    import warnings
-
-    from fem import load_materials, render_deformed
+    from fem import load_materials
     from fem.cache import FeaCache, cache_key
-    from fem.errors import FemWarning
-    from fem.heap import release_free_memory
+    from stages.beside import Beside, can_start
 
     library = load_materials(cfg.materials_file)
     unknown = [m for m in cfg.materials if m not in library]
@@ -170,25 +298,57 @@ def run_fea(
             progress(f"FEA {name}: cached result (k = {stored['stiffness_N_per_m']:.5g} N/m)")
             out[name] = MaterialFea(**stored, cached=True, image=images[name])
     missing = [library[name] for name in cfg.materials if name not in out]
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", FemWarning)
-        studies, stresses = (
-            _solve_fea(part, settings, missing, stiffness_tolerance, progress, solved_levels) if missing else ({}, {})
-        )
-    release_free_memory()  # the levels' freed arrays, before the dynamics and the figures
-    cautions = list(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
-    for message in cautions:
-        print(f"pipeline.py: warning: {message}", file=sys.stderr)
-    for material in missing:
-        name, study = material.name, studies[material.name]
-        stored = {**_fea_record(name, material, study, stresses[name]), "warnings": cautions}
-        progress(
-            f"FEA {name}: k = {study.stiffness_N_per_m:.5g} N/m "
-            f"(estimated error {100 * study.stiffness_rel_error_estimate:.2g} %)"
-        )
-        if images[name] is not None:
-            images[name].parent.mkdir(parents=True, exist_ok=True)
-            render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
-        cache.store(keys[name], stored)
-        out[name] = MaterialFea(**stored, cached=False, image=images[name])
-    return {name: out[name] for name in cfg.materials}
+    if not missing:
+        return FeaInProgress.done(out)
+    steps = partial(_fea_steps, part, settings, missing, stiffness_tolerance, solved_levels, images, progress)
+    if beside and can_start():
+        process = Beside(steps, "the FEA")
+        progress(f"FEA: in process {process.pid}, beside the dynamics and the figures from the stiffness on")
+        next_step = process.next
+    else:  # both steps now: the levels' arrays are freed before the dynamics and the figures
+        process, next_step = None, iter(list(steps())).__next__
+    records: dict[str, dict] = {}
+    cautions: list[str] = []
+
+    def stiffness() -> dict[str, MaterialStiffness]:
+        step, step_cautions = next_step()
+        records.update(step)
+        cautions.extend(step_cautions)
+        _print_cautions(cautions)
+        for name, record in records.items():
+            progress(
+                f"FEA {name}: k = {record['stiffness_N_per_m']:.5g} N/m "
+                f"(estimated error {100 * record['stiffness_rel_error_estimate']:.2g} %)"
+            )
+        fields_of = [f.name for f in fields(MaterialStiffness)]
+        return {
+            name: out[name] if name in out else MaterialStiffness(**{f: records[name][f] for f in fields_of})
+            for name in cfg.materials
+        }
+
+    def finish() -> dict[str, MaterialFea]:
+        stresses, stress_cautions = next_step()
+        if process is not None:
+            process.close()
+        _print_cautions([c for c in stress_cautions if c not in cautions])
+        every = list(dict.fromkeys(cautions + stress_cautions))
+        for material in missing:
+            name = material.name
+            stored = _fea_record(records[name], material, stresses[name], every)
+            cache.store(keys[name], stored)
+            out[name] = MaterialFea(**stored, cached=False, image=images[name])
+        return {name: out[name] for name in cfg.materials}
+
+    return FeaInProgress(stiffness, finish, process)
+
+
+def run_fea(
+    cfg: RunConfig,
+    progress: Progress,
+    stiffness_tolerance: float | None = None,
+    solved_levels: dict | None = None,
+    concurrent_levels: bool = True,
+    part: Part | None = None,
+) -> dict[str, MaterialFea]:
+    """Stiffness, mass and stress per material (`start_fea`, every part of it in this process)."""
+    return start_fea(cfg, progress, stiffness_tolerance, solved_levels, concurrent_levels, part).result()

@@ -40,6 +40,9 @@ FAST = [
     "al6061-t6",
     "--cams",
     "modified-sine",
+    # the counts are taken in this process: --serial keeps the FEA here (by default it runs in a
+    # child forked from this process after the part was resolved, stages.beside)
+    "--serial",
 ]
 
 

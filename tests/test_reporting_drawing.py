@@ -64,3 +64,19 @@ def test_the_heap_gives_its_free_pages_back_on_glibc():
     import platform
 
     assert release_free_memory() == (platform.libc_ver()[0] == "glibc")
+
+
+def test_a_figure_is_cropped_to_its_ink_and_padded_unless_the_ink_reaches_its_edge():
+    import numpy as np
+
+    from reporting.plots import cropped_to_ink
+
+    white = np.array([255, 255, 255, 255], dtype=np.uint8)
+    pixels = np.full((40, 60, 4), 255, dtype=np.uint8)
+    pixels[10:20, 15:31] = (0, 0, 0, 255)
+    cropped = cropped_to_ink(pixels, white, pad=3)
+    assert cropped.shape == (10 + 2 * 3, 16 + 2 * 3, 4)
+    assert (cropped[3:-3, 3:-3, :3] == 0).all() and (cropped[:3] == 255).all() and (cropped[:, -3:] == 255).all()
+    pixels[0, 20] = (0, 0, 0, 255)  # ink on the top edge: something may lie outside the canvas
+    assert cropped_to_ink(pixels, white, pad=3) is None
+    assert cropped_to_ink(np.full((5, 5, 4), 255, dtype=np.uint8), white, pad=1) is None

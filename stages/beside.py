@@ -1,0 +1,124 @@
+"""A stage run in a second process beside the run's next stages, handing over its results in steps.
+
+The FEA's stress study and deformed images feed only the stress lines of the outputs, not the
+chain: `pipeline.py` runs the FEA in a child process that hands over the stiffness first (what the
+chain needs), goes on with the stress study while the dynamics and the figures run here, and hands
+over the stresses last. The stage is a generator: each value it yields is one step handed over.
+
+The child is a fresh interpreter (multiprocessing's "spawn"), not a fork of this process: gmsh
+(its OpenCASCADE and OpenMP thread pools) hangs in a child forked from a process that has meshed
+before (measured: the child's first mesh waited forever on a thread of the parent's pool that
+does not exist in the child), and a process cannot know whether a library it loaded has. What
+goes in (the part, the settings, the materials) and each step coming back are pickled, a few kB;
+the child's imports run on the other core while this process imports its own. An exception in the
+child is raised again here; a child that dies without handing over a step (killed, out of memory)
+is one `BesideError`.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+from collections.abc import Callable, Iterator
+
+
+class BesideError(RuntimeError):
+    """The process beside the run ended without a result; the message says what it was doing."""
+
+
+def can_start() -> bool:
+    """Whether a child process can be started here: not in a daemonic process (a Dask worker may not
+    have children, and its cores are the cluster's already)."""
+    return not multiprocessing.current_process().daemon
+
+
+class Beside:
+    """The generator `steps()` (picklable: a module-level function or a partial of one) running in
+    a child process: `next()` waits for its next step and returns it (the child's exception is
+    raised again here), `close()` waits for the child to end after its last one, `cancel()` stops
+    it. `what` names the work in messages."""
+
+    def __init__(self, steps: Callable[[], Iterator], what: str):
+        self.what = what
+        context = multiprocessing.get_context("spawn")
+        receive, send = context.Pipe(duplex=False)
+        self._process = context.Process(target=_run_child, args=(steps, send, thread_limits()), name=what)
+        self._process.start()
+        send.close()
+        self._receive = receive
+        self._running = True
+
+    @property
+    def pid(self) -> int:
+        return self._process.pid
+
+    def next(self):
+        """The child's next step (waiting for it)."""
+        kind, value = self._receive_one()
+        if kind == "end":
+            self._wait()
+            raise BesideError(f"{self.what}: it has no further step")
+        return value
+
+    def close(self) -> None:
+        """Wait for the child to end after its last step."""
+        if self._running:
+            self._receive_one()
+            self._wait()
+
+    def cancel(self) -> None:
+        """Stop the child if it still runs (a failure elsewhere in the run: nothing waits for it)."""
+        if self._running:
+            self._process.terminate()
+            self._wait()
+
+    def _receive_one(self) -> tuple[str, object]:
+        if not self._running:
+            raise BesideError(f"{self.what}: it has ended already")
+        try:
+            kind, value = self._receive.recv()
+        except EOFError:
+            raise BesideError(f"{self.what}: its process ended early ({self._wait()})") from None
+        if kind == "error":
+            self._wait()
+            raise value
+        return kind, value
+
+    def _wait(self) -> str:
+        self._running = False
+        self._receive.close()
+        self._process.join()
+        code = self._process.exitcode
+        if code is not None and code < 0:
+            return f"signal {-code}" + (", killed: out of memory?" if code == -9 else "")
+        return f"exit code {code}"
+
+
+def thread_limits() -> dict[str, int]:
+    """The thread pools' sizes of the libraries loaded in this process, per library kind
+    ("openblas", "mkl", "openmp"; threadpoolctl), the smallest of each: the child's main thread
+    runs them as this one would (a caller limited to one thread for reproducible sums, e.g.
+    tests/test_pipeline_machine.py's snapshot, gets the numbers it got in one process)."""
+    from threadpoolctl import threadpool_info
+
+    limits: dict[str, int] = {}
+    for pool in threadpool_info():
+        kind = pool["internal_api"]
+        limits[kind] = min(limits.get(kind, pool["num_threads"]), pool["num_threads"])
+    return limits
+
+
+def _run_child(steps: Callable[[], Iterator], send, limits: dict[str, int]) -> None:
+    from threadpoolctl import threadpool_limits
+
+    try:
+        # on this thread, as threadpoolctl limits the caller's: the stiffness levels' own threads and
+        # the libraries loaded later (MKL, with PARDISO) run at their defaults in either process
+        with threadpool_limits(limits=limits):
+            for step in steps():
+                send.send(("step", step))
+        send.send(("end", None))
+    except BaseException as exc:  # KeyboardInterrupt too: the parent reports it
+        try:
+            send.send(("error", exc))
+        except Exception:  # an exception that does not pickle: its words
+            send.send(("error", BesideError(f"{type(exc).__name__}: {exc}")))

@@ -1,0 +1,87 @@
+"""The FEA in a process beside the dynamics and the figures (stages.beside, the default of
+`pipeline.py`) against the same run in one process (--serial): the same summary.json, byte for
+byte apart from the wall times; and a failure in that process is one line, exit 2, --out untouched.
+
+The failing runs replace `stages.fea._fea_steps` by generators of this module: the child is a fresh
+interpreter that unpickles the steps function by name, so it imports them from here.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+import pipeline
+import stages.fea
+from fem.errors import FemError
+
+# Coarse on purpose: two FEA levels ending at 10 mm, stress levels, a short chain, one material.
+FAST = ["--mesh-size", "10", "--drive", "link", "--links", "12", "--samples-per-degree", "2", "-q"]
+FAST += ["--materials", "al6061-t6", "--cams", "modified-sine,cycloidal"]
+REAL_STEPS = stages.fea._fea_steps
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _summary_without_timing(out: Path) -> str:
+    summary = json.loads((out / "summary.json").read_text())
+    del summary["timing_s"]
+    return json.dumps(summary, indent=1)
+
+
+def _run(*args: str) -> None:
+    """pipeline.py in a fresh process on one thread: MKL's and OpenBLAS's threaded sums move the last
+    bits with the machine's load (the steady state's residual by 1e-9 of itself, measured), which
+    a byte-for-byte comparison would see."""
+    one_thread = {name: "1" for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")}
+    env = {**os.environ, "PYTHONPATH": str(ROOT), **one_thread}
+    done = subprocess.run([sys.executable, "pipeline.py", *args], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+
+
+def test_the_fea_beside_gives_the_serial_runs_summary_byte_for_byte(tmp_path):
+    beside, serial = tmp_path / "beside", tmp_path / "serial"
+    _run(*FAST, "--out", str(beside), "--cache-dir", str(tmp_path / "c1"))
+    _run(*FAST, "--serial", "--out", str(serial), "--cache-dir", str(tmp_path / "c2"))
+    assert _summary_without_timing(beside) == _summary_without_timing(serial)
+    assert sorted(p.name for p in beside.iterdir()) == sorted(p.name for p in serial.iterdir())
+    timing = json.loads((beside / "summary.json").read_text())["timing_s"]
+    assert set(timing) == {"fea", "dynamics", "outputs", "total"}
+
+
+def failing_after_the_stiffness(*args):
+    steps = REAL_STEPS(*args)
+    yield next(steps)
+    raise FemError("stress study: a failure made up by the test")
+
+
+def killed_after_the_stiffness(*args):
+    steps = REAL_STEPS(*args)
+    yield next(steps)
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+@pytest.mark.parametrize(
+    "steps, message",
+    [
+        (failing_after_the_stiffness, "pipeline.py: error: stress study: a failure made up by the test"),
+        (killed_after_the_stiffness, "pipeline.py: error: the FEA: its process ended early (signal 9"),
+    ],
+)
+def test_a_failure_beside_is_one_line_exit_2_and_nothing_written(steps, message, tmp_path, monkeypatch, capsys):
+    out, cache = tmp_path / "out", tmp_path / "cache"
+    out.mkdir()
+    (out / "summary.json").write_text("an earlier run's")
+    monkeypatch.setattr(stages.fea, "_fea_steps", steps)
+    assert pipeline.main([*FAST, "--out", str(out), "--cache-dir", str(cache)]) == 2
+    stderr = capsys.readouterr().err
+    lines = [line for line in stderr.splitlines() if not line.startswith("pipeline.py: warning:")]
+    assert len(lines) == 1 and lines[0].startswith(message) and "Traceback" not in stderr, lines
+    assert [p.name for p in out.iterdir()] == ["summary.json"]  # no staging folder left behind
+    assert (out / "summary.json").read_text() == "an earlier run's"
+    assert not list(cache.rglob("result.json"))  # no FEA record stored without its stress
