@@ -139,7 +139,7 @@ def stage_rows(repeats: int) -> list[str]:
         fea = run_fea(cfg, quiet, part=part)
 
         def timed(accuracy):
-            chain.chain_scene = lambda c: replace(default_scene(c), accuracy=accuracy)
+            chain.chain_scene = lambda c, pitch_m: replace(default_scene(c, pitch_m), accuracy=accuracy)
             try:
                 start = time.perf_counter()
                 _, scenarios = chain.run_dynamics(cfg, fea, quiet)

@@ -204,14 +204,14 @@ def _kink_terms(h, d_old, d_new, rate_old, rate_new, k, kg):
     now = 0.0
     nxt = 0.0
     h3 = h * h * h / 6.0
-    if old_on:  # leaving the old contact: the rate drops by k e'
+    if old_on:  # leaving the old contact: the rate drops by k e' (e' interpolated to the crossing)
         f = _crossing(d_old, d_new, 0.0 if d_old >= 0.0 else -kg)
-        jump = -k * rate_old
-        now += jump * h3 * (1.0 - f) ** 3
-        nxt += jump * h3 * f**3
-    if new_on:  # entering the new one
+        jump = k * (rate_old + f * (rate_new - rate_old))
+        now -= jump * h3 * (1.0 - f) ** 3
+        nxt -= jump * h3 * f**3
+    if new_on:  # entering the new one (at k g = 0 the same crossing as leaving: the two cancel exactly)
         f = _crossing(d_old, d_new, 0.0 if d_new >= 0.0 else -kg)
-        jump = k * rate_new
+        jump = k * (rate_old + f * (rate_new - rate_old))
         now += jump * h3 * (1.0 - f) ** 3
         nxt += jump * h3 * f**3
     return now, nxt
