@@ -9,7 +9,7 @@ the pipeline's output grid (180 degrees at 4 samples per degree), the clearance 
 steady state where one exists. The Kelvin-Voigt scene at 240 rpm is compared over its window from
 rest (steady_state=False), as the single-link drive's has no steady state there. The default run is
 `simulate_machine` with nothing but the model given (`ab2` at 0.31 of its limit for the global law,
-the elastic kinks located: machine_verlet.locates_kinks; euler at 0.25 for Kelvin-Voigt); the
+euler at 0.25 for Kelvin-Voigt); the
 controlled run is `simulate_machine_to_accuracy(accuracy=1e-3)` (the step halved until the station
 metrics change by at most that, at most 4 times). The converged run is the same model, euler at a
 fixed 1/32 of its quarter-limit step, checked by its own refinement: the table gives its change from

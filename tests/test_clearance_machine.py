@@ -50,9 +50,7 @@ def test_the_ring_on_the_topology_step_is_todays_clearance_chain(law, tensioner,
     y0, w0 = 1e-4 * rng.standard_normal(85), 1e-2 * rng.standard_normal(85)
     old = cv.integrate(ring, zd, zdd, h, y0, w0, out_every=n)
     extra = [0.0] if tensioner else []
-    # kinks=False: the ring's step does not locate the elastic force's kinks (the machine's global-law
-    # default since issue #24, machine_verlet.locates_kinks; tested in test_machine_kinks.py)
-    new = mv.integrate(machine, zr, zd, zdd, h, np.r_[y0, extra], np.r_[w0, extra], out_every=n, kinks=False)
+    new = mv.integrate(machine, zr, zd, zdd, h, np.r_[y0, extra], np.r_[w0, extra], out_every=n)
     assert old.impacts > 100 and new.impacts == old.impacts
     scale = np.max(np.abs(old.y[-1]))
     assert np.max(np.abs(new.q[-1, :85] - old.y[-1])) < 1e-12 * scale

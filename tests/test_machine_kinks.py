@@ -1,6 +1,6 @@
-"""The machine's step locates the elastic span force's kinks within the step (issue #24,
-dynamics.solvers.machine_verlet._kink_terms, the global law's default): Stormer's truncation over a
-kink, checked on one impact with a closed form; no kink, no change; and the default predictor's
+"""The machine's step on request locates the elastic span force's kinks within the step (issue #24,
+dynamics.solvers.machine_verlet.integrate(kinks=True), `_kink_terms`): Stormer's truncation over a
+kink, checked on one impact with a closed form; no kink, no change. And the default predictor's
 stability limit on the wheels, on both sides."""
 
 import math
@@ -78,12 +78,6 @@ def test_without_free_play_there_is_no_kink_and_the_step_is_unchanged():
         for k in (False, True)
     ]
     assert np.array_equal(runs[0].q, runs[1].q) and np.array_equal(runs[0].v, runs[1].v)
-
-
-def test_the_located_kinks_are_the_global_laws_default_only():
-    chain = ChainModel(24, 2.03, 9.331e7)
-    assert mv.locates_kinks(ClearanceMachine.of(chain, LAYOUT, None, 94e-6, "global"))
-    assert not mv.locates_kinks(ClearanceMachine.of(chain, LAYOUT, None, 94e-6, "kelvin-voigt"))
 
 
 @pytest.mark.parametrize("fraction", [0.99, 1.03, 1.05])

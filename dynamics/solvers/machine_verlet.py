@@ -6,10 +6,9 @@ polygonal feed d(a) of each wheel as a time-dependent offset of its two wheel-en
 every step, the global damping law as the plain product C q' (the machine has no mirror symmetry).
 The Kelvin-Voigt dashpot's force jump at a contact change is located within the step as the ring's
 (clearance_verlet._switch_impulse, `_span_impulses_into`: an impulse through the span's incidence,
-its work counted as damping), so the step stays second order through the switches. With the global
-law the elastic force's kink at a contact change is located too (`_kink_terms`, the default there:
-`locates_kinks`): Stormer's truncation over the kink as a shift of the positions and an impulse, so
-that the free-play crossings no longer carry the step's error (issue #24; the ring does not do this).
+its work counted as damping), so the step stays second order through the switches. On request
+(`integrate(kinks=True)`, not the default) the elastic force's kink at a contact change is located
+too (`_kink_terms`): Stormer's truncation over the kink as a shift of the positions and an impulse.
 Compiled with numba when installed (the same functions run as Python otherwise, slowly).
 
 One index cycle at a time: the polygonal feed's angle is counted from the dwell at the cycle's start
@@ -195,8 +194,8 @@ def _kink_terms(h, d_old, d_new, rate_old, rate_new, k, kg):
     the step (`_crossing`). The exact motion satisfies Stormer's q_{n+1} - 2 q_n + q_{n-1} = h^2 a_n
     + tau_n; a rate jump J between t_n and t_n+1 adds tau_n = J h^3 (1 - f)^3 / 6 and tau_n+1 = J h^3
     f^3 / 6 (the hat kernel of the second difference over the kink). Without them each impact leaves
-    an O(h^2) error with a large constant: 3.6e-3 in the accelerations of bench_machine's window with
-    free play, 5e-6 without. Returns (tau_n, tau_n+1); (0, 0) without a contact change."""
+    an O(h^2) error whose constant depends on where the crossing falls in the step (the trapezoid's
+    f (1 - f)). Returns (tau_n, tau_n+1); (0, 0) without a contact change."""
     old_on = (d_old >= 0.0) | (d_old <= -kg)
     new_on = (d_new >= 0.0) | (d_new <= -kg)
     if old_on == new_on and (not old_on or (d_old >= 0.0) == (d_new >= 0.0)):
@@ -550,12 +549,12 @@ def integrate(
     record_from: int = 0,
     predictor: str = "euler",
     track_energy: bool = False,
-    kinks: bool | None = None,
+    kinks: bool = False,
 ) -> MachineRun:
     """Step the clearance machine `model` over the cam's nodes (lift since the dwell, velocity,
     acceleration; uniform step, n_steps + 1 nodes) from (q0, v0). `kinks`: locate the elastic span
-    force's kinks within the step (`_kink_terms`); None: `locates_kinks(model)`."""
-    kinks = locates_kinks(model) if kinks is None else kinks
+    force's kinks within the step (`_kink_terms`; not the default: measured in
+    docs/performance.md#locating-the-free-play-kinks, it helps some scenes and not the default one)."""
     theta = PREDICTORS[predictor]
     if theta and model.span_damping != "global":
         raise DynamicsError(f"predictor: {predictor!r} is for the global damping law; use predictor='euler'")
@@ -622,15 +621,6 @@ def integrate(
         dissipated_damping_J=float(energy[1]),
         dissipated_friction_J=float(energy[2]),
     )
-
-
-def locates_kinks(model) -> bool:
-    """Whether a run locates the elastic force's kinks within the step unless told (issue #24): with
-    the global damping law, where they carry the accelerations' step error (bench_machine's window at
-    9 steps per sample: worst station metric 3.6e-3 -> 2.0e-3, the RMS accelerations' 1.5e-3 ->
-    1.3e-4); not with Kelvin-Voigt, whose error they do not move (5.1e-3 and 5.3e-3 at 9 steps, the
-    euler predictor's damping error dominating there), so its numbers stay."""
-    return model.span_damping == "global"
 
 
 def stable_step_s(model, safety: float, predictor: str) -> float:
