@@ -107,9 +107,10 @@ def simulate_machine(
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred)
         lin_min = lin.min_tension_N
     chosen = choose_model(model, choice, lin_min)
+    two_level = safety is None and steady_state and WINDOW_REFINEMENT > 1
     if chosen.model == ChainModelKind.LINEAR and lin is None:
-        lin_state, lin_ss, _ = _start_state(
-            linear, cam, h_out, per_cycle, lin_sub, lin_state, steady_state, tol, max_cycles, lin_pred
+        lin_state, lin_ss, lin_sub = _searched_and_settled(
+            linear, cam, h_out, per_cycle, lin_state, tol, max_cycles, lin_pred, lin_safety, two_level
         )
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred, _found(lin_ss))
         lin_min = lin.min_tension_N
@@ -120,13 +121,12 @@ def simulate_machine(
     else:
         pred = verlet.default_predictor(model) if predictor is None else predictor
         saf = verlet.default_safety(model, pred) if safety is None else safety
-        two_level = safety is None and steady_state and WINDOW_REFINEMENT > 1
-        search_saf = SEARCH_SAFETY.get(model.span_damping, saf) if two_level else saf
-        sub = mv.substeps_for(model, h_out, search_saf, pred)
-        state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, lin_state, steady_state, tol, max_cycles, pred)
-        if two_level:
-            sub = mv.substeps_for(model, h_out, saf / WINDOW_REFINEMENT, pred)
-            state = _settled(model, cam, h_out, per_cycle, sub, state, pred)
+        if steady_state:
+            state, ss, sub = _searched_and_settled(
+                model, cam, h_out, per_cycle, lin_state, tol, max_cycles, pred, saf, two_level
+            )
+        else:
+            state, ss, sub = lin_state, None, mv.substeps_for(model, h_out, saf, pred)
         run = _window(model, cam, t, per_cycle, sub, state, pred, _found(ss))
     summary = _summary(model, chosen, run, lin_min, needed, ss, sub)
     return _response(model, cam, t, run, links, sub, ss), summary
@@ -150,6 +150,19 @@ class _Window:
         self.impact_dissipated_J = sum(r.impact_dissipated_J for r in runs)
         self.impact_max_speed_m_s = max(r.impact_max_speed_m_s for r in runs)
         self.impact_speeds_m_s = np.concatenate([r.impact_speeds_m_s for r in runs])
+
+
+def _searched_and_settled(model, cam, h_out, per_cycle, state, tol, max_cycles, predictor, safety, two_level):
+    """(state, SteadyState, steps per output sample of the window) of the relabelled steady state
+    from `state`: searched at `safety`, or when `two_level` at SEARCH_SAFETY and then settled at
+    safety / WINDOW_REFINEMENT, the window's step."""
+    search = SEARCH_SAFETY.get(model.span_damping, safety) if two_level else safety
+    sub = mv.substeps_for(model, h_out, search, predictor)
+    state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, state, True, tol, max_cycles, predictor)
+    if two_level:
+        sub = mv.substeps_for(model, h_out, safety / WINDOW_REFINEMENT, predictor)
+        state = _settled(model, cam, h_out, per_cycle, sub, state, predictor)
+    return state, ss, sub
 
 
 def _settled(model, cam, h_out, per_cycle, sub, state, predictor):
