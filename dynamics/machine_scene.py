@@ -9,6 +9,13 @@ steady state (or from rest). The model is chosen from it exactly as for the sing
 stays >= 0; the clearance machine otherwise (or when asked, or with a tensioner), started from the
 linear machine's steady state.
 
+The step (issue #24): a run with a steady state and no step given searches the clearance machine's
+(or, when it is the answer, the linear machine's) relabelled steady state at SEARCH_SAFETY of the
+stability limit, settles it for SETTLE_CYCLES index cycles at the default safety / WINDOW_REFINEMENT
+and steps the window there: the window's accuracy of the fine step at the cost of the old default
+(docs/performance.md#default-accuracy-of-the-clearance-chain). A run from rest or given its
+`safety` steps everything at one step.
+
 Frame of the output (the machine as it runs): every index moves each link one place ahead, and the
 response's columns are places: column j is the link at link j's place at the start of each index
 (a seated link's column is its wheel's pitch-circle motion, a link seated on a sprocket held to the
