@@ -282,7 +282,7 @@ def test_free_play_zero_gives_the_linear_machines_polygonal_relabelled_steady_st
 
 def test_kelvin_voigt_on_wheels_converges_at_second_order():
     """The Kelvin-Voigt dashpot's jump at each contact change located within the step on the machine
-    too (machine_verlet._dashpot_switch_into): a 24-link machine on wheels with 1 mm free play,
+    too (machine_verlet._span_impulses_into): a 24-link machine on wheels with 1 mm free play,
     tensioner and friction (117 impacts in the half cycle), the stations' max |a| and RMS a of the
     differences between successive halvings fall at orders 1.6-2.4 (256 to 2048 steps per output
     sample); with the jump left at mid-step they went at 0.6, 0.2, -0.5 (max) and 0.6, 0.8, -0.4 (RMS)."""
