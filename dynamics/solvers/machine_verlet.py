@@ -6,9 +6,7 @@ polygonal feed d(a) of each wheel as a time-dependent offset of its two wheel-en
 every step, the global damping law as the plain product C q' (the machine has no mirror symmetry).
 The Kelvin-Voigt dashpot's force jump at a contact change is located within the step as the ring's
 (clearance_verlet._switch_impulse, `_span_impulses_into`: an impulse through the span's incidence,
-its work counted as damping), so the step stays second order through the switches. On request
-(`integrate(kinks=True)`, not the default) the elastic force's kink at a contact change is located
-too (`_kink_terms`): Stormer's truncation over the kink as a shift of the positions and an impulse.
+its work counted as damping), so the step stays second order through the switches.
 Compiled with numba when installed (the same functions run as Python otherwise, slowly).
 
 One index cycle at a time: the polygonal feed's angle is counted from the dwell at the cycle's start
@@ -37,7 +35,6 @@ from dynamics.solvers.clearance_verlet import (
     PREDICTORS,
     SPEED_CAPACITY,
     TANH_IS_ONE,
-    _crossing,
     _rows_times,
     _switch_impulse,
     _tanh,
@@ -189,35 +186,6 @@ def _kinetic_abs_J(v, zd, dof_float):
     return ke
 
 
-def _kink_terms(h, d_old, d_new, rate_old, rate_new, k, kg):
-    """The elastic span force's kinks within the step, as the two second differences of the positions
-    they belong to (force x time^2): the span law's T is 0 in free play and P + k e in contact, so its
-    rate jumps by +-k e' where P + k e crosses a threshold (0, or -k g pushing) at the fraction f of
-    the step (`_crossing`). The exact motion satisfies Stormer's q_{n+1} - 2 q_n + q_{n-1} = h^2 a_n
-    + tau_n; a rate jump J between t_n and t_n+1 adds tau_n = J h^3 (1 - f)^3 / 6 and tau_n+1 = J h^3
-    f^3 / 6 (the hat kernel of the second difference over the kink). Without them each impact leaves
-    an O(h^2) error whose constant depends on where the crossing falls in the step (the trapezoid's
-    f (1 - f)). Returns (tau_n, tau_n+1); (0, 0) without a contact change."""
-    old_on = (d_old >= 0.0) | (d_old <= -kg)
-    new_on = (d_new >= 0.0) | (d_new <= -kg)
-    if old_on == new_on and (not old_on or (d_old >= 0.0) == (d_new >= 0.0)):
-        return 0.0, 0.0
-    now = 0.0
-    nxt = 0.0
-    h3 = h * h * h / 6.0
-    if old_on:  # leaving the old contact: the rate drops by k e' (e' interpolated to the crossing)
-        f = _crossing(d_old, d_new, 0.0 if d_old >= 0.0 else -kg)
-        jump = k * (rate_old + f * (rate_new - rate_old))
-        now -= jump * h3 * (1.0 - f) ** 3
-        nxt -= jump * h3 * f**3
-    if new_on:  # entering the new one (at k g = 0 the same crossing as leaving: the two cancel exactly)
-        f = _crossing(d_old, d_new, 0.0 if d_new >= 0.0 else -kg)
-        jump = k * (rate_old + f * (rate_new - rate_old))
-        now += jump * h3 * (1.0 - f) ** 3
-        nxt += jump * h3 * f**3
-    return now, nxt
-
-
 def _span_impulses_into(
     h,
     e_old,
@@ -233,45 +201,30 @@ def _span_impulses_into(
     work,
     q,
     v,
-    kinks,
 ):
     """The contact changes located within the step on the topology's spans (stretches e_old, e_new at
     the step's ends, `was_free` the start's free-play flags): the Kelvin-Voigt dashpot's switch
-    (clearance_verlet `_switch_impulse`, an impulse) and, when `kinks`, the elastic force's kinks
-    (`_kink_terms`: tau_n a shift of q, tau_n + tau_n+1 over h an impulse, so that the next step's
-    second difference carries tau_n+1), each applied to its span's ends through the same B^T as its
-    force (the carriage's share, the wheel-end span's gain dd/du at the step's end, work[1]), divided
-    by the DOFs' masses."""
+    (clearance_verlet `_switch_impulse`, an impulse), applied to its span's ends through the same B^T
+    as its force (the carriage's share, the wheel-end span's gain dd/du at the step's end, work[1]),
+    divided by the DOFs' masses."""
     k, preload, kg, beta_k = par[0], par[1], par[2], par[3]
-    kv = par[4] > 0.5
     wsl = work[1]
     for j in range(span_int.shape[0]):
         d_old, d_new = preload + k * e_old[j], preload + k * e_new[j]
-        impulse = 0.0
-        shift = 0.0
-        if kv:
-            impulse += _switch_impulse(h, d_old, d_new, not was_free[j], ed_old[j], ed_new[j], kg, beta_k)
-        if kinks:
-            now, nxt = _kink_terms(h, d_old, d_new, ed_old[j], ed_new[j], k, kg)
-            shift = now
-            impulse += (now + nxt) / h
-        if impulse == 0.0 and shift == 0.0:
+        impulse = _switch_impulse(h, d_old, d_new, not was_free[j], ed_old[j], ed_new[j], kg, beta_k)
+        if impulse == 0.0:
             continue
         b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
         if fw >= 0:
             v[fw] -= impulse * dof_float[fw, 0]
-            q[fw] -= shift * dof_float[fw, 0]
         if b >= 0:
             v[b] += impulse * dof_float[b, 0]
-            q[b] += shift * dof_float[b, 0]
         if c >= 0:
             v[c] -= span_float[j, 0] * impulse * dof_float[c, 0]
-            q[c] -= span_float[j, 0] * shift * dof_float[c, 0]
         if wi >= 0:
             dof = int(wheel_float[wi, 3])
             if dof >= 0:
                 v[dof] -= span_float[j, 1] * wsl[wi] * impulse * dof_float[dof, 0]
-                q[dof] -= span_float[j, 1] * wsl[wi] * shift * dof_float[dof, 0]
 
 
 def _run_loops(
@@ -300,7 +253,6 @@ def _run_loops(
     speeds,
     track_energy,
     energy,
-    kinks,
 ):
     """The step loop (module docstring); `energy` (cam work, damping and friction dissipation)
     integrated trapezoidally in the powers at the steps' states when `track_energy` (one more force
@@ -333,7 +285,7 @@ def _run_loops(
         np.zeros(3),
     )
     window = math.pi * math.sqrt(0.5 * par[7] / par[0])
-    e_old = np.empty(ns)  # the span stretches at the step's start and end (the located switches and kinks)
+    e_old = np.empty(ns)  # the span stretches at the step's start and end (the located switches)
     e_new = np.empty(ns)
     e_out = np.empty(ns)
     _accel_into(
@@ -399,7 +351,7 @@ def _run_loops(
         )
         for j in range(n):
             v[j] = wh[j] + hh * a[j]
-        if kv or kinks:
+        if kv:
             before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy and kv else 0.0
             _span_impulses_into(
                 h,
@@ -416,7 +368,6 @@ def _run_loops(
                 work,
                 q,
                 v,
-                kinks,
             )
             if track_energy and kv:  # the impulses' work, dissipated by the dashpots
                 energy[1] += before - _kinetic_abs_J(v, zd[i + 1], dof_float)
@@ -507,7 +458,6 @@ if numba is not None:
         "_record",
         "_kinetic_abs_J",
         "_span_impulses_into",
-        "_kink_terms",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
@@ -551,12 +501,9 @@ def integrate(
     record_from: int = 0,
     predictor: str = "euler",
     track_energy: bool = False,
-    kinks: bool = False,
 ) -> MachineRun:
     """Step the clearance machine `model` over the cam's nodes (lift since the dwell, velocity,
-    acceleration; uniform step, n_steps + 1 nodes) from (q0, v0). `kinks`: locate the elastic span
-    force's kinks within the step (`_kink_terms`; not the default: measured in
-    docs/performance.md#locating-the-free-play-kinks, it helps some scenes and not the default one)."""
+    acceleration; uniform step, n_steps + 1 nodes) from (q0, v0)."""
     theta = PREDICTORS[predictor]
     if theta and model.span_damping != "global":
         raise DynamicsError(f"predictor: {predictor!r} is for the global damping law; use predictor='euler'")
@@ -600,7 +547,6 @@ def integrate(
             speeds,
             bool(track_energy),
             energy,
-            bool(kinks),
         )
     if stats[5] or not np.all(np.isfinite(out[0])):
         raise SolverDivergedError(
