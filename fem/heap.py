@@ -15,21 +15,23 @@ import functools
 
 
 @functools.cache
-def _malloc_trim():
-    name = ctypes.util.find_library("c")
-    if name is None:
+def libc_function(name: str, argtypes: tuple, restype):
+    """The C library's function `name` with its signature, or None where the library or the
+    function does not exist (not glibc: macOS, Windows, musl)."""
+    library = ctypes.util.find_library("c")
+    if library is None:
         return None
     try:
-        trim = ctypes.CDLL(name).malloc_trim
+        function = getattr(ctypes.CDLL(library), name)
     except (OSError, AttributeError):
         return None
-    trim.argtypes = [ctypes.c_size_t]
-    trim.restype = ctypes.c_int
-    return trim
+    function.argtypes = list(argtypes)
+    function.restype = restype
+    return function
 
 
 def release_free_memory() -> bool:
     """Return the heap's free pages to the OS; False where the C library has no malloc_trim (not
     glibc), which keeps its own policy."""
-    trim = _malloc_trim()
+    trim = libc_function("malloc_trim", (ctypes.c_size_t,), ctypes.c_int)
     return trim is not None and trim(0) == 1

@@ -15,8 +15,9 @@ Done in the task, not in the cluster's environment, so workers started by hand o
 from __future__ import annotations
 
 import ctypes
-import ctypes.util
 import functools
+
+from fem.heap import libc_function
 
 M_MMAP_THRESHOLD = -3  # glibc's mallopt parameter number (malloc.h)
 MMAP_THRESHOLD_BYTES = 32 * 1024 * 1024  # glibc's upper limit for it on 64-bit (DEFAULT_MMAP_THRESHOLD_MAX)
@@ -26,13 +27,5 @@ MMAP_THRESHOLD_BYTES = 32 * 1024 * 1024  # glibc's upper limit for it on 64-bit 
 def keep_large_arrays_on_heap() -> bool:
     """Raise glibc's mmap threshold once per process; False where the C library has no mallopt
     (not glibc: macOS, Windows, musl), which then keeps its own policy."""
-    name = ctypes.util.find_library("c")
-    if name is None:
-        return False
-    try:
-        mallopt = ctypes.CDLL(name).mallopt
-    except (OSError, AttributeError):
-        return False
-    mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
-    mallopt.restype = ctypes.c_int
-    return mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES) == 1
+    mallopt = libc_function("mallopt", (ctypes.c_int, ctypes.c_int), ctypes.c_int)
+    return mallopt is not None and mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES) == 1
