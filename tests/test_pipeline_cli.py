@@ -211,14 +211,6 @@ def _cli(*args, cwd=ROOT) -> subprocess.CompletedProcess:
     )
 
 
-@pytest.fixture
-def existing_out(tmp_path) -> Path:
-    out = tmp_path / "out"
-    out.mkdir()
-    (out / "summary.json").write_text('{"earlier": true}')
-    return out
-
-
 @pytest.mark.parametrize(
     "args, named",
     [

@@ -67,14 +67,6 @@ def test_the_drive_defaults_follow_the_registry_and_the_preset_keeps_the_link_dr
     check_run_config(replace(d, drive="wheels"))
 
 
-@pytest.fixture
-def existing_out(tmp_path) -> Path:
-    out = tmp_path / "out"
-    out.mkdir()
-    (out / "summary.json").write_text('{"earlier": true}')
-    return out
-
-
 @pytest.mark.parametrize(
     "args, named",
     [
