@@ -233,19 +233,16 @@ def _window(model, cam, t, per_cycle, sub, state, predictor, periodic=False) -> 
             for rows, out in ((rows_q, start.q), (rows_v, start.v), (rows_a, start.a), (rows_t, start.tension_N)):
                 rows.append(out[:1])
             break
-        if periodic and runs:
-            run = runs[0]
-        else:
-            run, inside = mv.index_cycle(model, cam, (zr, zd, zdd), h, q0, v0, out_every=sub, predictor=predictor)
+        if not (periodic and runs):  # periodic: every cycle is the first, seat change included
+            q_next, v_next, run, seating = mv.next_index_start(
+                model, cam, (zr, zd, zdd), h, q0, v0, out_every=sub, predictor=predictor
+            )
         runs.append(run)
         take = min(per_cycle, remaining)
         for rows, out in ((rows_q, run.q), (rows_v, run.v), (rows_a, run.a), (rows_t, run.tension_N)):
             rows.append(out[:take])
         remaining -= take
-        if inside is None:
-            q0, v0, seating = mv.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
-        else:  # the seats changed inside the index: its end is the next index's start
-            q0, v0, seating = run.q[-1], run.v[-1], inside
+        q0, v0 = q_next, v_next
     return _Window(*(np.concatenate(r) for r in (rows_q, rows_v, rows_a, rows_t)), runs, seating, h)
 
 

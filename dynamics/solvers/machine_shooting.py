@@ -39,7 +39,7 @@ def relabelled_periodic_state(
     tiny = np.finfo(float).tiny
 
     def one_cycle(x):
-        q1, v1, run = mv.next_index_start(
+        q1, v1, run, _ = mv.next_index_start(
             model, cam, (zr, zd, zdd), step_s, x[:n], x[n:], out_every=every, predictor=predictor
         )
         last["run"] = run

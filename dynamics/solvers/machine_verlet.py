@@ -783,12 +783,12 @@ def _merged(pieces, rows, durations, step_s: float) -> MachineRun:
 def next_index_start(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str):
     """The relabelled map x0 -> T(P(x0)): the state at the start of the next index in the next
     index's labels, with the seats changed inside the cycle (a tooth phase other than 0) or after it.
-    Returns (q1, v1, the cycle's MachineRun)."""
+    Returns (q1, v1, the cycle's MachineRun, the seat change's Seating)."""
     run, inside = index_cycle(model, cam, nodes, step_s, q0, v0, out_every=out_every, predictor=predictor)
     if inside is not None:
-        return run.q[-1], run.v[-1], run
-    q1, v1, _ = seat_change(model, run.q[-1], run.v[-1], float(nodes[0][-1]))
-    return q1, v1, run
+        return run.q[-1], run.v[-1], run, inside
+    q1, v1, seating = seat_change(model, run.q[-1], run.v[-1], float(nodes[0][-1]))
+    return q1, v1, run, seating
 
 
 def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor):
@@ -802,7 +802,9 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
         every -= 1
     residual = math.inf
     for cycle in range(1, max_cycles + 1):
-        q1, v1, run = next_index_start(model, cam, (zr, zd, zdd), step_s, q0, v0, out_every=every, predictor=predictor)
+        q1, v1, run, _ = next_index_start(
+            model, cam, (zr, zd, zdd), step_s, q0, v0, out_every=every, predictor=predictor
+        )
         tiny = np.finfo(float).tiny
         sq, sv = max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
         residual = max(float(np.max(np.abs(q1 - q0))) / sq, float(np.max(np.abs(v1 - v0))) / sv)
