@@ -9,12 +9,14 @@ steady state (or from rest). The model is chosen from it exactly as for the sing
 stays >= 0; the clearance machine otherwise (or when asked, or with a tensioner), started from the
 linear machine's steady state.
 
-The step (issue #24): a run with a steady state and no step given searches the clearance machine's
-(or, when it is the answer, the linear machine's) relabelled steady state at SEARCH_SAFETY of the
-stability limit, settles it for SETTLE_CYCLES index cycles at the default safety / WINDOW_REFINEMENT
-and steps the window there: the window's accuracy of the fine step at the cost of the old default
-(docs/performance.md#default-accuracy-of-the-clearance-chain). A run from rest or given its
-`safety` steps everything at one step.
+The step (issue #24): a run given no step steps its window at the default safety / WINDOW_REFINEMENT
+(by damping law). With a steady state it searches the clearance machine's (or, when it is the
+answer, the linear machine's) relabelled steady state at SEARCH_SAFETY of the stability limit and
+settles it for SETTLE_CYCLES index cycles at the window's step: the window's accuracy of the fine
+step at the cost of the old default (docs/performance.md#default-accuracy-of-the-clearance-chain).
+A search that finds no steady state leaves the motion after max_cycles coarse cycles, which is not
+the fine step's: it is redone at the window's step. A run from rest steps its window there from
+the start. A run given its `safety` (the step control, a converged reference) steps everything at it.
 
 Frame of the output (the machine as it runs): every index moves each link one place ahead, and the
 response's columns are places: column j is the link at link j's place at the start of each index
@@ -44,6 +46,7 @@ from dynamics.scene import (
     SteadyState,
     _select,
     choose_model,
+    station_values,
 )
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import machine_shooting
@@ -56,10 +59,14 @@ from dynamics.solvers.simulate import ChainResponse
 CHOICE_TOL = 1e-3
 # The default run spends its steps where they pay (issue #24): the clearance machine's steady state is
 # searched at SEARCH_SAFETY of the stability limit (by law), then SETTLE_CYCLES index cycles and the
-# window are stepped at the default safety / WINDOW_REFINEMENT. A run given its safety (the step
-# control, a converged reference) steps everything at it.
+# window are stepped at the default safety / WINDOW_REFINEMENT (by law). A run given its safety (the
+# step control, a converged reference) steps everything at it. The refinements are measured
+# (benchmarks/bench_accuracy.py): the global law's window is 5e-4 to 7e-4 off converged at 2.5, from
+# rest and in the steady state; the Kelvin-Voigt law's dashpot force jumps at each impact, and at 2.5
+# its window is still 2e-3 off (from rest and after 60 cycles without a steady state), 4.5e-4 and
+# 3e-4 at 4.
 SEARCH_SAFETY = {"global": 0.9, "kelvin-voigt": 0.5}
-WINDOW_REFINEMENT = 2.5
+WINDOW_REFINEMENT = {"global": 2.5, "kelvin-voigt": 4.0}
 SETTLE_CYCLES = 1
 
 
@@ -117,10 +124,12 @@ def simulate_machine(
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred)
         lin_min = lin.min_tension_N
     chosen = choose_model(model, choice, lin_min)
-    two_level = safety is None and steady_state and WINDOW_REFINEMENT > 1
-    if chosen.model == ChainModelKind.LINEAR and lin is None:
+    default_step = safety is None
+    if chosen.model == ChainModelKind.LINEAR and (lin is None or default_step):
+        # the linear machine is the answer: its steady state to `tol` (or its window from rest) at the
+        # window's step
         lin_state, lin_ss, lin_sub = _searched_and_settled(
-            linear, cam, h_out, per_cycle, lin_state, tol, max_cycles, lin_pred, lin_safety, two_level
+            linear, cam, h_out, per_cycle, lin_state, tol, max_cycles, lin_pred, lin_safety, default_step, steady_state
         )
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred, _found(lin_ss))
         lin_min = lin.min_tension_N
@@ -131,12 +140,9 @@ def simulate_machine(
     else:
         pred = verlet.default_predictor(model) if predictor is None else predictor
         saf = verlet.default_safety(model, pred) if safety is None else safety
-        if steady_state:
-            state, ss, sub = _searched_and_settled(
-                model, cam, h_out, per_cycle, lin_state, tol, max_cycles, pred, saf, two_level
-            )
-        else:
-            state, ss, sub = lin_state, None, mv.substeps_for(model, h_out, saf, pred)
+        state, ss, sub = _searched_and_settled(
+            model, cam, h_out, per_cycle, lin_state, tol, max_cycles, pred, saf, default_step, steady_state
+        )
         run = _window(model, cam, t, per_cycle, sub, state, pred, _found(ss))
     summary = _summary(model, chosen, run, lin_min, needed, ss, sub)
     return _response(model, cam, t, run, links, sub, ss), summary
@@ -162,25 +168,33 @@ class _Window:
         self.impact_speeds_m_s = np.concatenate([r.impact_speeds_m_s for r in runs])
 
 
-def _searched_and_settled(model, cam, h_out, per_cycle, state, tol, max_cycles, predictor, safety, two_level):
-    """(state, SteadyState, steps per output sample of the window) of the relabelled steady state
-    from `state`: searched at `safety`, or when `two_level` at SEARCH_SAFETY and then settled at
-    safety / WINDOW_REFINEMENT, the window's step."""
-    search = SEARCH_SAFETY.get(model.span_damping, safety) if two_level else safety
-    sub = mv.substeps_for(model, h_out, search, predictor)
-    state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, state, True, tol, max_cycles, predictor)
-    if two_level:
-        sub = mv.substeps_for(model, h_out, safety / WINDOW_REFINEMENT, predictor)
-        state = _settled(model, cam, h_out, per_cycle, sub, state, predictor)
-    return state, ss, sub
+def _searched_and_settled(
+    model, cam, h_out, per_cycle, state, tol, max_cycles, predictor, safety, default_step, steady_state
+):
+    """(state, SteadyState or None, steps per output sample of the window): where the window starts.
+    Given its step (not `default_step`): the relabelled steady state searched from `state` at
+    `safety` (from rest: `state` itself). The default step: the window at safety / WINDOW_REFINEMENT,
+    the steady state searched at SEARCH_SAFETY and settled at the window's step; a search that finds
+    none is redone from `state` at the window's step (the motion after max_cycles coarse cycles is not
+    the fine step's)."""
+    if not default_step:
+        sub = mv.substeps_for(model, h_out, safety, predictor)
+        state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor)
+        return state, ss, sub
+    fine = mv.substeps_for(model, h_out, safety / WINDOW_REFINEMENT[model.span_damping], predictor)
+    if steady_state:
+        coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], predictor)
+        found, ss, _ = _start_state(model, cam, h_out, per_cycle, coarse, state, True, tol, max_cycles, predictor)
+        if ss.found:
+            return _settled(model, cam, h_out, per_cycle, fine, found, predictor), ss, fine
+    state, ss, _ = _start_state(model, cam, h_out, per_cycle, fine, state, steady_state, tol, max_cycles, predictor)
+    return state, ss, fine
 
 
 def _settled(model, cam, h_out, per_cycle, sub, state, predictor):
     """The steady state found at the search's step carried to the window's finer step: SETTLE_CYCLES
     index cycles with the seat change between them (the relabelled map contracts about 20x per
     cycle on the default scene: one cycle takes the coarse state to 1e-6 of the fine one)."""
-    if SETTLE_CYCLES == 0:
-        return state
     q0, v0, *_ = mv.relabelled_periodic_state(
         model, cam, h_out / sub, per_cycle * sub, *state, tol=0.0, max_cycles=SETTLE_CYCLES, predictor=predictor
     )
@@ -389,15 +403,6 @@ def simulate_machine_to_accuracy(
 
 
 def _station_values(model: ClearanceMachine, cam, t_eval_s, response: ChainResponse) -> np.ndarray:
-    """The link metrics (dynamics.response.metrics.link_metrics) of the machine's four stations, as one vector."""
-    from dataclasses import fields
-
-    from dynamics.response.metrics import link_metrics
-
+    """dynamics.scene.station_values of a machine's response at its four stations (places)."""
     cols = list(model.machine.stations().values())
-    s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t_eval_s))
-    mask = cam.dwell_mask(t_eval_s)
-    lm = link_metrics(
-        response.x_m[:, cols], response.v_m_s[:, cols], response.a_m_s2[:, cols], s, v, a, mask if mask.any() else ~mask
-    )
-    return np.concatenate([np.ravel(getattr(lm, f.name)) for f in fields(lm)])
+    return station_values(cam, np.asarray(t_eval_s, dtype=float), response.x_m, response.v_m_s, response.a_m_s2, cols)

@@ -396,15 +396,25 @@ def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, pred
 
 
 def _station_values(model, cam, t, run) -> np.ndarray:
-    """The per-link metrics of the four stations (dynamics.response.metrics) of one window, as one vector."""
+    """station_values of a clearance-chain run (its motion relative to the cam) at the four stations."""
     cols = [link - 1 for link in station_links(model.n_links).values()]
+    s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
+    # the stations' columns made absolute, not the whole chain's (long chains)
+    x, xd, xdd = (c[:, None] + r[:, cols] for c, r in ((s, run.y), (v, run.w), (a, run.a)))
+    return station_values(cam, t, x, xd, xdd, range(len(cols)))
+
+
+def station_values(cam, t, x_m, v_m_s, a_m_s2, columns) -> np.ndarray:
+    """The link metrics (dynamics.response.metrics.link_metrics) at the 0-based `columns` of the
+    absolute motion x, x', x'' (samples x links) at t under `cam`, as one vector: what the step
+    control compares, for the link drive and the machine on its wheels. The dwell samples are the
+    cam's (every sample when it has no dwell mask or none of them lies in a dwell)."""
+    cols = list(columns)
     s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
     mask = cam.dwell_mask(t) if hasattr(cam, "dwell_mask") else np.ones(t.size, dtype=bool)
     if not np.any(mask):
         mask = np.ones(t.size, dtype=bool)
-    lm = link_metrics(
-        s[:, None] + run.y[:, cols], v[:, None] + run.w[:, cols], a[:, None] + run.a[:, cols], s, v, a, mask
-    )
+    lm = link_metrics(x_m[:, cols], v_m_s[:, cols], a_m_s2[:, cols], s, v, a, mask)
     return np.concatenate([np.ravel(getattr(lm, f.name)) for f in fields(lm)])
 
 
