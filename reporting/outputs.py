@@ -563,6 +563,7 @@ def _tension_table(summary_materials: dict) -> Table:
 
 def _sweep_summary(sweep) -> dict:
     return {
+        "model": sweep.model,
         "station": sweep.station,
         "link": sweep.station_link,
         "rpm": sweep.rpm.tolist(),

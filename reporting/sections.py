@@ -246,6 +246,11 @@ def cam_law_section(report: Report) -> list[html.Section]:
     ]
 
 
+def _sweep_models(report: Report) -> str:
+    """Which model the speed sweeps ran (one per run: every material's chain runs on the same drive)."""
+    return " and ".join(sorted({sweep.model for sweep in report.results.sweeps.values()}))
+
+
 def speed_sweep_section(report: Report) -> list[html.Section]:
     if not report.sweep_pngs:
         return []
@@ -253,9 +258,9 @@ def speed_sweep_section(report: Report) -> list[html.Section]:
         html.Section(
             "Speed sweep",
             html.paragraph(
-                f"Periodic steady state at the {report.focus} station versus cam speed, on the linear chain (friction "
-                "left out of the sweep); dashed lines: critical speeds, where a harmonic of the index frequency "
-                "meets a natural frequency of the chain."
+                f"Periodic steady state at the {report.focus} station versus cam speed, on "
+                f"{_sweep_models(report)} (friction left out of the sweep); dashed lines: critical speeds, where a "
+                "harmonic of the index frequency meets a natural frequency of that model."
             )
             + "".join(html.image_html(p, f"{m}: speed sweep") for m, p in report.sweep_pngs.items()),
         )

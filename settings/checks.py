@@ -111,10 +111,6 @@ def _check_machine(cfg: RunConfig) -> None:
         f"--links: {seated} links seated on the wheels leave {cfg.links - seated} free of {cfg.links}; expected at "
         "least two free links (more --links or fewer --sprocket-wrap-links/--idler-wrap-links)",
     )
-    _require(
-        cfg.rpm_sweep is None,
-        "--rpm-sweep: the speed sweep runs the link drive's linear chain only; expected --drive link with it",
-    )
 
 
 def _check_mqp2012(cfg: RunConfig) -> None:

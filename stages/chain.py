@@ -20,6 +20,7 @@ if TYPE_CHECKING:  # numpy, scipy and the dynamics load when a stage runs, not w
     from stages.machine import MachineCycle, MachineParts
 
 REPORTED_MODES = 10  # natural frequencies kept per chain for the report
+CYCLE_DEG = 90.0  # one index cycle (index and dwell) of the cam programs the stage runs, in cam degrees
 
 
 @dataclass(frozen=True)
@@ -262,21 +263,40 @@ def run_dynamics(
 
 
 def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialStiffness], progress: Progress) -> dict[str, SweepResult]:
-    """Speed sweep per material on the linear chain (the fast modal path cannot carry friction)."""
+    """Speed sweep per material on the model the run uses, without friction: on the wheels the linear
+    machine at each speed on the run's output grid (dynamics.response.sweep.machine_rpm_sweep), on
+    the link drive its linear chain's modal sweep (the fast modal path cannot carry friction)."""
     from dataclasses import replace
 
+    from dynamics.machine_scene import machine_model
     from dynamics.models.reduction import modes_to_keep
-    from dynamics.response.sweep import parse_rpm_range, rpm_sweep
+    from dynamics.response.sweep import machine_rpm_sweep, parse_rpm_range, rpm_sweep
 
     rpms = parse_rpm_range(cfg.rpm_sweep)
     sweeps = {}
     for name, result in fea.items():
         model = replace(chain_model(cfg, result), friction_coefficient=0.0)
-        sweeps[name] = rpm_sweep(
-            model, cfg.cams, rpms, pitch_m=result.pitch_m, station=cfg.focus_station, n_modes=modes_to_keep(cfg.links)
-        )
+        scene = chain_scene(cfg, result.pitch_m)
+        if scene.layout.on_wheels:
+            sweeps[name] = machine_rpm_sweep(
+                machine_model(scene, model),
+                cfg.cams,
+                rpms,
+                pitch_m=result.pitch_m,
+                station=cfg.focus_station,
+                samples_per_cycle=int(round(CYCLE_DEG * cfg.samples_per_degree)),
+            )
+        else:
+            sweeps[name] = rpm_sweep(
+                model,
+                cfg.cams,
+                rpms,
+                pitch_m=result.pitch_m,
+                station=cfg.focus_station,
+                n_modes=modes_to_keep(cfg.links),
+            )
         progress(
-            f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws, "
+            f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws on {sweeps[name].model}, "
             f"{len(sweeps[name].critical_speeds)} critical speeds in range"
             + (" (friction left out of the sweep)" if cfg.friction > 0 else "")
         )

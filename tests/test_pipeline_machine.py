@@ -78,7 +78,6 @@ def test_the_drive_defaults_follow_the_registry_and_the_preset_keeps_the_link_dr
         (["--tooth-phase", "-0.25"], "--tooth-phase"),
         (["--tooth-phase", "nan"], "--tooth-phase"),
         (["--drive", "wheels", "--links", "13"], "--links"),
-        (["--drive", "wheels", "--rpm-sweep", "120:200:20"], "--rpm-sweep"),
         (["--drive-stiffness", "0"], "--drive-stiffness"),
         (["--drive-stiffness", "nan"], "--drive-stiffness"),
         (["--sprocket-teeth", "2"], "--sprocket-teeth"),

@@ -45,6 +45,10 @@ from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.response.metrics import STATIONS, station_links
 
+# which model a sweep ran, in words (SweepResult.model)
+LINK_DRIVE_MODEL = "the link drive's linear chain"
+MACHINE_MODEL = "the linear machine on its wheels (relabelled steady state, free play 0)"
+
 # Above this many links, a truncated mode set of at most N/10 modes comes from sparse shift-invert
 # Lanczos (cost ~ N r^2, ARPACK keeps ~2r vectors) rather than a dense eigensolve (~ N^3); below
 # either bound the dense solve is faster and simpler.
@@ -245,6 +249,7 @@ class SweepResult:
         "critical speed: rpm at which harmonic k of the index frequency (cycles_per_rev * rpm / 60 Hz) "
         "equals a natural frequency of the chain"
     )
+    model: str = LINK_DRIVE_MODEL  # which model ran, in words for the report and its plot
 
 
 def parse_rpm_range(text: str) -> np.ndarray:
@@ -281,6 +286,23 @@ def cam_cycle_samples(
     return t, program.svaj(t)[2], program
 
 
+def _checked_inputs(cam_ids, rpms, samples_per_cycle, min_mass_fraction) -> tuple[tuple[str, ...], np.ndarray]:
+    """The cam law ids as a tuple and the speeds as an array, checked."""
+    cam_ids = (cam_ids,) if isinstance(cam_ids, str) else tuple(cam_ids)
+    if not cam_ids:
+        raise DynamicsError("cam_ids: got none; expected at least one cam law id")
+    for cam in cam_ids:
+        get_law(cam)
+    r = np.atleast_1d(np.asarray(rpms, dtype=float))
+    if r.ndim != 1 or r.size == 0 or not np.all(np.isfinite(r)) or np.any(r <= 0):
+        raise DynamicsError(f"rpms: got {rpms!r}; expected one or more finite cam speeds > 0 rev/min")
+    if not (isinstance(samples_per_cycle, (int, np.integer)) and samples_per_cycle >= 8):
+        raise DynamicsError(f"samples_per_cycle: got {samples_per_cycle!r}; expected an integer >= 8")
+    if not (0.0 <= min_mass_fraction < 1.0):
+        raise DynamicsError(f"min_mass_fraction: got {min_mass_fraction!r}; expected 0 <= value < 1")
+    return cam_ids, r
+
+
 def rpm_sweep(
     model: ChainModel,
     cam_ids,
@@ -304,18 +326,7 @@ def rpm_sweep(
     read. `n_modes` keeps the lowest modes only (all by default); `modes` passes a decomposition
     computed earlier (from `chain_modes(model, n_modes)`) to skip the eigensolve.
     """
-    cam_ids = (cam_ids,) if isinstance(cam_ids, str) else tuple(cam_ids)
-    if not cam_ids:
-        raise DynamicsError("cam_ids: got none; expected at least one cam law id")
-    for cam in cam_ids:
-        get_law(cam)
-    r = np.atleast_1d(np.asarray(rpms, dtype=float))
-    if r.ndim != 1 or r.size == 0 or not np.all(np.isfinite(r)) or np.any(r <= 0):
-        raise DynamicsError(f"rpms: got {rpms!r}; expected one or more finite cam speeds > 0 rev/min")
-    if not (isinstance(samples_per_cycle, (int, np.integer)) and samples_per_cycle >= 8):
-        raise DynamicsError(f"samples_per_cycle: got {samples_per_cycle!r}; expected an integer >= 8")
-    if not (0.0 <= min_mass_fraction < 1.0):
-        raise DynamicsError(f"min_mass_fraction: got {min_mass_fraction!r}; expected 0 <= value < 1")
+    cam_ids, r = _checked_inputs(cam_ids, rpms, samples_per_cycle, min_mass_fraction)
     name, link = _station(station, model.n_links)
     if modes is None:
         modes = chain_modes(model, n_modes)
@@ -356,4 +367,99 @@ def rpm_sweep(
         cycles_per_rev=cycles_per_rev,
         samples_per_cycle=int(samples_per_cycle),
         n_modes=modes.n_modes,
+        model=f"{LINK_DRIVE_MODEL}, {modes.n_modes} modes",
+    )
+
+
+def machine_modes(machine) -> tuple[np.ndarray, np.ndarray]:
+    """(natural frequencies in Hz, effective mass fractions) of the machine on its wheels
+    (dynamics.models.machine.MachineOnWheels: its places, wheels and tensioner carriage), ascending:
+    the modes of its (K, M) and each mode's share (phi_j^T r)^2 / (r^T M^-1 r) of the cam's base
+    excitation -r z'' (r the inertial load; the shares of all modes sum to 1)."""
+    m = machine.mass_matrix()
+    lam, shapes = eigh(machine.stiffness_matrix(), m)
+    load = machine.inertial_load()
+    participation = shapes.T @ load
+    fraction = participation**2 / float(load @ np.linalg.solve(m, load))
+    return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi), fraction
+
+
+def _machine_station(station, machine) -> tuple[str, int]:
+    """(name, 0-based place) of a station name or a 1-based link number on the machine."""
+    places = machine.stations()
+    if isinstance(station, str):
+        if station not in places:
+            raise DynamicsError(f"station: got {station!r}; expected one of {', '.join(places)} or a link number")
+        return station, places[station]
+    if isinstance(station, (int, np.integer)) and 1 <= station <= machine.n_links:
+        return f"link {int(station)}", int(station) - 1
+    raise DynamicsError(f"station: got {station!r}; expected a station name or a link number in 1..{machine.n_links}")
+
+
+def machine_rpm_sweep(
+    model,
+    cam_ids,
+    rpms,
+    *,
+    pitch_m: float = 0.1125,
+    index_deg: float = 45.0,
+    dwell_deg: float = 45.0,
+    station="tight-side",
+    samples_per_cycle: int = 360,
+    max_harmonic: int = 10,
+    min_mass_fraction: float = 0.01,
+) -> SweepResult:
+    """`rpm_sweep` on the machine on its wheels: `model` is its dynamics.models.clearance_machine.ClearanceMachine
+    (friction 0). At each speed and cam law the linear machine (free play 0, global damping law, the
+    polygonal feed, the wheels and the carriage as the model has them) runs exactly as the pipeline
+    runs it (dynamics.machine_scene.simulate_machine, choice "linear", its default step) in its
+    relabelled periodic steady state over the pipeline's window (two index cycles from an index's
+    start at `samples_per_cycle` per cycle); the metrics are the pipeline's (link_metrics) at the
+    station's place. Critical speeds from the machine's own natural frequencies (`machine_modes`),
+    for the modes with at least `min_mass_fraction` of the excitation. Not modal: every point is a
+    steady-state search, about a thousand times the link drive's cost per point."""
+    from dynamics.machine_scene import simulate_machine
+    from dynamics.response.metrics import link_metrics
+
+    cam_ids, r = _checked_inputs(cam_ids, rpms, samples_per_cycle, min_mass_fraction)
+    if model.chain.friction_coefficient > 0.0:
+        raise DynamicsError(
+            f"friction_coefficient: got {model.chain.friction_coefficient!r}; the speed sweep runs the machine "
+            "without friction"
+        )
+    name, place = _machine_station(station, model.machine)
+    cycle_deg = index_deg + dwell_deg
+    per_degree = samples_per_cycle / cycle_deg
+    residual = np.empty((len(cam_ids), r.size))
+    peak = np.empty_like(residual)
+    for j, rpm in enumerate(r):
+        # the pipeline's output grid (stages.chain.output_times_s): two index cycles in degrees
+        t = np.arange(2 * samples_per_cycle + 1) / per_degree / (360.0 / 60.0 * rpm)
+        for i, cam_id in enumerate(cam_ids):
+            cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, index_deg=index_deg, dwell_deg=dwell_deg, rpm=rpm)
+            out, _ = simulate_machine(model, cam, t, choice="linear", links=[place])
+            lm = link_metrics(out.x_m, out.v_m_s, out.a_m_s2, out.z_m, out.zdot_m_s, out.zddot_m_s2, cam.dwell_mask(t))
+            residual[i, j] = lm.residual_vibration_m[0]
+            peak[i, j] = lm.max_abs_acceleration_m_s2[0]
+    frequencies, fraction = machine_modes(model.machine)
+    cycles_per_rev = 360.0 / cycle_deg
+    excited = tuple(int(j) + 1 for j in np.flatnonzero(fraction >= min_mass_fraction))
+    critical = critical_speeds_rpm(frequencies, cycles_per_rev, (float(r.min()), float(r.max())), max_harmonic, excited)
+    return SweepResult(
+        rpm=r,
+        cam_ids=cam_ids,
+        station=name,
+        station_link=place + 1,
+        residual_vibration_m=residual,
+        peak_acceleration_m_s2=peak,
+        natural_frequencies_Hz=frequencies,
+        critical_speeds=critical,
+        cycles_per_rev=cycles_per_rev,
+        samples_per_cycle=int(samples_per_cycle),
+        n_modes=frequencies.size,
+        definition=(
+            "critical speed: rpm at which harmonic k of the index frequency (cycles_per_rev * rpm / 60 Hz) "
+            "equals a natural frequency of the machine on its wheels"
+        ),
+        model=MACHINE_MODEL,
     )

@@ -1,0 +1,79 @@
+"""The speed sweep runs the model the run uses (issue #22): on the wheels the linear machine at each
+speed (dynamics.response.sweep.machine_rpm_sweep), on the link drive its modal linear chain as before."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from dynamics.errors import DynamicsError
+from dynamics.machine_scene import machine_model
+from dynamics.response.sweep import LINK_DRIVE_MODEL, MACHINE_MODEL, machine_modes, machine_rpm_sweep, rpm_sweep
+from settings.run import RunConfig
+from stages import chain as chain_stage
+from stages.fea import MaterialStiffness
+from stages.machine import scene_machine
+
+PITCH_M = 0.1125
+FEA = {"al": MaterialStiffness("al", 9.0092e7, 0.01, 1.2, 4.4e-4, PITCH_M, 0.01)}
+
+
+def _quiet(*_args, **_kwargs):
+    return None
+
+
+def _cfg(**changes) -> RunConfig:
+    return replace(RunConfig(), links=24, friction=0.0, cams=("modified-sine",), **changes)
+
+
+def test_a_point_of_the_wheels_sweep_is_the_pipelines_linear_machine_run_at_that_speed():
+    """The sweep at 200 rpm against the dynamics stage's own scenario at 200 rpm with --model linear
+    (same grid, same steady state, same step): the station's residual vibration and peak
+    acceleration agree to rounding."""
+    cfg = _cfg(rpm_sweep="200:200:1")
+    sweep = chain_stage.run_rpm_sweeps(cfg, FEA, _quiet)["al"]
+    assert sweep.model == MACHINE_MODEL
+    run = replace(cfg, rpm=200.0, model="linear")
+    model = chain_stage.chain_model(run, FEA["al"])
+    scenario = chain_stage.simulate_scenario(run, model, "al", "modified-sine", PITCH_M, run.samples_per_degree)
+    assert scenario.contact.model == "linear" and scenario.contact.steady_state.found
+    station = scenario.stations[cfg.focus_station]
+    assert sweep.station_link == station.link
+    np.testing.assert_allclose(sweep.residual_vibration_m[0, 0], station.residual_vibration_m, rtol=1e-12)
+    np.testing.assert_allclose(sweep.peak_acceleration_m_s2[0, 0], station.max_abs_acceleration_m_s2, rtol=1e-12)
+
+
+def test_the_wheels_sweeps_critical_speeds_come_from_the_machines_frequencies_carriage_included():
+    cfg = _cfg(tensioner_rate_N_per_m=2e5, tensioner_mass_kg=15.0)
+    scene = chain_stage.chain_scene(cfg, PITCH_M)
+    model = chain_stage.chain_model(cfg, FEA["al"])
+    frequencies, fraction = machine_modes(scene_machine(scene, model))
+    reported = chain_stage.natural_frequencies_Hz(scene, model)
+    np.testing.assert_allclose(frequencies[: reported.size], reported, rtol=1e-9)
+    assert fraction.sum() == pytest.approx(1.0, rel=1e-9)
+    sweep = machine_rpm_sweep(machine_model(scene, model), "modified-sine", [60.0, 300.0], pitch_m=PITCH_M)
+    assert sweep.critical_speeds
+    for c in sweep.critical_speeds:
+        assert c.frequency_Hz == pytest.approx(frequencies[c.mode - 1], rel=1e-12)
+        assert fraction[c.mode - 1] >= 0.01
+        assert c.rpm == pytest.approx(60.0 * c.frequency_Hz / (c.harmonic * sweep.cycles_per_rev), rel=1e-12)
+
+
+def test_the_link_drives_sweep_is_the_modal_sweep_as_before():
+    cfg = _cfg(drive="link", rpm_sweep="60:300:40")
+    sweep = chain_stage.run_rpm_sweeps(cfg, FEA, _quiet)["al"]
+    model = chain_stage.chain_model(cfg, FEA["al"])
+    before = rpm_sweep(model, cfg.cams, np.arange(60.0, 301.0, 40.0), pitch_m=PITCH_M, station=cfg.focus_station)
+    assert sweep.model.startswith(LINK_DRIVE_MODEL)
+    assert np.array_equal(sweep.residual_vibration_m, before.residual_vibration_m)
+    assert np.array_equal(sweep.peak_acceleration_m_s2, before.peak_acceleration_m_s2)
+    assert sweep.critical_speeds == before.critical_speeds
+
+
+def test_the_wheels_sweep_refuses_friction_and_unknown_stations():
+    scene = chain_stage.chain_scene(_cfg(), PITCH_M)
+    model = chain_stage.chain_model(_cfg(), FEA["al"])
+    with pytest.raises(DynamicsError, match="friction"):
+        machine_rpm_sweep(machine_model(scene, replace(model, friction_coefficient=0.3)), "modified-sine", [180.0])
+    with pytest.raises(DynamicsError, match="station"):
+        machine_rpm_sweep(machine_model(scene, model), "modified-sine", [180.0], station="middle")
