@@ -247,9 +247,9 @@ def plot_rpm_sweep(result: SweepResult, path: Path) -> Path:
     ax2.set_ylabel("peak |acceleration| (m/s²)")
     ax2.set_xlabel("cam speed (rev/min)")
     ax1.set_title(
-        f"Speed sweep at {result.station} (link {result.station_link}), periodic steady state of "
-        f"{result.model}, friction 0\n"
-        "dashed: critical speeds, harmonic h of the index frequency = natural frequency of mode m",
+        f"Speed sweep at {result.station} (link {result.station_link}): {result.model}, friction 0\n"
+        "periodic steady state; dashed: critical speeds, harmonic h of the index frequency = natural frequency "
+        "of mode m",
         fontsize=9,
     )
     ax1.legend(fontsize=8, ncol=3)

@@ -285,6 +285,9 @@ def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialStiffness], progress: 
                 pitch_m=result.pitch_m,
                 station=cfg.focus_station,
                 samples_per_cycle=int(round(CYCLE_DEG * cfg.samples_per_degree)),
+                done=lambda cam_id, name=name: progress(
+                    f"speed sweep {name} / {cam_id}: {rpms.size} speeds on the linear machine, done"
+                ),
             )
         else:
             sweeps[name] = rpm_sweep(

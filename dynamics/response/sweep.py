@@ -47,7 +47,7 @@ from dynamics.response.metrics import STATIONS, station_links
 
 # which model a sweep ran, in words (SweepResult.model)
 LINK_DRIVE_MODEL = "the link drive's linear chain"
-MACHINE_MODEL = "the linear machine on its wheels (relabelled steady state, free play 0)"
+MACHINE_MODEL = "the linear machine on its wheels (free play 0)"
 
 # Above this many links, a truncated mode set of at most N/10 modes comes from sparse shift-invert
 # Lanczos (cost ~ N r^2, ARPACK keeps ~2r vectors) rather than a dense eigensolve (~ N^3); below
@@ -408,6 +408,7 @@ def machine_rpm_sweep(
     samples_per_cycle: int = 360,
     max_harmonic: int = 10,
     min_mass_fraction: float = 0.01,
+    done=None,
 ) -> SweepResult:
     """`rpm_sweep` on the machine on its wheels: `model` is its dynamics.models.clearance_machine.ClearanceMachine
     (friction 0). At each speed and cam law the linear machine (free play 0, global damping law, the
@@ -417,7 +418,8 @@ def machine_rpm_sweep(
     start at `samples_per_cycle` per cycle); the metrics are the pipeline's (link_metrics) at the
     station's place. Critical speeds from the machine's own natural frequencies (`machine_modes`),
     for the modes with at least `min_mass_fraction` of the excitation. Not modal: every point is a
-    steady-state search, about a thousand times the link drive's cost per point."""
+    steady-state search, about a thousand times the link drive's cost per point: `done(cam_id)`, when
+    given, is called as each cam law's speeds are done (the stage's progress lines)."""
     from dynamics.machine_scene import simulate_machine
     from dynamics.response.metrics import link_metrics
 
@@ -432,15 +434,17 @@ def machine_rpm_sweep(
     per_degree = samples_per_cycle / cycle_deg
     residual = np.empty((len(cam_ids), r.size))
     peak = np.empty_like(residual)
-    for j, rpm in enumerate(r):
-        # the pipeline's output grid (stages.chain.output_times_s): two index cycles in degrees
-        t = np.arange(2 * samples_per_cycle + 1) / per_degree / (360.0 / 60.0 * rpm)
-        for i, cam_id in enumerate(cam_ids):
+    for i, cam_id in enumerate(cam_ids):
+        for j, rpm in enumerate(r):
+            # the pipeline's output grid (stages.chain.output_times_s): two index cycles in degrees
+            t = np.arange(2 * samples_per_cycle + 1) / per_degree / (360.0 / 60.0 * rpm)
             cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, index_deg=index_deg, dwell_deg=dwell_deg, rpm=rpm)
             out, _ = simulate_machine(model, cam, t, choice="linear", links=[place])
             lm = link_metrics(out.x_m, out.v_m_s, out.a_m_s2, out.z_m, out.zdot_m_s, out.zddot_m_s2, cam.dwell_mask(t))
             residual[i, j] = lm.residual_vibration_m[0]
             peak[i, j] = lm.max_abs_acceleration_m_s2[0]
+        if done is not None:
+            done(cam_id)
     frequencies, fraction = machine_modes(model.machine)
     cycles_per_rev = 360.0 / cycle_deg
     excited = tuple(int(j) + 1 for j in np.flatnonzero(fraction >= min_mass_fraction))
