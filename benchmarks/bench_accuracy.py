@@ -8,13 +8,14 @@ sprocket and idler wheel, six links seated on each, the drive's default complian
 the pipeline's output grid (180 degrees at 4 samples per degree), the clearance model, periodic
 steady state where one exists. The Kelvin-Voigt scene at 240 rpm is compared over its window from
 rest (steady_state=False), as the single-link drive's has no steady state there. The default run is
-`simulate_machine` with nothing but the model given (`ab2` at 0.31 of its limit for the global law,
-euler at 0.25 for Kelvin-Voigt); the
+`simulate_machine` with nothing but the model given (its window at the default step, `ab2` at 0.31 of
+its limit for the global law, euler at 0.25 for Kelvin-Voigt, divided by machine_scene.WINDOW_REFINEMENT;
+a steady state searched coarser and settled); the
 controlled run is `simulate_machine_to_accuracy(accuracy=1e-3)` (the step halved until the station
 metrics change by at most that, at most 4 times). The converged run is the same model, euler at a
 fixed 1/32 of its quarter-limit step, checked by its own refinement: the table gives its change from
 1/16. Error = the largest relative difference over the four stations' link metrics
-(machine_scene._station_values, what the step control compares). Time: the median of interleaved
+(dynamics.scene.station_values, what the step control compares). Time: the median of interleaved
 runs of both.
 
 Second table: the pipeline's default dynamics stage (stages.chain.run_dynamics: 2 materials x 5 cam
