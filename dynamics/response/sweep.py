@@ -1,5 +1,11 @@
 """Speed sweep: residual vibration and peak acceleration at one station versus cam speed, per cam law.
 
+Two models: `rpm_sweep`, the link drive's linear chain, modal (below); `machine_rpm_sweep`, the
+machine on its wheels, whose relabelled steady state (the seat changes, the polygonal feed) is not a
+periodic response of fixed modes: each point is the linear machine's own run at that speed
+(dynamics.machine_scene.simulate_machine), critical speeds from the machine's frequencies
+(`machine_modes`). The rest of this docstring is the link drive's modal sweep.
+
 Why it is fast. The chain is linear (friction 0) and written relative to the cam, y = x - z 1, under
 the force -M 1 z''(t) (dynamics.models.chain). In the modes of (K, M) every mode j is a damped oscillator
 
