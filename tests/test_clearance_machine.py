@@ -7,6 +7,7 @@ import pytest
 
 from dynamics.cams import CamProgram
 from dynamics.errors import DynamicsError
+from dynamics.machine_scene import WINDOW_REFINEMENT
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.clearance_machine import ClearanceMachine
@@ -154,9 +155,10 @@ def test_the_scene_on_wheels_reports_places_seating_and_its_model():
     half = (t.size - 1) // 2
     y = rest.x_m - rest.z_m[:, None]
     assert np.max(np.abs(y[half:] - y[: half + 1])) > 1e-3 * np.max(np.abs(y))
-    # its statistics are those of the window's two index cycles, stepped here by hand
+    # its statistics are those of the window's two index cycles, stepped here by hand at the default
+    # window's step (ab2 at 0.31 / WINDOW_REFINEMENT of its limit, from rest too)
     model = ClearanceMachine.of(chain, layout, None, 94e-6)
-    sub = mv.substeps_for(model, t[1], 0.31, "ab2")
+    sub = mv.substeps_for(model, t[1], 0.31 / WINDOW_REFINEMENT["global"], "ab2")
     h = t[1] / sub
     nodes = mv.cycle_nodes(cam, h, half * sub)
     q = v = np.zeros(model.topology.n_dof)
