@@ -92,3 +92,33 @@ def test_auto_picks_the_clearance_chain_at_2000_links():
     assert summary.linear_min_tension_N < 0.0
     assert summary.model == ChainModelKind.CLEARANCE and summary.validity == Validity.VALID
     assert np.all(np.isfinite(response.x_m))
+
+
+@pytest.mark.parametrize("tensioner", [None, Tensioner(1e5, 5.0, 100.0)])
+def test_the_sparse_slow_modes_are_the_dense_ones(tensioner):
+    """The steady-state search's slow modes above DENSE_EIGENSOLVE_UP_TO DOFs (block inverse
+    iteration from Fourier shapes, dynamics.solvers.shooting.slow_modes), with and without the
+    carriage's row, at 420 links: the same modes as the dense eigensolve (every mode slower than
+    the limit, none more), eigenvalues to 1e-10 of the largest, shapes to 1e-6 (the iteration stops
+    at residual 1e-7 of the largest Ritz value; the eigenvalues converge as its square)."""
+    import scipy.sparse as sp
+
+    from dynamics.solvers import shooting
+
+    chain = ChainModel(420, 2.03, 9.331e7, damping_ratio=0.13)
+    machine = LAYOUT.machine(chain, tensioner)
+    topo = machine.topology
+    r = 1.0 / np.sqrt(np.asarray(topo.masses_kg, dtype=float))
+    x = (sp.diags(r) @ topo.stiffness_matrix_sparse() @ sp.diags(r)).tocsc()
+    assert x.shape[0] > shooting.DENSE_EIGENSOLVE_UP_TO
+
+    def is_slow(omega):
+        return np.exp(-0.13 * np.asarray(omega) * _cam().cycle_s) > shooting.SLOW_DECAY
+
+    omega, shapes = shooting.slow_modes(x, is_slow)
+    lam, vec = np.linalg.eigh(x.toarray())
+    wanted = is_slow(np.sqrt(np.maximum(lam, 0.0)))
+    assert omega.size == np.count_nonzero(wanted) > 5
+    np.testing.assert_allclose(omega**2, lam[wanted], rtol=0, atol=1e-10 * lam[wanted][-1])
+    np.testing.assert_allclose(shapes.T @ shapes, np.eye(omega.size), atol=1e-12)
+    assert np.min(np.abs(np.sum(shapes * vec[:, wanted], axis=0))) > 1 - 1e-6

@@ -67,34 +67,31 @@ def slow_mode_newton(model, period_s: float, decay: float):
     modes (per cycle decay exp(-zeta omega T) above `decay`), r itself on the others: the machine's
     counterpart of dynamics.solvers.shooting.slow_mode_newton, with a diagonal, non-uniform M.
 
-    The modes are those of (K, M) (the polygon-free machine at rest, the carriage in), found by
-    shift-invert Lanczos on M^(-1/2) K M^(-1/2), widened until the last one decays fast enough. The
+    The modes are those of (K, M) (the polygon-free machine at rest, the carriage in): of
+    M^(-1/2) K M^(-1/2) by dynamics.solvers.shooting.slow_modes (a dense eigensolve up to
+    DENSE_EIGENSOLVE_UP_TO DOFs). The
     seat change shifts every free link one place, which leaves these long-wave shapes nearly as they
     are (measured at 400 links: the relabelled map's slowest multipliers are the fixed frame's, 0.572),
     so the step removes the linear part of the slow directions and Anderson the rest. O(N m) per step
     (m the slow modes), no N x N array."""
     from scipy.linalg import expm
-    from scipy.sparse.linalg import eigsh
 
     topo = model.topology
     n = topo.n_dof
     masses = np.asarray(topo.masses_kg, dtype=float)
     r = 1.0 / np.sqrt(masses)
     x = (sp.diags(r) @ topo.stiffness_matrix_sparse() @ sp.diags(r)).tocsc()
-    shift = -1e-9 * float(np.max(x.diagonal()))
-    count = 0
-    while True:  # widen until the last mode found decays fast enough, or all are found
-        if n <= shooting.DENSE_EIGENSOLVE_UP_TO:
-            lam, vec = np.linalg.eigh(x.toarray())
-        else:
-            count = min(max(2 * count, 8), n - 2)
-            lam, vec = eigsh(x, k=count, sigma=shift, which="LM")
-            order = np.argsort(lam)
-            lam, vec = lam[order], vec[:, order]
+
+    def is_slow(omega):
+        return np.exp(-np.array([model.damping_ratio_at(o) * o for o in omega]) * period_s) > decay
+
+    if n <= shooting.DENSE_EIGENSOLVE_UP_TO:
+        lam, vec = np.linalg.eigh(x.toarray())
         omega = np.sqrt(np.maximum(lam, 0.0))
-        slow = np.exp(-np.array([model.damping_ratio_at(o) * o for o in omega]) * period_s) > decay
-        if not slow[-1] or count >= n - 2 or n <= shooting.DENSE_EIGENSOLVE_UP_TO:
-            break
+        slow = is_slow(omega)
+    else:
+        omega, vec = shooting.slow_modes(x, is_slow)
+        slow = np.ones(omega.size, dtype=bool)
     omega, vec = omega[slow], vec[:, slow]
     to_modes = np.ascontiguousarray((vec / r[:, None]).T)  # a = V^T M^(1/2) q
     from_modes = np.ascontiguousarray(vec * r[:, None])  # q = M^(-1/2) V a
