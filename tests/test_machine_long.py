@@ -122,3 +122,31 @@ def test_the_sparse_slow_modes_are_the_dense_ones(tensioner):
     np.testing.assert_allclose(omega**2, lam[wanted], rtol=0, atol=1e-10 * lam[wanted][-1])
     np.testing.assert_allclose(shapes.T @ shapes, np.eye(omega.size), atol=1e-12)
     assert np.min(np.abs(np.sum(shapes * vec[:, wanted], axis=0))) > 1 - 1e-6
+
+
+def test_a_long_chains_search_starts_coarse_and_is_accepted_at_its_own_step():
+    """Above DENSE_LINK_LIMIT links the search runs at SEARCH_SAFETY's coarser step first and
+    finishes at the step asked for (machine_scene._start_state): the state returned passes the
+    test at that step (one more index cycle there moves it by <= tol), the cycles counted are both
+    searches', and up to DENSE_LINK_LIMIT links there is no coarse search."""
+    from dynamics.machine_scene import SEARCH_SAFETY, _coarse_substeps, _start_state
+
+    chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
+    linear = ClearanceMachine.of(chain, LAYOUT, None, 0.0)
+    cam = _cam()
+    h_out = cam.cycle_s / 90
+    sub = mv.substeps_for(linear, h_out, SEARCH_SAFETY["global"] / 3, "ab2")
+    coarse = _coarse_substeps(linear, h_out, sub, "ab2")
+    assert coarse is not None and coarse < sub
+    zeros = np.zeros(linear.topology.n_dof)
+    tol = 1e-4
+    (q0, v0), ss, last = _start_state(linear, cam, h_out, 90, sub, (zeros, zeros), True, tol, 30, "ab2")
+    assert ss.found and ss.cycles >= 2
+    q1, v1, run, _ = mv.next_index_start(
+        linear, cam, mv.cycle_nodes(cam, h_out / sub, 90 * sub), h_out / sub, q0, v0, out_every=sub, predictor="ab2"
+    )
+    assert np.max(np.abs(q1 - q0)) <= tol * np.max(np.abs(run.q))
+    assert np.max(np.abs(v1 - v0)) <= tol * np.max(np.abs(run.v))
+    assert last.step_s == pytest.approx(h_out / sub)
+    short = ClearanceMachine.of(replace(chain, n_links=DENSE_LINK_LIMIT), LAYOUT, None, 0.0)
+    assert _coarse_substeps(short, h_out, sub, "ab2") is None
