@@ -2,8 +2,11 @@
 
 Every PNG of a run is independent of the others, and matplotlib draws one figure on one core: the
 default run's 15 figures took 6.2 s of its outputs stage one after the other. The figures are
-drawn in worker processes forked from the run (nothing to import again; the arguments are the
-histories and metrics, pickled), each worker taking the next figure as it finishes one.
+drawn in worker processes forked from the run (nothing to import again), each worker taking the
+next figure as it finishes one. The workers find the jobs in the memory they share with the run at
+the fork and are sent only a job's number: pickling the arguments (the histories, N-wide) sent
+every figure of a 2,000-link run about 46 MB through a pipe, and made its outputs stage 23 s where
+drawing the figures took 4 s.
 """
 
 from __future__ import annotations
@@ -27,6 +30,10 @@ class FigureJob:
         return self.plot(*self.args)
 
 
+# The jobs of the draw_figures call in progress, for its forked workers (set before they fork)
+_JOBS: list[FigureJob] = []
+
+
 def usable_cores() -> int:
     """The cores this process may run on."""
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
@@ -41,6 +48,15 @@ def draw_figures(jobs: dict[Hashable, FigureJob], workers: int | None = None) ->
     daemon = multiprocessing.current_process().daemon
     if workers < 2 or daemon or "fork" not in multiprocessing.get_all_start_methods():
         return {key: job.draw() for key, job in jobs.items()}
-    with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-        pending = {key: pool.submit(job.plot, *job.args) for key, job in jobs.items()}
-        return {key: future.result() for key, future in pending.items()}
+    _JOBS[:] = jobs.values()
+    try:
+        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+            pending = {key: pool.submit(_draw_job, i) for i, key in enumerate(jobs)}
+            return {key: future.result() for key, future in pending.items()}
+    finally:
+        _JOBS.clear()
+
+
+def _draw_job(index: int) -> Path:
+    """In a forked worker: the index-th job of the draw_figures call that forked it."""
+    return _JOBS[index].draw()

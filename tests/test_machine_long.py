@@ -92,3 +92,61 @@ def test_auto_picks_the_clearance_chain_at_2000_links():
     assert summary.linear_min_tension_N < 0.0
     assert summary.model == ChainModelKind.CLEARANCE and summary.validity == Validity.VALID
     assert np.all(np.isfinite(response.x_m))
+
+
+@pytest.mark.parametrize("tensioner", [None, Tensioner(1e5, 5.0, 100.0)])
+def test_the_sparse_slow_modes_are_the_dense_ones(tensioner):
+    """The steady-state search's slow modes above DENSE_EIGENSOLVE_UP_TO DOFs (block inverse
+    iteration from Fourier shapes, dynamics.solvers.shooting.slow_modes), with and without the
+    carriage's row, at 420 links: the same modes as the dense eigensolve (every mode slower than
+    the limit, none more), eigenvalues to 1e-10 of the largest, shapes to 1e-6 (the iteration stops
+    at residual 1e-7 of the largest Ritz value; the eigenvalues converge as its square)."""
+    import scipy.sparse as sp
+
+    from dynamics.solvers import shooting
+
+    chain = ChainModel(420, 2.03, 9.331e7, damping_ratio=0.13)
+    machine = LAYOUT.machine(chain, tensioner)
+    topo = machine.topology
+    r = 1.0 / np.sqrt(np.asarray(topo.masses_kg, dtype=float))
+    x = (sp.diags(r) @ topo.stiffness_matrix_sparse() @ sp.diags(r)).tocsc()
+    assert x.shape[0] > shooting.DENSE_EIGENSOLVE_UP_TO
+
+    def is_slow(omega):
+        return np.exp(-0.13 * np.asarray(omega) * _cam().cycle_s) > shooting.SLOW_DECAY
+
+    omega, shapes = shooting.slow_modes(x, is_slow)
+    lam, vec = np.linalg.eigh(x.toarray())
+    wanted = is_slow(np.sqrt(np.maximum(lam, 0.0)))
+    assert omega.size == np.count_nonzero(wanted) > 5
+    np.testing.assert_allclose(omega**2, lam[wanted], rtol=0, atol=1e-10 * lam[wanted][-1])
+    np.testing.assert_allclose(shapes.T @ shapes, np.eye(omega.size), atol=1e-12)
+    assert np.min(np.abs(np.sum(shapes * vec[:, wanted], axis=0))) > 1 - 1e-6
+
+
+def test_a_long_chains_search_starts_coarse_and_is_accepted_at_its_own_step():
+    """Above DENSE_LINK_LIMIT links the search runs at SEARCH_SAFETY's coarser step first and
+    finishes at the step asked for (machine_scene._start_state): the state returned passes the
+    test at that step (one more index cycle there moves it by <= tol), the cycles counted are both
+    searches', and up to DENSE_LINK_LIMIT links there is no coarse search."""
+    from dynamics.machine_scene import SEARCH_SAFETY, _coarse_substeps, _start_state
+
+    chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
+    linear = ClearanceMachine.of(chain, LAYOUT, None, 0.0)
+    cam = _cam()
+    h_out = cam.cycle_s / 90
+    sub = mv.substeps_for(linear, h_out, SEARCH_SAFETY["global"] / 3, "ab2")
+    coarse = _coarse_substeps(linear, h_out, sub, "ab2")
+    assert coarse is not None and coarse < sub
+    zeros = np.zeros(linear.topology.n_dof)
+    tol = 1e-4
+    (q0, v0), ss, last = _start_state(linear, cam, h_out, 90, sub, (zeros, zeros), True, tol, 30, "ab2")
+    assert ss.found and ss.cycles >= 2
+    q1, v1, run, _ = mv.next_index_start(
+        linear, cam, mv.cycle_nodes(cam, h_out / sub, 90 * sub), h_out / sub, q0, v0, out_every=sub, predictor="ab2"
+    )
+    assert np.max(np.abs(q1 - q0)) <= tol * np.max(np.abs(run.q))
+    assert np.max(np.abs(v1 - v0)) <= tol * np.max(np.abs(run.v))
+    assert last.step_s == pytest.approx(h_out / sub)
+    short = ClearanceMachine.of(replace(chain, n_links=DENSE_LINK_LIMIT), LAYOUT, None, 0.0)
+    assert _coarse_substeps(short, h_out, sub, "ab2") is None

@@ -80,3 +80,16 @@ def test_a_figure_is_cropped_to_its_ink_and_padded_unless_the_ink_reaches_its_ed
     pixels[0, 20] = (0, 0, 0, 255)  # ink on the top edge: something may lie outside the canvas
     assert cropped_to_ink(pixels, white, pad=3) is None
     assert cropped_to_ink(np.full((5, 5, 4), 255, dtype=np.uint8), white, pad=1) is None
+
+
+def _call_and_write(make_text, path: Path) -> Path:
+    return _write(make_text(), path)
+
+
+def test_the_workers_get_the_jobs_by_fork_not_by_pickling_their_arguments(tmp_path):
+    """A job's arguments (a long chain's N-wide histories) are not sent to the workers: a lambda,
+    which pickle refuses, reaches them all the same."""
+    jobs = {i: FigureJob(_call_and_write, (lambda i=i: f"figure {i}", tmp_path / f"{i}.txt")) for i in range(3)}
+    paths = draw_figures(jobs, workers=2)
+    assert [paths[i].read_text().split()[:2] for i in range(3)] == [["figure", str(i)] for i in range(3)]
+    assert os.getpid() not in {int(path.read_text().split()[-1]) for path in paths.values()}
