@@ -445,10 +445,10 @@ def _import_chain_and_outputs() -> None:
 
 def _write_outputs(cfg: RunConfig, fea, chains, scenarios, timing: dict, progress: Progress) -> None:
     from reporting.outputs import write_default_outputs
-    from stages.chain import RunInProgress, run_rpm_sweeps
+    from stages.chain import RunResults, run_rpm_sweeps
 
     sweeps = timed(timing, "rpm_sweep", progress, run_rpm_sweeps, cfg, fea.stiffness, progress) if cfg.rpm_sweep else {}
-    write_default_outputs(RunInProgress(cfg, fea, chains, scenarios, sweeps, timing), progress)
+    write_default_outputs(RunResults(cfg, fea, chains, scenarios, sweeps, timing), progress)
 
 
 def main(argv: list[str] | None = None) -> int:

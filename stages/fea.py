@@ -275,7 +275,8 @@ def start_fea(
     `part`: the run's part (stages.geometry.inspect_geometry); None resolves it here."""
     from fem import load_materials
     from fem.cache import FeaCache, cache_key
-    from stages.beside import Beside, can_start
+    from processes import may_start_children
+    from stages.beside import Beside
 
     library = load_materials(cfg.materials_file)
     unknown = [m for m in cfg.materials if m not in library]
@@ -301,7 +302,7 @@ def start_fea(
     if not missing:
         return FeaInProgress.done(out)
     steps = partial(_fea_steps, part, settings, missing, stiffness_tolerance, solved_levels, images, progress)
-    if beside and can_start():
+    if beside and may_start_children():
         process = Beside(steps, "the FEA")
         progress(f"FEA: in process {process.pid}, beside the dynamics and the figures from the stiffness on")
         next_step = process.next
