@@ -12,11 +12,12 @@ drawing the figures took 4 s.
 from __future__ import annotations
 
 import multiprocessing
-import os
 from collections.abc import Callable, Hashable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
+
+from processes import may_start_children, usable_cores
 
 
 @dataclass(frozen=True)
@@ -34,19 +35,12 @@ class FigureJob:
 _JOBS: list[FigureJob] = []
 
 
-def usable_cores() -> int:
-    """The cores this process may run on."""
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
-
-
 def draw_figures(jobs: dict[Hashable, FigureJob], workers: int | None = None) -> dict[Hashable, Path]:
     """Draw every job (in worker processes where there are several cores and fork exists, else here,
     one after the other); returns each job's PNG path under its key, in the jobs' order."""
     workers = min(usable_cores() if workers is None else workers, len(jobs))
-    # a daemonic process (a Dask worker drawing a study's best designs) may not start children, and
-    # its cores are the cluster's already
-    daemon = multiprocessing.current_process().daemon
-    if workers < 2 or daemon or "fork" not in multiprocessing.get_all_start_methods():
+    # a Dask worker drawing a study's best designs may not start children (processes.may_start_children)
+    if workers < 2 or not may_start_children() or "fork" not in multiprocessing.get_all_start_methods():
         return {key: job.draw() for key, job in jobs.items()}
     _JOBS[:] = jobs.values()
     try:

@@ -26,7 +26,7 @@ from reporting.sections import Report, build_sections
 from reporting.tables import Table, max_acceleration_table, rms_table
 
 if TYPE_CHECKING:
-    from stages.chain import RunInProgress, RunResults
+    from stages.chain import RunResults
     from stages.replica import ReplicaRun
 
 RANKING_METRIC = "residual_vibration_m"
@@ -599,10 +599,10 @@ def _sweep_table(sweeps: dict) -> Table:
     )
 
 
-def write_default_outputs(results: RunResults | RunInProgress, progress) -> None:
-    """Write everything into --out. With a `RunInProgress` (the FEA's stress study still running beside,
-    stages.fea.start_fea) the figures, which need the chain only, are drawn first, and the FEA is
-    waited for before the summary, the tables and the report, which give its stresses."""
+def write_default_outputs(results: RunResults, progress) -> None:
+    """Write everything into --out. The figures, which need the chain only, are drawn first, while
+    the FEA's stress study may still run beside (stages.fea.start_fea); it is waited for before the
+    summary, the tables and the report, which give its stresses."""
     cfg, scenarios, sweeps = results.cfg, results.scenarios, results.sweeps
     materials = cfg.materials
     with StagedOutput(cfg.out) as staged:
@@ -626,7 +626,7 @@ def write_default_outputs(results: RunResults | RunInProgress, progress) -> None
             for m, sweep in sweeps.items()
         }
         paths = draw_figures(jobs)
-        results = results.finished(progress)
+        results.wait_for_fea(progress)
         fea, timing = results.fea, results.timing
         at_link = {key: _link_rms(sc.stations[focus]) for key, sc in scenarios.items()}
         summary = default_summary(results)

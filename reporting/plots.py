@@ -30,6 +30,9 @@ CAM_COLOURS = {
 }
 DPI = 110
 PAD_INCHES = 0.1  # around what is drawn, as savefig's bbox_inches="tight" (its default pad)
+# zlib's fastest level: the default run's 14 figures encode in 0.38 instead of 0.54 CPU s (as RGB),
+# their files 4 % larger (2.13 against 2.04 MB), measured on one run's figures
+PNG_COMPRESS_LEVEL = 1
 QUANTITIES = (
     ("displacement (mm)", lambda h: h.x_m * 1e3, lambda h: h.z_m * 1e3),
     ("velocity (m/s)", lambda h: h.v_m_s, lambda h: h.zdot_m_s),
@@ -59,9 +62,16 @@ def _save(fig, path: Path) -> Path:
     if cropped is None:
         fig.savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=PAD_INCHES)
     else:
-        Image.fromarray(cropped).save(path, format="png", dpi=(DPI, DPI))
+        Image.fromarray(opaque(cropped)).save(path, format="png", dpi=(DPI, DPI), compress_level=PNG_COMPRESS_LEVEL)
     plt.close(fig)
     return path
+
+
+def opaque(pixels: np.ndarray) -> np.ndarray:
+    """RGBA pixels as RGB where every pixel is opaque (a quarter less to encode), else as they are."""
+    if np.all(pixels[..., 3] == 255):
+        return np.ascontiguousarray(pixels[..., :3])
+    return pixels
 
 
 def cropped_to_ink(pixels: np.ndarray, background: np.ndarray, pad: int) -> np.ndarray | None:

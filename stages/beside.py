@@ -25,12 +25,6 @@ class BesideError(RuntimeError):
     """The process beside the run ended without a result; the message says what it was doing."""
 
 
-def can_start() -> bool:
-    """Whether a child process can be started here: not in a daemonic process (a Dask worker may not
-    have children, and its cores are the cluster's already)."""
-    return not multiprocessing.current_process().daemon
-
-
 class Beside:
     """The generator `steps()` (picklable: a module-level function or a partial of one) running in
     a child process: `next()` waits for its next step and returns it (the child's exception is

@@ -49,39 +49,29 @@ class MaterialChain:
 
 @dataclass
 class RunResults:
-    """Everything one run computed, for the outputs: they format it and compute no physics of their own."""
+    """Everything one run computed, for the outputs: they format it and compute no physics of their own.
+    `fea_run` may still be under way beside the run (stages.fea.start_fea: the stress study and the
+    images); the chain's results, which the figures need, are complete."""
 
     cfg: RunConfig
-    fea: dict[str, MaterialFea]
+    fea_run: FeaInProgress
     chains: dict[str, MaterialChain]
     scenarios: dict[tuple[str, str], Scenario]  # (material, cam law) -> its scenario
     sweeps: dict[str, SweepResult]  # material -> its speed sweep (empty without --rpm-sweep)
     timing: dict[str, float]  # wall seconds per stage; the outputs add theirs
 
-    def finished(self, progress: Progress) -> RunResults:
-        return self
+    @property
+    def fea(self) -> dict[str, MaterialFea]:
+        """Each material's complete FEA (waits for the FEA beside, see `wait_for_fea`)."""
+        return self.fea_run.result()
 
-
-@dataclass
-class RunInProgress:
-    """A run whose FEA stress study may still run beside (stages.fea.start_fea): everything the
-    figures need (the chain's results), and `finished` to wait for the FEA's records."""
-
-    cfg: RunConfig
-    fea: FeaInProgress
-    chains: dict[str, MaterialChain]
-    scenarios: dict[tuple[str, str], Scenario]
-    sweeps: dict[str, SweepResult]
-    timing: dict[str, float]
-
-    def finished(self, progress: Progress) -> RunResults:
-        """The run's results once the FEA's stress study is done; the wait is booked to the FEA."""
+    def wait_for_fea(self, progress: Progress) -> None:
+        """Wait for the FEA's stress study and images where they run beside; the wait is booked to the FEA."""
         start = progress.elapsed()
-        fea = self.fea.result()
+        self.fea_run.result()
         self.timing["fea"] = self.timing.get("fea", 0.0) + progress.elapsed() - start
-        if self.fea.beside:
+        if self.fea_run.beside:
             progress(f"FEA stress study and images: done, waited {progress.elapsed() - start:.1f} s for them")
-        return RunResults(self.cfg, fea, self.chains, self.scenarios, self.sweeps, self.timing)
 
 
 def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.0) -> np.ndarray:

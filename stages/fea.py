@@ -156,8 +156,8 @@ def _fea_steps(
     progress: Progress,
 ) -> Iterator[tuple[dict, list[str]]]:
     """The FEA of the materials not in the cache, in two steps, each with the FemWarnings' messages
-    it raised: first each material's stiffness record (all the chain needs), then its converged
-    stress (StressAnswer), the deformed images rendered where asked for. Run here or in a process
+    it raised: first each material's stiffness record (all the chain needs), then, the deformed
+    images rendered where asked for, its converged stress (StressAnswer). Run here or in a process
     beside the run (stages.beside), the same code either way."""
     import warnings
 
@@ -171,7 +171,16 @@ def _fea_steps(
         studies = _solve_stiffness(part, settings, materials, stiffness_tolerance, progress, solved_levels)
     release_free_memory()  # the levels' threads' freed arrays
     yield {name: _stiffness_record(name, study) for name, study in studies.items()}, _messages(caught)
+    # the images first: beside the run they overlap its dynamics (one core) rather than its figures
+    # (two worker processes), and their renderer's memory is not added to the figure workers'
+    for name, study in studies.items():
+        if images[name] is not None:
+            images[name].parent.mkdir(parents=True, exist_ok=True)
+            render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
+            progress(f"FEA image {name}: the deformed link rendered")
     finest = {name: study.finest for name, study in studies.items()}
+    del studies
+    release_free_memory()  # the renderer's
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
         stresses = stress_study(
@@ -182,11 +191,7 @@ def _fea_steps(
             base=finest,
             progress=progress,
         )
-    for name, study in studies.items():
-        if images[name] is not None:
-            images[name].parent.mkdir(parents=True, exist_ok=True)
-            render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
-    del studies, finest
+    del finest
     release_free_memory()  # the levels' arrays, before the dynamics and the figures
     answers = {name: StressAnswer(s.peak_Pa_per_N, s.rel_change, s.description) for name, s in stresses.items()}
     yield answers, _messages(caught)
@@ -275,7 +280,8 @@ def start_fea(
     `part`: the run's part (stages.geometry.inspect_geometry); None resolves it here."""
     from fem import load_materials
     from fem.cache import FeaCache, cache_key
-    from stages.beside import Beside, can_start
+    from processes import may_start_children
+    from stages.beside import Beside
 
     library = load_materials(cfg.materials_file)
     unknown = [m for m in cfg.materials if m not in library]
@@ -301,7 +307,7 @@ def start_fea(
     if not missing:
         return FeaInProgress.done(out)
     steps = partial(_fea_steps, part, settings, missing, stiffness_tolerance, solved_levels, images, progress)
-    if beside and can_start():
+    if beside and may_start_children():
         process = Beside(steps, "the FEA")
         progress(f"FEA: in process {process.pid}, beside the dynamics and the figures from the stiffness on")
         next_step = process.next

@@ -182,7 +182,7 @@ def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings, part: d
     bytes, so the client writes them and the worker needs no shared disk (nor for the STEP `part`)."""
     from reporting.outputs import write_default_outputs
     from stages.chain import RunResults, run_dynamics
-    from stages.fea import run_fea
+    from stages.fea import FeaInProgress, run_fea
     from stages.progress import Progress
 
     keep_large_arrays_on_heap()
@@ -194,5 +194,5 @@ def report_task(inputs: dict, cams: tuple[str, ...], settings: Settings, part: d
         progress = Progress(True)
         fea = run_fea(cfg, progress, part=resolved)
         chains, scenarios = run_dynamics(cfg, fea, progress)
-        write_default_outputs(RunResults(cfg, fea, chains, scenarios, {}, {}), progress)
+        write_default_outputs(RunResults(cfg, FeaInProgress.done(fea), chains, scenarios, {}, {}), progress)
         return {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.is_file()}
