@@ -67,11 +67,18 @@ def thin_walls(volumes: list[int], max_thickness_m: float, exclude: Sequence[int
     """The walls of the solid (`volumes` in the current gmsh model) thinner than `max_thickness_m`;
     faces in `exclude` (a mirror half's cut face: the wall goes on past it) are not wall faces."""
     faces = [tag for tag in _boundary_faces(volumes) if tag not in set(exclude)]
-    planes = [_plane(tag, volumes) for tag in faces if gmsh.model.getType(2, tag) == "Plane"]
+    bounds = {tag: _plane_bounds(tag) for tag in faces if gmsh.model.getType(2, tag) == "Plane"}
+    planes: dict[int, _Plane] = {}  # sampled and oriented only where a pair may be a wall (isInside is slow)
     walls = []
-    for i, a in enumerate(planes):
-        for b in planes[i + 1 :]:
-            wall = _wall(a, b, max_thickness_m)
+    tags = list(bounds)
+    for i, a in enumerate(tags):
+        for b in tags[i + 1 :]:
+            if not _may_be_wall(bounds[a], bounds[b], max_thickness_m):
+                continue
+            for tag in (a, b):
+                if tag not in planes:
+                    planes[tag] = _plane(tag, volumes)
+            wall = _wall(planes[a], planes[b], max_thickness_m)
             if wall is not None:
                 walls.append(wall)
     rounds = [r for r in (_round(tag) for tag in faces if gmsh.model.getType(2, tag) != "Plane") if r is not None]
@@ -87,6 +94,32 @@ def thin_walls(volumes: list[int], max_thickness_m: float, exclude: Sequence[int
 def _boundary_faces(volumes: list[int]) -> list[int]:
     faces = gmsh.model.getBoundary([(3, v) for v in volumes], combined=False, oriented=False)
     return sorted({tag for _, tag in faces})
+
+
+@dataclass(frozen=True)
+class _PlaneBounds:
+    point: np.ndarray  # on the face's plane
+    normal: np.ndarray  # unit, either side
+    box: np.ndarray  # (2, 3) min, max
+
+
+def _plane_bounds(tag: int) -> _PlaneBounds:
+    (umin, vmin), (umax, vmax) = gmsh.model.getParametrizationBounds(2, tag)
+    middle = [0.5 * (umin + umax), 0.5 * (vmin + vmax)]
+    normal = np.asarray(gmsh.model.getNormal(tag, middle))
+    box = np.asarray(gmsh.model.getBoundingBox(2, tag)).reshape(2, 3)
+    return _PlaneBounds(np.asarray(gmsh.model.getValue(2, tag, middle)), normal / np.linalg.norm(normal), box)
+
+
+def _may_be_wall(a: _PlaneBounds, b: _PlaneBounds, max_thickness_m: float) -> bool:
+    """Whether two planar faces can be a wall's sides, whatever their outward sides: parallel,
+    their planes closer than `max_thickness_m`, their boxes that near."""
+    gap = abs(float((b.point - a.point) @ a.normal))
+    return (
+        abs(float(a.normal @ b.normal)) >= _PARALLEL_COS
+        and gap < max_thickness_m
+        and not (np.any(a.box[0] > b.box[1] + gap) or np.any(b.box[0] > a.box[1] + gap))
+    )
 
 
 def _plane(tag: int, volumes: list[int]) -> _Plane:
