@@ -51,14 +51,14 @@ SIZE_GRADIENT = 0.5
 # reference size h_f (the finest size a study asks for, kept where the memory budget coarsens the
 # levels) is refined on every level: there a P2 element of the level's size would have no node
 # inside the wall (fem.quality's thin-wall warning). On a level of size h_f a wall of thickness t
-# gets elements of max(t, 4 t^2 / h_f): one through the thickness (a P2 node in the middle) under a quarter of h_f,
-# growing to h_f at half of it, so that the size is continuous in t (a design study's variants of
-# a wall get no jump in k). Every level gets the same fraction of its own size, so the levels stay
-# alike and Richardson's h = DOFs^(-1/3) stays their mesh parameter (a fixed size in the wall, as
-# at small holes, would leave the wall's error out of the levels' difference, and the budget could
-# not coarsen it). Walls at or above half the finest size are meshed as before: the built-in
-# link's 2.535 mm side rails at 4.5 mm (refining them on its 6 mm level alone widened its estimate
-# from 0.85 to 0.91 %, measured).
+# gets elements of max(t, 4 t^2 / h_f): one through the thickness (a P2 node in the middle) under a
+# quarter of h_f, growing to h_f at half of it, so that the size is continuous in t (a design
+# study's variants of a wall get no jump in k). Every level gets the same fraction of its own size,
+# so the levels stay alike and Richardson's h = DOFs^(-1/3) stays their mesh parameter (a fixed size
+# in the wall, as at small holes, would leave the wall's error out of the levels' difference, and
+# the budget could not coarsen it). Walls at or above half the finest size are meshed as before: the
+# built-in link's 2.535 mm side rails at 4.5 mm (refining them on its 6 mm level alone widened its
+# estimate from 0.85 to 0.91 %, measured).
 THIN_WALL_FRACTION = 0.5
 
 
