@@ -181,6 +181,16 @@ def faces_on_cylinder(
     return faces, samples
 
 
+def face_cylinder(face: int) -> tuple[Cylinder, bool] | None:
+    """The cylinder a face lies on (analytic or fitted to its samples) and whether the face is
+    concave (a hole's: the material outside the radius), or None for a face on no cylinder."""
+    if gmsh.model.getType(2, face) in _NOT_CYLINDERS:
+        return None
+    points, normals = _face_samples(face)
+    cylinder = _analytic_cylinder(face) or fit_cylinder(points, normals)
+    return None if cylinder is None else (cylinder, _concave(cylinder, points, normals))
+
+
 def fit_cylinder(points: np.ndarray, normals: np.ndarray) -> Cylinder | None:
     """The cylinder through sampled surface points with these normals, or None if none fits.
 

@@ -9,8 +9,8 @@ from the hole's axis as round a cylinder:
 
     P2 unknowns = VOLUME_COEF * integral(dV / s^3) + AREA_COEF * integral(dA / s^2)
 
-Thin planar walls refined by their own field (geometry.meshing.THIN_WALL_FRACTION) add their
-material and their two faces at the wall's size. A mirror half is half the part plus the face it
+Thin walls (planar, rings round holes) refined by their own field
+(geometry.meshing.THIN_WALL_FRACTION) add their material and their two faces at the wall's size. A mirror half is half the part plus the face it
 gets on the mirror plane, at the far size: without that face the half's real / estimate on the
 built-in link was 0.005-0.065 above the whole's at 3-9 mm, with it within 0.022 of it (measured).
 
@@ -53,7 +53,7 @@ class Hole:
 
 @dataclass(frozen=True)
 class WallFeature:
-    """A planar wall of the part (geometry.walls): its thickness and the area across it (metres)."""
+    """A thin wall of the part (geometry.walls): its thickness and the area across it (metres)."""
 
     thickness_m: float
     area_m2: float
@@ -67,7 +67,7 @@ class MeshFeatures:
     area_m2: float  # the whole boundary
     pin_bores: tuple[Hole, Hole]
     small_holes: tuple[Hole, ...]  # every other full hole
-    walls: tuple[WallFeature, ...] = ()  # planar walls (geometry.part.WALL_SEARCH_DIAGONALS)
+    walls: tuple[WallFeature, ...] = ()  # thin walls (geometry.part.WALL_SEARCH_DIAGONALS)
     mirror_cut_area_m2: float = 0.0  # the face a mirror half gets on its plane (none: 0)
 
 

@@ -47,18 +47,18 @@ BORE_FIELD_OUTER_RADII = 2.5
 # Grading from a small hole's size to the far size: the size grows by at most this much per unit
 # distance (a gentle gradient keeps the tets' shape).
 SIZE_GRADIENT = 0.5
-# A planar wall (geometry.walls) thinner than this fraction of the reference size h_f (the finest
-# size a study asks for, kept where the memory budget coarsens the levels) is refined on every
-# level: there a P2 element of the level's size would have no node inside the wall (fem.quality's
-# thin-wall warning). On a level of size h_f a wall of thickness t gets elements of
-# max(t, 4 t^2 / h_f): one through the thickness (a P2 node in the middle) under a quarter of h_f,
-# growing to h_f at half of it, so that the size is continuous in t (a design study's variants of
-# a wall get no jump in k). Every level gets the same fraction of its own size, so the levels stay
-# alike and Richardson's h = DOFs^(-1/3) stays their mesh parameter (a fixed size in the wall, as
-# at small holes, would leave the wall's error out of the levels' difference, and the budget could
-# not coarsen it). Walls at or above half the finest size are meshed as before: the built-in
-# link's 2.535 mm side rails at 4.5 mm (refining them on its 6 mm level alone widened its estimate
-# from 0.85 to 0.91 %, measured).
+# A thin wall (geometry.walls: planar, or the ring round a hole) thinner than this fraction of the
+# reference size h_f (the finest size a study asks for, kept where the memory budget coarsens the
+# levels) is refined on every level: there a P2 element of the level's size would have no node
+# inside the wall (fem.quality's thin-wall warning). On a level of size h_f a wall of thickness t
+# gets elements of max(t, 4 t^2 / h_f): one through the thickness (a P2 node in the middle) under a
+# quarter of h_f, growing to h_f at half of it, so that the size is continuous in t (a design
+# study's variants of a wall get no jump in k). Every level gets the same fraction of its own size,
+# so the levels stay alike and Richardson's h = DOFs^(-1/3) stays their mesh parameter (a fixed size
+# in the wall, as at small holes, would leave the wall's error out of the levels' difference, and
+# the budget could not coarsen it). Walls at or above half the finest size are meshed as before: the
+# built-in link's 2.535 mm side rails at 4.5 mm (refining them on its 6 mm level alone widened its
+# estimate from 0.85 to 0.91 %, measured).
 THIN_WALL_FRACTION = 0.5
 
 
@@ -210,7 +210,7 @@ def small_hole_fields(volumes: list[int], pins: Sequence[DetectedBore], size_far
 
 
 def thin_wall_size(thickness_m: float, size_far: float, reference_m: float) -> float:
-    """Element size in a planar wall of this thickness on a level of `size_far` whose walls are
+    """Element size in a thin wall of this thickness on a level of `size_far` whose walls are
     judged against `reference_m` (THIN_WALL_FRACTION)."""
     relative = thickness_m / reference_m
     return size_far * min(1.0, max(relative, (relative / THIN_WALL_FRACTION) ** 2))
@@ -219,8 +219,8 @@ def thin_wall_size(thickness_m: float, size_far: float, reference_m: float) -> f
 def thin_wall_fields(
     volumes: list[int], size_far: float, reference_m: float, cut_faces: Sequence[int] = ()
 ) -> list[FaceRefinement]:
-    """The planar walls thinner than THIN_WALL_FRACTION x `reference_m`, each refined from its
-    smaller face: within a wall's thickness of that face lies the wall's material across from it.
+    """The thin walls (planar, rings round holes) thinner than THIN_WALL_FRACTION x `reference_m`,
+    each refined from its smaller face (a ring's hole face): within a wall's thickness of that face lies the wall's material across from it.
     A mirror half's `cut_faces` are no wall's side (the part goes on past them)."""
     return [
         FaceRefinement(wall.faces[:1], wall.thickness_m, thin_wall_size(wall.thickness_m, size_far, reference_m))

@@ -41,7 +41,7 @@ from geometry.step_io import import_step_bytes, read_step
 from geometry.symmetry import faces_on_plane, keep_positive_half, symmetry_plane
 from geometry.walls import thin_walls
 
-# The unknowns estimate knows the planar walls up to this fraction of the part's diagonal thick:
+# The unknowns estimate knows the thin walls up to this fraction of the part's diagonal thick:
 # those refined on levels whose finest size is up to 0.2 diagonals (geometry.meshing's
 # THIN_WALL_FRACTION), far coarser than any default (at most pitch / 25, under 0.04 diagonals) or a
 # useful --mesh-size. Finding them takes 0.1-0.5 s on the corpus parts that resolve.
@@ -190,7 +190,7 @@ def _measure(part: Part) -> PartGeometry:
 
 
 def _mesh_features(body: int, volume_m3: float, pins: PinBores, diagonal_m: float) -> MeshFeatures:
-    """The body's volume, boundary area, holes' face areas and planar walls, from the current gmsh model."""
+    """The body's volume, boundary area, holes' face areas and thin walls, from the current gmsh model."""
     boundary = gmsh.model.getBoundary([(3, body)], oriented=False)
 
     def hole(detected) -> Hole:

@@ -73,6 +73,40 @@ def test_the_wall_size_is_continuous_and_one_element_through_a_very_thin_wall():
     assert np.all(np.diff(sizes) > 0)
 
 
+def lug_bar(hole_offset_m: float) -> list[int]:
+    """A 30 mm bar 12 mm wide and 5 mm thick whose ends are r 6 mm rounds: an r 4.5 mm bore at one
+    end, `hole_offset_m` along the bar from its round's axis, and an r 3 mm bore at the other."""
+    occ = gmsh.model.occ
+    bar = occ.addBox(0, -0.006, 0, 0.030, 0.012, 0.005)
+    body, _ = occ.fuse([(3, bar)], [(3, occ.addCylinder(x, 0, 0, 0, 0, 0.005, 0.006)) for x in (0.0, 0.030)])
+    bores = [
+        occ.addCylinder(hole_offset_m, 0, -0.001, 0, 0, 0.007, 0.0045),
+        occ.addCylinder(0.030, 0, -0.001, 0, 0, 0.007, 0.003),
+    ]
+    body, _ = occ.cut(body, [(3, b) for b in bores])
+    occ.synchronize()
+    return [tag for _, tag in body]
+
+
+@pytest.mark.parametrize(("offset_m", "thinnest_m"), [(0.0, 0.0015), (-0.0005, 0.0010)])
+def test_the_ring_between_a_bore_and_its_lugs_round_is_a_wall(offset_m, thinnest_m):
+    # the round covers the half of each bore that faces away from the bar: 5 of the 9 sample
+    # columns round the bore; an off-centre bore's wall is its thinnest point
+    with gmsh_model("lug"):
+        walls = thin_walls(lug_bar(offset_m), 0.004)
+        face_area = 2 * np.pi * 0.0045 * 0.005
+    rings = sorted(walls, key=lambda w: w.thickness_m)  # the bar is 5 mm thick, 12 mm wide: no planar wall
+    assert [w.thickness_m for w in rings] == pytest.approx([thinnest_m, 0.003], rel=1e-6)
+    assert rings[0].area_m2 == pytest.approx(5 / 9 * face_area, rel=1e-6)
+    with gmsh_model("lug"):
+        volumes = lug_bar(offset_m)
+        assert thin_walls(volumes, 0.9 * thinnest_m) == []
+        # refined from the bore's face, as a planar wall from its smaller face
+        (field,) = thin_wall_fields(volumes, 0.006, 2.5 * thinnest_m)
+    assert field.faces == rings[0].faces[:1] and field.reach_m == pytest.approx(thinnest_m)
+    assert field.size_m == pytest.approx(thin_wall_size(thinnest_m, 0.006, 2.5 * thinnest_m))
+
+
 def test_a_plate_thinner_than_half_the_elements_is_found_and_refined(plate):
     with gmsh_model("walls"):
         (wall,) = thin_walls(plate.load_body(), 0.005)
