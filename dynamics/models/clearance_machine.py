@@ -125,8 +125,8 @@ class ClearanceMachine:
         scaled by (R / R_m)^2 at most (dd/du <= R / R_m - 1), so the frequency is bounded by R / R_m times."""
         top = _top_frequency_sparse if self.reduced_damping else _top_frequency
         omega = cache.cached(("machine-top-frequency", self.machine), lambda: top(self.machine))
-        if self.machine.polygonal:
-            omega *= max(e.wheel.pitch_radius_m / e.wheel.feed_radius_m for e in self.machine.wheel_ends)
+        if self.machine.polygonal:  # the single-link drive has no wheel: no polygonal action
+            omega *= max((e.wheel.pitch_radius_m / e.wheel.feed_radius_m for e in self.machine.wheel_ends), default=1.0)
         return omega
 
     def damping_ratio_at(self, omega_rad_s: float) -> float:
