@@ -16,13 +16,16 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
+from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.clearance_machine import ClearanceMachine
 from dynamics.models.layout import LINK_DRIVE
 from dynamics.models.machine import MachineOnWheels, modal_damping_matrix
+from dynamics.scene import simulate_chain
 from dynamics.solvers import clearance_verlet as cv
 from dynamics.solvers import machine_verlet as mv
+from dynamics.solvers import ring_on_topology
 from dynamics.solvers.machine_steady import periodic_state
 from dynamics.solvers.simulate import SlackChainWarning, simulate
 
@@ -176,3 +179,44 @@ def test_the_impact_measurements_differ_at_first_order_in_the_step(law):
         apart.append(float(np.mean(np.abs(new.impact_speeds_m_s - old.impact_speeds_m_s))))
     assert 3.0 < apart[0] / apart[1] < 5.5
     assert abs(new.impact_kinetic_energy_J / old.impact_kinetic_energy_J - 1.0) < 0.03
+
+
+@pytest.mark.parametrize("law", ["global", "kelvin-voigt"])
+def test_the_rings_scene_on_the_topology_kernel(law):
+    """dynamics.scene.simulate_chain with kernel="topology" (dynamics.solvers.ring_on_topology) on the
+    default scene's 180-degree window (85 links, friction 0.35, 0.094 mm, periodic steady state): the
+    same steady-state search (same cycles), step and model; the response to 1e-12 (accelerations
+    2e-12: the search's end state carries the kernels' rounding); impacts, free play and tension
+    extremes as the ring's. The impact statistics are the known difference (first order in the step,
+    `test_the_impact_measurements_differ_at_first_order_in_the_step`): within 10 % at the default
+    step, and the force spike's window, counted by the machine from the step's end instead of the
+    crossing, is never shorter than the ring's."""
+    chain = ChainModel(N, M, 9.0092e7, friction_coefficient=0.35)
+    model = ClearanceChain(chain, CLEARANCE_M, span_damping=law)
+    t = np.arange(721) / 4 / (6 * 180.0)
+    ring, ring_contact = simulate_chain(model, _cam(), t)
+    ours, contact = simulate_chain(model, _cam(), t, kernel="topology")
+    assert _apart(ours.x_m - ours.z_m[:, None], ring.x_m - ring.z_m[:, None]) < 1e-12
+    assert _apart(ours.v_m_s, ring.v_m_s) < 1e-12
+    assert _apart(ours.a_m_s2, ring.a_m_s2) < 2e-12
+    assert _apart(ours.tension_N, ring.tension_N) < 1e-12
+    assert contact.steady_state.cycles == ring_contact.steady_state.cycles
+    for name in ("model", "reason", "steps_per_output", "impacts_per_cycle", "free_play_time_fraction"):
+        assert getattr(contact, name) == getattr(ring_contact, name), name
+    for name in ("peak_tension_N", "min_tension_N"):
+        assert getattr(contact, name) == pytest.approx(getattr(ring_contact, name), rel=1e-12), name
+    for name in ("closing_speed_max_m_s", "closing_speed_median_m_s", "energy_per_cycle_J", "force_spike_N"):
+        assert getattr(contact.impacts, name) == pytest.approx(getattr(ring_contact.impacts, name), rel=0.1), name
+    assert contact.impact_force_spike_N >= ring_contact.impact_force_spike_N * (1 - 1e-12)
+    if law == "global":
+        assert contact.impact_force_spike_N == pytest.approx(ring_contact.impact_force_spike_N, rel=1e-12)
+
+
+def test_the_topology_kernel_refuses_the_rings_long_chain_damping():
+    """Above DENSE_LINK_LIMIT links the ring's O(N) damping (reduced_damping) is not the machine's
+    (machine_damping): the topology kernel says so instead of running another model."""
+    model = ClearanceChain(ChainModel(401, M, K), CLEARANCE_M)
+    with pytest.raises(DynamicsError, match="kernel 'topology'"):
+        ring_on_topology.machine_of(model)
+    with pytest.raises(DynamicsError, match="kernel: expected one of"):
+        simulate_chain(ClearanceChain(ChainModel(N, M, K), CLEARANCE_M), _cam(), np.arange(3) * 1e-3, kernel="x")
