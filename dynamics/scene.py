@@ -136,7 +136,8 @@ class ImpactStatistics:
 
 
 def impact_statistics(run, cycles: float) -> ImpactStatistics:
-    """ImpactStatistics of an integrator run (dynamics.solvers.clearance_verlet.Run) over `cycles` cam cycles."""
+    """ImpactStatistics of an integrator's run over `cycles` cam cycles: a clearance_verlet.Run, or
+    the machine's window of index cycles (dynamics.machine_scene), which carries the same fields."""
     speeds = run.impact_speeds_m_s
     median, p90 = np.percentile(speeds, [50.0, 90.0]) if speeds.size else (0.0, 0.0)
     return ImpactStatistics(
