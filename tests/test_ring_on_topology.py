@@ -220,3 +220,19 @@ def test_the_topology_kernel_refuses_the_rings_long_chain_damping():
         ring_on_topology.machine_of(model)
     with pytest.raises(DynamicsError, match="kernel: expected one of"):
         simulate_chain(ClearanceChain(ChainModel(N, M, K), CLEARANCE_M), _cam(), np.arange(3) * 1e-3, kernel="x")
+
+
+def test_the_rings_step_control_and_carriage_on_the_topology_kernel():
+    """simulate_chain(accuracy=) halves the step until the station metrics settle: on the topology
+    kernel the same doublings (same steps per sample, the error estimate to 1e-9 of itself), the same
+    steady state, and the links' and the carriage's motion to 1e-12 (24 links, tensioner, friction)."""
+    chain = ChainModel(24, M, 9.0092e7, friction_coefficient=0.35)
+    model = ClearanceChain(chain, CLEARANCE_M, tensioner=TENSIONER)
+    t = np.arange(361) / 2 / (6 * 180.0)
+    ring, ring_contact = simulate_chain(model, _cam(), t, accuracy=1e-3)
+    ours, contact = simulate_chain(model, _cam(), t, accuracy=1e-3, kernel="topology")
+    assert contact.steps_per_output == ring_contact.steps_per_output > 9
+    assert contact.step_error_estimate == pytest.approx(ring_contact.step_error_estimate, rel=1e-9)
+    assert contact.steady_state.cycles == ring_contact.steady_state.cycles
+    assert _apart(ours.x_m - ours.z_m[:, None], ring.x_m - ring.z_m[:, None]) < 1e-12
+    assert _apart(ours.diagnostics["carriage_m"], ring.diagnostics["carriage_m"]) < 1e-12
