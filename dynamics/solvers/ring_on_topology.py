@@ -12,8 +12,9 @@ interpolated within the step (first order in the step: a few per cent at the def
 largest force over a whole contact begun by an impact (`Run.peak_force_in_impact_contact_N`) is not
 measured (NaN); the O(N) damping above DENSE_LINK_LIMIT links is the machine's
 (dynamics.models.machine_damping), not the ring's (dynamics.models.reduced_damping), so it is refused
-there; and the global law's product C w is the plain one, not the ring's mirror blocks (about 1.45x
-the ring's cost per step: benchmarks/bench_ring_on_topology.py).
+there; and the global law's product C w is the plain one, not the ring's mirror blocks (1.4-1.8x the
+ring's cost per step with the global law, 1.0-1.1x with Kelvin-Voigt, 85 links:
+benchmarks/bench_ring_on_topology.py).
 """
 
 from __future__ import annotations
