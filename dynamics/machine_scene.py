@@ -42,10 +42,10 @@ from dynamics.scene import (
     DEFAULT_TOL,
     ChainModelKind,
     ContactSummary,
-    ImpactStatistics,
     SteadyState,
     _select,
     choose_model,
+    impact_statistics,
     station_values,
 )
 from dynamics.solvers import clearance_verlet as verlet
@@ -370,16 +370,7 @@ def _free_play_fraction(model, chosen, run: _Window) -> float:
 
 def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, sub) -> ContactSummary:
     cycles = run.cycles
-    speeds = run.impact_speeds_m_s
-    median, p90 = np.percentile(speeds, [50.0, 90.0]) if speeds.size else (0.0, 0.0)
-    impacts = ImpactStatistics(
-        run.impact_max_speed_m_s,
-        float(median),
-        float(p90),
-        run.impact_force_spike_N,
-        float(run.impact_kinetic_energy_J / cycles),
-        float(run.impact_dissipated_J / cycles),
-    )
+    impacts = impact_statistics(run, cycles)
     return ContactSummary(
         *chosen,
         model.clearance_m,

@@ -41,7 +41,7 @@ from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.layout import LINK_DRIVE, MachineLayout
 from dynamics.response.fidelity import relative_change
 from dynamics.response.metrics import link_metrics, station_links
-from dynamics.solvers import cache, shooting
+from dynamics.solvers import cache, ring_on_topology, shooting
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
 from dynamics.solvers.simulate import ChainResponse, SlackChainWarning, simulate
@@ -136,7 +136,8 @@ class ImpactStatistics:
 
 
 def impact_statistics(run, cycles: float) -> ImpactStatistics:
-    """ImpactStatistics of an integrator run (dynamics.solvers.clearance_verlet.Run) over `cycles` cam cycles."""
+    """ImpactStatistics of an integrator's run over `cycles` cam cycles: a clearance_verlet.Run, or
+    the machine's window of index cycles (dynamics.machine_scene), which carries the same fields."""
     speeds = run.impact_speeds_m_s
     median, p90 = np.percentile(speeds, [50.0, 90.0]) if speeds.size else (0.0, 0.0)
     return ImpactStatistics(
@@ -223,11 +224,17 @@ def simulate_chain(
     max_cycles: int = DEFAULT_MAX_CYCLES,
     predictor: str | None = None,
     accuracy: float | None = None,
+    kernel: str = "ring",
 ) -> tuple[ChainResponse, ContactSummary]:
     """The response of the scene's model at t_eval_s and what it says about contact. The clearance
     chain's step: a fraction `safety` (default `verlet.default_safety`) of the stability limit of the
     velocity `predictor` (default `verlet.default_predictor`); with `accuracy` (a relative error) that
-    step halved until the station metrics change by at most it (ContactSummary.step_error_estimate)."""
+    step halved until the station metrics change by at most it (ContactSummary.step_error_estimate).
+    `kernel`: the compiled step, the ring's own (dynamics.solvers.clearance_verlet) or the machine's on
+    the ring's topology (dynamics.solvers.ring_on_topology: what it does not give yet is listed there,
+    so the pipeline keeps the ring's)."""
+    if kernel not in ring_on_topology.KERNELS:
+        raise DynamicsError(f"kernel: expected one of {', '.join(ring_on_topology.KERNELS)}, got {kernel!r}")
     t = np.asarray(t_eval_s, dtype=float)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", SlackChainWarning)  # reported through the summary
@@ -264,7 +271,20 @@ def simulate_chain(
         raise DynamicsError(f"accuracy: expected a relative error in (0, 1) or None, got {accuracy!r}")
     with serial_blas():
         return _clearance_response(
-            model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor, accuracy
+            model,
+            cam,
+            t,
+            lin,
+            links,
+            steady_state,
+            safety,
+            tol,
+            max_cycles,
+            chosen,
+            needed,
+            predictor,
+            accuracy,
+            kernel,
         )
 
 
@@ -279,8 +299,13 @@ def _cam_nodes(cam, t0: float, step: float, n_steps: int):
     return np.asarray(v, dtype=float), np.asarray(a, dtype=float)
 
 
+def _integrator(kernel: str):
+    """The compiled step behind clearance_verlet.integrate's call (`simulate_chain`'s `kernel`)."""
+    return verlet.integrate if kernel == "ring" else ring_on_topology.integrate
+
+
 def _clearance_response(
-    model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor, accuracy
+    model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor, accuracy, kernel
 ):
     h_out = np.diff(t)
     if np.max(np.abs(h_out - h_out[0])) > 1e-9 * h_out[0]:
@@ -290,10 +315,12 @@ def _clearance_response(
     y0 = lin.x_m[0] - lin.z_m[0]
     w0 = lin.v_m_s[0] - lin.zdot_m_s[0]
     start = (y0, w0, 0.0, 0.0)
-    level = _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor)
+    level = _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor, kernel)
     estimate = None
     if accuracy is not None:
-        level, estimate = _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy)
+        level, estimate = _controlled(
+            model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy, kernel
+        )
     sub, run, ss = level.sub, level.run, level.steady_state
     h = float(h_out[0]) / sub
     s, v, a, _ = (np.asarray(q, dtype=float) for q in cam.svaj(t))
@@ -352,21 +379,21 @@ class _Level(NamedTuple):
     steady_state: SteadyState | None
 
 
-def _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor) -> _Level:
+def _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor, kernel="ring") -> _Level:
     """The output window at `sub` steps per output sample, from the periodic state at that step
     (searched from `start`) or, without steady state, from `start` itself."""
     h = float(t[1] - t[0]) / sub
     state, ss = start, None
     if steady_state:
-        state, ss = _periodic_state(model, cam, t[0], h, start, tol, max_cycles, predictor)
+        state, ss = _periodic_state(model, cam, t[0], h, start, tol, max_cycles, predictor, kernel=kernel)
     zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
-    run = verlet.integrate(
+    run = _integrator(kernel)(
         model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub, predictor=predictor
     )
     return _Level(sub, run, state, ss)
 
 
-def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy):
+def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy, kernel="ring"):
     """Step doubling on the output window until the station metrics' estimated error is within
     `accuracy` (or MAX_STEP_DOUBLINGS are spent): returns the finest level and its estimate, the
     change from step h to h/2. The scheme is second order, so that change is about 3x the error left
@@ -382,7 +409,7 @@ def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, pred
         # max_cycles): both windows start there, and no steady state is claimed for the finer one
         search = steady_state and previous.steady_state.found
         begin = previous.state if steady_state else start
-        level = _window_run(model, cam, t, 2 * previous.sub, begin, search, tol, max_cycles, predictor)
+        level = _window_run(model, cam, t, 2 * previous.sub, begin, search, tol, max_cycles, predictor, kernel)
         ss = previous.steady_state
         if search:
             ss = replace(level.steady_state, cycles=previous.steady_state.cycles + level.steady_state.cycles)
@@ -418,7 +445,9 @@ def station_values(cam, t, x_m, v_m_s, a_m_s2, columns) -> np.ndarray:
     return np.concatenate([np.ravel(getattr(lm, f.name)) for f in fields(lm)])
 
 
-def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler", depth=shooting.DEFAULT_DEPTH):
+def _periodic_state(
+    model, cam, t0, h, state, tol, max_cycles, predictor="euler", depth=shooting.DEFAULT_DEPTH, kernel="ring"
+):
     period = getattr(cam, "period_s", None)
     if period is None:
         raise DynamicsError("steady_state: the cam program is not periodic (period_s is None); use steady_state=False")
@@ -431,7 +460,7 @@ def _periodic_state(model, cam, t0, h, state, tol, max_cycles, predictor="euler"
     zd, zdd = _cam_nodes(cam, t0, h_p, n_p)
 
     def one_period(x):
-        run = verlet.integrate(
+        run = _integrator(kernel)(
             model, zd, zdd, h_p, x[:n], x[n : 2 * n], u0=x[-2], ud0=x[-1], out_every=every, predictor=predictor
         )
         end = np.concatenate([run.y[-1], run.w[-1], [run.u[-1], run.ud[-1]]])

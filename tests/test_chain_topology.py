@@ -55,11 +55,30 @@ def test_chain_matrices_equal_the_old_builders(model):
     np.testing.assert_array_equal(model.mass_matrix(), model.link_mass_kg * np.eye(model.n_links))
 
 
+def _old_full_contact_stiffness(model, tensioner, s):
+    """ClearanceChain.full_contact_stiffness as it was built before the topology: the chain's K with
+    the carriage's row and column added by hand (the idler span s: stretch e_s + 2u)."""
+    n, k = model.n_links, model.stiffness_N_per_m
+    kk = np.zeros((n + 1, n + 1))
+    kk[:n, :n] = _old_dense_stiffness(model)
+    b = np.zeros(n + 1)
+    b[(s + 1) % n] += 1.0
+    b[s] -= 1.0
+    b[n] = 2.0
+    kk += k * np.outer(b, b)
+    kk[:n, :n] -= k * np.outer(b[:n], b[:n])
+    kk[n, n] += tensioner.rate_N_per_m
+    return kk, np.diag(np.r_[np.full(n, model.link_mass_kg), tensioner.mass_kg])
+
+
 @pytest.mark.parametrize("model", CASES[:5], ids=lambda m: f"N{m.n_links}")
 @pytest.mark.parametrize("tensioner", [Tensioner(0.0, 5.0), Tensioner(2.5e5, 12.0, 300.0), Tensioner(1e9, 0.5)])
 def test_the_carriage_topology_equals_the_clearance_chains_full_contact_matrices(model, tensioner):
     chain = ClearanceChain(model, 0.0, tensioner=tensioner)
-    k_old, m_old = chain.full_contact_stiffness()
+    k_old, m_old = _old_full_contact_stiffness(model, tensioner, chain.idler_span)
+    k_new, m_new = chain.full_contact_stiffness()  # derived from the topology since
+    np.testing.assert_array_equal(k_new, k_old)
+    np.testing.assert_array_equal(m_new, m_old)
     topo = ring_topology(
         model.n_links,
         model.link_mass_kg,

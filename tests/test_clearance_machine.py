@@ -1,6 +1,7 @@
 """The clearance chain on its wheels (dynamics.models.clearance_machine, dynamics.solvers.machine_verlet,
-dynamics.machine_scene): reductions to today's clearance chain and to the linear machine, the
-relabelled steady state, the scene entry point."""
+dynamics.machine_scene): the reduction to the linear machine, the relabelled steady state, the scene
+entry point. The reduction to today's clearance chain (the single-link drive on this kernel) is
+tests/test_ring_on_topology.py."""
 
 import numpy as np
 import pytest
@@ -9,7 +10,7 @@ from dynamics.cams import CamProgram
 from dynamics.errors import DynamicsError
 from dynamics.machine_scene import WINDOW_REFINEMENT
 from dynamics.models.chain import ChainModel
-from dynamics.models.clearance import ClearanceChain, Tensioner
+from dynamics.models.clearance import Tensioner
 from dynamics.models.clearance_machine import ClearanceMachine
 from dynamics.models.layout import MachineLayout
 from dynamics.models.wheels import Wheel
@@ -31,32 +32,6 @@ def _cam(rpm=180):
 def _wheels(polygonal=True, inertia=0.688, idler=True, stiffness=None):
     w = Wheel(12, PITCH_M, 6, inertia)
     return MachineLayout("wheels", w, w if idler else None, stiffness, polygonal)
-
-
-@pytest.mark.parametrize("law", ["global", "kelvin-voigt"])
-@pytest.mark.parametrize("tensioner", [None, Tensioner(1e5, 5.0, 100.0)])
-@pytest.mark.parametrize("friction", [0.0, 0.1])
-def test_the_ring_on_the_topology_step_is_todays_clearance_chain(law, tensioner, friction):
-    """drive='link': the topology's spans, carriage and ground springs packed as arrays give
-    dynamics.solvers.clearance_verlet's step (the ring's own kernel, mirror damping product and all)
-    to rounding over a whole index cycle through hundreds of impacts."""
-    chain = ChainModel(85, M, K, friction_coefficient=friction)
-    ring = ClearanceChain(chain, 94e-6, span_damping=law, tensioner=tensioner)
-    machine = ClearanceMachine.of(chain, MachineLayout(), tensioner, 94e-6, law)
-    cam = _cam()
-    n = int(cam.cycle_s / cv.stable_step_s(ring, 0.25)) + 1
-    h = cam.cycle_s / n
-    zr, zd, zdd = mv.cycle_nodes(cam, h, n)
-    rng = np.random.default_rng(1)
-    y0, w0 = 1e-4 * rng.standard_normal(85), 1e-2 * rng.standard_normal(85)
-    old = cv.integrate(ring, zd, zdd, h, y0, w0, out_every=n)
-    extra = [0.0] if tensioner else []
-    new = mv.integrate(machine, zr, zd, zdd, h, np.r_[y0, extra], np.r_[w0, extra], out_every=n)
-    assert old.impacts > 100 and new.impacts == old.impacts
-    scale = np.max(np.abs(old.y[-1]))
-    assert np.max(np.abs(new.q[-1, :85] - old.y[-1])) < 1e-12 * scale
-    assert new.peak_tension_N == pytest.approx(old.peak_tension_N, rel=1e-12)
-    assert new.min_tension_N == pytest.approx(old.min_tension_N, rel=1e-12)
 
 
 def _exact_cam(cam):

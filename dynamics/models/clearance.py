@@ -46,6 +46,7 @@ from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.models.reduction import DENSE_LINK_LIMIT
 from dynamics.models.system import SecondOrderSystem
+from dynamics.models.topology import ChainTopology, ring_topology
 from dynamics.response.metrics import matlab_round
 from dynamics.solvers._common import serial_blas
 
@@ -114,16 +115,23 @@ class ClearanceChain:
     @property
     def contact_frequency_rad_s(self) -> float:
         """One span closing on two free links: omega_c = sqrt(2 k / m)."""
-        return float(np.sqrt(2.0 * self.chain.stiffness_N_per_m / self.chain.link_mass_kg))
+        return contact_frequency_rad_s(self.chain)
 
     @property
     def beta_s(self) -> float:
         """The Kelvin-Voigt dashpot factor (s): dashpot beta k per span."""
-        if self.kv_beta_s is not None:
-            return float(self.kv_beta_s)
-        if self.chain.rayleigh_coefficients is not None:
-            return float(self.chain.rayleigh_coefficients[1])
-        return 2.0 * self.chain.damping_ratio / self.contact_frequency_rad_s
+        return kelvin_voigt_beta_s(self.chain, self.kv_beta_s)
+
+    @property
+    def topology(self) -> ChainTopology:
+        """The ring's topology (dynamics.models.topology.ring_topology): N links, the drive spring on
+        link 0, the carriage as one more DOF inside the idler span when a tensioner is modelled. The
+        single-link drive of the machine (dynamics.models.machine, drive="link") is the same."""
+        c, t = self.chain, self.tensioner
+        carriage = None if t is None else (self.idler_span, t.rate_N_per_m, t.mass_kg)
+        return ring_topology(
+            c.n_links, c.link_mass_kg, c.stiffness_N_per_m, c.preload_N, c.drive_stiffness, carriage=carriage
+        )
 
     @property
     def damping_matrix(self) -> np.ndarray:
@@ -145,23 +153,11 @@ class ClearanceChain:
         return reduced_damping(self.chain, self.damping_tolerance or DEFAULT_DAMPING_TOLERANCE)
 
     def full_contact_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
-        """(K, M) of the linearised chain with every span in contact, carriage included when present."""
-        k_chain = self.chain.stiffness_matrix()
-        m_chain = self.chain.mass_matrix()
-        if self.tensioner is None:
-            return k_chain, m_chain
-        n, k, s = self.n_links, self.chain.stiffness_N_per_m, self.idler_span
-        kk = np.zeros((n + 1, n + 1))
-        kk[:n, :n] = k_chain
-        b = np.zeros(n + 1)  # span s stretch e_s + 2u = b . [y; u]
-        b[(s + 1) % n] += 1.0
-        b[s] -= 1.0
-        b[n] = 2.0
-        kk += k * np.outer(b, b)
-        kk[:n, :n] -= k * np.outer(b[:n], b[:n])  # the chain's K already holds span s's y-y part
-        kk[n, n] += self.tensioner.rate_N_per_m
-        mm = np.diag(np.concatenate([np.diag(m_chain), [self.tensioner.mass_kg]]))
-        return kk, mm
+        """(K, M) of the linearised chain with every span in contact, carriage included when present
+        (the topology's: each entry a small integer times k, plus the ground springs, so exactly the
+        former builder's, tests/test_chain_topology.py)."""
+        topo = self.topology
+        return topo.stiffness_matrix(), topo.mass_matrix()
 
     def max_frequency_rad_s(self) -> float:
         """Largest natural frequency with every span in contact (free play only softens the chain)."""
@@ -176,12 +172,7 @@ class ClearanceChain:
 
     def damping_ratio_at(self, omega_rad_s: float) -> float:
         """Damping ratio the law gives a mode at omega (used to set the explicit step)."""
-        if self.span_damping == "kelvin-voigt":
-            return 0.5 * self.beta_s * omega_rad_s
-        if self.chain.rayleigh_coefficients is not None:
-            alpha, beta = self.chain.rayleigh_coefficients
-            return 0.5 * (alpha / omega_rad_s + beta * omega_rad_s)
-        return self.chain.damping_ratio
+        return damping_ratio_at(self.chain, self.span_damping, self.beta_s, omega_rad_s)
 
     def system(self) -> SecondOrderSystem:
         """The clearance chain in the solvers' common form (dynamics.solvers.solve): the linear
@@ -238,26 +229,46 @@ class ClearanceChain:
 
 
 def _sparse_top_frequency(model: ClearanceChain) -> float:
-    """`max_frequency_rad_s` from sparse matrices (long chains: no N x N array), carriage included."""
+    """`max_frequency_rad_s` from the topology's sparse K (long chains: no N x N array), carriage
+    included. (ARPACK's start vector moves between calls, so the result moves by about 1e-15
+    relative from call to call, as it did on the former hand-built sparse K; it only sets a whole
+    number of steps per output sample, `substeps_for`.)"""
     import scipy.sparse as sp
     from scipy.sparse.linalg import eigsh
 
-    from dynamics.response.sweep import stiffness_matrix_sparse
-
-    c, t = model.chain, model.tensioner
-    k_chain = stiffness_matrix_sparse(c)
-    if t is None:
-        kk, masses = k_chain, np.full(c.n_links, c.link_mass_kg)
-    else:
-        n, k, s = model.n_links, c.stiffness_N_per_m, model.idler_span
-        b = sp.csr_matrix(([-1.0, 1.0, 2.0], ([0, 0, 0], [s, (s + 1) % n, n])), shape=(1, n + 1))
-        b_chain = sp.csr_matrix(([-1.0, 1.0], ([0, 0], [s, (s + 1) % n])), shape=(1, n + 1))
-        kk = sp.block_diag([k_chain, sp.csr_matrix(([t.rate_N_per_m], ([0], [0])), shape=(1, 1))])
-        kk = kk + k * (b.T @ b) - k * (b_chain.T @ b_chain)
-        masses = np.concatenate([np.full(n, c.link_mass_kg), [t.mass_kg]])
-    scale = sp.diags(1.0 / np.sqrt(masses))
+    topo = model.topology
+    scale = sp.diags(1.0 / np.sqrt(np.asarray(topo.masses_kg, dtype=float)))
+    kk = topo.stiffness_matrix_sparse()
     lam = eigsh((scale @ kk @ scale).tocsc(), k=1, which="LA", return_eigenvectors=False, tol=1e-12)
     return float(np.sqrt(max(lam[0], 0.0)))
+
+
+def contact_frequency_rad_s(chain: ChainModel) -> float:
+    """One span closing on two free links: omega_c = sqrt(2 k / m)."""
+    return float(np.sqrt(2.0 * chain.stiffness_N_per_m / chain.link_mass_kg))
+
+
+def kelvin_voigt_beta_s(chain: ChainModel, kv_beta_s: float | None) -> float:
+    """The Kelvin-Voigt dashpot factor beta (s) of a chain (the ring's and the machine's): the one
+    given; else the Rayleigh beta; else the one that gives one span's contact oscillation (two links,
+    `contact_frequency_rad_s`) the chain's damping ratio, 2 zeta / omega_c."""
+    if kv_beta_s is not None:
+        return float(kv_beta_s)
+    if chain.rayleigh_coefficients is not None:
+        return float(chain.rayleigh_coefficients[1])
+    return 2.0 * chain.damping_ratio / contact_frequency_rad_s(chain)
+
+
+def damping_ratio_at(chain: ChainModel, span_damping: str, beta_s: float, omega_rad_s: float) -> float:
+    """The damping ratio a damping law gives a mode at omega (it sets the explicit step's stability
+    limit): beta omega / 2 for the Kelvin-Voigt dashpots, Rayleigh's (alpha / omega + beta omega) / 2,
+    or the modal zeta."""
+    if span_damping == "kelvin-voigt":
+        return 0.5 * beta_s * omega_rad_s
+    if chain.rayleigh_coefficients is not None:
+        alpha, beta = chain.rayleigh_coefficients
+        return 0.5 * (alpha / omega_rad_s + beta * omega_rad_s)
+    return chain.damping_ratio
 
 
 @lru_cache(maxsize=16)

@@ -31,7 +31,14 @@ from functools import cached_property
 import numpy as np
 
 from dynamics.errors import DynamicsError
-from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M, SPAN_DAMPING_LAWS, span_energy_J, span_force_N
+from dynamics.models.clearance import (
+    DEFAULT_PIN_CLEARANCE_M,
+    SPAN_DAMPING_LAWS,
+    damping_ratio_at,
+    kelvin_voigt_beta_s,
+    span_energy_J,
+    span_force_N,
+)
 from dynamics.models.machine import MachineOnWheels
 from dynamics.models.machine_damping import of_machine
 from dynamics.models.reduction import DENSE_LINK_LIMIT
@@ -100,13 +107,8 @@ class ClearanceMachine:
 
     @property
     def beta_s(self) -> float:
-        """The Kelvin-Voigt dashpot factor, as dynamics.models.clearance.ClearanceChain.beta_s."""
-        c = self.chain
-        if self.kv_beta_s is not None:
-            return float(self.kv_beta_s)
-        if c.rayleigh_coefficients is not None:
-            return float(c.rayleigh_coefficients[1])
-        return 2.0 * c.damping_ratio / float(np.sqrt(2.0 * c.stiffness_N_per_m / c.link_mass_kg))
+        """The Kelvin-Voigt dashpot factor, the ring's (dynamics.models.clearance.kelvin_voigt_beta_s)."""
+        return kelvin_voigt_beta_s(self.chain, self.kv_beta_s)
 
     @property
     def reduced_damping(self) -> bool:
@@ -125,18 +127,12 @@ class ClearanceMachine:
         scaled by (R / R_m)^2 at most (dd/du <= R / R_m - 1), so the frequency is bounded by R / R_m times."""
         top = _top_frequency_sparse if self.reduced_damping else _top_frequency
         omega = cache.cached(("machine-top-frequency", self.machine), lambda: top(self.machine))
-        if self.machine.polygonal:
-            omega *= max(e.wheel.pitch_radius_m / e.wheel.feed_radius_m for e in self.machine.wheel_ends)
+        if self.machine.polygonal:  # the single-link drive has no wheel: no polygonal action
+            omega *= max((e.wheel.pitch_radius_m / e.wheel.feed_radius_m for e in self.machine.wheel_ends), default=1.0)
         return omega
 
     def damping_ratio_at(self, omega_rad_s: float) -> float:
-        c = self.chain
-        if self.span_damping == "kelvin-voigt":
-            return 0.5 * self.beta_s * omega_rad_s
-        if c.rayleigh_coefficients is not None:
-            alpha, beta = c.rayleigh_coefficients
-            return 0.5 * (alpha / omega_rad_s + beta * omega_rad_s)
-        return c.damping_ratio
+        return damping_ratio_at(self.chain, self.span_damping, self.beta_s, omega_rad_s)
 
     @cached_property
     def _incidence(self):

@@ -1,0 +1,143 @@
+"""The single-link drive (the ring) on the topology kernel (issue #22, Architecture): the cost per
+step of the ring's own compiled step (dynamics.solvers.clearance_verlet) and of the machine's
+(dynamics.solvers.machine_verlet on the ring's topology, `ClearanceMachine.of(chain, LINK_DRIVE, ...)`)
+on the same scene, and how far apart their station metrics are.
+
+    python benchmarks/run.py --only ring_on_topology
+
+The scene is bench_clearance's window (85 links, the default link's FEA k and lumped mass, aluminium,
+180 rpm, modified sine, friction 0.35, 0.094 mm free play, 180 degrees at 4 samples per degree from
+rest): the global law with the "ab2" predictor at 20 steps per output sample (issue #11's 1e-3
+target), the Kelvin-Voigt law with "euler" at 32, and the global law with the idler tensioner. The
+two kernels run interleaved (one of each per repeat), so their ratio holds under load; the table
+gives the median and the best of the repeats.
+
+Then the dynamics stage as the pipeline runs it on the single-link drive (2 materials x 5 cams, 85
+links, periodic steady state, the global law: dynamics.scene.simulate_chain) with each kernel
+(`kernel="ring"`, today's, and `kernel="topology"`), interleaved per scenario, and how far their
+summaries' impact statistics are apart (the known first-order difference).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from dynamics.cams import CamProgram
+from dynamics.models.chain import ChainModel
+from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M, ClearanceChain, Tensioner
+from dynamics.models.clearance_machine import ClearanceMachine
+from dynamics.models.layout import LINK_DRIVE
+from dynamics.response.metrics import link_metrics, station_metrics
+from dynamics.scene import simulate_chain
+from dynamics.solvers import clearance_verlet as cv
+from dynamics.solvers import machine_verlet as mv
+
+K_N_PER_M, MASS_KG = 9.0092e7, 2.03  # al6061-t6: the FEA k and the lumped mass (bench_clearance)
+MATERIALS = {"al6061-t6": (9.0092e7, 2.03), "ti-grade2": (1.3696e8, 2.28)}
+CAMS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
+PITCH_M, RPM, N_LINKS = 0.1125, 180.0, 85
+CASES = (  # (label, damping law, predictor, steps per output sample, tensioner)
+    ("global, ab2, 20 steps/sample (issue #11's 1e-3 target)", "global", "ab2", 20, None),
+    ("Kelvin-Voigt, euler, 32 steps/sample", "kelvin-voigt", "euler", 32, None),
+    ("global, ab2, 20 steps/sample, idler tensioner", "global", "ab2", 20, Tensioner(1e5, 5.0, 100.0)),
+)
+
+
+def _scene(law: str, tensioner):
+    chain = ChainModel(N_LINKS, MASS_KG, K_N_PER_M, friction_coefficient=0.35)
+    ring = ClearanceChain(chain, DEFAULT_PIN_CLEARANCE_M, span_damping=law, tensioner=tensioner)
+    machine = ClearanceMachine.of(chain, LINK_DRIVE, tensioner, DEFAULT_PIN_CLEARANCE_M, law)
+    return ring, machine
+
+
+def _nodes(cam, t, sub):
+    tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
+    s, v, a, _ = (np.asarray(x, dtype=float) for x in cam.svaj(tf))
+    return s - s[0], v, a, tf[1] - tf[0]
+
+
+def _stations(cam, t, y, w, a) -> np.ndarray:
+    s, v, acc, _ = cam.svaj(t)
+    lm = link_metrics(s[:, None] + y, v[:, None] + w, acc[:, None] + a, s, v, acc, cam.dwell_mask(t))
+    keys = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2")
+    return np.array([[getattr(x, k) for k in keys] for x in station_metrics(lm).values()])
+
+
+def _ring(ring, nodes, sub, predictor):
+    zr, zd, zdd, h = nodes
+    start = time.perf_counter()
+    r = cv.integrate(ring, zd, zdd, h, np.zeros(N_LINKS), -zd[0] * np.ones(N_LINKS), out_every=sub, predictor=predictor)
+    return time.perf_counter() - start, (r.y, r.w, r.a)
+
+
+def _machine(machine, nodes, sub, predictor):
+    zr, zd, zdd, h = nodes
+    n = machine.topology.n_dof
+    v0 = np.where(np.arange(n) < N_LINKS, -zd[0], 0.0)
+    start = time.perf_counter()
+    r = mv.integrate(machine, zr, zd, zdd, h, np.zeros(n), v0, out_every=sub, predictor=predictor)
+    return time.perf_counter() - start, (r.q[:, :N_LINKS], r.v[:, :N_LINKS], r.a[:, :N_LINKS])
+
+
+def run(quick: bool) -> list[str]:
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=RPM)
+    t = np.arange(721) / 4 / (6 * RPM)
+    repeats = 3 if quick else 9
+    lines = [
+        "| case | steps | ring kernel per step (median / best) | machine kernel per step (median / best) | "
+        "ratio of medians | window (ring / machine, median) | station metrics apart |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for label, law, predictor, sub, tensioner in CASES:
+        ring, machine = _scene(law, tensioner)
+        nodes = _nodes(cam, t, sub)
+        n_steps = nodes[1].size - 1
+        _ring(ring, nodes, sub, predictor)  # compile (or load the cache) outside the timings
+        _machine(machine, nodes, sub, predictor)
+        pairs = [(_ring(ring, nodes, sub, predictor), _machine(machine, nodes, sub, predictor)) for _ in range(repeats)]
+        ring_s = np.array([p[0][0] for p in pairs])
+        machine_s = np.array([p[1][0] for p in pairs])
+        a, b = _stations(cam, t, *pairs[0][0][1]), _stations(cam, t, *pairs[0][1][1])
+        apart = float(np.max(np.abs(a - b) / np.abs(a)))
+        us = 1e6 / n_steps
+        lines.append(
+            f"| {label} | {n_steps} | {us * np.median(ring_s):.2f} / {us * ring_s.min():.2f} us | "
+            f"{us * np.median(machine_s):.2f} / {us * machine_s.min():.2f} us | "
+            f"{np.median(machine_s) / np.median(ring_s):.2f}x | {1e3 * np.median(ring_s):.1f} / "
+            f"{1e3 * np.median(machine_s):.1f} ms | {apart:.1e} |"
+        )
+    return lines + _stage(quick)
+
+
+def _stage(quick: bool) -> list[str]:
+    t = np.arange(721) / 4 / (6 * RPM)
+    cams = CAMS[:2] if quick else CAMS
+    seconds = {"ring": [], "topology": []}
+    impact_apart, trajectory_apart = 0.0, 0.0
+    for k, m in MATERIALS.values():
+        model = ClearanceChain(ChainModel(N_LINKS, m, k, friction_coefficient=0.35), DEFAULT_PIN_CLEARANCE_M)
+        for law in cams:
+            cam = CamProgram.indexing(law, pitch_m=PITCH_M, rpm=RPM)
+            out = {}
+            for kernel in ("ring", "topology"):
+                start = time.perf_counter()
+                out[kernel] = simulate_chain(model, cam, t, kernel=kernel)
+                seconds[kernel].append(time.perf_counter() - start)
+            (ring, ring_c), (ours, ours_c) = out["ring"], out["topology"]
+            trajectory_apart = max(
+                trajectory_apart,
+                float(np.max(np.abs(ours.x_m - ring.x_m)) / np.max(np.abs(ring.x_m - ring.z_m[:, None]))),
+            )
+            for name in ("closing_speed_max_m_s", "closing_speed_median_m_s", "energy_per_cycle_J"):
+                a, b = getattr(ours_c.impacts, name), getattr(ring_c.impacts, name)
+                impact_apart = max(impact_apart, abs(a / b - 1.0))
+    ring_s, ours_s = sum(seconds["ring"]), sum(seconds["topology"])
+    return [
+        "",
+        f"Dynamics stage, single-link drive ({len(MATERIALS)} materials x {len(cams)} cams, global law, steady state): "
+        f"ring kernel {ring_s:.2f} s, topology kernel {ours_s:.2f} s, ratio {ours_s / ring_s:.2f}x; link displacements "
+        f"apart by {trajectory_apart:.1e} of their peak, impact statistics (closing speeds max and median, energy per "
+        f"cycle) by up to {100 * impact_apart:.1f} %",
+    ]

@@ -1,0 +1,108 @@
+"""The single-link drive's clearance chain (the ring, dynamics.models.clearance.ClearanceChain) stepped by
+the machine's compiled step (dynamics.solvers.machine_verlet) on the ring's topology (the layout
+dynamics.models.layout.LINK_DRIVE), behind clearance_verlet.integrate's call and its `Run`: the kernel
+dynamics.scene.simulate_chain runs with `kernel="topology"` (issue #22, Architecture: the ring as one
+more description of the topology, not a kernel of its own).
+
+What it gives (tests/test_ring_on_topology.py): the ring's trajectories, tensions, contact counts,
+free-play fraction, tension extremes, force spike and energy terms to 1e-12. What it does not
+(docs/architecture.md, "The ring on the topology kernel"): the impacts' closing speeds, approach
+energies and the Kelvin-Voigt contacts' dissipation are taken at the step's end, not at the crossing
+interpolated within the step (first order in the step: a few per cent at the default step); the
+largest force over a whole contact begun by an impact (`Run.peak_force_in_impact_contact_N`) is not
+measured (NaN); the O(N) damping above DENSE_LINK_LIMIT links is the machine's
+(dynamics.models.machine_damping), not the ring's (dynamics.models.reduced_damping), so it is refused
+there; and the global law's product C w is the plain one, not the ring's mirror blocks (1.4-1.8x the
+ring's cost per step with the global law, 1.0-1.1x with Kelvin-Voigt, 85 links:
+benchmarks/bench_ring_on_topology.py).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dynamics.errors import DynamicsError
+from dynamics.models.clearance_machine import ClearanceMachine
+from dynamics.models.layout import LINK_DRIVE
+from dynamics.solvers import cache, machine_verlet
+from dynamics.solvers import clearance_verlet as verlet
+
+KERNELS = ("ring", "topology")
+
+
+def machine_of(model) -> ClearanceMachine:
+    """The ring `model` (a ClearanceChain) as the clearance machine on the single-link drive's
+    topology (computed once per model: the solvers' cache)."""
+    if model.damping_is_reduced and model.span_damping == "global":
+        raise DynamicsError(
+            f"kernel 'topology': the ring's O(N) damping ({model.n_links} links, or damping_tolerance set) "
+            "is not the machine's; use kernel='ring'"
+        )
+    return cache.cached(
+        ("ring on topology", model),
+        lambda: ClearanceMachine.of(
+            model.chain, LINK_DRIVE, model.tensioner, model.clearance_m, model.span_damping, model.kv_beta_s
+        ),
+    )
+
+
+def integrate(
+    model,
+    zd_nodes,
+    zdd_nodes,
+    step_s: float,
+    y0,
+    w0,
+    *,
+    u0: float = 0.0,
+    ud0: float = 0.0,
+    out_every: int = 1,
+    record_from: int = 0,
+    track_energy: bool = False,
+    predictor: str = "euler",
+) -> verlet.Run:
+    """clearance_verlet.integrate's call and result, stepped by machine_verlet on the ring's topology
+    (the carriage, when a tensioner is modelled, is its last DOF). The cam's lift is not needed: the
+    link drive has no wheel whose feed angle it sets, so the lift nodes are zeros."""
+    machine = machine_of(model)
+    zd = np.ascontiguousarray(zd_nodes, dtype=float)
+    n = model.n_links
+    carriage = model.tensioner is not None
+    q0 = np.r_[np.asarray(y0, dtype=float).reshape(n), [float(u0)] if carriage else []]
+    v0 = np.r_[np.asarray(w0, dtype=float).reshape(n), [float(ud0)] if carriage else []]
+    run = machine_verlet.integrate(
+        machine,
+        np.zeros_like(zd),
+        zd,
+        zdd_nodes,
+        step_s,
+        q0,
+        v0,
+        out_every=out_every,
+        record_from=record_from,
+        predictor=predictor,
+        track_energy=track_energy,
+    )
+    rows = run.q.shape[0]
+    return verlet.Run(
+        run.q[:, :n],
+        run.v[:, :n],
+        run.a[:, :n],
+        run.q[:, n] if carriage else np.zeros(rows),
+        run.v[:, n] if carriage else np.zeros(rows),
+        impacts=run.impacts,
+        free_play_fraction=run.free_play_fraction,
+        peak_tension_N=run.peak_tension_N,
+        min_tension_N=run.min_tension_N,
+        peak_force_in_impact_contact_N=float("nan"),
+        cam_work_J=run.cam_work_J,
+        dissipated_damping_J=run.dissipated_damping_J,
+        dissipated_friction_J=run.dissipated_friction_J,
+        step_s=run.step_s,
+        n_steps=zd.size - 1,
+        impact_force_spike_N=run.impact_force_spike_N,
+        impact_speeds_m_s=run.impact_speeds_m_s,
+        impact_max_speed_m_s=run.impact_max_speed_m_s,
+        impact_kinetic_energy_J=run.impact_kinetic_energy_J,
+        impact_dissipated_J=run.impact_dissipated_J,
+    )
