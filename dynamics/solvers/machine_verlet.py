@@ -275,6 +275,7 @@ def _span_impulses_into(
     e_old,
     e_new,
     was_free,
+    contact,
     ed_old,
     ed_new,
     span_int,
@@ -287,13 +288,16 @@ def _span_impulses_into(
     v,
 ):
     """The contact changes located within the step on the topology's spans (stretches e_old, e_new at
-    the step's ends, `was_free` the start's free-play flags): the Kelvin-Voigt dashpot's switch
+    the step's ends, `was_free` the start's free-play flags, `contact` the end's: only the spans whose
+    contact changed are looked at): the Kelvin-Voigt dashpot's switch
     (clearance_verlet `_switch_impulse`, an impulse), applied to its span's ends through the same B^T
     as its force (the carriage's share, the wheel-end span's gain dd/du at the step's end, work[1]),
     divided by the DOFs' masses."""
     k, preload, kg, beta_k = par[0], par[1], par[2], par[3]
     wsl = work[1]
     for j in range(span_int.shape[0]):
+        if contact[j] != was_free[j]:  # no contact change (`_switch_impulse` would give 0)
+            continue
         d_old, d_new = preload + k * e_old[j], preload + k * e_new[j]
         impulse = _switch_impulse(h, d_old, d_new, not was_free[j], ed_old[j], ed_new[j], kg, beta_k)
         if impulse == 0.0:
@@ -487,6 +491,7 @@ def _run_loops(
                 e_old,
                 e_new,
                 free,
+                contact,
                 ed_old,
                 ed,
                 span_int,
