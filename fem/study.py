@@ -131,8 +131,8 @@ def stiffness_studies(
     start = study_start = time.perf_counter()
     part = geometry.as_part(source, symmetry=mirror_symmetry)
     sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
-    # Planar walls thinner than half the finest size asked for get a size field on every level, the
-    # same fraction of each level's size (geometry.meshing.THIN_WALL_FRACTION). The reference is the
+    # Thin walls (geometry.walls: planar, rings round holes) thinner than half the finest size asked
+    # for get a size field on every level, the same fraction of each level's size (geometry.meshing.THIN_WALL_FRACTION). The reference is the
     # finest size asked for, kept where the budget coarsens the levels. Where a wall is refined, a
     # third, coarser level checks the asymptotic range (`with_wall_check_level`).
     wall_reference_m = sizes[-1]
