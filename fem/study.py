@@ -16,6 +16,7 @@ on the second core beside the finest one's solve.
 
 from __future__ import annotations
 
+import math
 import time
 import warnings
 from collections.abc import Callable, Sequence
@@ -178,7 +179,9 @@ def stiffness_studies(
             finest = level == len(sizes) - 1
             link = finest_link if finest else mesh_level(level, sizes)
             if finest:
-                wall = quality.thin_wall_warning(link)
+                wall = quality.thin_wall_warning(
+                    link, refined_down_to_m(part.geometry.mesh_features.walls, wall_reference_m)
+                )
                 if wall:
                     warnings.warn(wall, FemWarning, stacklevel=2)
             mesh_time += time.perf_counter() - start
@@ -219,6 +222,14 @@ def stiffness_studies(
     }
 
 
+def refined_down_to_m(walls, wall_reference_m: float) -> float:
+    """The thinnest wall the size fields refine (geometry.meshing.THIN_WALL_FRACTION), inf if none."""
+    from geometry.meshing import THIN_WALL_FRACTION
+
+    refined = [wall.thickness_m for wall in walls if wall.thickness_m < THIN_WALL_FRACTION * wall_reference_m]
+    return min(refined, default=math.inf)
+
+
 def with_wall_check_level(sizes: tuple[float, ...], walls, wall_reference_m: float) -> tuple[float, ...]:
     """Two levels and a wall (`geometry.mesh_estimate.WallFeature`s) refined by its size field: the
     levels with a third, coarser by the same ratio, whose pair is in the extrapolation's bound
@@ -232,10 +243,7 @@ def with_wall_check_level(sizes: tuple[float, ...], walls, wall_reference_m: flo
     13.33 / 10 gave 9.406e7 +- 1.34 %; with the third level, 9.461e7 +- 1.28 %
     (tests/test_fea_thin_wall_estimate.py). No default level of the built-in link or the corpus
     refines a wall (docs/verification.md): their runs keep two levels."""
-    from geometry.meshing import THIN_WALL_FRACTION
-
-    refined = any(wall.thickness_m < THIN_WALL_FRACTION * wall_reference_m for wall in walls)
-    if len(sizes) != 2 or not refined:
+    if len(sizes) != 2 or refined_down_to_m(walls, wall_reference_m) == math.inf:
         return sizes
     return (sizes[0] ** 2 / sizes[1], *sizes)
 
