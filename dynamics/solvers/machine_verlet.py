@@ -7,13 +7,7 @@ every step, the global damping law as the plain product C q' (the machine has no
 The Kelvin-Voigt dashpot's force jump at a contact change is located within the step as the ring's
 (clearance_verlet._switch_impulse, `_span_impulses_into`: an impulse through the span's incidence,
 its work counted as damping), so the step stays second order through the switches.
-Compiled with numba when installed (the same functions run as Python otherwise, slowly). The step
-loop reads the topology as gathers (`_Layout`: each span's two DOFs, each DOF's span behind and
-ahead, a held end a slot that stays 0), so the spans' and the DOFs' loops have no branches and no
-scattered writes; the few carriage and wheel-end terms are short lists of their own; the powers of
-the energy balance are computed only on output steps (and every step when the energy is tracked);
-the contact statistics are one branch-free pass (`_step_statistics`), the impacts' closing speeds a
-second pass only on steps with an impact.
+Compiled with numba when installed (the same functions run as Python otherwise, slowly).
 
 One index cycle at a time: the polygonal feed's angle is counted from the dwell at the cycle's start
 (`z_rel`, the cam's lift since then), where the seats change (dynamics.solvers.machine_steady.transfer).
@@ -29,7 +23,7 @@ impact's own step at half weight: first order at the crossing, unlike the ring's
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
@@ -69,102 +63,29 @@ def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
         wdt[i] = wsl[i] * (zd + ud)
 
 
-# `_layout`'s DOF columns (dof_columns, one contiguous row each): 1/mass, the inertial load / mass (1
-# for the DOFs that move with the cam), ground stiffness, ground damping, friction links, the
-# preload's balance f0, mass
-INV_MASS, MOVES, GROUND_K, GROUND_C, FRICTION, F0, MASS = range(7)
-
-
-@dataclass(frozen=True)
-class _Layout:
-    """MachineArrays as the step loop reads them (`_layout`): gathers instead of the incidence's
-    scatter, so that the spans' and the DOFs' loops have no branches and no write conflicts. The DOF
-    arrays carry one more entry, a held end's slot (index n_dof, always 0), the span arrays one more,
-    a zero force (index n_spans)."""
-
-    ends: np.ndarray  # (2, n_spans) int64: each span's behind and ahead DOF (held: n_dof)
-    sides: np.ndarray  # (2, n_dof) int64: each DOF's span it is behind of (+T) and ahead of (-T) (none: n_spans)
-    extra: (
-        np.ndarray
-    )  # (2, k) int64: DOF and span of the incidence's further entries (a DOF behind or ahead of 2 spans)
-    extra_sign: np.ndarray  # (k,): their sign (+1 behind, -1 ahead)
-    carriage: np.ndarray  # (2, c) int64: the spans with a carriage share and the carriage's DOF
-    carriage_gain: np.ndarray  # (c,)
-    wheel_spans: np.ndarray  # (2, w) int64: the wheel-end spans and their wheel
-    wheel_sign: np.ndarray  # (w,): +1 onto the wheel, -1 fed by it
-    friction_dofs: np.ndarray  # (f,) int64: the DOFs with guide friction
-    dof_columns: np.ndarray  # (7, n_dof + 1): the DOF columns above, the held slot's all 0
-
-
-def _layout(arr) -> _Layout:
-    """The step loop's layout of MachineArrays `arr` (O(N), once per integration)."""
-    n, ns = arr.dof_float.shape[0], arr.span_int.shape[0]
-    si = arr.span_int
-    ends = np.ascontiguousarray(np.where(si[:, :2] >= 0, si[:, :2], n).T)
-    sides = np.full((2, n), ns, dtype=np.int64)
-    extra, extra_sign = [], []
-    for side, sign in ((0, 1.0), (1, -1.0)):
-        spans = np.flatnonzero(si[:, side] >= 0)
-        dofs = si[spans, side]
-        first = np.unique(dofs, return_index=True)[1]  # each DOF's first span on this side
-        sides[side, dofs[first]] = spans[first]
-        rest = np.setdiff1d(np.arange(spans.size), first)
-        extra += list(zip(dofs[rest], spans[rest]))
-        extra_sign += [sign] * rest.size
-    with_carriage = np.flatnonzero(si[:, 2] >= 0)
-    on_wheel = np.flatnonzero(si[:, 3] >= 0)
-    columns = np.zeros((7, n + 1))
-    columns[:, :n] = arr.dof_float.T
-    return _Layout(
-        ends,
-        sides,
-        np.array(extra, dtype=np.int64).reshape(-1, 2).T.copy(),
-        np.array(extra_sign, dtype=float),
-        np.ascontiguousarray(np.stack([with_carriage, si[with_carriage, 2]])),
-        np.ascontiguousarray(arr.span_float[with_carriage, 0]),
-        np.ascontiguousarray(np.stack([on_wheel, si[on_wheel, 3]])),
-        np.ascontiguousarray(arr.span_float[on_wheel, 1]),
-        np.flatnonzero(arr.dof_float[:, 4] > 0.0).astype(np.int64),
-        columns,
-    )
-
-
-def _layout_of(arr) -> tuple:
-    """`_layout` of MachineArrays `arr` as the step loop takes it (a tuple), built once per arrays and
-    kept in their __dict__, as functools.cached_property keeps a value (MachineArrays is frozen): the
-    build is O(N) numpy work, 20 ms at 10,000 links, against a few ms per step there."""
-    packed = vars(arr).get("_step_layout")
-    if packed is None:
-        lay = _layout(arr)
-        packed = tuple(getattr(lay, f.name) for f in fields(lay))
-        vars(arr)["_step_layout"] = packed
-    return packed
-
-
 def _accel_into(
     q,
     v,
     z_rel,
     zd,
     zdd,
-    lay,
+    span_int,
+    span_float,
+    dof_float,
     wheel_float,
     par,
     cmat,
     red,
     work,
     t_el,
-    t_all,
     ed,
     contact,
     e_out,
     a,
-    with_powers,
 ):
-    """a = M^-1 (forces) - r z'' of one state (q, v with the held slot: `_Layout`); span forces t_el
-    (t_all: with the dashpots, and the zero slot), their stretches e_out and rates ed and contact
-    flags; when `with_powers`, into work[6] the powers (cam, damping, friction) of the absolute-frame
-    energy balance:
+    """a = M^-1 (forces) - r z'' of one state; span forces t_el, their stretches e_out and rates ed and
+    contact flags;
+    into work[6] the powers (cam, damping, friction) of the absolute-frame energy balance:
 
         d/dt [1/2 sum M (q' + r z')^2 + sum span energy + 1/2 sum k_g q^2 - f0 . q]
             = z' (sum over the DOFs that move with the cam of their force without friction
@@ -172,49 +93,50 @@ def _accel_into(
               - (C q' . q' or the dashpots' T_d e' + c_g q'^2)           (damping)
               - (-F_friction . (q' + z'))                                (friction)"""
     k, preload, kg, beta_k, kv, fc, inv_vs = par[0], par[1], par[2], par[3], par[4] > 0.5, par[5], par[6]
-    ends, sides, extra, extra_sign = lay[0], lay[1], lay[2], lay[3]
-    carriage, gain, wheel_spans, wheel_sign, friction_dofs, cols = lay[4], lay[5], lay[6], lay[7], lay[8], lay[9]
-    n = a.shape[0]
-    ns = t_el.shape[0]
+    n = q.shape[0]
     wd, wsl, wdt, f, powers = work[0], work[1], work[2], work[3], work[6]
     _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt)
-    for j in range(ns):
-        e_out[j] = q[ends[1, j]] - q[ends[0, j]]
-        ed[j] = v[ends[1, j]] - v[ends[0, j]]
-    for m in range(gain.shape[0]):
-        j, c = carriage[0, m], carriage[1, m]
-        e_out[j] += gain[m] * q[c]
-        ed[j] += gain[m] * v[c]
-    for m in range(wheel_sign.shape[0]):
-        j, w = wheel_spans[0, m], wheel_spans[1, m]
-        e_out[j] += wheel_sign[m] * wd[w]
-        ed[j] += wheel_sign[m] * wdt[w]
-    for j in range(ns):
-        d = preload + k * e_out[j]
-        t = max(d, 0.0) + min(d + kg, 0.0)
-        t_el[j] = t
-        t_all[j] = t
-        contact[j] = (d >= 0.0) | (d <= -kg)
-    t_all[ns] = 0.0
-    p_damp = 0.0
-    if kv:
-        for j in range(ns):
-            if contact[j]:
-                t_all[j] += beta_k * ed[j]
-                p_damp += beta_k * ed[j] * ed[j]
     for i in range(n):
-        f[i] = cols[F0, i] + t_all[sides[0, i]] - t_all[sides[1, i]]
-    for m in range(extra_sign.shape[0]):
-        f[extra[0, m]] += extra_sign[m] * t_all[extra[1, m]]
-    for m in range(gain.shape[0]):
-        f[carriage[1, m]] -= gain[m] * t_all[carriage[0, m]]
+        f[i] = dof_float[i, 5]
+    p_damp = 0.0
     p_poly = 0.0
-    for m in range(wheel_sign.shape[0]):
-        j, w = wheel_spans[0, m], wheel_spans[1, m]
-        p_poly += wheel_sign[m] * wsl[w] * t_all[j]
-        dof = int(wheel_float[w, 3])
-        if dof >= 0:
-            f[dof] -= wheel_sign[m] * wsl[w] * t_all[j]
+    for j in range(span_int.shape[0]):
+        b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
+        e = 0.0
+        de = 0.0
+        if fw >= 0:
+            e += q[fw]
+            de += v[fw]
+        if b >= 0:
+            e -= q[b]
+            de -= v[b]
+        if c >= 0:
+            e += span_float[j, 0] * q[c]
+            de += span_float[j, 0] * v[c]
+        if wi >= 0:
+            e += span_float[j, 1] * wd[wi]
+            de += span_float[j, 1] * wdt[wi]
+        d = preload + k * e
+        t = max(d, 0.0) + min(d + kg, 0.0)
+        on = (d >= 0.0) | (d <= -kg)
+        t_el[j] = t
+        e_out[j] = e
+        ed[j] = de
+        contact[j] = on
+        if kv and on:
+            t += beta_k * de
+            p_damp += beta_k * de * de
+        if fw >= 0:
+            f[fw] -= t
+        if b >= 0:
+            f[b] += t
+        if c >= 0:
+            f[c] -= span_float[j, 0] * t
+        if wi >= 0:
+            p_poly += span_float[j, 1] * wsl[wi] * t
+            dof = int(wheel_float[wi, 3])
+            if dof >= 0:
+                f[dof] -= span_float[j, 1] * wsl[wi] * t
     if not kv and red[0].shape[0] > 0:  # the O(N) form (dynamics.models.machine_damping) on the chain's DOFs
         # (numba's cache of this file holds chain_damping_into compiled in: a change of its layout
         # needs this file changed too, or the cache keeps the old one)
@@ -225,9 +147,7 @@ def _accel_into(
         chain_damping_into(red[1], red[2], red[3], red[4], red[5], wv, cw, scratch)
         for i in range(dofs.shape[0]):
             f[dofs[i]] -= cw[i]
-        if with_powers:
-            for i in range(dofs.shape[0]):
-                p_damp += wv[i] * cw[i]
+            p_damp += wv[i] * cw[i]
     elif not kv:  # C v, four rows at a time on the padded C (clearance_verlet._rows_times)
         vp, cv_out = work[4], work[5]
         for i in range(n):
@@ -235,27 +155,23 @@ def _accel_into(
         _rows_times(cmat, vp, cv_out)
         for i in range(n):
             f[i] -= cv_out[i]
-        if with_powers:
-            for i in range(n):
-                p_damp += v[i] * cv_out[i]
-    for i in range(n):
-        f[i] -= cols[GROUND_K, i] * q[i] + cols[GROUND_C, i] * v[i]
+            p_damp += v[i] * cv_out[i]
     cam = 0.0
-    if with_powers:
-        for i in range(n):
-            p_damp += cols[GROUND_C, i] * v[i] * v[i]
-            cam += cols[MOVES, i] * f[i]
+    for i in range(n):
+        f[i] -= dof_float[i, 2] * q[i] + dof_float[i, 3] * v[i]
+        p_damp += dof_float[i, 3] * v[i] * v[i]
+        cam += dof_float[i, 1] * f[i]
     p_fric = 0.0
     if fc > 0.0:
-        for m in range(friction_dofs.shape[0]):
-            i = friction_dofs[m]
-            x = (zd + v[i]) * inv_vs
-            th = 1.0 if x > TANH_IS_ONE else (-1.0 if x < -TANH_IS_ONE else _tanh(x))
-            fr = fc * cols[FRICTION, i] * th
-            f[i] -= fr
-            p_fric += fr * (v[i] + cols[MOVES, i] * zd)
+        for i in range(n):
+            if dof_float[i, 4] > 0.0:
+                x = (zd + v[i]) * inv_vs
+                th = 1.0 if x > TANH_IS_ONE else (-1.0 if x < -TANH_IS_ONE else _tanh(x))
+                fr = fc * dof_float[i, 4] * th
+                f[i] -= fr
+                p_fric += fr * (v[i] + dof_float[i, 1] * zd)
     for i in range(n):
-        a[i] = f[i] * cols[INV_MASS, i] - cols[MOVES, i] * zdd
+        a[i] = f[i] * dof_float[i, 0] - dof_float[i, 1] * zdd
     powers[0] = zd * (cam + p_poly)
     powers[1] = p_damp
     powers[2] = p_fric
@@ -264,7 +180,7 @@ def _accel_into(
 def _kinetic_abs_J(v, zd, dof_float):
     """Kinetic energy of the DOFs' absolute velocities v + r z'."""
     ke = 0.0
-    for i in range(dof_float.shape[0]):
+    for i in range(v.shape[0]):
         x = v[i] + dof_float[i, 1] * zd
         ke += 0.5 * dof_float[i, 6] * x * x
     return ke
@@ -275,7 +191,6 @@ def _span_impulses_into(
     e_old,
     e_new,
     was_free,
-    contact,
     ed_old,
     ed_new,
     span_int,
@@ -288,16 +203,13 @@ def _span_impulses_into(
     v,
 ):
     """The contact changes located within the step on the topology's spans (stretches e_old, e_new at
-    the step's ends, `was_free` the start's free-play flags, `contact` the end's: only the spans whose
-    contact changed are looked at): the Kelvin-Voigt dashpot's switch
+    the step's ends, `was_free` the start's free-play flags): the Kelvin-Voigt dashpot's switch
     (clearance_verlet `_switch_impulse`, an impulse), applied to its span's ends through the same B^T
     as its force (the carriage's share, the wheel-end span's gain dd/du at the step's end, work[1]),
     divided by the DOFs' masses."""
     k, preload, kg, beta_k = par[0], par[1], par[2], par[3]
     wsl = work[1]
     for j in range(span_int.shape[0]):
-        if contact[j] != was_free[j]:  # no contact change (`_switch_impulse` would give 0)
-            continue
         d_old, d_new = preload + k * e_old[j], preload + k * e_new[j]
         impulse = _switch_impulse(h, d_old, d_new, not was_free[j], ed_old[j], ed_new[j], kg, beta_k)
         if impulse == 0.0:
@@ -315,65 +227,6 @@ def _span_impulses_into(
                 v[dof] -= span_float[j, 1] * wsl[wi] * impulse * dof_float[dof, 0]
 
 
-def _step_statistics(h, window, t_el, contact, free, clock, in_impact, hit, stats, recording):
-    """One step's contact bookkeeping: `free` (the previous step's free-play flags, updated here), the
-    clocks since each contact's impact (0 at the impact, + h while the contact lasts, inf in free
-    play), `in_impact` (a contact begun by an impact, while it lasts), `hit` (this step's impacts);
-    when `recording`, the count of impacts (stats[0]), the free and recorded span-steps, the peak and
-    least tension and the force spike (the largest |T| within `window` of an impact) added to stats.
-    Without branches: the loop vectorises. Returns the number of impacts."""
-    impacts = 0
-    n_free = 0
-    t_max = -np.inf
-    t_min = np.inf
-    spike = 0.0
-    for j in range(t_el.shape[0]):
-        c = contact[j]
-        impact = c & free[j]
-        hit[j] = impact
-        clk = 0.0 if impact else (clock[j] + h if c else np.inf)
-        clock[j] = clk
-        in_impact[j] = impact | (in_impact[j] & c)
-        free[j] = not c
-        impacts += impact
-        n_free += not c
-        t = t_el[j]
-        t_max = max(t_max, t)
-        t_min = min(t_min, t)
-        spike = max(spike, abs(t) if clk <= window else 0.0)
-    if recording:
-        stats[0] += impacts
-        stats[1] += n_free
-        stats[2] += t_el.shape[0]
-        stats[3] = max(stats[3], t_max)
-        stats[4] = min(stats[4], t_min)
-        stats[6] = max(stats[6], spike)
-    return impacts
-
-
-def _impact_statistics(ed, hit, m_link, stats, speeds):
-    """The closing speeds of this step's impacts (`hit`): approach energy, largest speed, stored speeds."""
-    for j in range(ed.shape[0]):
-        if hit[j]:
-            speed = abs(ed[j])
-            stats[7] += 0.25 * m_link * speed * speed
-            stats[8] = max(stats[8], speed)
-            stored = int(stats[9])
-            if stored < speeds.shape[0]:
-                speeds[stored] = speed
-                stats[9] = stored + 1
-
-
-def _dashpot_statistics(hh, beta_k, ed, contact, hit, in_impact, dash_prev, stats, recording):
-    """The Kelvin-Voigt dashpots' work in the contacts begun by impacts (stats[10]): trapezoidal over
-    the steps, the impact's own step at half weight; `in_impact` as updated by `_step_statistics`."""
-    for j in range(ed.shape[0]):
-        p_dash = beta_k * ed[j] * ed[j] if contact[j] else 0.0
-        if recording and in_impact[j]:
-            stats[10] += hh * p_dash if hit[j] else hh * (dash_prev[j] + p_dash)
-        dash_prev[j] = p_dash
-
-
 def _run_loops(
     q,
     v,
@@ -384,7 +237,6 @@ def _run_loops(
     theta,
     out_every,
     record_from,
-    lay,
     span_int,
     span_float,
     dof_float,
@@ -404,23 +256,21 @@ def _run_loops(
 ):
     """The step loop (module docstring); `energy` (cam work, damping and friction dissipation)
     integrated trapezoidally in the powers at the steps' states when `track_energy` (one more force
-    evaluation per step). q and v carry the held slot (`_Layout`)."""
+    evaluation per step)."""
     n_steps = zd.shape[0] - 1
-    n = q.shape[0] - 1
+    n = q.shape[0]
     ns = span_int.shape[0]
     q = q.copy()
     v = v.copy()
-    a = np.zeros(n)
+    a = np.empty(n)
     a_prev = np.empty(n)
     a_out = np.empty(n)
     wh = np.empty(n)
-    wp = np.zeros(n + 1)
+    wp = np.empty(n)
     t_el = np.empty(ns)
-    t_all = np.empty(ns + 1)
     ed = np.empty(ns)
     contact = np.empty(ns, dtype=np.bool_)
     free = np.empty(ns, dtype=np.bool_)
-    hit = np.zeros(ns, dtype=np.bool_)
     clock = np.full(ns, np.inf)
     in_impact = np.zeros(ns, dtype=np.bool_)  # a contact begun by an impact, while it lasts
     dash_prev = np.zeros(ns)
@@ -439,7 +289,24 @@ def _run_loops(
     e_new = np.empty(ns)
     e_out = np.empty(ns)
     _accel_into(
-        q, v, z_rel[0], zd[0], zdd[0], lay, wheel_float, par, cmat, red, work, t_el, t_all, ed, contact, e_old, a, True
+        q,
+        v,
+        z_rel[0],
+        zd[0],
+        zdd[0],
+        span_int,
+        span_float,
+        dof_float,
+        wheel_float,
+        par,
+        cmat,
+        red,
+        work,
+        t_el,
+        ed,
+        contact,
+        e_old,
+        a,
     )
     p_prev = work[6].copy()
     kv = par[4] > 0.5
@@ -448,8 +315,8 @@ def _run_loops(
         a_prev[j] = a[j]
     for j in range(ns):
         free[j] = not contact[j]
-    out_q[0] = q[:n]
-    out_v[0] = v[:n]
+    out_q[0] = q
+    out_v[0] = v
     out_a[0] = a
     out_t[0] = t_el
     row = 1
@@ -468,30 +335,29 @@ def _run_loops(
             z_rel[i + 1],
             zd[i + 1],
             zdd[i + 1],
-            lay,
+            span_int,
+            span_float,
+            dof_float,
             wheel_float,
             par,
             cmat,
             red,
             work,
             t_el,
-            t_all,
             ed,
             contact,
             e_new,
             a,
-            False,
         )
         for j in range(n):
             v[j] = wh[j] + hh * a[j]
         if kv:
-            before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy else 0.0
+            before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy and kv else 0.0
             _span_impulses_into(
                 h,
                 e_old,
                 e_new,
                 free,
-                contact,
                 ed_old,
                 ed,
                 span_int,
@@ -503,17 +369,40 @@ def _run_loops(
                 q,
                 v,
             )
-            if track_energy:  # the impulses' work, dissipated by the dashpots
+            if track_energy and kv:  # the impulses' work, dissipated by the dashpots
                 energy[1] += before - _kinetic_abs_J(v, zd[i + 1], dof_float)
             for j in range(ns):
                 e_old[j] = e_new[j]
                 ed_old[j] = ed[j]
         recording = i + 1 >= record_from
-        impacts = _step_statistics(h, window, t_el, contact, free, clock, in_impact, hit, stats, recording)
-        if kv:
-            _dashpot_statistics(hh, par[3], ed, contact, hit, in_impact, dash_prev, stats, recording)
-        if recording and impacts:
-            _impact_statistics(ed, hit, par[7], stats, speeds)
+        for j in range(ns):
+            p_dash = par[3] * ed[j] * ed[j] if contact[j] else 0.0  # the Kelvin-Voigt dashpot's power
+            if contact[j] and free[j]:
+                clock[j] = 0.0
+                in_impact[j] = True
+                if recording:
+                    stats[10] += hh * p_dash
+                    speed = abs(ed[j])
+                    stats[0] += 1
+                    stats[7] += 0.25 * par[7] * speed * speed
+                    stats[8] = max(stats[8], speed)
+                    stored = int(stats[9])
+                    if stored < speeds.shape[0]:
+                        speeds[stored] = speed
+                        stats[9] = stored + 1
+            elif contact[j]:
+                clock[j] += h
+                if recording and in_impact[j]:
+                    stats[10] += hh * (dash_prev[j] + p_dash)
+            else:
+                clock[j] = np.inf
+                in_impact[j] = False
+            dash_prev[j] = p_dash
+            if recording and clock[j] <= window:
+                stats[6] = max(stats[6], abs(t_el[j]))
+            free[j] = not contact[j]
+        if recording:
+            _record(t_el, contact, stats)
         on_output = (i + 1) % out_every == 0
         if track_energy or on_output:
             _accel_into(
@@ -522,27 +411,27 @@ def _run_loops(
                 z_rel[i + 1],
                 zd[i + 1],
                 zdd[i + 1],
-                lay,
+                span_int,
+                span_float,
+                dof_float,
                 wheel_float,
                 par,
                 cmat,
                 red,
                 work,
                 t_el,
-                t_all,
                 ed,
                 contact,
                 e_out,
                 a_out,
-                True,
             )
             if track_energy:
                 for m in range(3):
                     energy[m] += hh * (p_prev[m] + work[6][m])
                     p_prev[m] = work[6][m]
         if on_output:
-            out_q[row] = q[:n]
-            out_v[row] = v[:n]
+            out_q[row] = q
+            out_v[row] = v
             out_a[row] = a_out
             out_t[row] = t_el
             row += 1
@@ -569,9 +458,6 @@ if numba is not None:
         "_record",
         "_kinetic_abs_J",
         "_span_impulses_into",
-        "_step_statistics",
-        "_impact_statistics",
-        "_dashpot_statistics",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
@@ -637,11 +523,10 @@ def integrate(
     stats[3], stats[4] = -np.inf, np.inf
     speeds = np.zeros(SPEED_CAPACITY)
     energy = np.zeros(3)
-    held = np.zeros(1)
     with np.errstate(over="ignore", invalid="ignore"):
         _run(
-            np.concatenate([q0, held]),
-            np.concatenate([v0, held]),
+            q0,
+            v0,
             zr,
             zd,
             zdd,
@@ -649,7 +534,6 @@ def integrate(
             theta,
             int(out_every),
             int(record_from),
-            _layout_of(arr),
             arr.span_int,
             arr.span_float,
             arr.dof_float,
