@@ -8,8 +8,9 @@ dynamics stage with the machine.
    steel-disc inertia, the drive's default compliance, polygonal feed), aluminium, modified sine,
    180 rpm, 0.094 mm free play, global damping. Station metrics (RMS x, v, a, max |a|, residual
    vibration at the machine's four stations) at the default step (ab2 at 0.31 of its limit) and at
-   finer steps against the same integrator at 1/16 of the default step; the time is the median of
-   interleaved runs.
+   finer steps (1.5, 1.75 and 2 times the steps) against the same integrator at 1/16 of the default
+   step; the time is the median of interleaved runs. The target row is the fewest steps per sample
+   that hold 1e-3 (the window runs from rest: the default run's two-level step does not apply).
 2. The pipeline's dynamics stage as the default run will run it on wheels: 2 materials x 5 cams,
    85 links, relabelled periodic steady state, model chosen automatically (the clearance machine on
    this scene); beside it, in the same run, today's single-link drive (dynamics.scene.simulate_chain).
@@ -17,6 +18,7 @@ dynamics stage with the machine.
 
 from __future__ import annotations
 
+import math
 import statistics
 import time
 
@@ -113,10 +115,10 @@ def _window_table(quick: bool) -> list[str]:
         f"station metric against {16 * default} steps/sample, relative to that metric's largest station value; "
         "time = median of interleaved runs:",
         "",
-        "| steps/sample | time | error |",
-        "|---|---|---|",
+        "| steps/sample | time | per step | error |",
+        "|---|---|---|---|",
     ]
-    subs = (default,) if quick else (default, 2 * default)
+    subs = sorted({default, *(int(math.ceil(f * default)) for f in (1.5, 1.75, 2.0))})
     repeats = 3 if quick else 9
     times = {sub: [] for sub in subs}
     errors = {}
@@ -126,17 +128,25 @@ def _window_table(quick: bool) -> list[str]:
             seconds, metrics = _window_run(model, cam, t, sub)
             times[sub].append(seconds)
             errors[sub] = float(np.max(np.abs(metrics - ref).reshape(4, 5) / scale))
+    steps = t.size - 1
     for sub in subs:
-        lines.append(f"| {sub} | {1e3 * statistics.median(times[sub]):.1f} ms | {errors[sub]:.1e} |")
+        median = statistics.median(times[sub])
+        lines.append(f"| {sub} | {1e3 * median:.1f} ms | {1e6 * median / (steps * sub):.2f} us | {errors[sub]:.1e} |")
     ring_s = [_ring_window_s(cam, t, 2 * default) for _ in range(repeats)]
     lines.append(
         f"Yardstick, same run: today's 85-link ring (single-link drive, same chain) over the same window "
         f"at {2 * default} steps/sample: {1e3 * statistics.median(ring_s):.1f} ms"
     )
-    met = errors[default] <= 1e-3 and statistics.median(times[default]) <= TARGET_WINDOW_S
-    lines.append(
-        f"Target (1e-3 within {1e3 * TARGET_WINDOW_S:.0f} ms at the default step): **{'met' if met else 'NOT met'}**"
-    )
+    holding = [sub for sub in subs if errors[sub] <= 1e-3]
+    if holding:
+        sub = holding[0]
+        met = statistics.median(times[sub]) <= TARGET_WINDOW_S
+        lines.append(
+            f"Target (1e-3 within {1e3 * TARGET_WINDOW_S:.0f} ms, at {sub} steps/sample, the fewest here that hold "
+            f"1e-3): **{'met' if met else 'NOT met'}**"
+        )
+    else:
+        lines.append(f"Target (1e-3 within {1e3 * TARGET_WINDOW_S:.0f} ms): **NOT met** (no step here holds 1e-3)")
     return lines
 
 
