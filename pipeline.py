@@ -326,10 +326,10 @@ def _pin_clearance_m(text: str | None, default_m: float) -> float:
 
 
 def _rayleigh(text: str | None) -> tuple[float, float] | None:
-    if text is None:  # without importing the dynamics (1 s), which load beside the FEA (_import_chain_and_outputs)
-        return None
     from dynamics.scene import parse_rayleigh
 
+    if text is None:
+        return None
     try:
         return parse_rayleigh(text)
     except ValueError as e:
@@ -408,6 +408,7 @@ def check_writable_out(out: Path) -> None:
 def run(cfg: RunConfig, progress: Progress) -> None:
     from functools import partial
 
+    from reporting.outputs import write_replica_outputs
     from stages.chain import run_dynamics
     from stages.fea import FeaInProgress, start_fea
     from stages.geometry import inspect_geometry
@@ -415,7 +416,6 @@ def run(cfg: RunConfig, progress: Progress) -> None:
 
     timing: dict[str, float] = {}
     if cfg.preset == "mqp2012":
-        from reporting.outputs import write_replica_outputs
         from stages.replica import run_replicas
 
         replicas = run_replicas(cfg, progress)

@@ -11,11 +11,9 @@ medians over `--repeats` runs of:
 - each stage's wall time, from the run's own progress lines (`[  t s] ...`), as the span from the
   line that ends the stage before it on the same path to the line that ends it. Since the FEA runs
   in a process beside the dynamics and the figures (stages.beside), stages overlap: the FEA's path
-  is stiffness (to the last `FEA level` line), the deformed images (to the last `FEA image` line),
-  stress study (to the last `stress level` line), rest of the FEA (cache, and the images where
-  they follow the stress study without lines of their own: to the FEA's last line, `FEA ...: k =`
-  in a one-process run, the outputs' `FEA stress study and images: done` beside), each from the
-  one before it in the order reached; the chain's path is start-up (interpreter
+  is stiffness (to the last `FEA level` line), stress study (to the last `stress level` line),
+  rest of the FEA (images, cache: to the FEA's last line, `FEA ...: k =` in a one-process run, the
+  outputs' `FEA stress study and images: done` beside); the chain's path is start-up (interpreter
   and imports, before the run's clock starts), dynamics (from the stiffness, the last `FEA ...: k =`
   line, to the last `dynamics` line) and outputs (to `done`). The whole job is the process's wall
   time; the stages add up to more where they overlap;
@@ -48,8 +46,7 @@ from pathlib import Path
 import psutil
 
 ROOT = Path(__file__).resolve().parent.parent
-STAGES = ("start-up", "stiffness", "images", "stress study", "rest of FEA", "dynamics", "outputs")
-FEA_PATH = ("stiffness", "images", "stress study", "fea done")  # the marks the FEA's stages end at
+STAGES = ("start-up", "stiffness", "stress study", "rest of FEA", "dynamics", "outputs")
 LINE = re.compile(r"^\[\s*([0-9.]+) s\] (.*)$")
 SAMPLE_S = 0.05
 WARM_UP_MESH_SIZE_MM = "12"  # a cheap FEA for the untimed first run of each tree
@@ -71,8 +68,6 @@ def stage_ends(lines: list[tuple[float, str]]) -> dict[str, float]:
     for t, message in lines:
         if message.startswith("FEA level"):
             ends["stiffness"] = t
-        elif message.startswith("FEA image"):
-            ends["images"] = t
         elif message.startswith("stress level"):
             ends["stress study"] = t
         elif message.startswith("FEA ") and " k = " in message:
@@ -88,18 +83,17 @@ def stage_ends(lines: list[tuple[float, str]]) -> dict[str, float]:
 
 
 def stage_walls(ends: dict[str, float], start_up_s: float) -> dict[str, float]:
-    """Each stage's span from the mark before it on its path; the FEA's marks in the order reached
-    (a tree that renders the images after the stress study, without their lines, books them to
-    the rest of the FEA)."""
-    walls = {"start-up": start_up_s}
-    before = 0.0
-    for mark in sorted((m for m in FEA_PATH if m in ends), key=ends.get):
-        walls["rest of FEA" if mark == "fea done" else mark] = ends[mark] - before
-        before = ends[mark]
-    dynamics_from = ends.get("k known", ends.get("stress study", ends.get("stiffness", 0.0)))
-    walls["dynamics"] = ends.get("dynamics", dynamics_from) - dynamics_from
-    walls["outputs"] = ends.get("outputs", 0.0) - ends.get("dynamics", dynamics_from)
-    return walls
+    stiffness = ends.get("stiffness", 0.0)
+    stress = ends.get("stress study", stiffness)
+    dynamics_from = ends.get("k known", stress)
+    return {
+        "start-up": start_up_s,
+        "stiffness": stiffness,
+        "stress study": stress - stiffness,
+        "rest of FEA": ends["fea done"] - stress,
+        "dynamics": ends.get("dynamics", dynamics_from) - dynamics_from,
+        "outputs": ends.get("outputs", 0.0) - ends.get("dynamics", dynamics_from),
+    }
 
 
 def run_once(tree: Path, extra: list[str]) -> Run:

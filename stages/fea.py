@@ -171,16 +171,7 @@ def _fea_steps(
         studies = _solve_stiffness(part, settings, materials, stiffness_tolerance, progress, solved_levels)
     release_free_memory()  # the levels' threads' freed arrays
     yield {name: _stiffness_record(name, study) for name, study in studies.items()}, _messages(caught)
-    # the images first: beside the run they overlap its dynamics (one core) rather than its figures
-    # (two worker processes), and their renderer's memory is not added to the figure workers'
-    for name, study in studies.items():
-        if images[name] is not None:
-            images[name].parent.mkdir(parents=True, exist_ok=True)
-            render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
-            progress(f"FEA image {name}: the deformed link rendered")
     finest = {name: study.finest for name, study in studies.items()}
-    del studies
-    release_free_memory()  # the renderer's
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
         stresses = stress_study(
@@ -191,7 +182,11 @@ def _fea_steps(
             base=finest,
             progress=progress,
         )
-    del finest
+    for name, study in studies.items():
+        if images[name] is not None:
+            images[name].parent.mkdir(parents=True, exist_ok=True)
+            render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
+    del studies, finest
     release_free_memory()  # the levels' arrays, before the dynamics and the figures
     answers = {name: StressAnswer(s.peak_Pa_per_N, s.rel_change, s.description) for name, s in stresses.items()}
     yield answers, _messages(caught)
