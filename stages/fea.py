@@ -156,8 +156,8 @@ def _fea_steps(
     progress: Progress,
 ) -> Iterator[tuple[dict, list[str]]]:
     """The FEA of the materials not in the cache, in two steps, each with the FemWarnings' messages
-    it raised: first each material's stiffness record (all the chain needs), then, the deformed
-    images rendered where asked for, its converged stress (StressAnswer). Run here or in a process
+    it raised: first each material's stiffness record (all the chain needs), then its converged
+    stress (StressAnswer), the deformed images rendered where asked for. Run here or in a process
     beside the run (stages.beside), the same code either way."""
     import warnings
 
