@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import json
 import os
-import resource
 import statistics
 import subprocess
 import sys
@@ -36,25 +35,13 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script in a subprocess
     sys.path.insert(0, str(ROOT))
 
-KEYS = (
-    "rms_displacement_m",
-    "rms_velocity_m_s",
-    "rms_acceleration_m_s2",
-    "max_abs_acceleration_m_s2",
-    "residual_vibration_m",
-)
-SIZES = (100, 400, 1000, 2000, 10000)
+from benchmarks.bench_long_chain import KEYS, OLD_TREE_VARIABLE, SIZES, TARGETS_S, _rss_MB  # noqa: E402 (after sys.path)
+
 REPEATS = 3
 REPEATED_UP_TO = 2000
-TARGETS_S = {1000: 2.0, 10000: 20.0}
-OLD_TREE_VARIABLE = "BENCH_LONG_CHAIN_OLD_TREE"
 # the old code's plain cycling had not settled a 2,000-link machine after 11 min
 OLD_TIMEOUT_S = 300.0
 PITCH_M = 0.1125
-
-
-def _rss_MB() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # kB on Linux
 
 
 def _scenario(n: int, force_o_n: bool) -> dict:
