@@ -182,12 +182,17 @@ def _searched_and_settled(
         state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor)
         return state, ss, sub
     fine = mv.substeps_for(model, h_out, safety / WINDOW_REFINEMENT[model.span_damping], predictor)
+    done = None
     if steady_state:
         coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], predictor)
         found, ss, _ = _start_state(model, cam, h_out, per_cycle, coarse, state, True, tol, max_cycles, predictor)
         if ss.found:
             return _settled(model, cam, h_out, per_cycle, fine, found, predictor), ss, fine
-    state, ss, _ = _start_state(model, cam, h_out, per_cycle, fine, state, steady_state, tol, max_cycles, predictor)
+        if _coarse_substeps(model, h_out, fine, predictor) == coarse:
+            done = (found, ss.cycles)  # a long chain's search at `fine` starts with this same coarse search
+    state, ss, _ = _start_state(
+        model, cam, h_out, per_cycle, fine, state, steady_state, tol, max_cycles, predictor, coarse_done=done
+    )
     return state, ss, fine
 
 
@@ -205,7 +210,10 @@ def _found(ss) -> bool:
     return ss is not None and ss.found
 
 
-def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor):
+def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor, coarse_done=None):
+    """(state, SteadyState or None, last cycle's run) of the relabelled steady state searched from
+    `state` at `sub` steps per output sample. `coarse_done`: (state, cycles) of this search's coarse
+    part (`_coarse_substeps`) already run from `state`, not run again."""
     if not steady_state:
         return state, None, None
     # long chains (the O(N) damping's range) cycle with Anderson acceleration: their slow low modes take
@@ -216,7 +224,9 @@ def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, ma
     search = machine_shooting.relabelled_periodic_state if model.reduced_damping else mv.relabelled_periodic_state
     coarse_cycles = 0
     coarse = _coarse_substeps(model, h_out, sub, predictor)
-    if coarse is not None:
+    if coarse_done is not None:
+        state, coarse_cycles = coarse_done
+    elif coarse is not None:
         # most of the search at the coarsest step the search takes, the rest at `sub` from there: the
         # two fixed points differ by the step's error only, and the state is accepted by the test at `sub`
         q0, v0, coarse_cycles, *_ = search(

@@ -150,3 +150,39 @@ def test_a_long_chains_search_starts_coarse_and_is_accepted_at_its_own_step():
     assert last.step_s == pytest.approx(h_out / sub)
     short = ClearanceMachine.of(replace(chain, n_links=DENSE_LINK_LIMIT), LAYOUT, None, 0.0)
     assert _coarse_substeps(short, h_out, sub, "ab2") is None
+
+
+def test_a_long_chains_unfound_search_is_not_repeated_at_the_window_step(monkeypatch):
+    """A default-step search that finds no steady state is redone at the window's step
+    (machine_scene._searched_and_settled); above DENSE_LINK_LIMIT links that search starts with the
+    same coarse search from the same state (`_coarse_substeps`), which is handed over, not run again:
+    each step's search runs once, and the redo's result is the one the repeated search gives."""
+    from dynamics import machine_scene
+    from dynamics.machine_scene import SEARCH_SAFETY, _searched_and_settled
+
+    chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
+    model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    cam = _cam()
+    h_out = cam.cycle_s / 90
+    zeros = np.zeros(model.topology.n_dof)
+    steps = []
+    search = machine_shooting.relabelled_periodic_state
+
+    def counted(model, cam, step_s, *args, **kwargs):
+        steps.append(step_s)
+        return search(model, cam, step_s, *args, **kwargs)
+
+    monkeypatch.setattr(machine_shooting, "relabelled_periodic_state", counted)
+    safety = 0.31
+    state, ss, fine = _searched_and_settled(model, cam, h_out, 90, (zeros, zeros), 1e-12, 2, "ab2", safety, True, True)
+    assert not ss.found and ss.cycles == 3  # two coarse cycles, one at the window's step
+    coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY["global"], "ab2")
+    assert steps == pytest.approx([h_out / coarse, h_out / fine])
+    # the search at the window's step run whole (its coarse part again) gives the same state; the O(N)
+    # damping's sums vary at round-off between runs (docs/performance.md)
+    (q_whole, v_whole), whole, _ = machine_scene._start_state(
+        model, cam, h_out, 90, fine, (zeros, zeros), True, 1e-12, 2, "ab2"
+    )
+    assert whole.cycles == ss.cycles and len(steps) == 4
+    np.testing.assert_allclose(state[0], q_whole, rtol=0, atol=1e-9 * np.max(np.abs(q_whole)))
+    np.testing.assert_allclose(state[1], v_whole, rtol=0, atol=1e-9 * np.max(np.abs(v_whole)))
