@@ -68,6 +68,17 @@ CHOICE_TOL = 1e-3
 SEARCH_SAFETY = {"global": 0.9, "kelvin-voigt": 0.5}
 WINDOW_REFINEMENT = {"global": 2.5, "kelvin-voigt": 4.0}
 SETTLE_CYCLES = 1
+# Long chains (above DENSE_LINK_LIMIT links, the O(N) damping's range; the default run's 85 links are
+# not in it) spend fewer cycles where the window cannot see them (issue #24, measured at 1,000 links on
+# the default wheels, 0.094 mm, 180 rpm, against a run at twice the window's refinement, tol 1e-8):
+# - the search's fixed point at SEARCH_SAFETY is itself 2.8e-3 per cycle from the window step's, so
+#   it is searched to LONG_SEARCH_TOL, not tighter (station metrics moved by 1.4e-5; 2 of 12 cycles);
+# - the settling cycle is stepped at the default safety (a third of the window's steps): its state
+#   is as far from the window step's fixed point as one window-step cycle leaves it (station metrics
+#   moved by 1.1e-4, 1.05e-3 from the reference against 1.04e-3);
+# - the linear machine decides the model from its search at SEARCH_SAFETY, with no confirming cycle
+#   at the default safety (its minimum tension at the two steps within 2e-6: CHOICE_TOL is 1e-3).
+LONG_SEARCH_TOL = 1e-4
 
 
 def machine_model(scene, chain) -> ClearanceMachine:
@@ -112,8 +123,9 @@ def simulate_machine(
     # is then iterated to `tol`; only when the linear machine is the answer is it iterated on to `tol`
     # and its window stepped
     lin_tol = max(tol, CHOICE_TOL)
+    choice_sub = _coarse_substeps(linear, h_out, lin_sub, lin_pred) or lin_sub
     lin_state, lin_ss, lin_last = _start_state(
-        linear, cam, h_out, per_cycle, lin_sub, start, steady_state, lin_tol, max_cycles, lin_pred
+        linear, cam, h_out, per_cycle, choice_sub, start, steady_state, lin_tol, max_cycles, lin_pred
     )
     lin = None
     if lin_last is not None and lin_ss.found:
@@ -174,9 +186,9 @@ def _searched_and_settled(
     """(state, SteadyState or None, steps per output sample of the window): where the window starts.
     Given its step (not `default_step`): the relabelled steady state searched from `state` at
     `safety` (from rest: `state` itself). The default step: the window at safety / WINDOW_REFINEMENT,
-    the steady state searched at SEARCH_SAFETY and settled at the window's step; a search that finds
-    none is redone from `state` at the window's step (the motion after max_cycles coarse cycles is not
-    the fine step's)."""
+    the steady state searched at SEARCH_SAFETY and settled at the window's step (a long chain's: to
+    LONG_SEARCH_TOL and settled at `safety`); a search that finds none is redone from `state` at the
+    window's step to `tol` (the motion after max_cycles coarse cycles is not the fine step's)."""
     if not default_step:
         sub = mv.substeps_for(model, h_out, safety, predictor)
         state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor)
@@ -185,9 +197,14 @@ def _searched_and_settled(
     done = None
     if steady_state:
         coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], predictor)
-        found, ss, _ = _start_state(model, cam, h_out, per_cycle, coarse, state, True, tol, max_cycles, predictor)
+        long_chain = model.reduced_damping
+        search_tol = max(tol, LONG_SEARCH_TOL) if long_chain else tol
+        found, ss, _ = _start_state(
+            model, cam, h_out, per_cycle, coarse, state, True, search_tol, max_cycles, predictor
+        )
         if ss.found:
-            return _settled(model, cam, h_out, per_cycle, fine, found, predictor), ss, fine
+            settle = mv.substeps_for(model, h_out, safety, predictor) if long_chain else fine
+            return _settled(model, cam, h_out, per_cycle, settle, found, predictor), ss, fine
         if _coarse_substeps(model, h_out, fine, predictor) == coarse:
             done = (found, ss.cycles)  # a long chain's search at `fine` starts with this same coarse search
     state, ss, _ = _start_state(
@@ -261,9 +278,8 @@ def _coarse_substeps(model, h_out, sub, predictor) -> int | None:
     """Steps per output sample of a long chain's (the O(N) damping's) search before the one at `sub`:
     at SEARCH_SAFETY of the stability limit, where that is coarser than `sub` (None: no coarse search;
     up to DENSE_LINK_LIMIT links never, the default run's numbers as they were). The linear machine's
-    search to CHOICE_TOL, stepped at the default safety, then takes its cycles at a third of the cost
-    and one at `sub` to confirm (measured at 1,000 links: its minimum tension at the two steps within
-    2e-6)."""
+    search to CHOICE_TOL that decides the model is run at this step alone (simulate_machine: measured
+    at 1,000 links, its minimum tension there and at the default safety within 2e-6)."""
     if not model.reduced_damping or model.span_damping not in SEARCH_SAFETY:
         return None
     coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], predictor)

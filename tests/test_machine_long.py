@@ -186,3 +186,56 @@ def test_a_long_chains_unfound_search_is_not_repeated_at_the_window_step(monkeyp
     assert whole.cycles == ss.cycles and len(steps) == 4
     np.testing.assert_allclose(state[0], q_whole, rtol=0, atol=1e-9 * np.max(np.abs(q_whole)))
     np.testing.assert_allclose(state[1], v_whole, rtol=0, atol=1e-9 * np.max(np.abs(v_whole)))
+
+
+def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step(monkeypatch):
+    """Above DENSE_LINK_LIMIT links the default step (machine_scene.simulate_machine) decides the model
+    from the linear machine's search at SEARCH_SAFETY alone (to CHOICE_TOL, no confirming cycle at the
+    default safety), searches the clearance machine's steady state there to LONG_SEARCH_TOL (the
+    tolerance its summary reports) and settles it for one cycle at the default safety; a short chain
+    keeps `tol` and settles at the window's step."""
+    from dynamics import machine_scene
+    from dynamics.machine_scene import CHOICE_TOL, LONG_SEARCH_TOL, SEARCH_SAFETY, WINDOW_REFINEMENT
+    from dynamics.solvers import clearance_verlet as verlet
+
+    searches, settles = [], []
+    accelerated, plain = machine_shooting.relabelled_periodic_state, mv.relabelled_periodic_state
+
+    def counted_search(model, cam, step_s, *args, **kwargs):
+        searches.append((model.clearance_m, step_s, kwargs["tol"]))
+        return accelerated(model, cam, step_s, *args, **kwargs)
+
+    def counted_plain(model, cam, step_s, *args, **kwargs):
+        (settles if kwargs["tol"] == 0.0 else searches).append((model.clearance_m, step_s, kwargs["tol"]))
+        return plain(model, cam, step_s, *args, **kwargs)
+
+    monkeypatch.setattr(machine_shooting, "relabelled_periodic_state", counted_search)
+    monkeypatch.setattr(mv, "relabelled_periodic_state", counted_plain)
+    cam = _cam()
+    t = cam.cycle_s * np.arange(91) / 90
+    h_out = t[1]
+    for links, long_chain in ((DENSE_LINK_LIMIT + 20, True), (40, False)):
+        searches.clear()
+        settles.clear()
+        chain = ChainModel(links, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
+        model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+        linear = ClearanceMachine.of(chain, LAYOUT, None, 0.0)
+        _, summary = simulate_machine(model, cam, t, links=[0], tol=1e-6)
+        assert summary.model == ChainModelKind.CLEARANCE and summary.steady_state.found
+        pred = verlet.default_predictor(model)
+        safety = verlet.default_safety(model, pred)
+        coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY["global"], pred)
+        fine = mv.substeps_for(model, h_out, safety / WINDOW_REFINEMENT["global"], pred)
+        assert summary.steps_per_output == fine
+        if long_chain:
+            lin_coarse = mv.substeps_for(linear, h_out, SEARCH_SAFETY["global"], pred)
+            expected = [(0.0, h_out / lin_coarse, CHOICE_TOL), (94e-6, h_out / coarse, LONG_SEARCH_TOL)]
+            np.testing.assert_allclose(searches, expected, rtol=1e-12)
+            assert summary.steady_state.residual <= LONG_SEARCH_TOL
+            assert f"<= {LONG_SEARCH_TOL:g}" in summary.steady_state.statement
+            settle = mv.substeps_for(model, h_out, safety, pred)
+        else:
+            assert [s[2] for s in searches] == [CHOICE_TOL, 1e-6]
+            settle = fine
+        np.testing.assert_allclose(settles, [(94e-6, h_out / settle, 0.0)], rtol=1e-12)
+        assert machine_scene.SETTLE_CYCLES == 1
