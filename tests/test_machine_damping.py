@@ -10,7 +10,7 @@ from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import Tensioner
 from dynamics.models.clearance_machine import ClearanceMachine
 from dynamics.models.layout import MachineLayout
-from dynamics.models.machine_damping import of_machine
+from dynamics.models.machine_damping import DEFAULT_MACHINE_DAMPING_TOLERANCE, of_machine
 from dynamics.models.wheels import Wheel
 from dynamics.solvers import machine_verlet as mv
 
@@ -32,9 +32,10 @@ def _reduced_matrix(machine) -> np.ndarray:
 @pytest.mark.parametrize("n_links", [85, pytest.param(400, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("idler", [True, False])
 def test_the_reduced_form_is_the_dense_modal_damping_to_its_tolerance(n_links, idler):
-    """Every mode of (K, M) on the chain's DOFs (carriage held) keeps zeta to the rule's 1e-4 (the
-    trapezoidal rule's relative error is the same for every mode), the modes stay uncoupled to that
-    level, the carriage's c_t is kept exactly, and the products agree with the dense C."""
+    """Every mode of (K, M) on the chain's DOFs (carriage held) keeps zeta to the rule's tolerance
+    (DEFAULT_MACHINE_DAMPING_TOLERANCE: the rule's relative error is a function of the eigenvalue, the
+    same bound for every mode), the modes stay uncoupled to that level, the carriage's c_t is kept
+    exactly, and the products agree with the dense C."""
     chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=0.13)
     layout = MachineLayout("wheels", WHEEL, WHEEL if idler else None, None if idler else 2e6, True)
     machine = layout.machine(chain, TENSIONER)
@@ -45,11 +46,12 @@ def test_the_reduced_form_is_the_dense_modal_damping_to_its_tolerance(n_links, i
     lam, phi = eigh(k, m)
     modal = phi.T @ reduced[np.ix_(dofs, dofs)] @ phi
     ratios = np.diag(modal) / (2.0 * np.sqrt(lam))
-    np.testing.assert_allclose(ratios, 0.13, rtol=1e-4)
+    tolerance = DEFAULT_MACHINE_DAMPING_TOLERANCE
+    np.testing.assert_allclose(ratios, 0.13, rtol=tolerance)
     off = modal - np.diag(np.diag(modal))
-    assert np.max(np.abs(off)) < 1e-4 * np.max(np.abs(np.diag(modal)))
+    assert np.max(np.abs(off)) < tolerance * np.max(np.abs(np.diag(modal)))
     v = np.random.default_rng(3).standard_normal(dense.shape[0])
-    np.testing.assert_allclose(reduced @ v, dense @ v, rtol=0, atol=1e-4 * np.max(np.abs(dense @ v)))
+    np.testing.assert_allclose(reduced @ v, dense @ v, rtol=0, atol=tolerance * np.max(np.abs(dense @ v)))
 
 
 @pytest.mark.slow
@@ -77,3 +79,30 @@ def test_a_2000_link_machine_steps_on_the_reduced_damping():
         track_energy=True,
     )
     assert np.all(np.isfinite(run.q)) and run.dissipated_damping_J > 0.0
+
+
+@pytest.mark.parametrize("kappa", [1e2, 4e5, 4e7, 1e9])
+@pytest.mark.parametrize("tolerance", [1e-4, 1e-5, 1e-7])
+def test_zolotarevs_rule_is_sqrt_to_its_tolerance_with_fewer_nodes(kappa, tolerance):
+    """reduced_damping.zolotarev_nodes_for: a + b x + x sum c_j / (x + tau_j) is sqrt(x) to `tolerance`
+    relative everywhere in [x_min, x_max] (checked on 10x the rule's own check points; kappa 1e2 is a
+    short chain, 4e5 and 4e7 are 1,000 and 10,000 links), with fewer nodes than the trapezoidal rule
+    (reduced_damping.nodes_for) for the same tolerance, and positive poles."""
+    from dynamics.models.reduced_damping import nodes_for, zolotarev_nodes_for
+
+    x_min = 7.3
+    taus, weights, a, b = zolotarev_nodes_for(tolerance, x_min, kappa * x_min)
+    x = np.geomspace(x_min, kappa * x_min, 200_000)
+    fitted = a + b * x + x * np.sum(weights[None, :] / (x[:, None] + taus[None, :]), axis=1)
+    assert np.max(np.abs(fitted / np.sqrt(x) - 1.0)) <= tolerance
+    assert np.all(taus > 0.0)
+    assert taus.size < nodes_for(tolerance, x_min, kappa * x_min)[0].size
+
+
+def test_zolotarevs_rule_leaves_tight_tolerances_to_the_trapezoidal_rule():
+    """Below the fit's round-off (FIT_TOLERANCE_FLOOR) the rule is the trapezoidal one, exactly."""
+    from dynamics.models.reduced_damping import FIT_TOLERANCE_FLOOR, nodes_for, zolotarev_nodes_for
+
+    tight = FIT_TOLERANCE_FLOOR / 10
+    for got, want in zip(zolotarev_nodes_for(tight, 2.0, 2e6), nodes_for(tight, 2.0, 2e6)):
+        np.testing.assert_array_equal(got, want)

@@ -113,7 +113,7 @@ class ClearanceMachine:
     @property
     def reduced_damping(self) -> bool:
         """The global law in the O(N) form (dynamics.models.machine_damping, each mode's ratio to
-        1e-4) above DENSE_LINK_LIMIT links; the dense C up to it (today's numbers unchanged)."""
+        1e-5) above DENSE_LINK_LIMIT links; the dense C up to it (today's numbers unchanged)."""
         return self.machine.n_links > DENSE_LINK_LIMIT
 
     @property
