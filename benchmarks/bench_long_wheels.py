@@ -143,7 +143,7 @@ def run(quick: bool) -> list[str]:
     for n in sizes:
         repeats = 1 if (quick or n > REPEATED_UP_TO) else REPEATS
         res = _median_run(n, repeats)
-        form = "O(N), 1e-4" if n > 400 else "dense"
+        form = "O(N), 1e-5" if n > 400 else "dense"
         check = "-"
         if n <= 400:
             reduced = _in_subprocess(n, True)

@@ -109,10 +109,9 @@ def eigenvalue_bounds(sd, soff, scorner) -> tuple[float, float]:
     from scipy.sparse.linalg import eigsh
 
     n = sd.size
-    s = sp.diags([soff[:-1], sd, soff[:-1]], [-1, 0, 1], format="lil")
+    s = sp.diags([soff[:-1], sd, soff[:-1]], [-1, 0, 1], format="csc")
     if n > 2:
-        s[0, n - 1] = s[n - 1, 0] = scorner
-    s = s.tocsc()
+        s = (s + sp.csc_matrix(([scorner, scorner], ([0, n - 1], [n - 1, 0])), shape=(n, n))).tocsc()
     if n <= 64:
         lam = np.linalg.eigvalsh(s.toarray())
         return float(lam[0]), float(lam[-1])
