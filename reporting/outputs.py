@@ -242,6 +242,7 @@ def seating_validity_summary(validity) -> dict:
         "cam_speed_fraction_at_seat_change": validity.cam_speed_fraction,
         "cam_acceleration_fraction_at_seat_change": validity.cam_acceleration_fraction,
         "at_rest_threshold": validity.threshold,
+        "instead": validity.instead,
     }
 
 

@@ -200,16 +200,17 @@ def _seating_paragraphs(summary: dict) -> str:
         for cam, scenario in data["cams"].items():
             seating = scenario.get("machine", {}).get("seating_model")
             if seating is not None:
-                key = (seating["model"], seating["valid"], seating["reason"])
+                key = (seating["model"], seating["valid"], seating["reason"], seating.get("instead"))
                 groups.setdefault(key, []).append((f"{material} / {cam}", seating["snap_J"]))
     out = ""
-    for (model, valid, reason), runs in groups.items():
+    for (model, valid, reason, instead), runs in groups.items():
         snaps = [snap for _, snap in runs]
         which = f"all {len(runs)} scenarios" if len(groups) == 1 else ", ".join(name for name, _ in runs)
         verdict = "holds" if valid else "does NOT hold"
         out += html.paragraph(
             f"Seating: {model} {verdict} for {which}: {reason} (seat change's snap "
-            f"{min(snaps):.3g} to {max(snaps):.3g} J per index).",
+            f"{min(snaps):.3g} to {max(snaps):.3g} J per index)"
+            + ("." if instead is None else f"; the model that holds there: {instead}."),
             None if valid else "warn",
         )
     return out

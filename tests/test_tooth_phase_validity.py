@@ -96,4 +96,6 @@ def test_the_stage_summary_and_report_carry_the_verdict():
     summary = {"materials": {"al": {"cams": {"a": {"machine": summaries[0]}, "b": {"machine": summaries[1]}}}}}
     html = _seating_paragraphs(summary)
     assert 'class="warn"' in html and "rigid seating does NOT hold for al / a" in html
+    assert summaries[0]["seating_model"]["instead"].startswith("seating through a tooth contact stiffness")
+    assert summaries[1]["seating_model"]["instead"] is None and "the model that holds there" in html
     assert "rigid seating holds for al / b" in html
