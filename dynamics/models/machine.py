@@ -17,6 +17,11 @@ indexer turns the sprocket one tooth per pitch of cam lift); the carriage's u le
 Parts:
 - Rigid seating: the seated links of a wheel are one body with it: mass w m + J / R_m^2 (w m R^2 / R_m^2
   + J / R_m^2 with the polygonal action, the seated pins running on the pitch circle).
+- Tooth contact stiffness (`tooth_stiffness_N_per_m`, default inf = rigid seating): each seated
+  link its own DOF held to its wheel's seat by a spring k_t (a coupling of the topology), every span
+  elastic, each wheel a DOF of J / R_m^2; k_t -> infinity is rigid seating to first order in k / k_t.
+  Its seat change (the link seating where it is) is not built: the transfer and the clearance
+  machine refuse it (dynamics.response.seating says where rigid seating does not hold).
 - Drive compliance: a torsional spring k_theta (N m/rad) between the cam's angle and the sprocket, a
   path stiffness k_theta / R_m^2 on the sprocket's DOF; infinite: the sprocket follows the cam
   (its seated links held to the cam's motion, no DOF).

@@ -11,9 +11,10 @@ with the wheel's pitch circle), or the idler carriage. Spans join the DOFs:
 positive, preload P). Ground springs tie a DOF to the cam's frame: the drive (k_d on the driven
 DOF) and the tensioner's spring (k_t on the carriage). So
 
-    K = B^T diag(k) B + diag(ground),    M = diag(masses),
+    K = B^T diag(k) B + diag(ground) + couplings,    M = diag(masses),
 
-with B the spans' incidence matrix (n_spans x n_dof). `links` says which chain links each DOF
+with B the spans' incidence matrix (n_spans x n_dof) and the couplings springs between two DOFs (a
+seated link held to its wheel's seat by the tooth flank, dynamics.models.machine's tooth model). `links` says which chain links each DOF
 carries, so stations and relabelling know where every link is. Every linear matrix of the chain
 (the dense K and M of dynamics.models.chain.ChainModel, the sparse K of dynamics.response.sweep, the tensioner's
 full-contact K of dynamics.models.clearance, the machine on its wheels of dynamics.models.machine) is built from
