@@ -91,7 +91,7 @@ def test_an_infinitely_stiff_tooth_is_rigid_seating_polygon_free(held):
     _check_first_order(_reduction_errors(_rigid(held=held), 360))
 
 
-@pytest.mark.slow  # 40 s: DOP853 through the tooth springs' fast modes
+@pytest.mark.slow  # 45-100 s: DOP853 through the tooth springs' fast modes
 def test_an_infinitely_stiff_tooth_is_rigid_seating_with_the_polygonal_feed():
     _check_first_order(_reduction_errors(_rigid(polygonal=True), 120))
 
