@@ -228,6 +228,21 @@ def machine_cycle_summary(cycle) -> dict:
             for name, seat in cycle.seating.items()
         },
         "transfer_energy_change_J": cycle.transfer_energy_change_J,
+        "seating_model": seating_validity_summary(cycle.seating_validity),
+    }
+
+
+def seating_validity_summary(validity) -> dict:
+    """Which seating model ran and whether it holds (dynamics.response.seating.SeatingValidity), SI."""
+    return {
+        "model": validity.model,
+        "valid": validity.valid,
+        "reason": validity.reason,
+        "snap_J": validity.snap_J,
+        "cam_speed_fraction_at_seat_change": validity.cam_speed_fraction,
+        "cam_acceleration_fraction_at_seat_change": validity.cam_acceleration_fraction,
+        "at_rest_threshold": validity.threshold,
+        "instead": validity.instead,
     }
 
 

@@ -188,7 +188,32 @@ def _tooth_phase_words(run: dict) -> str:
 
 
 def machine_section(report: Report) -> list[html.Section]:
-    return [html.Section("Machine", html.paragraph(machine_line(report.summary)))]
+    body = html.paragraph(machine_line(report.summary)) + _seating_paragraphs(report.summary)
+    return [html.Section("Machine", body)]
+
+
+def _seating_paragraphs(summary: dict) -> str:
+    """Which seating model ran and whether it holds, grouped by its verdict and reason (summary.json's
+    seating_model per scenario); a model that does not hold is a warning."""
+    groups: dict[tuple, list[tuple[str, float]]] = {}
+    for material, data in summary["materials"].items():
+        for cam, scenario in data["cams"].items():
+            seating = scenario.get("machine", {}).get("seating_model")
+            if seating is not None:
+                key = (seating["model"], seating["valid"], seating["reason"], seating.get("instead"))
+                groups.setdefault(key, []).append((f"{material} / {cam}", seating["snap_J"]))
+    out = ""
+    for (model, valid, reason, instead), runs in groups.items():
+        snaps = [snap for _, snap in runs]
+        which = f"all {len(runs)} scenarios" if len(groups) == 1 else ", ".join(name for name, _ in runs)
+        verdict = "holds" if valid else "does NOT hold"
+        out += html.paragraph(
+            f"Seating: {model} {verdict} for {which}: {reason} (seat change's snap "
+            f"{min(snaps):.3g} to {max(snaps):.3g} J per index)"
+            + ("." if instead is None else f"; the model that holds there: {instead}."),
+            None if valid else "warn",
+        )
+    return out
 
 
 def fea_table(results: RunResults) -> Table:

@@ -178,7 +178,10 @@ def simulate_scenario(
     settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
     # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
-    seats = None if contact.seating is None else machine_cycle(contact.seating, scene.steady_state)
+    seats = None
+    if contact.seating is not None:
+        peaks = float(np.max(np.abs(r.zdot_m_s))), float(np.max(np.abs(r.zddot_m_s2)))
+        seats = machine_cycle(contact.seating, scene.steady_state, *peaks)
     return Scenario(
         history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst, contact, seats
     )

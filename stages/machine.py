@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from dynamics.models.layout import MachineLayout
     from dynamics.models.machine import MachineOnWheels
     from dynamics.models.wheels import Wheel
+    from dynamics.response.seating import SeatingValidity
     from dynamics.scene import Scene
 
 WHEEL_NAMES = ("sprocket", "idler")  # in dynamics.models.machine.MachineOnWheels.wheel_ends order
@@ -106,6 +107,8 @@ class SeatChanges(Protocol):
     speed_m_s: tuple[float, ...]
     impact_energy_J: tuple[float, ...]
     transfer_energy_change_J: float
+    cam_speed_m_s: float  # the cam at the seat change (0 at the dwell)
+    cam_acceleration_m_s2: float
 
 
 @dataclass(frozen=True)
@@ -118,16 +121,28 @@ class WheelSeating:
 
 @dataclass(frozen=True)
 class MachineCycle:
-    """The seat changes at the end of a scenario's last index on the wheels."""
+    """The seat changes at the end of a scenario's last index on the wheels, and whether the seating
+    model holds for them (dynamics.response.seating)."""
 
     frame: str | None  # "relabelled": the periodic steady state as the machine runs; None: from rest
     seating: dict[str, WheelSeating]  # per wheel, as in MachineParts.wheels
     transfer_energy_change_J: float  # stored energy after the seat changes minus before (all wheels)
+    seating_validity: SeatingValidity
 
 
-def machine_cycle(changes: SeatChanges, steady_state: bool) -> MachineCycle:
+def machine_cycle(
+    changes: SeatChanges, steady_state: bool, peak_speed_m_s: float, peak_acceleration_m_s2: float
+) -> MachineCycle:
+    """`peak_*`: the cam's over the scenario's window (the scale of the cam's state at the seat change)."""
+    from dynamics.response.seating import rigid_seating_validity
+
     seating = {
         name: WheelSeating(float(speed), float(energy))
         for name, speed, energy in zip(WHEEL_NAMES, changes.speed_m_s, changes.impact_energy_J)
     }
-    return MachineCycle("relabelled" if steady_state else None, seating, float(changes.transfer_energy_change_J))
+    return MachineCycle(
+        "relabelled" if steady_state else None,
+        seating,
+        float(changes.transfer_energy_change_J),
+        rigid_seating_validity(changes, peak_speed_m_s, peak_acceleration_m_s2),
+    )

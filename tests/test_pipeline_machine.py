@@ -177,7 +177,7 @@ def linear_machine_cycle():
     machine = scene_machine(scene, chain)
     steady = periodic_state(machine, CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180.0), 180)
     seating = Seating(steady.seating_speed_m_s, steady.seating_impact_J, steady.transfer_energy_change_J)
-    return steady, machine_cycle(seating, steady_state=True), machine_parts(scene, chain)
+    return steady, machine_cycle(seating, True, 5.0, 500.0), machine_parts(scene, chain)
 
 
 def test_the_summary_records_each_wheel_and_the_seat_changes(linear_machine_cycle):
@@ -418,5 +418,10 @@ def test_a_run_with_a_tooth_phase_says_so(tmp_path):
     assert s["machine"]["tooth_phase"] == 0.5 and s["machine"]["steady_state_frame"] == "relabelled"
     seating = s["materials"]["al6061-t6"]["cams"]["modified-sine"]["machine"]["seating"]
     assert all(seat["speed_m_s"] > 0.0 and seat["impact_energy_J"] > 0.0 for seat in seating.values())
+    # the seat change at mid-index, with the cam at its fastest: rigid seating flagged, as data
+    seating_model = s["materials"]["al6061-t6"]["cams"]["modified-sine"]["machine"]["seating_model"]
+    assert seating_model["model"] == "rigid seating" and seating_model["valid"] is False
+    assert seating_model["cam_speed_fraction_at_seat_change"] > 0.9
     report = (out / "report.html").read_text()
     assert "tooth phase 0.5 (the seats change inside the index, when the cam has lifted 0.5 of a pitch)" in report
+    assert "Seating: rigid seating does NOT hold" in report

@@ -107,7 +107,7 @@ def _cam_at(cam, t: float) -> tuple[float, float, float]:
 
 
 def _moves(machine: MachineOnWheels) -> np.ndarray:
-    return np.array([1.0 if carried else 0.0 for carried in machine.topology.links])
+    return machine.topology.moves_with_cam()
 
 
 def polygonal_stretches_m(machine: MachineOnWheels, q: np.ndarray, angles_rad) -> np.ndarray:

@@ -76,6 +76,11 @@ class ClearanceMachine:
     def __post_init__(self) -> None:
         if not (self.clearance_m >= 0 and not np.isnan(self.clearance_m)):
             raise DynamicsError(f"clearance_m: expected a free play >= 0 m (inf allowed), got {self.clearance_m!r}")
+        if not self.machine.rigid_seating:
+            raise DynamicsError(
+                "tooth_stiffness_N_per_m: the clearance machine's compiled step has no tooth springs; "
+                "expected rigid seating (inf)"
+            )
         if self.span_damping not in SPAN_DAMPING_LAWS:
             raise DynamicsError(
                 f"span_damping: expected one of {', '.join(SPAN_DAMPING_LAWS)}, got {self.span_damping!r}"

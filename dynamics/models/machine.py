@@ -17,6 +17,11 @@ indexer turns the sprocket one tooth per pitch of cam lift); the carriage's u le
 Parts:
 - Rigid seating: the seated links of a wheel are one body with it: mass w m + J / R_m^2 (w m R^2 / R_m^2
   + J / R_m^2 with the polygonal action, the seated pins running on the pitch circle).
+- Tooth contact stiffness (`tooth_stiffness_N_per_m`, default inf = rigid seating): each seated
+  link its own DOF held to its wheel's seat by a spring k_t (a coupling of the topology), every span
+  elastic, each wheel a DOF of J / R_m^2; k_t -> infinity is rigid seating to first order in k / k_t.
+  Its seat change (the link seating where it is) is not built: the transfer and the clearance
+  machine refuse it (dynamics.response.seating says where rigid seating does not hold).
 - Drive compliance: a torsional spring k_theta (N m/rad) between the cam's angle and the sprocket, a
   path stiffness k_theta / R_m^2 on the sprocket's DOF; infinite: the sprocket follows the cam
   (its seated links held to the cam's motion, no DOF).
@@ -91,6 +96,9 @@ class MachineOnWheels:
     idler: Wheel | None = None  # None: today's idler (a point in a span)
     tensioner: Tensioner | None = None  # None: a fixed axle
     polygonal: bool = True
+    # the tooth flank's contact stiffness along the path holding each seated link to its seat; inf: rigid
+    # seating (the seated links and their wheel one body, today's model)
+    tooth_stiffness_N_per_m: float = np.inf
 
     def __post_init__(self) -> None:
         if self.drive not in DRIVES:
@@ -115,11 +123,35 @@ class MachineOnWheels:
         wrap = self.sprocket.wrap_links + (0 if self.idler is None else self.idler.wrap_links)
         if self.chain.n_links - wrap < 2:
             raise DynamicsError(f"wrap links: {wrap} seated of {self.chain.n_links}; expected at least two free links")
+        if not self.rigid_seating:
+            self._check_tooth_model()
         if self.idler is not None and self.idler.tooth_phase != self.sprocket.tooth_phase:
             raise DynamicsError(
                 f"tooth_phase: the idler's {self.idler.tooth_phase!r} differs from the sprocket's "
                 f"{self.sprocket.tooth_phase!r}; expected one phase (the seats change on both wheels at once)"
             )
+
+    def _check_tooth_model(self) -> None:
+        k_t = self.tooth_stiffness_N_per_m
+        if not (k_t > 0 and not np.isnan(k_t)):
+            raise DynamicsError(f"tooth_stiffness_N_per_m: expected > 0 N/m (inf: rigid seating), got {k_t!r}")
+        if self.tensioner is not None:
+            raise DynamicsError(
+                "tooth_stiffness_N_per_m: seating through a tooth stiffness is built for a fixed idler axle only; "
+                "expected no tensioner (rigid seating carries one)"
+            )
+        for name, wheel in (("sprocket", self.sprocket), ("idler", self.idler)):
+            held = name == "sprocket" and self.drive_held
+            if wheel is not None and wheel.wrap_links and not held and wheel.inertia_kg_m2 <= 0:
+                raise DynamicsError(
+                    f"{name} inertia: expected > 0 kg m^2 with a tooth stiffness (the wheel is a body of its own), "
+                    f"got {wheel.inertia_kg_m2!r}"
+                )
+
+    @property
+    def rigid_seating(self) -> bool:
+        """Seated links and their wheel one body (an infinite tooth stiffness, today's model)."""
+        return bool(np.isinf(self.tooth_stiffness_N_per_m))
 
     # --- layout ----------------------------------------------------------------------------------
 
@@ -200,6 +232,8 @@ class MachineOnWheels:
     def topology(self) -> ChainTopology:
         if self.drive == "link":
             return self.chain.topology() if self.tensioner is None else self._ring_with_carriage()
+        if not self.rigid_seating:
+            return self._tooth_topology()
         c = self.chain
         places = self.groups
         held = self.drive_held
@@ -244,6 +278,51 @@ class MachineOnWheels:
             places[0] if held else (),
         )
 
+    def _seated_blocks(self) -> tuple[tuple[Wheel, tuple[int, ...]], ...]:
+        """(wheel, its seated links) for the sprocket and the idler wheel, in `wheel_ends` order."""
+        out = [(self.sprocket, self.groups[0])]
+        if self.idler_place is not None:
+            out.append((self.idler, self.groups[self.idler_place]))
+        return tuple(out)
+
+    def _tooth_topology(self) -> ChainTopology:
+        """Seating through the tooth flanks: every link its own DOF (DOF j = link j), every span
+        elastic (span j from link j to link j + 1), each wheel a DOF of its own (its inertia J / R_m^2,
+        after the links) and each seated link held to its wheel's seat by a spring k_t (a coupling;
+        to the cam's frame on a sprocket held to the cam). A seated link's mass is m (R / R_m)^2 with
+        the polygonal action (its pin runs on the pitch circle, as in the rigid group's mass), so that
+        k_t -> infinity gives the rigid group's mass and stiffness."""
+        c, k_t, n = self.chain, float(self.tooth_stiffness_N_per_m), self.n_links
+        masses = [c.link_mass_kg] * n
+        links = [(j,) for j in range(n)]
+        ground, couplings, wheel_dofs = [], [], []
+        for i, (wheel, seated) in enumerate(self._seated_blocks()):
+            radius = wheel.pitch_radius_m if self.polygonal else wheel.feed_radius_m
+            for j in seated:
+                masses[j] = c.link_mass_kg * (radius / wheel.feed_radius_m) ** 2
+            if i == 0 and self.drive_held:
+                ground += [(j, k_t) for j in seated]
+                continue
+            dof = len(masses)
+            masses.append(wheel.inertia_kg_m2 / wheel.feed_radius_m**2)
+            links.append(())
+            wheel_dofs.append(dof)
+            couplings += [(j, dof, k_t) for j in seated]
+            if i == 0:
+                ground.append((dof, self.drive_stiffness_N_m_per_rad / wheel.feed_radius_m**2))
+        spans = tuple(Span(j, (j + 1) % n) for j in range(n))
+        return ChainTopology(
+            tuple(masses),
+            tuple(links),
+            spans,
+            c.stiffness_N_per_m,
+            c.preload_N,
+            tuple(ground),
+            (),
+            tuple(couplings),
+            tuple(wheel_dofs),
+        )
+
     def _group_mass(self, wheel: Wheel | None, n_seated: int) -> float:
         m = self.chain.link_mass_kg
         if wheel is None:
@@ -271,6 +350,14 @@ class MachineOnWheels:
     def wheel_ends(self) -> tuple[WheelEnds, ...]:
         if self.drive == "link":
             return ()
+        if not self.rigid_seating:
+            # span j joins link j to link j + 1; the wheels' DOFs follow the links' (none when held)
+            wheel_dofs = iter(self.topology.wheel_dofs)
+            out = []
+            for i, (wheel, seated) in enumerate(self._seated_blocks()):
+                dof = None if (i == 0 and self.drive_held) else next(wheel_dofs)
+                out.append(WheelEnds(wheel, dof, (seated[0] - 1) % self.n_links, seated[-1]))
+            return tuple(out)
         out = []
         n_places = len(self.groups)
         places = [(0, self.sprocket)]
@@ -297,7 +384,7 @@ class MachineOnWheels:
         if self.drive == "link" and self.tensioner is None:
             return self.chain.damping_matrix()
         k, m = self.stiffness_matrix(), self.mass_matrix()
-        chain_dofs = [d for d, carried in enumerate(self.topology.links) if carried]
+        chain_dofs = np.flatnonzero(self.topology.moves_with_cam()).tolist()  # not the carriage
         ix = np.ix_(chain_dofs, chain_dofs)
         c = np.zeros_like(k)
         if self.chain.rayleigh_coefficients is not None:
@@ -317,9 +404,9 @@ class MachineOnWheels:
 
     def inertial_load(self) -> np.ndarray:
         """r with f = -r z''(t): every DOF that moves with the chain carries its mass (the carriage
-        does not move with the cam)."""
+        does not move with the cam; a wheel of the tooth model does)."""
         topo = self.topology
-        return np.array([mass if carried else 0.0 for mass, carried in zip(topo.masses_kg, topo.links)])
+        return np.asarray(topo.masses_kg, dtype=float) * topo.moves_with_cam()
 
     def natural_frequencies_Hz(self) -> np.ndarray:
         lam = eigh(self.stiffness_matrix(), self.mass_matrix(), eigvals_only=True)
@@ -361,7 +448,7 @@ class MachineOnWheels:
         feed's departure at the wheels' nominal angles since the dwell (`angles_rad`, as
         `polygon_force` takes them), the ground springs, and -2 P u of the carriage's preload."""
         topo = self.topology
-        moves = np.array([1.0 if carried else 0.0 for carried in topo.links])
+        moves = topo.moves_with_cam()
         e = self._incidence_dense @ q
         if self.polygonal:
             for ends, angle in zip(self.wheel_ends, angles_rad):
@@ -372,7 +459,7 @@ class MachineOnWheels:
                 e[ends.ahead_span] -= d
         kinetic = 0.5 * float(np.sum(np.asarray(topo.masses_kg) * (v + moves * zdot_m_s) ** 2))
         elastic = float(np.sum(topo.preload_N * e + 0.5 * topo.span_stiffness_N_per_m * e**2))
-        ground = sum(0.5 * k * q[dof] ** 2 for dof, k in topo.ground)
+        ground = sum(0.5 * k * q[dof] ** 2 for dof, k in topo.ground) + topo.coupling_energy_J(q)
         carriage = -2.0 * topo.preload_N * q[-1] if self.tensioner is not None else 0.0
         return kinetic + elastic + ground + carriage
 

@@ -11,9 +11,10 @@ with the wheel's pitch circle), or the idler carriage. Spans join the DOFs:
 positive, preload P). Ground springs tie a DOF to the cam's frame: the drive (k_d on the driven
 DOF) and the tensioner's spring (k_t on the carriage). So
 
-    K = B^T diag(k) B + diag(ground),    M = diag(masses),
+    K = B^T diag(k) B + diag(ground) + couplings,    M = diag(masses),
 
-with B the spans' incidence matrix (n_spans x n_dof). `links` says which chain links each DOF
+with B the spans' incidence matrix (n_spans x n_dof) and the couplings springs between two DOFs (a
+seated link held to its wheel's seat by the tooth flank, dynamics.models.machine's tooth model). `links` says which chain links each DOF
 carries, so stations and relabelling know where every link is. Every linear matrix of the chain
 (the dense K and M of dynamics.models.chain.ChainModel, the sparse K of dynamics.response.sweep, the tensioner's
 full-contact K of dynamics.models.clearance, the machine on its wheels of dynamics.models.machine) is built from
@@ -52,6 +53,10 @@ class ChainTopology:
     preload_N: float
     ground: tuple[tuple[int, float], ...] = ()  # (DOF, stiffness N/m): springs to the cam's frame
     held_links: tuple[int, ...] = ()  # links that move with the cam (seated on a sprocket that follows it)
+    # (DOF a, DOF b, stiffness N/m): springs between two DOFs, force k (y_a - y_b) on b, no preload
+    # (a tooth flank holding a seated link, a, to its wheel's seat, b: dynamics.models.machine)
+    couplings: tuple[tuple[int, int, float], ...] = ()
+    wheel_dofs: tuple[int, ...] = ()  # DOFs of wheels that carry no link (they move with the cam)
 
     def __post_init__(self) -> None:
         n = len(self.masses_kg)
@@ -65,6 +70,11 @@ class ChainTopology:
             if not (0 <= dof < n and np.isfinite(stiffness) and stiffness >= 0):
                 raise DynamicsError(
                     f"ground: got ({dof!r}, {stiffness!r}); expected a DOF in 0..{n - 1} and a stiffness >= 0"
+                )
+        for a, b, stiffness in self.couplings:
+            if not (0 <= a < n and 0 <= b < n and a != b and np.isfinite(stiffness) and stiffness > 0):
+                raise DynamicsError(
+                    f"couplings: got ({a!r}, {b!r}, {stiffness!r}); expected two DOFs in 0..{n - 1} and a stiffness > 0"
                 )
 
     @property
@@ -92,10 +102,28 @@ class ChainTopology:
             g[dof] += stiffness
         return g
 
+    def moves_with_cam(self) -> np.ndarray:
+        """1 for every DOF that moves with the chain (carries links, or a wheel), 0 for a carriage."""
+        wheels = set(self.wheel_dofs)
+        return np.array([1.0 if (carried or d in wheels) else 0.0 for d, carried in enumerate(self.links)])
+
+    def coupling_matrix_sparse(self) -> sp.csr_matrix:
+        """The couplings' stiffness, sum k (e_a - e_b)(e_a - e_b)^T."""
+        rows, cols, vals = [], [], []
+        for a, b, k in self.couplings:
+            rows += [a, b, a, b]
+            cols += [a, b, b, a]
+            vals += [k, k, -k, -k]
+        return sp.csr_matrix((vals, (rows, cols)), shape=(self.n_dof, self.n_dof))
+
+    def coupling_energy_J(self, y_m: np.ndarray) -> float:
+        return float(sum(0.5 * k * (y_m[a] - y_m[b]) ** 2 for a, b, k in self.couplings))
+
     def stiffness_matrix_sparse(self) -> sp.csr_matrix:
-        """K = k B^T B + diag(ground), sparse."""
+        """K = k B^T B + diag(ground) + the couplings, sparse."""
         b = self.incidence()
-        return (self.span_stiffness_N_per_m * (b.T @ b) + sp.diags(self.ground_vector())).tocsr()
+        k = self.span_stiffness_N_per_m * (b.T @ b) + sp.diags(self.ground_vector())
+        return (k + self.coupling_matrix_sparse() if self.couplings else k).tocsr()
 
     def stiffness_matrix(self) -> np.ndarray:
         return self.stiffness_matrix_sparse().toarray()

@@ -86,6 +86,11 @@ class _Places:
 def _places(machine: MachineOnWheels) -> _Places:
     if machine.drive != "wheels":
         raise DynamicsError("drive: the relabelled steady state needs drive='wheels' (the link drive has no seats)")
+    if not machine.rigid_seating:
+        raise DynamicsError(
+            "tooth_stiffness_N_per_m: the seat change (transfer) is built for rigid seating only; "
+            "with a tooth stiffness use the labelled frame (relabel=False)"
+        )
     topo = machine.topology
     n = topo.n_dof
     n_places = len(machine.groups)

@@ -595,6 +595,9 @@ class Seating:
     speed_m_s: tuple[float, ...]
     impact_energy_J: tuple[float, ...]
     transfer_energy_change_J: float
+    # the cam at the seat change (0 at the dwell): what dynamics.response.seating judges rigid seating by
+    cam_speed_m_s: float = 0.0
+    cam_acceleration_m_s2: float = 0.0
 
 
 def cycle_nodes(cam, step_s: float, n_steps: int):
@@ -614,9 +617,10 @@ def seat_change(model, q, v, z_rel_end_m: float):
     return q_new, v_new, Seating(speeds, impacts, float(change))
 
 
-def seat_change_inside(model, q, v, z_rel_m: float, zdot_m_s: float):
+def seat_change_inside(model, q, v, z_rel_m: float, zdot_m_s: float, zddot_m_s2: float = 0.0):
     """(q, v) after the transfer inside the index (tooth phase != 0) at the cam's lift since the dwell
-    `z_rel_m` and speed `zdot_m_s`, and its Seating; after it the lift counts one pitch on."""
+    `z_rel_m`, speed `zdot_m_s` and acceleration `zddot_m_s2` (recorded in the Seating), and its
+    Seating; after it the lift counts one pitch on."""
     from dynamics.solvers.machine_steady import transfer
 
     mach = model.machine
@@ -625,7 +629,7 @@ def seat_change_inside(model, q, v, z_rel_m: float, zdot_m_s: float):
     pitch = mach.sprocket.pitch_m
     after = model.stored_energy_J(q_new, v_new, zdot_m_s, z_rel_m - pitch)
     change = after - model.stored_energy_J(q, v, zdot_m_s, z_rel_m)
-    return q_new, v_new, Seating(speeds, impacts, float(change))
+    return q_new, v_new, Seating(speeds, impacts, float(change), float(zdot_m_s), float(zddot_m_s2))
 
 
 def index_cycle(
@@ -687,9 +691,8 @@ def index_cycle(
     durations.append(t_seat - before * step_s)
     if before == 0:
         rows.append(_first_row(to_seat))
-    q1, v1, seating = seat_change_inside(
-        model, to_seat.q[-1], to_seat.v[-1], lift_at(t_seat) - s0, float(cam.svaj(np.array([t_seat]))[1][0])
-    )
+    _, zd_seat, zdd_seat, _ = (float(x[0]) for x in cam.svaj(np.array([t_seat])))
+    q1, v1, seating = seat_change_inside(model, to_seat.q[-1], to_seat.v[-1], lift_at(t_seat) - s0, zd_seat, zdd_seat)
     if not on_node:
         to_node = _sub_steps(model, cam, (t_seat, nxt * step_s), step_s, s0 + pitch, q1, v1, predictor, track_energy)
         pieces.append(to_node)
