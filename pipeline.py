@@ -408,7 +408,6 @@ def check_writable_out(out: Path) -> None:
 def run(cfg: RunConfig, progress: Progress) -> None:
     from functools import partial
 
-    from reporting.outputs import write_replica_outputs
     from stages.chain import run_dynamics
     from stages.fea import FeaInProgress, start_fea
     from stages.geometry import inspect_geometry
@@ -416,6 +415,7 @@ def run(cfg: RunConfig, progress: Progress) -> None:
 
     timing: dict[str, float] = {}
     if cfg.preset == "mqp2012":
+        from reporting.outputs import write_replica_outputs
         from stages.replica import run_replicas
 
         replicas = run_replicas(cfg, progress)

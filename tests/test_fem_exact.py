@@ -41,6 +41,36 @@ def test_assembly_on_curved_cells_equals_stock_vector_assembly():
     assert abs(fast - stock).max() <= 1e-12 * abs(stock).max()
 
 
+def _blocks_summed_over_one_slot_array(basis):
+    """G_ab on the scalar pattern as fem.assembly summed it before (one bincount over a slot array
+    of all nine components), the reference for the per-component sums."""
+    n_local, dim = basis.Nbfun, 3
+    grads = np.array([np.asarray(basis.basis[i][0].grad) for i in range(n_local)])
+    n_elements = grads.shape[2]
+    by_element = grads.transpose(2, 0, 1, 3).reshape(n_elements, n_local * dim, -1)
+    local = np.matmul(by_element, (by_element * np.asarray(basis.dx)[:, None, :]).transpose(0, 2, 1))
+    local = local.reshape(n_elements, n_local, dim, n_local, dim).transpose(0, 1, 3, 2, 4)
+    dofs = np.asarray(basis.element_dofs, dtype=np.int64)
+    rows = np.broadcast_to(dofs.T[:, :, None], (n_elements, n_local, n_local)).ravel()
+    cols = np.broadcast_to(dofs.T[:, None, :], (n_elements, n_local, n_local)).ravel()
+    keys = rows * basis.N + cols
+    order = np.argsort(keys)
+    starts = np.r_[True, keys[order][1:] != keys[order][:-1]]
+    entry = np.empty(keys.size, dtype=np.int64)
+    entry[order] = np.cumsum(starts) - 1
+    slots = (dim * dim * entry[:, None] + np.arange(dim * dim)).ravel()
+    return np.bincount(slots, weights=local.reshape(-1)).reshape(-1, dim, dim)
+
+
+def test_gradient_blocks_are_summed_in_the_same_order_as_over_one_slot_array():
+    # per-component sums add the same terms in the same order: equal to the bit, not to round-off
+    from fem.assembly import _gradient_blocks
+
+    basis = problem.scalar_basis(MeshTet2.init_ball(1), 2)
+    blocks, _, _ = _gradient_blocks(basis)
+    assert np.array_equal(blocks, _blocks_summed_over_one_slot_array(basis))
+
+
 def test_restricted_parts_equal_the_restricted_matrix():
     mesh = box()
     parts = elasticity_parts(problem.scalar_basis(mesh, 2))

@@ -27,6 +27,28 @@ def test_png_is_written_with_a_coloured_link(tmp_path, solution, scalar):
     assert not list(tmp_path.glob(".*tmp*"))  # written atomically, no leftovers
 
 
+def test_image_is_rendered_with_one_sample_per_pixel_as_rgb(tmp_path, solution, monkeypatch):
+    # Mesa's software rasteriser pays for every sample (fem.render.MULTI_SAMPLES)
+    import pyvista
+
+    from fem import render
+
+    samples = []
+
+    class Recording(pyvista.Plotter):
+        def screenshot(self, *args, **kwargs):
+            samples.append(self.render_window.GetMultiSamples())
+            return super().screenshot(*args, **kwargs)
+
+    monkeypatch.setattr(pyvista, "Plotter", Recording)
+    render_deformed(solution, tmp_path / "link.png", window_size=(320, 200))
+    assert render.MULTI_SAMPLES == 1 and samples in ([0], [1])  # pyvista asks VTK for 0 (off) for one sample
+    from PIL import Image
+
+    with Image.open(tmp_path / "link.png") as image:
+        assert (image.mode, image.size) == ("RGB", (320, 200))
+
+
 def test_bad_scalar_and_suffix_are_fem_errors(tmp_path, solution):
     with pytest.raises(FemError, match="scalar"):
         render_deformed(solution, tmp_path / "a.png", scalar="strain")

@@ -85,3 +85,20 @@ def test_a_failure_beside_is_one_line_exit_2_and_nothing_written(steps, message,
     assert [p.name for p in out.iterdir()] == ["summary.json"]  # no staging folder left behind
     assert (out / "summary.json").read_text() == "an earlier run's"
     assert not list(cache.rglob("result.json"))  # no FEA record stored without its stress
+
+
+def test_the_fea_process_starts_before_the_outputs_modules_are_imported(tmp_path):
+    # the outputs' modules (matplotlib: about 1.3 s) are imported while the FEA's process meshes,
+    # not before it starts (pipeline._import_chain_and_outputs)
+    probe = (
+        "import sys, pipeline, stages.fea\n"
+        "def started(*args, **kwargs):\n"
+        "    print('reporting.outputs' in sys.modules, 'matplotlib' in sys.modules)\n"
+        "    raise SystemExit(0)\n"
+        "stages.fea.start_fea = started\n"
+        f"pipeline.main(['--out', {str(tmp_path / 'out')!r}, '--cache-dir', {str(tmp_path / 'cache')!r}])\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", probe], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["False", "False"]
