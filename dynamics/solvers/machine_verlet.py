@@ -390,18 +390,20 @@ def _run_loops(
             if not (impact or in_impact[j]):
                 free[j] = not contact[j]
                 continue
-            if not have_start:  # the step's start state, recovered from the step's own quantities
-                for m in range(n):
-                    q_s[m] = q[m] - h * wh[m]
-                    v_s[m] = wh[m] - hh * a_prev[m]
-                have_start = True
-            ed_new, edd_new = _span_rates(
-                j, v, a, z_rel[i + 1], zd[i + 1], zdd[i + 1], q, span_int, span_float, wheel_float
-            )
-            p_new = par[3] * ed_new * ed_new if kv else 0.0  # the Kelvin-Voigt dashpot's power
+            ed_new, edd_new = 0.0, 0.0  # the span's rates at the step's end: the dashpot's power needs them
+            if kv:
+                ed_new, edd_new = _span_rates(
+                    j, v, a, z_rel[i + 1], zd[i + 1], zdd[i + 1], q, span_int, span_float, wheel_float
+                )
+            p_new = par[3] * ed_new * ed_new  # the Kelvin-Voigt dashpot's power (0: global law)
             d_old = par[1] + par[0] * e_prev[j]
             d_new = par[1] + par[0] * e_new[j]
             if impact:
+                if not have_start:  # the step's start state, recovered from the step's own quantities
+                    for m in range(n):
+                        q_s[m] = q[m] - h * wh[m]
+                        v_s[m] = wh[m] - hh * a_prev[m]
+                    have_start = True
                 ed_s, edd_s = _span_rates(
                     j, v_s, a_prev, z_rel[i], zd[i], zdd[i], q_s, span_int, span_float, wheel_float
                 )
@@ -415,7 +417,7 @@ def _run_loops(
                     stats[6] = max(stats[6], abs(t_el[j]))
                     stats[0] += 1
                     stats[7] += 0.25 * par[7] * ed_c * ed_c
-                    stats[10] += 0.5 * (1.0 - frac) * h * ((par[3] * ed_c * ed_c if kv else 0.0) + p_new)
+                    stats[10] += 0.5 * (1.0 - frac) * h * (par[3] * ed_c * ed_c + p_new)
                     stats[8] = max(stats[8], speed)
                     stored = int(stats[9])
                     if stored < speeds.shape[0]:
@@ -432,7 +434,7 @@ def _run_loops(
                 frac = _crossing(d_old, d_new, 0.0 if d_old >= 0.0 else -par[2])
                 ed_c = ed_new - (1.0 - frac) * h * edd_new  # extrapolated back from the free-play side
                 if recording:
-                    stats[10] += 0.5 * frac * h * (dash_prev[j] + (par[3] * ed_c * ed_c if kv else 0.0))
+                    stats[10] += 0.5 * frac * h * (dash_prev[j] + par[3] * ed_c * ed_c)
                 in_impact[j] = False
                 dash_prev[j] = 0.0
             free[j] = not contact[j]
