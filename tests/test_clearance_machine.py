@@ -282,3 +282,34 @@ def test_kelvin_voigt_on_wheels_converges_at_second_order():
         errors = np.array([norm(d) for d in diffs])
         orders = np.log2(errors[:-1] / errors[1:])
         assert np.all(orders > 1.5), (errors, orders)
+
+
+def test_the_span_rates_at_an_impact_are_the_stretches_derivatives():
+    """The closing speed at an impact is extrapolated from the step's start with the span's e' and
+    e'' (machine_verlet._span_rates): on every span, the wheel-end spans' polygonal feed included (the
+    sprocket and the idler wheel each with its own DOF), they are the central differences of the
+    span stretches (ClearanceMachine.stretches_m, the model's own numpy form) along a quadratic path
+    of the DOFs and the cam, to 1e-7 of their largest (differences of +-1e-5 s: truncation and
+    rounding below 1e-8 of it)."""
+    model = ClearanceMachine.of(ChainModel(24, M, K), _wheels(stiffness=2e6), None, 94e-6)
+    arr = model.arrays
+    assert np.all(arr.wheel_float[:, 3] >= 0) and np.any(arr.span_int[:, 3] >= 0)
+    rng = np.random.default_rng(3)
+    n = model.topology.n_dof
+    q0, v0, a0 = 1e-3 * rng.standard_normal(n), 0.3 * rng.standard_normal(n), 300.0 * rng.standard_normal(n)
+    z0, zd0, zdd0 = 0.05, 4.0, 500.0
+
+    def stretch(t):
+        return model.stretches_m(q0 + v0 * t + 0.5 * a0 * t * t, z0 + zd0 * t + 0.5 * zdd0 * t * t)[0]
+
+    dt = 1e-5
+    rate = (stretch(dt) - stretch(-dt)) / (2 * dt)
+    second = (stretch(dt) - 2 * stretch(0.0) + stretch(-dt)) / dt**2
+    got = np.array(
+        [
+            mv._span_rates(j, v0, a0, z0, zd0, zdd0, q0, arr.span_int, arr.span_float, arr.wheel_float)
+            for j in range(arr.span_int.shape[0])
+        ]
+    )
+    assert np.max(np.abs(got[:, 0] - rate)) < 1e-7 * np.max(np.abs(rate))
+    assert np.max(np.abs(got[:, 1] - second)) < 1e-7 * np.max(np.abs(second))

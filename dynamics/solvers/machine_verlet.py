@@ -12,12 +12,16 @@ Compiled with numba when installed (the same functions run as Python otherwise, 
 One index cycle at a time: the polygonal feed's angle is counted from the dwell at the cycle's start
 (`z_rel`, the cam's lift since then), where the seats change (dynamics.solvers.machine_steady.transfer).
 
-Impacts (a span entering contact from free play): counted per step, the closing speed taken as the
-span's |e'| at the end of the step in which it entered contact (first order in the step, unlike the
-ring's interpolated crossing), its approach energy 1/4 m e'^2 (m_eff = m / 2), the force spike the
-largest |T| within one impact duration pi sqrt(m_eff / k) of it, and (Kelvin-Voigt law) the span
-dashpots' work over the contacts begun by impacts while they last (trapezoidal over the steps, the
-impact's own step at half weight: first order at the crossing, unlike the ring's interpolation).
+Impacts (a span entering contact from free play), measured as the ring's kernel does
+(clearance_verlet._impacts_loop, tested equal to round-off on the ring's topology): the crossing of
+the span law's threshold interpolated within the step (`_crossing`), the closing speed there
+extrapolated from the free-play side with the span's e' and e'' at the step's start (`_span_rates`,
+through a wheel-end span's polygonal feed too; the start state recovered from the step's own
+quantities, only in steps with an impact), its approach energy 1/4 m e'^2 (m_eff = m / 2), the force
+spike the largest |T| within one impact duration pi sqrt(m_eff / k) counted from the crossing, and
+(Kelvin-Voigt law) the span dashpots' work over the contacts begun by impacts while they last
+(trapezoidal over the steps, from and to the crossings). Second order in the step, where the step's
+end was first order.
 """
 
 from __future__ import annotations
@@ -35,6 +39,7 @@ from dynamics.solvers.clearance_verlet import (
     PREDICTORS,
     SPEED_CAPACITY,
     TANH_IS_ONE,
+    _crossing,
     _rows_times,
     _switch_impulse,
     _tanh,
@@ -271,9 +276,12 @@ def _run_loops(
     ed = np.empty(ns)
     contact = np.empty(ns, dtype=np.bool_)
     free = np.empty(ns, dtype=np.bool_)
-    clock = np.full(ns, np.inf)
+    clock = np.zeros(ns)  # time since each contact begun by an impact began (from its crossing)
     in_impact = np.zeros(ns, dtype=np.bool_)  # a contact begun by an impact, while it lasts
-    dash_prev = np.zeros(ns)
+    dash_prev = np.zeros(ns)  # its dashpot's power at the last step
+    q_s = np.empty(n)  # the step's start state where an impact needs it
+    v_s = np.empty(n)
+    e_prev = np.empty(ns)  # the span stretches at the step's start
     nw = max(wheel_float.shape[0], 1)
     work = (
         np.zeros(nw),
@@ -315,6 +323,7 @@ def _run_loops(
         a_prev[j] = a[j]
     for j in range(ns):
         free[j] = not contact[j]
+        e_prev[j] = e_old[j]
     out_q[0] = q
     out_v[0] = v
     out_a[0] = a
@@ -375,16 +384,49 @@ def _run_loops(
                 e_old[j] = e_new[j]
                 ed_old[j] = ed[j]
         recording = i + 1 >= record_from
+        have_start = False
         for j in range(ns):
-            p_dash = par[3] * ed[j] * ed[j] if contact[j] else 0.0  # the Kelvin-Voigt dashpot's power
-            if contact[j] and free[j]:
-                clock[j] = 0.0
+            impact = contact[j] and free[j]
+            if not (impact or in_impact[j]):
+                free[j] = not contact[j]
+                continue
+            # the span's rate at the step's end (the final velocities): the Kelvin-Voigt dashpot's power
+            # (written out: a call here, on every step of a contact, made the Kelvin-Voigt window 3x slower)
+            ed_new = 0.0
+            if kv:
+                b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
+                if fw >= 0:
+                    ed_new += v[fw]
+                if b >= 0:
+                    ed_new -= v[b]
+                if c >= 0:
+                    ed_new += span_float[j, 0] * v[c]
+                if wi >= 0:
+                    dof = int(wheel_float[wi, 3])
+                    ed_new += span_float[j, 1] * work[1][wi] * (zd[i + 1] + (v[dof] if dof >= 0 else 0.0))
+            p_new = par[3] * ed_new * ed_new  # (0: global law)
+            d_old = par[1] + par[0] * e_prev[j]
+            d_new = par[1] + par[0] * e_new[j]
+            if impact:
+                if not have_start:  # the step's start state, recovered from the step's own quantities
+                    for m in range(n):
+                        q_s[m] = q[m] - h * wh[m]
+                        v_s[m] = wh[m] - hh * a_prev[m]
+                    have_start = True
+                ed_s, edd_s = _span_rates(
+                    j, v_s, a_prev, z_rel[i], zd[i], zdd[i], q_s, span_int, span_float, wheel_float
+                )
+                frac = _crossing(d_old, d_new, 0.0 if d_new >= 0.0 else -par[2])
+                ed_c = ed_s + frac * h * edd_s  # extrapolated from the free-play side
+                clock[j] = (1.0 - frac) * h
                 in_impact[j] = True
+                dash_prev[j] = p_new
                 if recording:
-                    stats[10] += hh * p_dash
-                    speed = abs(ed[j])
+                    speed = abs(ed_c)
+                    stats[6] = max(stats[6], abs(t_el[j]))
                     stats[0] += 1
-                    stats[7] += 0.25 * par[7] * speed * speed
+                    stats[7] += 0.25 * par[7] * ed_c * ed_c
+                    stats[10] += 0.5 * (1.0 - frac) * h * (par[3] * ed_c * ed_c + p_new)
                     stats[8] = max(stats[8], speed)
                     stored = int(stats[9])
                     if stored < speeds.shape[0]:
@@ -392,15 +434,26 @@ def _run_loops(
                         stats[9] = stored + 1
             elif contact[j]:
                 clock[j] += h
-                if recording and in_impact[j]:
-                    stats[10] += hh * (dash_prev[j] + p_dash)
-            else:
-                clock[j] = np.inf
+                if recording:
+                    if clock[j] <= window:
+                        stats[6] = max(stats[6], abs(t_el[j]))
+                    stats[10] += hh * (dash_prev[j] + p_new)
+                dash_prev[j] = p_new
+            else:  # the contact begun by an impact ends within the step
+                frac = _crossing(d_old, d_new, 0.0 if d_old >= 0.0 else -par[2])
+                ed_c = 0.0
+                if kv:  # extrapolated back from the free-play side
+                    ed_c, edd_new = _span_rates(
+                        j, v, a, z_rel[i + 1], zd[i + 1], zdd[i + 1], q, span_int, span_float, wheel_float
+                    )
+                    ed_c -= (1.0 - frac) * h * edd_new
+                if recording:
+                    stats[10] += 0.5 * frac * h * (dash_prev[j] + par[3] * ed_c * ed_c)
                 in_impact[j] = False
-            dash_prev[j] = p_dash
-            if recording and clock[j] <= window:
-                stats[6] = max(stats[6], abs(t_el[j]))
+                dash_prev[j] = 0.0
             free[j] = not contact[j]
+        for j in range(ns):
+            e_prev[j] = e_new[j]
         if recording:
             _record(t_el, contact, stats)
         on_output = (i + 1) % out_every == 0
@@ -443,6 +496,36 @@ def _run_loops(
                 return
 
 
+def _span_rates(j, v, acc, z_rel, zd, zdd, q, span_int, span_float, wheel_float):
+    """Span j's stretch rate e' and its second derivative e'' at one state (the DOFs' q, q' = v,
+    q'' = acc, the cam's lift since the dwell, speed and acceleration): B v and B acc through the
+    span's incidence, and a wheel-end span's feed d(a), a = (z_rel + u) / R_m, differentiated along
+    the wheel's motion: d' = s (z' + u'), d'' = s (z'' + u'') - R sin(g0 + a) (z' + u')^2 / R_m^2,
+    s = dd/du (`_wheels_into`)."""
+    b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
+    de = 0.0
+    dde = 0.0
+    if fw >= 0:
+        de += v[fw]
+        dde += acc[fw]
+    if b >= 0:
+        de -= v[b]
+        dde -= acc[b]
+    if c >= 0:
+        de += span_float[j, 0] * v[c]
+        dde += span_float[j, 0] * acc[c]
+    if wi >= 0:
+        r, rm, g0, dof = wheel_float[wi, 0], wheel_float[wi, 1], wheel_float[wi, 2], int(wheel_float[wi, 3])
+        u = q[dof] if dof >= 0 else 0.0
+        ud = zd + (v[dof] if dof >= 0 else 0.0)
+        udd = zdd + (acc[dof] if dof >= 0 else 0.0)
+        ang = g0 + (z_rel + u) / rm
+        slope = (r * math.cos(ang) - rm) / rm
+        de += span_float[j, 1] * slope * ud
+        dde += span_float[j, 1] * (slope * udd - r * math.sin(ang) * ud * ud / (rm * rm))
+    return de, dde
+
+
 def _record(t_el, contact, stats):
     for j in range(t_el.shape[0]):
         stats[1] += not contact[j]
@@ -458,6 +541,7 @@ if numba is not None:
         "_record",
         "_kinetic_abs_J",
         "_span_impulses_into",
+        "_span_rates",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)

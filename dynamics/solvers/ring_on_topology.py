@@ -5,10 +5,9 @@ dynamics.scene.simulate_chain runs with `kernel="topology"` (issue #22, Architec
 more description of the topology, not a kernel of its own).
 
 What it gives (tests/test_ring_on_topology.py): the ring's trajectories, tensions, contact counts,
-free-play fraction, tension extremes, force spike and energy terms to 1e-12. What it does not
-(docs/architecture.md, "The ring on the topology kernel"): the impacts' closing speeds, approach
-energies and the Kelvin-Voigt contacts' dissipation are taken at the step's end, not at the crossing
-interpolated within the step (first order in the step: a few per cent at the default step); the
+free-play fraction, tension extremes, energy terms and impact measurements (closing speeds, approach
+energies, force spike and Kelvin-Voigt dissipation, all at the crossing interpolated within the step)
+to 1e-12. What it does not (docs/architecture.md, "The ring on the topology kernel"): the
 largest force over a whole contact begun by an impact (`Run.peak_force_in_impact_contact_N`) is not
 measured (NaN); the O(N) damping above DENSE_LINK_LIMIT links is the machine's
 (dynamics.models.machine_damping), not the ring's (dynamics.models.reduced_damping), so it is refused
