@@ -13,6 +13,7 @@ the checks live in the settings package.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
@@ -408,7 +409,6 @@ def check_writable_out(out: Path) -> None:
 def run(cfg: RunConfig, progress: Progress) -> None:
     from functools import partial
 
-    from reporting.outputs import write_replica_outputs
     from stages.chain import run_dynamics
     from stages.fea import FeaInProgress, start_fea
     from stages.geometry import inspect_geometry
@@ -416,6 +416,7 @@ def run(cfg: RunConfig, progress: Progress) -> None:
 
     timing: dict[str, float] = {}
     if cfg.preset == "mqp2012":
+        from reporting.outputs import write_replica_outputs
         from stages.replica import run_replicas
 
         replicas = run_replicas(cfg, progress)
@@ -470,5 +471,15 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def exit_now(status: int) -> None:
+    """End the process without the interpreter's teardown: once main has returned, everything is
+    written and the FEA's process joined, and tearing down what the run imported and made (numba,
+    matplotlib, SciPy, the histories) took 0.5-0.8 s of the whole job's wall (measured: main
+    returning to the process's end, 0.03 s this way)."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    os._exit(status)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    exit_now(main())
