@@ -87,8 +87,8 @@ def _rendered(fig) -> np.ndarray:
     grown = Bbox.from_extents(-MARGIN_INCHES, -MARGIN_INCHES, width + MARGIN_INCHES, height + MARGIN_INCHES)
     buffer = BytesIO()
     fig.savefig(buffer, format="rgba", dpi=DPI, bbox_inches=grown)
-    columns, rows = round(grown.width * DPI), round(grown.height * DPI)
-    return np.frombuffer(buffer.getbuffer(), dtype=np.uint8).reshape(rows, columns, 4)
+    columns = int(grown.width * DPI)  # as the Agg canvas sizes itself (truncated), the rows from the bytes
+    return np.frombuffer(buffer.getbuffer(), dtype=np.uint8).reshape(-1, columns, 4)
 
 
 def _fix_title_positions(fig) -> list:
