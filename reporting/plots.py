@@ -87,8 +87,12 @@ def _rendered(fig) -> np.ndarray:
     grown = Bbox.from_extents(-MARGIN_INCHES, -MARGIN_INCHES, width + MARGIN_INCHES, height + MARGIN_INCHES)
     buffer = BytesIO()
     fig.savefig(buffer, format="rgba", dpi=DPI, bbox_inches=grown)
-    columns = int(grown.width * DPI)  # as the Agg canvas sizes itself (truncated), the rows from the bytes
-    return np.frombuffer(buffer.getbuffer(), dtype=np.uint8).reshape(-1, columns, 4)
+    # the pixels as the Agg renderer that drew them holds them (its own size: computing the canvas's
+    # width from the figure's inches disagreed with it by a pixel for some sizes)
+    pixels = np.asarray(fig.canvas.renderer.buffer_rgba())
+    if pixels.nbytes != buffer.getbuffer().nbytes:
+        raise RuntimeError("the figure's raw pixels and its renderer's differ in size")
+    return pixels
 
 
 def _fix_title_positions(fig) -> list:
