@@ -93,3 +93,59 @@ def test_the_workers_get_the_jobs_by_fork_not_by_pickling_their_arguments(tmp_pa
     paths = draw_figures(jobs, workers=2)
     assert [paths[i].read_text().split()[:2] for i in range(3)] == [["figure", str(i)] for i in range(3)]
     assert os.getpid() not in {int(path.read_text().split()[-1]) for path in paths.values()}
+
+
+def _title_height_px(path: Path) -> int:
+    """Rows from a PNG's first ink (its title's top) to the axes' top edge (the first row with an
+    unbroken dark run over half the image's width: the frame, not a line of text)."""
+    import numpy as np
+    from PIL import Image
+
+    dark = np.asarray(Image.open(path).convert("L")) < 128
+    ink = np.flatnonzero(dark.any(axis=1))
+
+    def longest_run(row: np.ndarray) -> int:
+        edges = np.flatnonzero(np.diff(np.concatenate(([0], row.astype(np.int8), [0]))))
+        return int(np.max(edges[1::2] - edges[::2], initial=0))
+
+    frame = next(i for i, row in enumerate(dark) if longest_run(row) > dark.shape[1] / 2)
+    return int(frame - ink[0])
+
+
+def test_what_lies_outside_a_narrow_figure_is_drawn_in_one_draw(tmp_path, monkeypatch):
+    """A y label left of a narrow figure's canvas is in the PNG, drawn once (no bbox_inches="tight"
+    pass, which draws twice): the canvas is grown by reporting.plots.MARGIN_INCHES."""
+    import matplotlib.figure
+    from PIL import Image
+
+    from reporting import plots
+
+    draws = []
+    original = matplotlib.figure.Figure.draw
+    monkeypatch.setattr(matplotlib.figure.Figure, "draw", lambda fig, r: draws.append(1) or original(fig, r))
+    fig, ax = plots.plt.subplots(figsize=(1.5, 1.5))
+    ax.plot([0.0, 1.0], [-1.0, 1.0])
+    ax.set_ylabel("a long label")
+    path = plots._save(fig, tmp_path / "narrow.png")
+    width_px = Image.open(path).size[0]
+    assert len(draws) == 1 and width_px > 1.5 * plots.DPI  # wider than the figure: the label is in
+
+
+def test_a_title_moves_above_a_y_offset_text_as_matplotlib_places_it(tmp_path):
+    """Titles are placed without matplotlib's search unless an offset text stands where the title
+    goes: then the figure is drawn with the search, and the title sits above the offset text."""
+    from reporting import plots
+
+    def figure(offset: bool):
+        fig, ax = plots.plt.subplots(figsize=(4, 3))
+        ax.plot([0.0, 1.0], [5.0 + 1e-5, 5.0 + 3e-5] if offset else [0.0, 1.0])
+        ax.set_title("a title as wide as the axes, over the offset text")
+        return fig
+
+    plain = _title_height_px(plots._save(figure(False), tmp_path / "plain.png"))
+    with_offset = _title_height_px(plots._save(figure(True), tmp_path / "offset.png"))
+    reference = figure(True)
+    reference.savefig(tmp_path / "reference.png", dpi=plots.DPI, bbox_inches="tight", pad_inches=plots.PAD_INCHES)
+    plots.plt.close(reference)
+    # within a pixel: the tight canvas's origin falls between pixels, the grown one's on a pixel
+    assert abs(with_offset - _title_height_px(tmp_path / "reference.png")) <= 1 and with_offset > plain + 5
