@@ -11,11 +11,12 @@ the chain's models or solvers (numba, SciPy): the FEA's process starts after the
 
 from __future__ import annotations
 
+from fem.options import ELEMENT_ORDERS as ELEMENT_ORDERS  # P1 / P2 tetrahedra, read here by the CLIs
+
 DEFAULT_MATERIALS = ("al6061-t6", "ti-grade2")
 DEFAULT_STATION = "tight-side"  # where tables, rankings and plots look unless --station says otherwise
 DEFAULT_DRIVE = "wheels"  # how the chain is driven when --drive is not given (RunConfig.machine_drive)
 PRESETS = ("mqp2012",)
-ELEMENT_ORDERS = (1, 2)  # P1 / P2 tetrahedra
 
 
 def cam_ids() -> tuple[str, ...]:

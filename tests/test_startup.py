@@ -10,15 +10,18 @@ import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-HEAVY = ("numba", "scipy", "matplotlib", "dynamics.solvers", "dynamics.scene", "dynamics.models.clearance")
+HEAVY = ("numba", "scipy", "skfem", "matplotlib", "dynamics.solvers", "dynamics.scene", "dynamics.models.clearance")
 
 # parse and check the default command line as pipeline.main does before `run` starts the FEA
 PRE_FEA = """
 import json, sys
 import pipeline
-from stages.fea import start_fea  # noqa: F401  (what run() imports before it calls start_fea)
-from stages.geometry import inspect_geometry  # noqa: F401
+import fem.cache, processes, stages.beside  # noqa: F401, E401  (what start_fea imports before the child starts)
+from fem import load_materials
+from stages.fea import fea_cache_settings, fea_settings
 cfg = pipeline.parse_cli(["--rayleigh", "0:1e-5", "--tensioner-mass", "2", "--span-damping", "global"])
+settings = fea_settings(cfg)
+fea_cache_settings(cfg, settings, load_materials()["al6061-t6"], None)
 print(json.dumps(sorted(sys.modules)))
 """
 
@@ -79,3 +82,25 @@ def test_a_light_name_refused_where_the_models_refuse_it():
     for bad in ("1", "a:b", "nan:0", "0:inf", "-1:0"):
         with pytest.raises(ValueError, match="ALPHA:BETA"):
             parse_rayleigh(bad)
+
+
+def test_the_declared_fea_choices_are_the_implemented_ones():
+    import pytest
+
+    from fem.errors import FemError
+    from fem.options import ELEMENT_ORDERS, LINEAR_SOLVERS
+    from fem.problem import ELEMENTS, element
+    from fem.settings import FeaSettings
+    from fem.solvers import SOLVERS, resolve
+    from settings import registries
+
+    assert tuple(ELEMENTS) == ELEMENT_ORDERS == registries.ELEMENT_ORDERS
+    assert tuple(SOLVERS) == LINEAR_SOLVERS
+    assert resolve("auto") in LINEAR_SOLVERS
+    for bad in (0, 3):
+        with pytest.raises(FemError, match="element order must be 1 or 2"):
+            element(bad)
+        with pytest.raises(FemError, match="element order must be 1 or 2"):
+            FeaSettings(order=bad)
+    with pytest.raises(FemError, match="unknown solver 'cholmod'"):
+        FeaSettings(solver="cholmod")
