@@ -327,7 +327,7 @@ def _pin_clearance_m(text: str | None, default_m: float) -> float:
 
 
 def _rayleigh(text: str | None) -> tuple[float, float] | None:
-    from dynamics.scene import parse_rayleigh
+    from dynamics.options import parse_rayleigh
 
     if text is None:
         return None

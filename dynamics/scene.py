@@ -39,6 +39,7 @@ import numpy as np
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.layout import LINK_DRIVE, MachineLayout
+from dynamics.options import MODEL_CHOICES
 from dynamics.response.fidelity import relative_change
 from dynamics.response.metrics import link_metrics, station_links
 from dynamics.solvers import cache, ring_on_topology, shooting
@@ -46,7 +47,6 @@ from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers._common import serial_blas
 from dynamics.solvers.simulate import ChainResponse, SlackChainWarning, simulate
 
-MODEL_CHOICES = ("auto", "linear", "clearance")
 MAX_SUBHARMONIC = 6
 DEFAULT_TOL = 1e-6
 DEFAULT_MAX_CYCLES = 60
@@ -532,29 +532,6 @@ def _scale(run, n: int) -> np.ndarray:
     su = max(float(np.max(np.abs(run.u))), sy)
     sud = max(float(np.max(np.abs(run.ud))), sw)
     return np.concatenate([np.full(n, sy), np.full(n, sw), [su, sud]])
-
-
-def parse_rayleigh(text: str) -> tuple[float, float]:
-    """'ALPHA:BETA' -> (alpha 1/s, beta s), both finite and >= 0; ValueError otherwise."""
-    parts = str(text).split(":")
-    try:
-        alpha, beta = (float(p) for p in parts)
-    except ValueError:
-        raise ValueError(f"expected ALPHA:BETA (C = alpha M + beta K, alpha in 1/s, beta in s), got {text!r}") from None
-    if not all(np.isfinite(c) and c >= 0 for c in (alpha, beta)):
-        raise ValueError(f"expected finite ALPHA:BETA >= 0, got {text!r}")
-    return alpha, beta
-
-
-def tensioner_from(rate_N_per_m, mass_kg, damping_N_s_per_m) -> Tensioner | None:
-    """The optional idler tensioner from its three settings (None when none is given)."""
-    if rate_N_per_m is None and mass_kg is None and damping_N_s_per_m is None:
-        return None
-    if mass_kg is None:
-        raise ValueError("the tensioner needs its carriage mass (--tensioner-mass KG) with its rate or damping")
-    return Tensioner(
-        0.0 if rate_N_per_m is None else rate_N_per_m, mass_kg, 0.0 if damping_N_s_per_m is None else damping_N_s_per_m
-    )
 
 
 def scene_model(scene: Scene, chain) -> ClearanceChain:

@@ -15,6 +15,7 @@ from skfem.mapping import MappingIsoparametric
 from . import solvers
 from .assembly import DIM, rigid_body_modes, vector_dofs
 from .errors import FemError
+from .options import check_element_order
 
 ELEMENTS = {1: ElementTetP1, 2: ElementTetP2}
 # Facet quadrature for tractions: the link's bearing pressure max(0, cos phi) has a kink at
@@ -38,8 +39,7 @@ ROUNDOFF_NEWTON_TOL = 1e-10
 
 
 def element(order: int):
-    if order not in ELEMENTS:
-        raise FemError(f"element order must be 1 or 2, got {order!r}")
+    check_element_order(order)
     return ELEMENTS[order]()
 
 

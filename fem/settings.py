@@ -16,8 +16,7 @@ import numpy as np
 
 from .budget import DEFAULT_MAX_MEMORY_GB, check_max_memory_gb
 from .errors import FemError
-from .problem import element
-from .solvers import resolve
+from .options import check_element_order, check_linear_solver
 
 #: Successive mesh levels differ by this size ratio.
 LEVEL_RATIO = 4 / 3
@@ -72,8 +71,8 @@ class FeaSettings:
     max_memory_gb: float = DEFAULT_MAX_MEMORY_GB
 
     def __post_init__(self) -> None:
-        element(self.order)
-        resolve(self.solver)
+        check_element_order(self.order)  # by name: fem.problem and fem.solvers load scikit-fem and SciPy
+        check_linear_solver(self.solver)
         if self.mesh_sizes_m is not None:
             object.__setattr__(self, "mesh_sizes_m", check_sizes(self.mesh_sizes_m))
         if not (isinstance(self.load_N, (int, float)) and math.isfinite(self.load_N) and self.load_N > 0):

@@ -21,6 +21,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import FemError
+from .options import check_linear_solver
 
 AMG_RELATIVE_TOLERANCE = 1e-10  # residual; k is then converged far below discretisation error
 # Residual of the CG that reuses another material's factorisation: k then agrees with a direct
@@ -200,8 +201,7 @@ def resolve(method: str) -> str:
     """The concrete method "auto" stands for here; unknown names are a FemError."""
     if method == "auto":
         return "pardiso" if _has_pardiso() else "amg"
-    if method not in SOLVERS:
-        raise FemError(f"unknown solver {method!r}; expected auto or one of {', '.join(SOLVERS)}")
+    check_linear_solver(method)
     return method
 
 

@@ -75,8 +75,8 @@ def _check_solver(method: str, friction: float) -> None:
 
 
 def _check_chain_model(cfg: RunConfig) -> None:
-    """The chain-model options (issue #11); the rules live in dynamics.scene."""
-    from dynamics.scene import tensioner_from
+    """The chain-model options (issue #11); the tensioner's rules live in dynamics.models.tensioner."""
+    from dynamics.models.tensioner import tensioner_from
 
     if cfg.rayleigh is not None:
         alpha, beta = cfg.rayleigh

@@ -2,19 +2,21 @@
 
 A new cam law is one `dynamics.cams.register_law` call: `cam_ids()` (what 'all' means) and
 `extra_cam_ids()` (accepted by name only) are derived from the law registry. Materials come from
-fem/data/materials.toml (plus a user's --materials-file), solver methods from
-`dynamics.solvers.METHODS`, chain models and span damping laws from dynamics.models.clearance(_sim),
-accelerometer stations from `dynamics.response.metrics.station_links`. The imports are deferred so that
-reading the settings does not load numpy, scipy or gmsh.
+fem/data/materials.toml (plus a user's --materials-file), solver methods, chain models, drives and
+span damping laws from dynamics.options (where the solvers and models that implement them read
+them), accelerometer stations from `dynamics.response.metrics.station_links`. The imports are
+deferred so that reading the settings does not load numpy, scipy or gmsh, and none of them loads
+the chain's models or solvers (numba, SciPy): the FEA's process starts after these checks.
 """
 
 from __future__ import annotations
+
+from fem.options import ELEMENT_ORDERS as ELEMENT_ORDERS  # P1 / P2 tetrahedra, read here by the CLIs
 
 DEFAULT_MATERIALS = ("al6061-t6", "ti-grade2")
 DEFAULT_STATION = "tight-side"  # where tables, rankings and plots look unless --station says otherwise
 DEFAULT_DRIVE = "wheels"  # how the chain is driven when --drive is not given (RunConfig.machine_drive)
 PRESETS = ("mqp2012",)
-ELEMENT_ORDERS = (1, 2)  # P1 / P2 tetrahedra
 
 
 def cam_ids() -> tuple[str, ...]:
@@ -65,26 +67,27 @@ def station_names() -> tuple[str, ...]:
 
 
 def chain_models() -> tuple[str, ...]:
-    from dynamics.scene import MODEL_CHOICES
+    from dynamics.options import MODEL_CHOICES
 
     return MODEL_CHOICES
 
 
 def drives() -> tuple[str, ...]:
     """link: the report's single-point drive; wheels: the machine on its wheels (dynamics.models.machine)."""
-    from dynamics.models.machine import DRIVES
+    from dynamics.options import DRIVES
 
     return DRIVES
 
 
 def span_damping_laws() -> tuple[str, ...]:
-    from dynamics.models.clearance import SPAN_DAMPING_LAWS
+    from dynamics.options import SPAN_DAMPING_LAWS
 
     return SPAN_DAMPING_LAWS
 
 
 def solver_methods() -> dict:
-    """Method id -> dynamics.solvers.MethodInfo (what each can model)."""
-    from dynamics.solvers import METHODS
+    """Method id -> dynamics.options.SolverMethod (what each can model; its implementation is
+    dynamics.solvers.METHODS[id])."""
+    from dynamics.options import SOLVER_METHODS
 
-    return METHODS
+    return SOLVER_METHODS

@@ -4,7 +4,7 @@
 starts each design point from `RunConfig()`, and both check values against `LIMITS` (one table of
 allowed ranges, SI). Fields are SI; the command line takes some lengths in mm (`mm_to_m`).
 Defaults that belong to a physical model stay with it and are read from there (the pin clearance
-from dynamics.models.clearance, the hardware and nest masses from geometry.dimensions), through
+from dynamics.options, the hardware and nest masses from geometry.dimensions), through
 `default_factory`, so that reading the settings does not import numpy or gmsh.
 """
 
@@ -38,7 +38,7 @@ def m_to_mm(value_m: float) -> float:
 
 
 def _default_pin_clearance_m() -> float:
-    from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M
+    from dynamics.options import DEFAULT_PIN_CLEARANCE_M
 
     return DEFAULT_PIN_CLEARANCE_M
 

@@ -85,7 +85,8 @@ def output_times_s(rpm: float, samples_per_degree: int, window_deg: float = 180.
 def chain_scene(cfg: RunConfig, pitch_m: float) -> Scene:
     """The chain beyond its linear model, as the dynamics take it (the settings are checked already);
     `pitch_m` is the link's (the FEA's), which the wheels are sized on."""
-    from dynamics.scene import Scene, tensioner_from
+    from dynamics.models.tensioner import tensioner_from
+    from dynamics.scene import Scene
     from stages.machine import machine_layout
 
     return Scene(

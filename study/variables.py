@@ -57,7 +57,7 @@ VARIABLES: dict[str, Variable] = {
         _run("damping", float),
         _run("pin_clearance_m", float),
         # the idler tensioner, as pipeline.py's --tensioner-rate/-mass/-damping (the mass is needed with
-        # either of the others: dynamics.scene.tensioner_from)
+        # either of the others: dynamics.models.tensioner.tensioner_from)
         _run("tensioner_rate_N_per_m", float),
         _run("tensioner_mass_kg", float),
         _run("tensioner_damping_N_s_per_m", float),

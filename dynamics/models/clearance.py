@@ -46,35 +46,11 @@ from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.models.reduction import DENSE_LINK_LIMIT
 from dynamics.models.system import SecondOrderSystem
+from dynamics.models.tensioner import Tensioner
 from dynamics.models.topology import ChainTopology, ring_topology
+from dynamics.options import DEFAULT_PIN_CLEARANCE_M, SPAN_DAMPING_LAWS
 from dynamics.response.metrics import matlab_round
 from dynamics.solvers._common import serial_blas
-
-SPAN_DAMPING_LAWS = ("global", "kelvin-voigt")
-
-# ISO 286-2 close running fit H8/f7 at the default link's 19.05 mm (3/4 in) pin/bushing bore (the
-# 18-30 mm size range): H8 = +0/+33 um, f7 = -20/-41 um, diametral clearance 20-74 um, mean 47 um
-# per joint. A span has two pin joints: 2 x 47 um of axial free play.
-DEFAULT_PIN_CLEARANCE_M = 94e-6
-
-
-@dataclass(frozen=True)
-class Tensioner:
-    """The idler carriage: spring rate k_t (N/m, >= 0), mass m_t (kg, > 0), damping c_t (N s/m, >= 0)."""
-
-    rate_N_per_m: float
-    mass_kg: float
-    damping_N_s_per_m: float = 0.0
-
-    def __post_init__(self) -> None:
-        if not (np.isfinite(self.rate_N_per_m) and self.rate_N_per_m >= 0):
-            raise DynamicsError(f"tensioner rate_N_per_m: expected a finite value >= 0, got {self.rate_N_per_m!r}")
-        if not (np.isfinite(self.mass_kg) and self.mass_kg > 0):
-            raise DynamicsError(f"tensioner mass_kg: expected a finite mass > 0, got {self.mass_kg!r}")
-        if not (np.isfinite(self.damping_N_s_per_m) and self.damping_N_s_per_m >= 0):
-            raise DynamicsError(
-                f"tensioner damping_N_s_per_m: expected a finite value >= 0, got {self.damping_N_s_per_m!r}"
-            )
 
 
 @dataclass(frozen=True)

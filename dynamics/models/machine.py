@@ -70,9 +70,8 @@ from dynamics.models.clearance import Tensioner
 from dynamics.models.system import SecondOrderSystem
 from dynamics.models.topology import ChainTopology, Span
 from dynamics.models.wheels import Wheel
+from dynamics.options import DRIVES
 from dynamics.response.metrics import matlab_round
-
-DRIVES = ("link", "wheels")
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,7 @@ import numpy as np
 
 from dynamics.errors import DynamicsError
 from dynamics.models.system import Response, SampledForce, SecondOrderSystem
+from dynamics.options import SOLVER_METHODS
 from dynamics.solvers import central_difference, exact, ivp, modal, newmark, report_rk45
 from dynamics.solvers._common import accelerations, make_problem, serial_blas
 
@@ -41,8 +42,11 @@ class Method:
     run: Callable = field(repr=False)
 
 
-def _method(id_, description, nonlinear, module, run=None, options=None) -> Method:
+def _method(id_, description, module, run=None, options=None) -> Method:
+    """The implementation of the method `id_` declared in dynamics.options (what it can model is
+    read there: the settings check a run's method without importing the solvers)."""
     opts = module.OPTIONS if options is None else options
+    nonlinear = SOLVER_METHODS[id_].handles_nonlinear_force
     return Method(id_, description, nonlinear, MappingProxyType(dict(opts)), run or module.solve)
 
 
@@ -58,20 +62,17 @@ METHODS: MappingProxyType = MappingProxyType(
                 "exact",
                 "first-order-hold matrix exponential (Van Loan), exact for the linear model at any "
                 "stiffness; nonlinear force by a Heun predictor-corrector splitting",
-                True,
                 exact,
             ),
             _method(
                 "modal",
                 "modal superposition truncated to n_modes, exact first-order-hold recurrence per mode "
                 "(classically damped linear systems)",
-                False,
                 modal,
             ),
             _method(
                 "newmark",
                 "Newmark average acceleration, fixed step dt (implicit, linear)",
-                False,
                 newmark,
                 newmark.solve_newmark,
                 newmark.NEWMARK_OPTIONS,
@@ -79,7 +80,6 @@ METHODS: MappingProxyType = MappingProxyType(
             _method(
                 "hht",
                 "HHT-alpha, fixed step dt, alpha in [-1/3, 0] (implicit, linear)",
-                False,
                 newmark,
                 newmark.solve_hht,
                 newmark.HHT_OPTIONS,
@@ -87,20 +87,22 @@ METHODS: MappingProxyType = MappingProxyType(
             _method(
                 "central-difference",
                 "explicit central difference, fixed step dt; refused above the stability limit 2/omega_max",
-                True,
                 central_difference,
             ),
-            *(_method(name, f"scipy solve_ivp {label}", True, ivp, _ivp(name)) for name, label in ivp.LABELS.items()),
+            *(_method(name, f"scipy solve_ivp {label}", ivp, _ivp(name)) for name, label in ivp.LABELS.items()),
             _method(
                 "report-rk45",
                 "the 2012 report's scheme: MATLAB ode45 (Dormand-Prince) restarted every output step, "
                 "force linear between output samples",
-                True,
                 report_rk45,
             ),
         )
     }
 )
+if tuple(METHODS) != tuple(SOLVER_METHODS):  # each method declared once, in dynamics.options
+    raise ImportError(
+        f"dynamics.solvers: METHODS {tuple(METHODS)} differ from dynamics.options {tuple(SOLVER_METHODS)}"
+    )
 
 
 def solve(
