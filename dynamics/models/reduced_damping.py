@@ -89,7 +89,9 @@ def zolotarev_nodes_for(tolerance: float, x_min: float, x_max: float) -> tuple[n
     FIT_CHECK_POINTS points, is at most `tolerance` is taken. The error is a function of the
     eigenvalue alone, so every mode's ratio is zeta (1 +- tolerance), and the fitted function is
     positive on the whole range (within `tolerance` of sqrt(x)), so C stays positive definite
-    whatever the sign of a. Measured: 8 poles at 1,000 links, 11 at 10,000, against 14 and 17."""
+    whatever the sign of a. Measured on the default wheels (12 teeth, six links seated on each wheel,
+    fixed idler axle): at 1e-4, 8 poles at 1,000 links and 11 at 10,000 against the trapezoidal
+    rule's 15 and 17; at the machine's 1e-5, 10 and 13 against 20 and 23."""
     from scipy.special import ellipj, ellipkm1
 
     from dynamics.solvers._common import serial_blas
