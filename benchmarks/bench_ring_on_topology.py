@@ -1,7 +1,9 @@
 """The single-link drive (the ring) on the topology kernel (issue #22, Architecture): the cost per
 step of the ring's own compiled step (dynamics.solvers.clearance_verlet) and of the machine's
-(dynamics.solvers.machine_verlet on the ring's topology, `ClearanceMachine.of(chain, LINK_DRIVE, ...)`)
-on the same scene, and how far apart their station metrics are.
+(dynamics.solvers.machine_verlet on the ring's topology) on the same scene, the machine kernel both
+with the whole C (`ClearanceMachine.of(chain, LINK_DRIVE, ...)`: the global law's C w as the machine
+on wheels takes it) and as the ring runs on it (ring_on_topology.RingMachine: C w in the two blocks of
+the loop's mirror symmetry), and how far apart their station metrics are.
 
     python benchmarks/run.py --only ring_on_topology
 
@@ -9,8 +11,8 @@ The scene is bench_clearance's window (85 links, the default link's FEA k and lu
 180 rpm, modified sine, friction 0.35, 0.094 mm free play, 180 degrees at 4 samples per degree from
 rest): the global law with the "ab2" predictor at 20 steps per output sample (issue #11's 1e-3
 target), the Kelvin-Voigt law with "euler" at 32, and the global law with the idler tensioner. The
-two kernels run interleaved (one of each per repeat), so their ratio holds under load; the table
-gives the median and the best of the repeats.
+kernels run interleaved (one of each per repeat), so their ratios hold under load; the table gives
+the median and the best of the repeats.
 
 Then the dynamics stage as the pipeline runs it on the single-link drive (2 materials x 5 cams, 85
 links, periodic steady state, the global law: dynamics.scene.simulate_chain) with each kernel
@@ -34,6 +36,7 @@ from dynamics.response.metrics import link_metrics, station_metrics
 from dynamics.scene import simulate_chain
 from dynamics.solvers import clearance_verlet as cv
 from dynamics.solvers import machine_verlet as mv
+from dynamics.solvers.ring_on_topology import RingMachine
 
 K_N_PER_M, MASS_KG = 9.0092e7, 2.03  # al6061-t6: the FEA k and the lumped mass (bench_clearance)
 MATERIALS = {"al6061-t6": (9.0092e7, 2.03), "ti-grade2": (1.3696e8, 2.28)}
@@ -50,7 +53,8 @@ def _scene(law: str, tensioner):
     chain = ChainModel(N_LINKS, MASS_KG, K_N_PER_M, friction_coefficient=0.35)
     ring = ClearanceChain(chain, DEFAULT_PIN_CLEARANCE_M, span_damping=law, tensioner=tensioner)
     machine = ClearanceMachine.of(chain, LINK_DRIVE, tensioner, DEFAULT_PIN_CLEARANCE_M, law)
-    return ring, machine
+    mirrored = RingMachine.of(chain, LINK_DRIVE, tensioner, DEFAULT_PIN_CLEARANCE_M, law)
+    return ring, machine, mirrored
 
 
 def _nodes(cam, t, sub):
@@ -87,27 +91,33 @@ def run(quick: bool) -> list[str]:
     t = np.arange(721) / 4 / (6 * RPM)
     repeats = 3 if quick else 9
     lines = [
-        "| case | steps | ring kernel per step (median / best) | machine kernel per step (median / best) | "
-        "ratio of medians | window (ring / machine, median) | station metrics apart |",
+        "| case | steps | ring kernel per step (median / best) | machine kernel, whole C (median / best) | "
+        "machine kernel, ring's machine (median / best) | ratios of medians to the ring's (whole C, ring's machine) | "
+        "station metrics apart (whole C, ring's machine) |",
         "|---|---|---|---|---|---|---|",
     ]
     for label, law, predictor, sub, tensioner in CASES:
-        ring, machine = _scene(law, tensioner)
+        ring, machine, mirrored = _scene(law, tensioner)
         nodes = _nodes(cam, t, sub)
         n_steps = nodes[1].size - 1
         _ring(ring, nodes, sub, predictor)  # compile (or load the cache) outside the timings
         _machine(machine, nodes, sub, predictor)
-        pairs = [(_ring(ring, nodes, sub, predictor), _machine(machine, nodes, sub, predictor)) for _ in range(repeats)]
-        ring_s = np.array([p[0][0] for p in pairs])
-        machine_s = np.array([p[1][0] for p in pairs])
-        a, b = _stations(cam, t, *pairs[0][0][1]), _stations(cam, t, *pairs[0][1][1])
-        apart = float(np.max(np.abs(a - b) / np.abs(a)))
+        _machine(mirrored, nodes, sub, predictor)
+        runs = [
+            (_ring(ring, nodes, sub, predictor), _machine(machine, nodes, sub, predictor))
+            + (_machine(mirrored, nodes, sub, predictor),)
+            for _ in range(repeats)
+        ]
+        ring_s, machine_s, mirrored_s = (np.array([r[i][0] for r in runs]) for i in range(3))
+        a = _stations(cam, t, *runs[0][0][1])
+        apart = [float(np.max(np.abs(_stations(cam, t, *runs[0][i][1]) - a) / np.abs(a))) for i in (1, 2)]
         us = 1e6 / n_steps
+        ratio = [np.median(x) / np.median(ring_s) for x in (machine_s, mirrored_s)]
         lines.append(
             f"| {label} | {n_steps} | {us * np.median(ring_s):.2f} / {us * ring_s.min():.2f} us | "
             f"{us * np.median(machine_s):.2f} / {us * machine_s.min():.2f} us | "
-            f"{np.median(machine_s) / np.median(ring_s):.2f}x | {1e3 * np.median(ring_s):.1f} / "
-            f"{1e3 * np.median(machine_s):.1f} ms | {apart:.1e} |"
+            f"{us * np.median(mirrored_s):.2f} / {us * mirrored_s.min():.2f} us | "
+            f"{ratio[0]:.2f}x, {ratio[1]:.2f}x | {apart[0]:.1e}, {apart[1]:.1e} |"
         )
     return lines + _stage(quick)
 

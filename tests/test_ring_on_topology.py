@@ -171,18 +171,75 @@ def test_the_impact_measurements_are_the_rings(law, tensioner):
     force spike over one impact duration counted from the crossing and the Kelvin-Voigt contact's
     dissipation from and to the crossings: through hundreds of impacts the paired closing speeds, the
     approach energy, the largest closing speed, the force spike and the contacts' dissipation to
-    1e-12, at the default step and at a quarter of it."""
+    1e-12, at the default step and at a quarter of it; and the largest force over each whole contact
+    begun by an impact (at least the spike, which is its first impact duration's)."""
     ring, machine = _both(law, tensioner, 0.35)
     for factor in (1, 4):
         old, new = _one_cycle(ring, machine, steps_factor=factor)
         assert old.impacts > 300 and new.impacts == old.impacts
         assert new.impact_speeds_m_s.size == old.impact_speeds_m_s.size == min(old.impacts, cv.SPEED_CAPACITY)
         assert _apart(new.impact_speeds_m_s, old.impact_speeds_m_s) < 1e-12
-        for name in ("impact_force_spike_N", "impact_kinetic_energy_J", "impact_max_speed_m_s"):
+        for name in (
+            "impact_force_spike_N",
+            "impact_kinetic_energy_J",
+            "impact_max_speed_m_s",
+            "peak_force_in_impact_contact_N",
+        ):
             assert getattr(new, name) == pytest.approx(getattr(old, name), rel=1e-12), name
+        assert new.peak_force_in_impact_contact_N >= new.impact_force_spike_N > 0.0
         assert new.impact_dissipated_J == pytest.approx(old.impact_dissipated_J, rel=1e-12, abs=1e-15)
         if law == "kelvin-voigt":
             assert old.impact_dissipated_J > 0.0
+
+
+@pytest.mark.parametrize("tensioner", [None, TENSIONER])
+@pytest.mark.parametrize("n_links", [N, 24])
+def test_the_rings_mirror_product_on_the_machine_kernel_is_c_times_w(tensioner, n_links):
+    """The ring's machine (ring_on_topology.RingMachine) takes the global law's C w in the two blocks
+    of the loop's mirror symmetry (machine_verlet._mirror_damping_into, odd and even N): the force
+    and power it subtracts equal -C w and w . C w of the whole C (the links' block; the carriage's
+    c_t becomes its own dashpot, bit for bit) to 1e-13 of their size."""
+    chain = ChainModel(n_links, M, K)
+    machine = ring_on_topology.RingMachine.of(chain, LINK_DRIVE, tensioner, CLEARANCE_M)
+    arr, c = machine.arrays, machine.damping_matrix
+    assert arr.par.shape[0] == mv.N_PAR + 3
+    if tensioner is not None:
+        assert arr.dof_float[n_links, 3] == tensioner.damping_N_s_per_m
+    w = np.random.default_rng(2).standard_normal(n_links)
+    f = np.zeros(n_links)
+    work = np.zeros(arr.cmat.shape[1]), np.zeros(arr.cmat.shape[0])
+    power = mv._mirror_damping_into(arr.cmat, arr.par, w, *work, f)
+    cw = c[:n_links, :n_links] @ w
+    assert _apart(-f, cw) < 1e-13
+    assert power == pytest.approx(w @ cw, rel=1e-13)
+
+
+@pytest.mark.parametrize("law", ["global", "kelvin-voigt"])
+@pytest.mark.parametrize("tensioner", [None, TENSIONER])
+def test_ring_on_topology_gives_the_rings_run(law, tensioner):
+    """ring_on_topology.integrate (the ring's machine, the global law's mirror product) against the
+    ring's own kernel over one index cycle through hundreds of impacts: every field of the Run, the
+    largest force over the contacts begun by impacts included, to 1e-12."""
+    ring, _ = _both(law, tensioner, 0.35)
+    cam = _cam()
+    predictor = cv.default_predictor(ring)
+    n = 10 * (int(cam.cycle_s / cv.stable_step_s(ring, cv.default_safety(ring, predictor), predictor)) // 10 + 1)
+    h = cam.cycle_s / n
+    _, zd, zdd = mv.cycle_nodes(cam, h, n)
+    y0, w0 = _start()
+    runs = [
+        kernel(ring, zd, zdd, h, y0, w0, out_every=10, predictor=predictor, track_energy=True)
+        for kernel in (cv.integrate, ring_on_topology.integrate)
+    ]
+    old, new = runs
+    assert old.impacts > 300 and new.impacts == old.impacts and new.n_steps == old.n_steps
+    assert new.free_play_fraction == old.free_play_fraction
+    for name in ("y", "w", "a", "u", "ud", "impact_speeds_m_s"):
+        theirs, ours = getattr(old, name), getattr(new, name)
+        assert (_apart(ours, theirs) < 1e-12) if np.any(theirs) else not np.any(ours), name
+    for f in dataclasses.fields(old):
+        if f.name not in ("y", "w", "a", "u", "ud", "impact_speeds_m_s", "impacts", "n_steps"):
+            assert getattr(new, f.name) == pytest.approx(getattr(old, f.name), rel=1e-12, abs=1e-15), f.name
 
 
 @pytest.mark.parametrize("law", ["global", "kelvin-voigt"])

@@ -52,8 +52,11 @@ except ImportError:  # pragma: no cover
     numba = None
 
 # stats: impacts, free span-steps, recorded span-steps, peak T, min T, diverged at step, force spike,
-# impact kinetic energy, largest closing speed, closing speeds stored, dashpot work in impact contacts
-N_STATS = 11
+# impact kinetic energy, largest closing speed, closing speeds stored, dashpot work in impact contacts,
+# peak |T| in a contact begun by an impact (its whole length)
+N_STATS = 12
+# entries of MachineArrays.par; more: the ring's mirror blocks (`mirror_packed`)
+N_PAR = 8
 
 
 def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
@@ -153,6 +156,8 @@ def _accel_into(
         for i in range(dofs.shape[0]):
             f[dofs[i]] -= cw[i]
             p_damp += wv[i] * cw[i]
+    elif not kv and par.shape[0] > N_PAR:  # the ring's C in its mirror blocks (`_mirror_damping_into`)
+        p_damp += _mirror_damping_into(cmat, par, v, work[4], work[5], f)
     elif not kv:  # C v, four rows at a time on the padded C (clearance_verlet._rows_times)
         vp, cv_out = work[4], work[5]
         for i in range(n):
@@ -180,6 +185,71 @@ def _accel_into(
     powers[0] = zd * (cam + p_poly)
     powers[1] = p_damp
     powers[2] = p_fric
+
+
+def _mirror_damping_into(cmat, par, v, wc, cw, f):
+    """f -= C v on the links (DOFs 0..n-1), C as clearance_verlet.reflection_blocks gives it, the two
+    blocks on cmat's diagonal (`mirror_packed`; par[N_PAR:] their padded rows and columns and n): v
+    split into its symmetric and antisymmetric parts under the loop's reflection about link 0, each
+    multiplied by its block four rows at a time (clearance_verlet._mirror_product's arithmetic). wc, cw:
+    cmat's column and row scratch (their padding stays 0). Returns the damping power v . C v."""
+    rs, cs, n = int(par[N_PAR]), int(par[N_PAR + 1]), int(par[N_PAR + 2])
+    pairs = (n - 1) // 2
+    nf = n - 2 * pairs
+    r = math.sqrt(0.5)
+    wc[0] = v[0]
+    if nf == 2:
+        wc[1] = v[pairs + 1]
+    for p in range(pairs):
+        wc[nf + p] = r * (v[1 + p] + v[n - 1 - p])
+        wc[cs + p] = r * (v[1 + p] - v[n - 1 - p])
+    for lo, hi, c0, c1 in ((0, rs, 0, cs), (rs, cmat.shape[0], cs, cmat.shape[1])):
+        for i in range(lo, hi, 4):
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            s3 = 0.0
+            for j in range(c0, c1):
+                xj = wc[j]
+                s0 += cmat[i, j] * xj
+                s1 += cmat[i + 1, j] * xj
+                s2 += cmat[i + 2, j] * xj
+                s3 += cmat[i + 3, j] * xj
+            cw[i] = s0
+            cw[i + 1] = s1
+            cw[i + 2] = s2
+            cw[i + 3] = s3
+    power = v[0] * cw[0]
+    f[0] -= cw[0]
+    if nf == 2:
+        f[pairs + 1] -= cw[1]
+        power += v[pairs + 1] * cw[1]
+    for p in range(pairs):
+        lo_p = r * (cw[nf + p] + cw[rs + p])
+        hi_p = r * (cw[nf + p] - cw[rs + p])
+        f[1 + p] -= lo_p
+        f[n - 1 - p] -= hi_p
+        power += v[1 + p] * lo_p + v[n - 1 - p] * hi_p
+    return power
+
+
+def mirror_packed(cmat: np.ndarray, par: np.ndarray, n_links: int):
+    """(cmat, par) for `_mirror_damping_into` when the links' block of the machine's C (its first
+    n_links DOFs, nothing coupling them to the rest) commutes with the loop's reflection about link 0,
+    as the single-link drive's does: its two mirror blocks on one padded block diagonal, par extended
+    by their padded rows and columns and n_links. None otherwise."""
+    from dynamics.solvers.clearance_verlet import reflection_blocks
+
+    c = np.asarray(cmat)
+    if np.any(c[:n_links, n_links:]) or np.any(c[n_links:, :n_links]):
+        return None
+    sym, anti = reflection_blocks(np.ascontiguousarray(c[:n_links, :n_links]))
+    if anti.shape[0] == 0:
+        return None
+    packed = np.zeros((sym.shape[0] + anti.shape[0], sym.shape[1] + anti.shape[1]))
+    packed[: sym.shape[0], : sym.shape[1]] = sym
+    packed[sym.shape[0] :, sym.shape[1] :] = anti
+    return packed, np.r_[par[:N_PAR], sym.shape[0], sym.shape[1], n_links]
 
 
 def _kinetic_abs_J(v, zd, dof_float):
@@ -424,6 +494,7 @@ def _run_loops(
                 if recording:
                     speed = abs(ed_c)
                     stats[6] = max(stats[6], abs(t_el[j]))
+                    stats[11] = max(stats[11], abs(t_el[j]))
                     stats[0] += 1
                     stats[7] += 0.25 * par[7] * ed_c * ed_c
                     stats[10] += 0.5 * (1.0 - frac) * h * (par[3] * ed_c * ed_c + p_new)
@@ -437,6 +508,7 @@ def _run_loops(
                 if recording:
                     if clock[j] <= window:
                         stats[6] = max(stats[6], abs(t_el[j]))
+                    stats[11] = max(stats[11], abs(t_el[j]))
                     stats[10] += hh * (dash_prev[j] + p_new)
                 dash_prev[j] = p_new
             else:  # the contact begun by an impact ends within the step
@@ -542,6 +614,7 @@ if numba is not None:
         "_kinetic_abs_J",
         "_span_impulses_into",
         "_span_rates",
+        "_mirror_damping_into",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
@@ -567,6 +640,7 @@ class MachineRun:
     impact_speeds_m_s: np.ndarray
     step_s: float
     impact_dissipated_J: float = 0.0  # Kelvin-Voigt dashpots' work in contacts begun by impacts (0: global law)
+    peak_force_in_impact_contact_N: float = 0.0  # largest |T| while a contact begun by an impact lasts
     cam_work_J: float = 0.0  # the energy terms, when integrate(track_energy=True)
     dissipated_damping_J: float = 0.0
     dissipated_friction_J: float = 0.0
@@ -648,6 +722,7 @@ def integrate(
         impact_max_speed_m_s=float(stats[8]),
         impact_speeds_m_s=speeds[: int(stats[9])].copy(),
         impact_dissipated_J=float(stats[10]),
+        peak_force_in_impact_contact_N=float(stats[11]),
         step_s=float(step_s),
         cam_work_J=float(energy[0]),
         dissipated_damping_J=float(energy[1]),
@@ -861,6 +936,7 @@ def _merged(pieces, rows, durations, step_s: float) -> MachineRun:
         impact_speeds_m_s=np.concatenate([p.impact_speeds_m_s for p in pieces]),
         step_s=float(step_s),
         impact_dissipated_J=sum(p.impact_dissipated_J for p in pieces),
+        peak_force_in_impact_contact_N=max(p.peak_force_in_impact_contact_N for p in pieces),
         cam_work_J=sum(p.cam_work_J for p in pieces),
         dissipated_damping_J=sum(p.dissipated_damping_J for p in pieces),
         dissipated_friction_J=sum(p.dissipated_friction_J for p in pieces),
