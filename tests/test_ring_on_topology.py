@@ -202,7 +202,7 @@ def test_the_rings_mirror_product_on_the_machine_kernel_is_c_times_w(tensioner, 
     chain = ChainModel(n_links, M, K)
     machine = ring_on_topology.RingMachine.of(chain, LINK_DRIVE, tensioner, CLEARANCE_M)
     arr, c = machine.arrays, machine.damping_matrix
-    assert arr.par.shape[0] == mv.N_PAR + 3
+    assert arr.par.shape[0] == mv.N_PAR + 2
     if tensioner is not None:
         assert arr.dof_float[n_links, 3] == tensioner.damping_N_s_per_m
     w = np.random.default_rng(2).standard_normal(n_links)

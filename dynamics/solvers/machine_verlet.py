@@ -188,12 +188,13 @@ def _accel_into(
 
 
 def _mirror_damping_into(cmat, par, v, wc, cw, f):
-    """f -= C v on the links (DOFs 0..n-1), C as clearance_verlet.reflection_blocks gives it, the two
-    blocks on cmat's diagonal (`mirror_packed`; par[N_PAR:] their padded rows and columns and n): v
+    """f -= C v on the links (DOFs 0..n-1), C as clearance_verlet.reflection_blocks gives it, its two
+    blocks stacked in cmat (`mirror_packed`; par[N_PAR:] the symmetric block's padded rows and n): v
     split into its symmetric and antisymmetric parts under the loop's reflection about link 0, each
-    multiplied by its block four rows at a time (clearance_verlet._mirror_product's arithmetic). wc, cw:
-    cmat's column and row scratch (their padding stays 0). Returns the damping power v . C v."""
-    rs, cs, n = int(par[N_PAR]), int(par[N_PAR + 1]), int(par[N_PAR + 2])
+    multiplied by its block four rows at a time (clearance_verlet._mirror_product's arithmetic; each
+    block a C-contiguous row slice, so the product vectorises as the ring's). wc, cw: cmat's column and
+    row scratch. Returns the damping power v . C v."""
+    rs, n = int(par[N_PAR]), int(par[N_PAR + 1])
     pairs = (n - 1) // 2
     nf = n - 2 * pairs
     r = math.sqrt(0.5)
@@ -202,23 +203,12 @@ def _mirror_damping_into(cmat, par, v, wc, cw, f):
         wc[1] = v[pairs + 1]
     for p in range(pairs):
         wc[nf + p] = r * (v[1 + p] + v[n - 1 - p])
-        wc[cs + p] = r * (v[1 + p] - v[n - 1 - p])
-    for lo, hi, c0, c1 in ((0, rs, 0, cs), (rs, cmat.shape[0], cs, cmat.shape[1])):
-        for i in range(lo, hi, 4):
-            s0 = 0.0
-            s1 = 0.0
-            s2 = 0.0
-            s3 = 0.0
-            for j in range(c0, c1):
-                xj = wc[j]
-                s0 += cmat[i, j] * xj
-                s1 += cmat[i + 1, j] * xj
-                s2 += cmat[i + 2, j] * xj
-                s3 += cmat[i + 3, j] * xj
-            cw[i] = s0
-            cw[i + 1] = s1
-            cw[i + 2] = s2
-            cw[i + 3] = s3
+    _rows_times(cmat[:rs], wc, cw[:rs])
+    for p in range(pairs):
+        wc[p] = r * (v[1 + p] - v[n - 1 - p])
+    for p in range(pairs, pairs + nf):  # the antisymmetric block's padding columns
+        wc[p] = 0.0
+    _rows_times(cmat[rs:], wc, cw[rs:])
     power = v[0] * cw[0]
     f[0] -= cw[0]
     if nf == 2:
@@ -236,8 +226,9 @@ def _mirror_damping_into(cmat, par, v, wc, cw, f):
 def mirror_packed(cmat: np.ndarray, par: np.ndarray, n_links: int):
     """(cmat, par) for `_mirror_damping_into` when the links' block of the machine's C (its first
     n_links DOFs, nothing coupling them to the rest) commutes with the loop's reflection about link 0,
-    as the single-link drive's does: its two mirror blocks on one padded block diagonal, par extended
-    by their padded rows and columns and n_links. None otherwise."""
+    as the single-link drive's does: its two mirror blocks (clearance_verlet.reflection_blocks, padded)
+    stacked, the symmetric on top, par extended by the symmetric block's padded rows and n_links. None
+    otherwise."""
     from dynamics.solvers.clearance_verlet import reflection_blocks
 
     c = np.asarray(cmat)
@@ -246,10 +237,10 @@ def mirror_packed(cmat: np.ndarray, par: np.ndarray, n_links: int):
     sym, anti = reflection_blocks(np.ascontiguousarray(c[:n_links, :n_links]))
     if anti.shape[0] == 0:
         return None
-    packed = np.zeros((sym.shape[0] + anti.shape[0], sym.shape[1] + anti.shape[1]))
+    packed = np.zeros((sym.shape[0] + anti.shape[0], max(sym.shape[1], anti.shape[1])))
     packed[: sym.shape[0], : sym.shape[1]] = sym
-    packed[sym.shape[0] :, sym.shape[1] :] = anti
-    return packed, np.r_[par[:N_PAR], sym.shape[0], sym.shape[1], n_links]
+    packed[sym.shape[0] :, : anti.shape[1]] = anti
+    return packed, np.r_[par[:N_PAR], sym.shape[0], n_links]
 
 
 def _kinetic_abs_J(v, zd, dof_float):
