@@ -55,10 +55,11 @@ class RingMachine(ClearanceMachine):
 def machine_of(model) -> ClearanceMachine:
     """The ring `model` (a ClearanceChain) as the clearance machine on the single-link drive's
     topology (computed once per model: the solvers' cache)."""
-    if model.damping_is_reduced and model.span_damping == "global":
+    if model.damping_tolerance is not None and model.span_damping == "global":
         raise DynamicsError(
-            f"kernel 'topology': the ring's O(N) damping ({model.n_links} links, or damping_tolerance set) "
-            "is not the machine's; use kernel='ring'"
+            f"kernel 'topology': damping_tolerance {model.damping_tolerance:g} is the ring's O(N) damping's; "
+            "the machine's takes its own (machine_damping.DEFAULT_MACHINE_DAMPING_TOLERANCE above "
+            "DENSE_LINK_LIMIT links, the dense C below); use kernel='ring' or damping_tolerance=None"
         )
     return cache.cached(
         ("ring on topology", model),
