@@ -6,14 +6,16 @@ more description of the topology, not a kernel of its own).
 
 What it gives (tests/test_ring_on_topology.py): the ring's trajectories, tensions, contact counts,
 free-play fraction, tension extremes, energy terms and impact measurements (closing speeds, approach
-energies, force spike and Kelvin-Voigt dissipation, all at the crossing interpolated within the step)
-to 1e-12. What it does not (docs/architecture.md, "The ring on the topology kernel"): the
-largest force over a whole contact begun by an impact (`Run.peak_force_in_impact_contact_N`) is not
-measured (NaN); the O(N) damping above DENSE_LINK_LIMIT links is the machine's
-(dynamics.models.machine_damping), not the ring's (dynamics.models.reduced_damping), so it is refused
-there; and the global law's product C w is the plain one, not the ring's mirror blocks (1.4-1.8x the
-ring's cost per step with the global law, 1.0-1.1x with Kelvin-Voigt, 85 links:
-benchmarks/bench_ring_on_topology.py).
+energies, force spike and Kelvin-Voigt dissipation, all at the crossing interpolated within the step,
+and the largest force over each whole contact begun by an impact) to 1e-12; the global law's C w in
+the two blocks of the loop's mirror symmetry about link 1, as the ring's kernel takes it
+(`RingMachine`, machine_verlet._mirror_damping_into). Above DENSE_LINK_LIMIT links the global law is
+the machine's O(N) form (dynamics.models.machine_damping, each mode's ratio to 1e-5), not the ring's
+(dynamics.models.reduced_damping, to 1e-4): closer to the dense C than the ring's (tested at 401
+links); the ring's `damping_tolerance`, which names the ring's form, is refused. What keeps it from
+being the ring's only kernel (docs/architecture.md, "The ring on the topology kernel"): the machine's
+step costs more per step than the ring's outside the damping product (its span and impact loops over
+the packed topology: benchmarks/bench_ring_on_topology.py), and there is no numpy path.
 """
 
 from __future__ import annotations
