@@ -19,21 +19,30 @@ links, periodic steady state, the global law: dynamics.scene.simulate_chain) wit
 (`kernel="ring"`, today's, and `kernel="topology"`), interleaved per scenario, and how far their
 summaries' impact statistics are apart (both kernels take them at the crossing interpolated within
 the step: round-off).
+
+Then above DENSE_LINK_LIMIT links (401, and 1,000 unless --quick; the same scene, aluminium, steady
+state): how far the station metrics and the contact summary move from a dense-damping reference (the
+topology kernel with the dense C) with the ring's kernel (its O(N) damping, reduced_damping at 1e-4
+per mode) and with the topology kernel (the machine's, machine_damping at 1e-5), and each one's time.
 """
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import time
 
 import numpy as np
 
 from dynamics.cams import CamProgram
+from dynamics.models import clearance_machine
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M, ClearanceChain, Tensioner
 from dynamics.models.clearance_machine import ClearanceMachine
 from dynamics.models.layout import LINK_DRIVE
 from dynamics.response.metrics import link_metrics, station_metrics
 from dynamics.scene import simulate_chain
+from dynamics.solvers import cache
 from dynamics.solvers import clearance_verlet as cv
 from dynamics.solvers import machine_verlet as mv
 from dynamics.solvers.ring_on_topology import RingMachine
@@ -119,7 +128,7 @@ def run(quick: bool) -> list[str]:
             f"{us * np.median(mirrored_s):.2f} / {us * mirrored_s.min():.2f} us | "
             f"{ratio[0]:.2f}x, {ratio[1]:.2f}x | {apart[0]:.1e}, {apart[1]:.1e} |"
         )
-    return lines + _stage(quick)
+    return lines + _stage(quick) + _long_chains(quick)
 
 
 def _stage(quick: bool) -> list[str]:
@@ -152,3 +161,65 @@ def _stage(quick: bool) -> list[str]:
         f"apart by {trajectory_apart:.1e} of their peak, impact statistics (closing speeds max and median, energy per "
         f"cycle) by up to {impact_apart:.1e} of themselves",
     ]
+
+
+@contextlib.contextmanager
+def _dense_damping():
+    """The dense C on the topology kernel above DENSE_LINK_LIMIT links (the reference), the solvers'
+    cache emptied on the way in and out so that no machine built with the other C is reused."""
+    saved = clearance_machine.DENSE_LINK_LIMIT
+    clearance_machine.DENSE_LINK_LIMIT = 10**9
+    cache.clear()
+    try:
+        yield
+    finally:
+        clearance_machine.DENSE_LINK_LIMIT = saved
+        cache.clear()
+
+
+def _summary(contact) -> dict:
+    values = {k: getattr(contact, k) for k in ("peak_tension_N", "min_tension_N", "impacts_per_cycle")}
+    values.update({k: getattr(contact, k) for k in ("free_play_time_fraction", "impact_force_spike_N")})
+    values.update({f.name: getattr(contact.impacts, f.name) for f in dataclasses.fields(contact.impacts)})
+    return values
+
+
+def _long_chains(quick: bool) -> list[str]:
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=RPM)
+    t = np.arange(721) / 4 / (6 * RPM)
+    lines = [
+        "",
+        "| links | damping | time | station metrics from the dense C | contact summary from the dense C |",
+        "|---|---|---|---|---|",
+    ]
+    for n in (401,) if quick else (401, 1000):
+        model = ClearanceChain(ChainModel(n, MASS_KG, K_N_PER_M, friction_coefficient=0.35), DEFAULT_PIN_CLEARANCE_M)
+        runs = {}
+        for label, kernel in (
+            ("dense C (topology kernel)", "topology"),
+            ("ring's O(N), 1e-4 (ring kernel)", "ring"),
+            ("machine's O(N), 1e-5 (topology kernel)", "topology"),
+        ):
+            context = _dense_damping() if label.startswith("dense") else contextlib.nullcontext()
+            with context:
+                cache.clear()
+                start = time.perf_counter()
+                response, contact = simulate_chain(model, cam, t, kernel=kernel)
+                seconds = time.perf_counter() - start
+            stations = _stations(cam, t, *(x - y for x, y in _relative(response)))
+            runs[label] = (stations, _summary(contact), seconds)
+        ref_st, ref_sum, _ = runs["dense C (topology kernel)"]
+        for label, (st, summ, seconds) in runs.items():
+            st_apart = float(np.max(np.abs(st - ref_st) / np.abs(ref_st)))
+            sum_apart = max(abs(summ[k] - ref_sum[k]) / abs(ref_sum[k]) for k in ref_sum if ref_sum[k])
+            lines.append(f"| {n} | {label} | {seconds:.1f} s | {st_apart:.1e} | {sum_apart:.1e} |")
+    return lines
+
+
+def _relative(response):
+    """(displacement, velocity, acceleration) pairs of a ChainResponse and the cam's, for _stations."""
+    return (
+        (response.x_m, response.z_m[:, None]),
+        (response.v_m_s, response.zdot_m_s[:, None]),
+        (response.a_m_s2, response.zddot_m_s2[:, None]),
+    )
