@@ -85,6 +85,8 @@ def slow_mode_newton(model, period_s: float, decay: float):
     (m the slow modes), no N x N array."""
     from scipy.linalg import expm
 
+    from dynamics.solvers._common import serial_blas
+
     topo = model.topology
     n = topo.n_dof
     masses = np.asarray(topo.masses_kg, dtype=float)
@@ -107,9 +109,16 @@ def slow_mode_newton(model, period_s: float, decay: float):
     to_modes = np.ascontiguousarray((vec / r[:, None]).T)  # a = V^T M^(1/2) q
     from_modes = np.ascontiguousarray(vec * r[:, None])  # q = M^(-1/2) V a
     blocks = np.empty((omega.size, 2, 2))
-    for j, o in enumerate(omega):
-        a = np.array([[0.0, 1.0], [-o * o, -2.0 * model.damping_ratio_at(o) * o]])
-        one_minus = np.eye(2) - expm(a * period_s)
+    oscillators = np.zeros((omega.size, 2, 2))
+    oscillators[:, 0, 1] = 1.0
+    oscillators[:, 1, 0] = -(omega**2)
+    oscillators[:, 1, 1] = -2.0 * np.array([model.damping_ratio_at(o) for o in omega]) * omega
+    # one batched exponential, one BLAS thread: per-mode calls on a threaded BLAS took 0.3 s at
+    # 1,000 links on a busy machine (0.06 s of CPU)
+    with serial_blas():
+        one_cycle = expm(oscillators * period_s) if omega.size else oscillators
+    for j in range(omega.size):
+        one_minus = np.eye(2) - one_cycle[j]
         # an undamped mode whose period divides T has no Newton step (I - Phi singular): plain there
         blocks[j] = np.linalg.inv(one_minus) if np.linalg.cond(one_minus) < 1e8 else np.eye(2)
 
