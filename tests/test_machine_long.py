@@ -239,3 +239,35 @@ def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step
             settle = fine
         np.testing.assert_allclose(settles, [(94e-6, h_out / settle, 0.0)], rtol=1e-12)
         assert machine_scene.SETTLE_CYCLES == 1
+
+
+def test_the_slow_mode_newton_step_inverts_each_slow_modes_cycle():
+    """machine_shooting.slow_mode_newton on a slow mode's shape: (I - Phi)^-1 applied to it, Phi the
+    mode's one-cycle propagator in closed form (a damped oscillator, x(T) = e^(-zeta w T) (cos wd T
+    x0 + sin wd T (x0' + zeta w x0) / wd)), independent of the batched matrix exponential; a shape
+    orthogonal to the slow ones is left as it is."""
+    chain = ChainModel(300, 2.03, 9.331e7, damping_ratio=0.13)
+    model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    period = _cam().cycle_s
+    step = machine_shooting.slow_mode_newton(model, period, 1e-2)
+    topo = model.topology
+    masses = np.asarray(topo.masses_kg, dtype=float)
+    lam, vec = eigh(topo.stiffness_matrix_sparse().toarray(), np.diag(masses))
+    omega = np.sqrt(lam)
+    zeta = np.array([model.damping_ratio_at(o) for o in omega])
+    decay = np.exp(-zeta * omega * period)
+    newton = (decay > 1e-2) & (decay <= machine_shooting.NEWTON_DECAY_CAP)
+    assert np.count_nonzero(newton) >= 3
+    n = topo.n_dof
+    for j in np.flatnonzero(newton)[:3]:
+        w, z = omega[j], zeta[j]
+        wd = w * np.sqrt(1.0 - z * z)
+        c, s = np.cos(wd * period), np.sin(wd * period)
+        phi = decay[j] * np.array([[c + z * w * s / wd, s / wd], [-w * w * s / wd, c - z * w * s / wd]])
+        expected = np.linalg.solve(np.eye(2) - phi, [1.0, 2.0])
+        out = step(np.concatenate([vec[:, j], 2.0 * vec[:, j]]))
+        np.testing.assert_allclose(out[:n], expected[0] * vec[:, j], atol=1e-9 * abs(expected).max())
+        np.testing.assert_allclose(out[n:], expected[1] * vec[:, j], atol=1e-9 * abs(expected).max())
+    fast = np.flatnonzero(decay <= 1e-2)[0]
+    r = np.concatenate([vec[:, fast], vec[:, fast]])
+    np.testing.assert_allclose(step(r), r, atol=1e-9)
