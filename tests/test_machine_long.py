@@ -271,3 +271,28 @@ def test_the_slow_mode_newton_step_inverts_each_slow_modes_cycle():
     fast = np.flatnonzero(decay <= 1e-2)[0]
     r = np.concatenate([vec[:, fast], vec[:, fast]])
     np.testing.assert_allclose(step(r), r, atol=1e-9)
+
+
+def test_above_newton_free_play_links_the_clearance_search_is_anderson_alone(monkeypatch):
+    """Above NEWTON_FREE_PLAY_LINKS a machine with free play is searched without the slow-mode Newton
+    step (the linear machine keeps it), and the search still lands on plain cycling's fixed point
+    (the same acceptance test: within tol / (1 - rho), rho about 0.5 here)."""
+    chain = ChainModel(40, 2.03, 9.331e7, friction_coefficient=0.35)
+    clearance = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    linear = ClearanceMachine(clearance.machine, 0.0, "global", None, clearance.friction_chain)
+    monkeypatch.setattr(machine_shooting, "NEWTON_FREE_PLAY_LINKS", 39)
+    built = []
+    real = machine_shooting._cached_slow_mode_newton
+    monkeypatch.setattr(machine_shooting, "_cached_slow_mode_newton", lambda m, t: built.append(m) or real(m, t))
+    cam = _cam()
+    sub = mv.substeps_for(clearance, cam.cycle_s / 180, 0.31, "ab2")
+    n = 180 * sub
+    zeros = np.zeros(clearance.topology.n_dof)
+    options = dict(tol=1e-9, max_cycles=80, predictor="ab2")
+    fast = machine_shooting.relabelled_periodic_state(clearance, cam, cam.cycle_s / n, n, zeros, zeros, **options)
+    assert built == []
+    plain = mv.relabelled_periodic_state(clearance, cam, cam.cycle_s / n, n, zeros, zeros, **options)
+    assert fast[4] and plain[4] and fast[2] <= plain[2]
+    assert np.max(np.abs(fast[0] - plain[0])) < 1e-8 * np.max(np.abs(plain[5].q))
+    machine_shooting.relabelled_periodic_state(linear, cam, cam.cycle_s / n, n, zeros, zeros, **options)
+    assert built == [linear]

@@ -32,6 +32,20 @@ from dynamics.solvers import machine_verlet as mv
 # 1.0, ... (no steady state); without those above 0.9 it falls (1.0, 0.50, 0.26, 0.19, 0.08, 0.04).
 # No mode is above it up to about 2,100 links (the slowest keeps 0.893 at 2,000, 0.902 at 2,200).
 NEWTON_DECAY_CAP = 0.9
+# With free play the Newton step (built on the closed machine's modes) helps the search up to
+# NEWTON_FREE_PLAY_LINKS links and misleads it above: the slack spans and the guide's friction in
+# the dwell change the slow directions, more of the chain the longer it is. Measured on the default
+# wheels, 0.094 mm, 180 rpm, from the linear machine's state, to 1e-4, cycles with the step / with
+# Anderson alone: 10 / 11 at 1,000 links, 14 / 20 at 2,000; at 5,000 the search with the step
+# stalled near 5e-3 per cycle (61 cycles, no steady state; plain cycling there: the slowest mode
+# keeps about 0.96 of itself per cycle against the closed machine's 0.83) where Anderson alone found it
+# in 31 cycles; at 10,000 near 1e-2 against 1e-4 in 59. Between 2,000 and 5,000 not measured. The
+# linear machine (free play 0) always takes the step.
+NEWTON_FREE_PLAY_LINKS = 2000
+# Anderson alone needs these cycles without halving its best residual before it gives the
+# extrapolation up: measured at 10,000 links, its residual rose for the first 9 cycles from the
+# linear machine's state while the history filled and later took 22 cycles to halve (1e-4 at 59).
+FREE_PLAY_STALL = 24
 
 
 def relabelled_periodic_state(
@@ -56,9 +70,11 @@ def relabelled_periodic_state(
         return np.concatenate([q1, v1]), np.concatenate([np.full(n, sq), np.full(n, sv)])
 
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
-    precondition = _cached_slow_mode_newton(model, cam.cycle_s) if depth else None
+    newton = depth and (model.clearance_m == 0.0 or model.n_links <= NEWTON_FREE_PLAY_LINKS)
+    precondition = _cached_slow_mode_newton(model, cam.cycle_s) if newton else None
+    stall = shooting.DEFAULT_STALL if newton else FREE_PLAY_STALL
     search = shooting.accelerated_fixed_point(
-        one_cycle, x0, tol=tol, max_periods=max_cycles, depth=depth, precondition=precondition
+        one_cycle, x0, tol=tol, max_periods=max_cycles, depth=depth, stall=stall, precondition=precondition
     )
     end = search.state
     return end[:n].copy(), end[n:].copy(), search.periods, search.residual, search.converged, last["run"]
