@@ -44,7 +44,7 @@ NEWTON_DECAY_CAP = 0.9
 NEWTON_FREE_PLAY_LINKS = 2000
 # Anderson alone needs these cycles without halving its best residual before it gives the
 # extrapolation up: measured at 10,000 links, its residual rose for the first 9 cycles from the
-# linear machine's state while the history filled and later took 22 cycles to halve (1e-4 at 59).
+# linear machine's state while the history filled and later took up to 17 cycles to halve (1e-4 at 59).
 FREE_PLAY_STALL = 24
 
 
