@@ -275,8 +275,11 @@ def test_the_slow_mode_newton_step_inverts_each_slow_modes_cycle():
 
 def test_above_newton_free_play_links_the_clearance_search_is_anderson_alone(monkeypatch):
     """Above NEWTON_FREE_PLAY_LINKS a machine with free play is searched without the slow-mode Newton
-    step (the linear machine keeps it), and the search still lands on plain cycling's fixed point
-    (the same acceptance test: within tol / (1 - rho), rho about 0.5 here)."""
+    step, with FREE_PLAY_DEPTH and FREE_PLAY_STALL (the linear machine keeps the step and the
+    defaults), and the search still lands on plain cycling's fixed point (the same acceptance
+    test: within tol / (1 - rho), rho about 0.5 here)."""
+    from dynamics.solvers import shooting
+
     chain = ChainModel(40, 2.03, 9.331e7, friction_coefficient=0.35)
     clearance = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
     linear = ClearanceMachine(clearance.machine, 0.0, "global", None, clearance.friction_chain)
@@ -284,6 +287,14 @@ def test_above_newton_free_play_links_the_clearance_search_is_anderson_alone(mon
     built = []
     real = machine_shooting._cached_slow_mode_newton
     monkeypatch.setattr(machine_shooting, "_cached_slow_mode_newton", lambda m, t: built.append(m) or real(m, t))
+    histories = []
+    search = machine_shooting.shooting.accelerated_fixed_point
+
+    def recorded(*args, **kwargs):
+        histories.append((kwargs["depth"], kwargs["stall"]))
+        return search(*args, **kwargs)
+
+    monkeypatch.setattr(machine_shooting.shooting, "accelerated_fixed_point", recorded)
     cam = _cam()
     sub = mv.substeps_for(clearance, cam.cycle_s / 180, 0.31, "ab2")
     n = 180 * sub
@@ -296,3 +307,5 @@ def test_above_newton_free_play_links_the_clearance_search_is_anderson_alone(mon
     assert np.max(np.abs(fast[0] - plain[0])) < 1e-8 * np.max(np.abs(plain[5].q))
     machine_shooting.relabelled_periodic_state(linear, cam, cam.cycle_s / n, n, zeros, zeros, **options)
     assert built == [linear]
+    free_play = (machine_shooting.FREE_PLAY_DEPTH, machine_shooting.FREE_PLAY_STALL)
+    assert histories == [free_play, (shooting.DEFAULT_DEPTH, shooting.DEFAULT_STALL)]

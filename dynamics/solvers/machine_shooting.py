@@ -42,17 +42,22 @@ NEWTON_DECAY_CAP = 0.9
 # in 31 cycles; at 10,000 near 1e-2 against 1e-4 in 59. Between 2,000 and 5,000 not measured. The
 # linear machine (free play 0) always takes the step.
 NEWTON_FREE_PLAY_LINKS = 2000
-# Anderson alone needs these cycles without halving its best residual before it gives the
-# extrapolation up: measured at 10,000 links, its residual rose for the first 9 cycles from the
-# linear machine's state while the history filled and later took up to 17 cycles to halve (1e-4 at 59).
+# Anderson alone keeps this many cycles (the step's search: shooting.DEFAULT_DEPTH): measured there
+# (the benchmark's chain, from the linear machine's state, to 1e-4), 26 cycles at 5,000 links and 39
+# at 10,000 against 31 and 59 with 8. It needs up to FREE_PLAY_STALL cycles without halving its best
+# residual before it gives the extrapolation up: its residual rose for the first 9 cycles at 10,000
+# links while the history filled and later took up to 17 (depth 8) and 11 (depth 16) to halve.
+FREE_PLAY_DEPTH = 16
 FREE_PLAY_STALL = 24
 
 
 def relabelled_periodic_state(
-    model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor, depth: int = shooting.DEFAULT_DEPTH
+    model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor, depth: int | None = None
 ):
     """As dynamics.solvers.machine_verlet.relabelled_periodic_state (same arguments, same return:
-    (q0, v0, cycles, residual, found, the last cycle's MachineRun)), the cycling accelerated."""
+    (q0, v0, cycles, residual, found, the last cycle's MachineRun)), the cycling accelerated.
+    `depth`: Anderson's history (0: plain cycling); None: shooting.DEFAULT_DEPTH with the slow-mode
+    Newton step, FREE_PLAY_DEPTH where the search goes without it (above NEWTON_FREE_PLAY_LINKS)."""
     zr, zd, zdd = mv.cycle_nodes(cam, step_s, n_steps)
     every = max(n_steps // 90, 1)
     while n_steps % every:
@@ -70,9 +75,11 @@ def relabelled_periodic_state(
         return np.concatenate([q1, v1]), np.concatenate([np.full(n, sq), np.full(n, sv)])
 
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
-    newton = depth and (model.clearance_m == 0.0 or model.n_links <= NEWTON_FREE_PLAY_LINKS)
+    newton = depth != 0 and (model.clearance_m == 0.0 or model.n_links <= NEWTON_FREE_PLAY_LINKS)
     precondition = _cached_slow_mode_newton(model, cam.cycle_s) if newton else None
     stall = shooting.DEFAULT_STALL if newton else FREE_PLAY_STALL
+    if depth is None:
+        depth = shooting.DEFAULT_DEPTH if newton else FREE_PLAY_DEPTH
     search = shooting.accelerated_fixed_point(
         one_cycle, x0, tol=tol, max_periods=max_cycles, depth=depth, stall=stall, precondition=precondition
     )
