@@ -39,7 +39,7 @@ NEWTON_DECAY_CAP = 0.9
 # Anderson alone: 10 / 11 at 1,000 links, 14 / 20 at 2,000; at 5,000 the search with the step
 # stalled near 5e-3 per cycle (61 cycles, no steady state; plain cycling there: the slowest mode
 # keeps about 0.96 of itself per cycle against the closed machine's 0.83) where Anderson alone found it
-# in 31 cycles; at 10,000 near 1e-2 against 1e-4 in 59. Between 2,000 and 5,000 not measured. The
+# in 31 cycles (depth 8); at 10,000 near 1e-2 against 1e-4 in 59. Between 2,000 and 5,000 not measured. The
 # linear machine (free play 0) always takes the step.
 NEWTON_FREE_PLAY_LINKS = 2000
 # Anderson alone keeps this many cycles (the step's search: shooting.DEFAULT_DEPTH): measured there
