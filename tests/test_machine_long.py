@@ -239,3 +239,89 @@ def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step
             settle = fine
         np.testing.assert_allclose(settles, [(94e-6, h_out / settle, 0.0)], rtol=1e-12)
         assert machine_scene.SETTLE_CYCLES == 1
+
+
+def test_the_slow_mode_newton_step_inverts_each_slow_modes_cycle():
+    """machine_shooting.slow_mode_newton on a slow mode's shape: (I - Phi)^-1 applied to it, Phi the
+    mode's one-cycle propagator in closed form (a damped oscillator, x(T) = e^(-zeta w T) (cos wd T
+    x0 + sin wd T (x0' + zeta w x0) / wd)), independent of the batched matrix exponential; a shape
+    orthogonal to the slow ones is left as it is."""
+    chain = ChainModel(300, 2.03, 9.331e7, damping_ratio=0.13)
+    model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    period = _cam().cycle_s
+    step = machine_shooting.slow_mode_newton(model, period, 1e-2)
+    topo = model.topology
+    masses = np.asarray(topo.masses_kg, dtype=float)
+    lam, vec = eigh(topo.stiffness_matrix_sparse().toarray(), np.diag(masses))
+    omega = np.sqrt(lam)
+    zeta = np.array([model.damping_ratio_at(o) for o in omega])
+    decay = np.exp(-zeta * omega * period)
+    newton = (decay > 1e-2) & (decay <= machine_shooting.NEWTON_DECAY_CAP)
+    assert np.count_nonzero(newton) >= 3
+    n = topo.n_dof
+    for j in np.flatnonzero(newton)[:3]:
+        w, z = omega[j], zeta[j]
+        wd = w * np.sqrt(1.0 - z * z)
+        c, s = np.cos(wd * period), np.sin(wd * period)
+        phi = decay[j] * np.array([[c + z * w * s / wd, s / wd], [-w * w * s / wd, c - z * w * s / wd]])
+        expected = np.linalg.solve(np.eye(2) - phi, [1.0, 2.0])
+        out = step(np.concatenate([vec[:, j], 2.0 * vec[:, j]]))
+        np.testing.assert_allclose(out[:n], expected[0] * vec[:, j], atol=1e-9 * abs(expected).max())
+        np.testing.assert_allclose(out[n:], expected[1] * vec[:, j], atol=1e-9 * abs(expected).max())
+    fast = np.flatnonzero(decay <= 1e-2)[0]
+    r = np.concatenate([vec[:, fast], vec[:, fast]])
+    np.testing.assert_allclose(step(r), r, atol=1e-9)
+
+
+def test_above_newton_free_play_links_the_clearance_search_is_anderson_alone(monkeypatch):
+    """Above NEWTON_FREE_PLAY_LINKS a machine with free play is searched without the slow-mode Newton
+    step, with FREE_PLAY_DEPTH and FREE_PLAY_STALL (the linear machine keeps the step and the
+    defaults), and the search still lands on plain cycling's fixed point (the same acceptance
+    test: within tol / (1 - rho), rho about 0.5 here)."""
+    from dynamics.solvers import shooting
+
+    chain = ChainModel(40, 2.03, 9.331e7, friction_coefficient=0.35)
+    clearance = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    linear = ClearanceMachine(clearance.machine, 0.0, "global", None, clearance.friction_chain)
+    monkeypatch.setattr(machine_shooting, "NEWTON_FREE_PLAY_LINKS", 39)
+    built = []
+    real = machine_shooting._cached_slow_mode_newton
+    monkeypatch.setattr(machine_shooting, "_cached_slow_mode_newton", lambda m, t: built.append(m) or real(m, t))
+    histories = []
+    search = machine_shooting.shooting.accelerated_fixed_point
+
+    def recorded(*args, **kwargs):
+        histories.append((kwargs["depth"], kwargs["stall"]))
+        return search(*args, **kwargs)
+
+    monkeypatch.setattr(machine_shooting.shooting, "accelerated_fixed_point", recorded)
+    cam = _cam()
+    sub = mv.substeps_for(clearance, cam.cycle_s / 180, 0.31, "ab2")
+    n = 180 * sub
+    zeros = np.zeros(clearance.topology.n_dof)
+    options = dict(tol=1e-9, max_cycles=80, predictor="ab2")
+    fast = machine_shooting.relabelled_periodic_state(clearance, cam, cam.cycle_s / n, n, zeros, zeros, **options)
+    assert built == []
+    plain = mv.relabelled_periodic_state(clearance, cam, cam.cycle_s / n, n, zeros, zeros, **options)
+    assert fast[4] and plain[4] and fast[2] <= plain[2]
+    assert np.max(np.abs(fast[0] - plain[0])) < 1e-8 * np.max(np.abs(plain[5].q))
+    machine_shooting.relabelled_periodic_state(linear, cam, cam.cycle_s / n, n, zeros, zeros, **options)
+    assert built == [linear]
+    free_play = (machine_shooting.FREE_PLAY_DEPTH, machine_shooting.FREE_PLAY_STALL)
+    assert histories == [free_play, (shooting.DEFAULT_DEPTH, shooting.DEFAULT_STALL)]
+
+
+@pytest.mark.slow
+def test_the_5000_link_clearance_machine_finds_its_steady_state():
+    """At 5,000 links (the default link's figures, 0.094 mm free play, 180 rpm modified sine) the
+    clearance machine's search, Anderson alone above NEWTON_FREE_PLAY_LINKS, reaches its tolerance
+    within the default cycle budget (with the slow-mode Newton step it stalled near 5e-3 per
+    cycle); slow: about 40 index cycles of 10,000 DOFs."""
+    chain = ChainModel(5000, 2.03, 9.0092e7, damping_ratio=0.13, preload_N=2224.0, friction_coefficient=0.35)
+    model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    cam = _cam()
+    t = cam.cycle_s * np.arange(91) / 90
+    _, summary = simulate_machine(model, cam, t, links=[0, 2500])
+    assert model.n_links > machine_shooting.NEWTON_FREE_PLAY_LINKS
+    assert summary.model == ChainModelKind.CLEARANCE
+    assert summary.steady_state.found, summary.steady_state.statement

@@ -32,13 +32,32 @@ from dynamics.solvers import machine_verlet as mv
 # 1.0, ... (no steady state); without those above 0.9 it falls (1.0, 0.50, 0.26, 0.19, 0.08, 0.04).
 # No mode is above it up to about 2,100 links (the slowest keeps 0.893 at 2,000, 0.902 at 2,200).
 NEWTON_DECAY_CAP = 0.9
+# With free play the Newton step (built on the closed machine's modes) helps the search up to
+# NEWTON_FREE_PLAY_LINKS links and misleads it above: the slack spans and the guide's friction in
+# the dwell change the slow directions, more of the chain the longer it is. Measured on the default
+# wheels, 0.094 mm, 180 rpm, from the linear machine's state, to 1e-4, cycles with the step / with
+# Anderson alone: 10 / 11 at 1,000 links, 14 / 20 at 2,000; at 5,000 the search with the step
+# stalled near 5e-3 per cycle (61 cycles, no steady state; plain cycling there: the slowest mode
+# keeps about 0.96 of itself per cycle against the closed machine's 0.83) where Anderson alone found it
+# in 31 cycles (depth 8); at 10,000 near 1e-2 against 1e-4 in 59. Between 2,000 and 5,000 not measured. The
+# linear machine (free play 0) always takes the step.
+NEWTON_FREE_PLAY_LINKS = 2000
+# Anderson alone keeps this many cycles (the step's search: shooting.DEFAULT_DEPTH): measured there
+# (the benchmark's chain, from the linear machine's state, to 1e-4), 26 cycles at 5,000 links and 39
+# at 10,000 against 31 and 59 with 8. It needs up to FREE_PLAY_STALL cycles without halving its best
+# residual before it gives the extrapolation up: its residual rose for the first 9 cycles at 10,000
+# links while the history filled and later took up to 17 (depth 8) and 11 (depth 16) to halve.
+FREE_PLAY_DEPTH = 16
+FREE_PLAY_STALL = 24
 
 
 def relabelled_periodic_state(
-    model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor, depth: int = shooting.DEFAULT_DEPTH
+    model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor, depth: int | None = None
 ):
     """As dynamics.solvers.machine_verlet.relabelled_periodic_state (same arguments, same return:
-    (q0, v0, cycles, residual, found, the last cycle's MachineRun)), the cycling accelerated."""
+    (q0, v0, cycles, residual, found, the last cycle's MachineRun)), the cycling accelerated.
+    `depth`: Anderson's history (0: plain cycling); None: shooting.DEFAULT_DEPTH with the slow-mode
+    Newton step, FREE_PLAY_DEPTH where the search goes without it (above NEWTON_FREE_PLAY_LINKS)."""
     zr, zd, zdd = mv.cycle_nodes(cam, step_s, n_steps)
     every = max(n_steps // 90, 1)
     while n_steps % every:
@@ -56,9 +75,13 @@ def relabelled_periodic_state(
         return np.concatenate([q1, v1]), np.concatenate([np.full(n, sq), np.full(n, sv)])
 
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
-    precondition = _cached_slow_mode_newton(model, cam.cycle_s) if depth else None
+    newton = depth != 0 and (model.clearance_m == 0.0 or model.n_links <= NEWTON_FREE_PLAY_LINKS)
+    precondition = _cached_slow_mode_newton(model, cam.cycle_s) if newton else None
+    stall = shooting.DEFAULT_STALL if newton else FREE_PLAY_STALL
+    if depth is None:
+        depth = shooting.DEFAULT_DEPTH if newton else FREE_PLAY_DEPTH
     search = shooting.accelerated_fixed_point(
-        one_cycle, x0, tol=tol, max_periods=max_cycles, depth=depth, precondition=precondition
+        one_cycle, x0, tol=tol, max_periods=max_cycles, depth=depth, stall=stall, precondition=precondition
     )
     end = search.state
     return end[:n].copy(), end[n:].copy(), search.periods, search.residual, search.converged, last["run"]
@@ -85,6 +108,8 @@ def slow_mode_newton(model, period_s: float, decay: float):
     (m the slow modes), no N x N array."""
     from scipy.linalg import expm
 
+    from dynamics.solvers._common import serial_blas
+
     topo = model.topology
     n = topo.n_dof
     masses = np.asarray(topo.masses_kg, dtype=float)
@@ -107,9 +132,16 @@ def slow_mode_newton(model, period_s: float, decay: float):
     to_modes = np.ascontiguousarray((vec / r[:, None]).T)  # a = V^T M^(1/2) q
     from_modes = np.ascontiguousarray(vec * r[:, None])  # q = M^(-1/2) V a
     blocks = np.empty((omega.size, 2, 2))
-    for j, o in enumerate(omega):
-        a = np.array([[0.0, 1.0], [-o * o, -2.0 * model.damping_ratio_at(o) * o]])
-        one_minus = np.eye(2) - expm(a * period_s)
+    oscillators = np.zeros((omega.size, 2, 2))
+    oscillators[:, 0, 1] = 1.0
+    oscillators[:, 1, 0] = -(omega**2)
+    oscillators[:, 1, 1] = -2.0 * np.array([model.damping_ratio_at(o) for o in omega]) * omega
+    # one batched exponential, one BLAS thread: per-mode calls on a threaded BLAS took 0.3 s at
+    # 1,000 links on a busy machine (0.06 s of CPU)
+    with serial_blas():
+        one_cycle = expm(oscillators * period_s) if omega.size else oscillators
+    for j in range(omega.size):
+        one_minus = np.eye(2) - one_cycle[j]
         # an undamped mode whose period divides T has no Newton step (I - Phi singular): plain there
         blocks[j] = np.linalg.inv(one_minus) if np.linalg.cond(one_minus) < 1e8 else np.eye(2)
 
