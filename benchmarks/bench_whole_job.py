@@ -20,7 +20,9 @@ medians over `--repeats` runs of:
 - peak memory, sampled every 50 ms: the run's process, its child processes (the FEA beside, the
   figure workers) summed, and the whole run's proportional set size (PSS: pages shared between the
   processes counted once, split between them), the memory the run takes from the machine; beside
-  it the summed resident sets (shared pages counted in each process: an overstatement).
+  it the summed resident sets (shared pages counted in each process: an overstatement). Each run's
+  line also says when its PSS peaked (after which progress line) and of what it was made: the PSS
+  of the run's process, of the FEA's process, of the figure workers and of the rest (`ROLES`).
 
 With `--study-point`, also the FEA of one design point of `python -m study` at the default
 settings, as a study's worker runs it (`stages.fea.run_fea` with the levels one after the other, no
@@ -51,6 +53,7 @@ LINE = re.compile(r"^\[\s*([0-9.]+) s\] (.*)$")
 SAMPLE_S = 0.05
 WARM_UP_MESH_SIZE_MM = "12"  # a cheap FEA for the untimed first run of each tree
 MEMORY = ("process", "children", "sum of resident sets", "PSS")
+ROLES = ("run", "FEA", "figure workers", "other")  # the processes a PSS peak is split into
 
 
 @dataclass
@@ -60,6 +63,9 @@ class Run:
     wall_s: dict[str, float] = field(default_factory=dict)
     memory: dict[str, int] = field(default_factory=dict)
     total_s: float = 0.0
+    peak_pss_by_role: dict[str, int] = field(default_factory=dict)  # at the PSS peak, by ROLES
+    peak_after: str = ""  # the last progress line before the PSS peak
+    peak_at_s: float = 0.0  # when the PSS peaked, from the process's start
 
 
 def stage_ends(lines: list[tuple[float, str]]) -> dict[str, float]:
@@ -104,9 +110,9 @@ def run_once(tree: Path, extra: list[str]) -> Run:
         proc = subprocess.Popen(command, cwd=tree, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         run = Run()
         done = threading.Event()
-        sampler = threading.Thread(target=_sample, args=(proc.pid, run, done), daemon=True)
+        sampler = threading.Thread(target=_sample, args=(proc.pid, run, done, start), daemon=True)
         sampler.start()
-        lines, start_up_s = [], None
+        lines, start_up_s, seen = [], None, []
         for line in proc.stdout:
             match = LINE.match(line)
             if not match:
@@ -115,6 +121,7 @@ def run_once(tree: Path, extra: list[str]) -> Run:
             if start_up_s is None:  # the run's clock starts after its imports
                 start_up_s = time.perf_counter() - start - t
             lines.append((t, match.group(2)))
+            seen.append((time.perf_counter() - start, match.group(2)))
         status = proc.wait()
         run.total_s = time.perf_counter() - start
         done.set()
@@ -122,12 +129,14 @@ def run_once(tree: Path, extra: list[str]) -> Run:
         if status != 0:
             raise SystemExit(f"{tree}: pipeline.py failed (status {status})")
         run.wall_s = stage_walls(stage_ends(lines), start_up_s or 0.0)
+        run.peak_after = next((m for t, m in reversed(seen) if t <= run.peak_at_s), "start-up")
         return run
 
 
-def _sample(pid: int, run: Run, done: threading.Event) -> None:
+def _sample(pid: int, run: Run, done: threading.Event, start: float) -> None:
     try:
         process = psutil.Process(pid)
+        command = process.cmdline()
         while not done.is_set():
             children = process.children(recursive=True)
             own = _memory(process)
@@ -138,11 +147,36 @@ def _sample(pid: int, run: Run, done: threading.Event) -> None:
                 "sum of resident sets": own[0] + sum(m[0] for m in theirs),
                 "PSS": own[1] + sum(m[1] for m in theirs),
             }
+            if sample["PSS"] > run.memory.get("PSS", 0):
+                run.peak_at_s = time.perf_counter() - start
+                run.peak_pss_by_role = dict.fromkeys(ROLES, 0) | {"run": own[1]}
+                for child, memory in zip(children, theirs):
+                    run.peak_pss_by_role[_role(child, command)] += memory[1]
             for key, value in sample.items():
                 run.memory[key] = max(run.memory.get(key, 0), value)
             time.sleep(SAMPLE_S)
     except psutil.Error:  # the run ended between two samples
         return
+
+
+def _role(child: psutil.Process, run_command: list[str]) -> str:
+    """Which of ROLES a child of the run is: the FEA's process is a spawned interpreter
+    (stages.beside), a figure worker a fork of the run (the run's command line)."""
+    try:
+        command = child.cmdline()
+    except psutil.Error:
+        return "other"
+    if command == run_command:
+        return "figure workers"
+    if any("spawn_main" in part for part in command):
+        return "FEA"
+    return "other"  # multiprocessing's resource tracker
+
+
+def peak_line(run: Run) -> str:
+    """When a run's PSS peaked and of what it was made (MB)."""
+    parts = ", ".join(f"{role} {run.peak_pss_by_role.get(role, 0) / 1e6:.0f}" for role in ROLES)
+    return f"PSS peak at {run.peak_at_s:.1f} s, after '{run.peak_after[:60]}': {parts} MB"
 
 
 def _memory(process: psutil.Process) -> tuple[int, int]:
@@ -238,7 +272,9 @@ def main(argv=None) -> int:
             run = run_once(tree, args.pipeline_options)
             results[name].append(run)
             print(
-                f"run {repeat + 1} {name}: {run.total_s:.1f} s, PSS {run.memory.get('PSS', 0) / 1e6:.0f} MB", flush=True
+                f"run {repeat + 1} {name}: {run.total_s:.1f} s, PSS {run.memory.get('PSS', 0) / 1e6:.0f} MB; "
+                + peak_line(run),
+                flush=True,
             )
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     print(

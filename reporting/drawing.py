@@ -3,14 +3,20 @@
 Every PNG of a run is independent of the others, and matplotlib draws one figure on one core: the
 default run's 15 figures took 6.2 s of its outputs stage one after the other. The figures are
 drawn in worker processes forked from the run (nothing to import again), each worker taking the
-next figure as it finishes one. The workers find the jobs in the memory they share with the run at
-the fork and are sent only a job's number: pickling the arguments (the histories, N-wide) sent
-every figure of a 2,000-link run about 46 MB through a pipe, and made its outputs stage 23 s where
-drawing the figures took 4 s.
+next batch of figures as it finishes one. The workers find the jobs in the memory they share with
+the run at the fork and are sent only a batch's number: pickling the arguments (the histories,
+N-wide) sent every figure of a 2,000-link run about 46 MB through a pipe, and made its outputs
+stage 23 s where drawing the figures took 4 s.
+
+Jobs of one batch (the same figure for each material) are drawn one after the other in one
+process, so that the second draws on the first's axes (reporting.plots keeps a drawn figure for
+the next of the same plot and layout): creating the axes and their ticks is about half of drawing
+a figure.
 """
 
 from __future__ import annotations
 
+import gc
 import multiprocessing
 from collections.abc import Callable, Hashable
 from concurrent.futures import ProcessPoolExecutor
@@ -22,35 +28,63 @@ from processes import may_start_children, usable_cores
 
 @dataclass(frozen=True)
 class FigureJob:
-    """One figure: a `reporting.plots` function and its arguments (the PNG's path among them)."""
+    """One figure: a `reporting.plots` function and its arguments (the PNG's path among them).
+    Jobs with the same `batch` (not None) are drawn one after the other in one process, in the
+    order given."""
 
     plot: Callable[..., Path]
     args: tuple
+    batch: Hashable = None
 
     def draw(self) -> Path:
         return self.plot(*self.args)
 
 
-# The jobs of the draw_figures call in progress, for its forked workers (set before they fork)
-_JOBS: list[FigureJob] = []
+# The batches of the draw_figures call in progress, for its forked workers (set before they fork)
+_BATCHES: list[list[FigureJob]] = []
+
+
+def batches(jobs: dict[Hashable, FigureJob]) -> list[list[Hashable]]:
+    """The jobs' keys grouped by batch (a job without one alone), the largest batches first (the
+    longest work first keeps both workers busy to the end), else in the jobs' order."""
+    groups: dict[Hashable, list[Hashable]] = {}
+    for key, job in jobs.items():
+        groups.setdefault(("batch", job.batch) if job.batch is not None else ("job", key), []).append(key)
+    return sorted(groups.values(), key=len, reverse=True)
 
 
 def draw_figures(jobs: dict[Hashable, FigureJob], workers: int | None = None) -> dict[Hashable, Path]:
     """Draw every job (in worker processes where there are several cores and fork exists, else here,
     one after the other); returns each job's PNG path under its key, in the jobs' order."""
-    workers = min(usable_cores() if workers is None else workers, len(jobs))
+    grouped = batches(jobs)
+    workers = min(usable_cores() if workers is None else workers, len(grouped))
     # a Dask worker drawing a study's best designs may not start children (processes.may_start_children)
     if workers < 2 or not may_start_children() or "fork" not in multiprocessing.get_all_start_methods():
-        return {key: job.draw() for key, job in jobs.items()}
-    _JOBS[:] = jobs.values()
+        drawn = {key: path for keys in grouped for key, path in zip(keys, _draw_batch([jobs[k] for k in keys]))}
+        return {key: drawn[key] for key in jobs}
+    _BATCHES[:] = [[jobs[k] for k in keys] for keys in grouped]
+    # the run's objects moved out of the collector's sight: a worker's collections would otherwise
+    # touch every one of them and copy the run's pages into the worker (copy on write)
+    gc.freeze()
     try:
         with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
-            pending = {key: pool.submit(_draw_job, i) for i, key in enumerate(jobs)}
-            return {key: future.result() for key, future in pending.items()}
+            pending = [(keys, pool.submit(_draw_forked_batch, i)) for i, keys in enumerate(grouped)]
+            drawn = {key: path for keys, future in pending for key, path in zip(keys, future.result())}
+        return {key: drawn[key] for key in jobs}
     finally:
-        _JOBS.clear()
+        gc.unfreeze()
+        _BATCHES.clear()
 
 
-def _draw_job(index: int) -> Path:
-    """In a forked worker: the index-th job of the draw_figures call that forked it."""
-    return _JOBS[index].draw()
+def _draw_batch(batch: list[FigureJob]) -> list[Path]:
+    from reporting.plots import close_spare_figures
+
+    try:
+        return [job.draw() for job in batch]
+    finally:
+        close_spare_figures()
+
+
+def _draw_forked_batch(index: int) -> list[Path]:
+    """In a forked worker: the index-th batch of the draw_figures call that forked it."""
+    return _draw_batch(_BATCHES[index])

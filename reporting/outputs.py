@@ -11,7 +11,7 @@ import json
 import os
 import shutil
 import tempfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -490,7 +490,8 @@ def _material_plots(
     }
     if np.any(histories[0].tension_N):
         figures["tension"] = FigureJob(plots.plot_tension, (histories, staged.path(f"{m}_tension.png")))
-    return figures
+    # each material's figure of a kind drawn after the other's, on its axes (reporting.drawing)
+    return {label: replace(job, batch=label) for label, job in figures.items()}
 
 
 def _drawn(figures: dict[str, dict[str, FigureJob]]) -> dict[str, dict[str, Path]]:

@@ -14,6 +14,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
 
 from reporting.history import CamHistory  # noqa: E402
 
@@ -73,8 +74,57 @@ def _save(fig, path: Path) -> Path:
         fig.savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=PAD_INCHES)
     else:
         Image.fromarray(opaque(cropped)).save(path, format="png", dpi=(DPI, DPI), compress_level=PNG_COMPRESS_LEVEL)
-    plt.close(fig)
+    layout = _LAYOUT_OF.pop(fig, None)
+    if layout is None:
+        plt.close(fig)
+    else:
+        _SPARE[layout] = fig
     return path
+
+
+# A drawn figure of each plot and layout, kept for the next figure of the same (reporting.drawing
+# draws the same figure of each material one after the other): its axes and their ticks drawn
+# again instead of created (a second 3 x 5 figure 0.42 instead of 0.66-0.76 CPU s, the same pixels)
+_SPARE: dict[tuple, Figure] = {}
+_LAYOUT_OF: dict[Figure, tuple] = {}
+
+
+def _subplots(plot: str, nrows: int, ncols: int, figsize: tuple[float, float], sharex: bool = False):
+    """plt.subplots(nrows, ncols, figsize=figsize, sharex=sharex, squeeze=False) for the plot
+    function `plot`, or the spare figure the last call for the same plot and layout drew, emptied
+    (`_emptied`); `_save` keeps the figure as the spare. The plot must set again everything it sets
+    on the axes but their lines, legends and titles."""
+    layout = (plot, nrows, ncols, tuple(figsize), sharex)
+    fig = _SPARE.pop(layout, None)
+    if fig is None:
+        fig, axes = plt.subplots(nrows, ncols, figsize=figsize, sharex=sharex, squeeze=False)
+    else:
+        axes = _emptied(fig).reshape(nrows, ncols)
+    _LAYOUT_OF[fig] = layout
+    return fig, axes
+
+
+def _emptied(fig: Figure) -> np.ndarray:
+    """The figure's axes (in the order made) without their lines, legends and titles, their data
+    limits forgotten (as new axes' are), and the figure without its suptitle."""
+    for ax in fig.axes:
+        for line in list(ax.lines):
+            line.remove()
+        if ax.get_legend() is not None:
+            ax.get_legend().remove()
+        ax.set_title("")
+        ax.relim()  # no lines: the null box, ignored by the next line's limits as a new axes' is
+    if fig._suptitle is not None:
+        fig._suptitle.set_text("")
+    return np.array(fig.axes, dtype=object)
+
+
+def close_spare_figures() -> None:
+    """Close the figures kept for reuse (`_subplots`) and any left unsaved by a failed plot."""
+    for fig in [*_SPARE.values(), *_LAYOUT_OF]:
+        plt.close(fig)
+    _SPARE.clear()
+    _LAYOUT_OF.clear()
 
 
 def _rendered(fig) -> np.ndarray:
@@ -134,7 +184,7 @@ def cropped_to_ink(pixels: np.ndarray, background: np.ndarray, pad: int) -> np.n
 
 def plot_three_links(histories: list[CamHistory], links: list[int], path: Path) -> Path:
     """Displacement, velocity and acceleration of several links (1-based), every cam law."""
-    fig, axes = plt.subplots(3, len(links), figsize=(4.2 * len(links), 8), sharex=True, squeeze=False)
+    fig, axes = _subplots("three links", 3, len(links), (4.2 * len(links), 8), sharex=True)
     for col, link in enumerate(links):
         axes[0, col].set_title(f"link {link}")
         for row, (label, link_value, _) in enumerate(QUANTITIES):
@@ -152,7 +202,7 @@ def plot_three_links(histories: list[CamHistory], links: list[int], path: Path) 
 
 def plot_link_vs_input(histories: list[CamHistory], link: int, path: Path) -> Path:
     """One column per cam law: the link's motion over the cam input it follows."""
-    fig, axes = plt.subplots(3, len(histories), figsize=(3.6 * len(histories), 8), sharex=True, squeeze=False)
+    fig, axes = _subplots("link vs input", 3, len(histories), (3.6 * len(histories), 8), sharex=True)
     for col, h in enumerate(histories):
         axes[0, col].set_title(h.cam)
         for row, (label, link_value, input_value) in enumerate(QUANTITIES):
@@ -170,7 +220,8 @@ def plot_link_vs_input(histories: list[CamHistory], link: int, path: Path) -> Pa
 
 def plot_differences(histories: list[CamHistory], link: int, path: Path) -> Path:
     """Link motion minus cam input (x - z, v - z', a - z'') for every cam law at one link."""
-    fig, axes = plt.subplots(3, 1, figsize=(9, 8), sharex=True)
+    fig, axes = _subplots("differences", 3, 1, (9, 8), sharex=True)
+    axes = axes[:, 0]
     for row, (label, link_value, input_value) in enumerate(QUANTITIES):
         for h in histories:
             axes[row].plot(
@@ -204,7 +255,8 @@ def plot_residual_vibration(residual_m: dict[str, dict[str, float]], station: st
 
 def plot_dwell_vibration(histories: list[CamHistory], link: int, path: Path) -> Path:
     """x - z during the dwells only, so the residual vibration is visible at its own scale."""
-    fig, ax = plt.subplots(figsize=(9, 4.5))
+    fig, axes = _subplots("dwell vibration", 1, 1, (9, 4.5))
+    ax = axes[0, 0]
     for h in histories:
         dev_mm = (h.x_m[:, h.column(link)] - h.z_m) * 1e3
         ax.plot(h.t_s, np.where(h.dwell_mask, dev_mm, np.nan), color=_colour(h.cam), lw=0.9, label=h.cam)
@@ -218,7 +270,8 @@ def plot_dwell_vibration(histories: list[CamHistory], link: int, path: Path) -> 
 
 def plot_tension(histories: list[CamHistory], path: Path) -> Path:
     """Peak and minimum tension of every link over the window, per cam law; below zero a span pushes."""
-    fig, ax = plt.subplots(figsize=(9, 4.5))
+    fig, axes = _subplots("tension", 1, 1, (9, 4.5))
+    ax = axes[0, 0]
     for h in histories:
         links = np.arange(1, h.tension_N.shape[1] + 1)
         ax.plot(links, h.tension_N.max(axis=0) / 1e3, color=_colour(h.cam), lw=1.0, label=f"{h.cam} max")

@@ -73,3 +73,21 @@ def test_solution_vtu_round_trips_through_meshio(tmp_path, solution):
     assert back.cells[0].type == ("tetra10" if solution.order == 2 else "tetra")
     with pytest.raises(FemError, match=".vtu"):
         write_solution_vtu(solution, tmp_path / "link.vtk")
+
+
+def test_pyvista_does_not_probe_the_display_before_rendering(tmp_path, solution, monkeypatch):
+    """fem.render renders off screen through EGL: pyvista's check for a display (`xset -q`, then a
+    render window of its own to learn whether VTK uses EGL) is skipped by its ALLOW_PLOTTING switch."""
+    import subprocess
+
+    import pyvista.plotting.plotter
+    import pyvista.plotting.tools
+
+    probes = []
+    monkeypatch.setattr(pyvista.plotting.tools, "SUPPORTS_PLOTTING", None)  # not yet asked in this process
+    monkeypatch.delattr(pyvista.plotting.plotter._warn_xserver, "has_support", raising=False)
+    monkeypatch.setattr(pyvista.plotting.plotter, "uses_egl", lambda: probes.append("egl window") or True)
+    real_popen = subprocess.Popen
+    monkeypatch.setattr(subprocess, "Popen", lambda args, *a, **k: probes.append(args) or real_popen(args, *a, **k))
+    render_deformed(solution, tmp_path / "link.png", window_size=(320, 200))
+    assert probes == []

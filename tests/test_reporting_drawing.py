@@ -149,3 +149,73 @@ def test_a_title_moves_above_a_y_offset_text_as_matplotlib_places_it(tmp_path):
     plots.plt.close(reference)
     # within a pixel: the tight canvas's origin falls between pixels, the grown one's on a pixel
     assert abs(with_offset - _title_height_px(tmp_path / "reference.png")) <= 1 and with_offset > plain + 5
+
+
+def _histories(material: str, scale: float, cams=("cycloidal", "poly-345")) -> list:
+    """Small histories of 4 links: the second material's motion `scale` times the first's."""
+    import numpy as np
+
+    from reporting.history import CamHistory
+
+    t = np.linspace(0.0, 0.5, 200)
+    z = 0.03 * (1 - np.cos(2 * np.pi * t / 0.5)) / 2
+    histories = []
+    for i, cam in enumerate(cams):
+        x = scale * (z[:, None] + 1e-4 * (i + 1) * np.sin(40 * t)[:, None] * np.arange(1, 5))
+        tension = scale * 1e3 * np.cos(30 * t)[:, None] * np.arange(1, 5)
+        histories.append(CamHistory(material, cam, t, z, np.gradient(z, t), z, x, x, x, tension, t > 0.4))
+    return histories
+
+
+def _reusing_plots(folder: Path, name: str, histories: list) -> list:
+    from reporting import plots
+
+    return [
+        FigureJob(plots.plot_three_links, (histories, [1, 2, 4], folder / f"{name}_three.png"), batch="three"),
+        FigureJob(plots.plot_link_vs_input, (histories, 2, folder / f"{name}_vs_input.png"), batch="vs input"),
+        FigureJob(plots.plot_differences, (histories, 2, folder / f"{name}_differences.png"), batch="differences"),
+        FigureJob(plots.plot_dwell_vibration, (histories, 2, folder / f"{name}_dwell.png"), batch="dwell"),
+        FigureJob(plots.plot_tension, (histories, folder / f"{name}_tension.png"), batch="tension"),
+    ]
+
+
+def test_a_figure_drawn_on_the_axes_of_the_one_before_has_the_pixels_of_a_new_one(tmp_path):
+    """A batch's second figure is drawn on the first's axes (reporting.plots keeps them): the
+    same PNG as drawn on a figure of its own, though its data, limits, titles and ticks differ."""
+    import numpy as np
+    from PIL import Image
+
+    from reporting import plots
+
+    first, second = _histories("metal a", 1.0), _histories("metal b", 3.0)
+    reused = {}
+    for i, (a, b) in enumerate(zip(_reusing_plots(tmp_path, "a", first), _reusing_plots(tmp_path, "b", second))):
+        reused |= {(i, "a"): a, (i, "b"): b}
+    drawn = draw_figures(reused, workers=1)
+    assert not plots._SPARE and not plots._LAYOUT_OF  # closed at the batch's end
+    alone = tmp_path / "alone"
+    alone.mkdir()
+    for job in _reusing_plots(alone, "b", second):
+        assert not plots._SPARE
+        job.draw()
+        plots.close_spare_figures()
+    for (_, name), path in drawn.items():
+        if name == "b":
+            assert np.array_equal(np.asarray(Image.open(path)), np.asarray(Image.open(alone / path.name))), path.name
+
+
+def test_the_jobs_of_a_batch_are_drawn_together_largest_batch_first(tmp_path):
+    from reporting.drawing import batches
+
+    jobs = _jobs(tmp_path)
+    jobs = {key: FigureJob(job.plot, job.args, batch="pair" if key[1] in "13" else None) for key, job in jobs.items()}
+    assert batches(jobs) == [
+        [("material", "1"), ("material", "3")],
+        [("material", "0")],
+        [("material", "2")],
+        [("material", "4")],
+    ]
+    paths = draw_figures(jobs, workers=2)
+    assert list(paths) == list(jobs)
+    pair = {int(paths["material", i].read_text().split()[-1]) for i in "13"}
+    assert len(pair) == 1 and pair != {os.getpid()}  # one worker drew both

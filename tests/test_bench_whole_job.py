@@ -1,0 +1,55 @@
+"""The whole-job benchmark's split of a PSS peak between the run's processes
+(benchmarks/bench_whole_job.py, loaded from its file): a spawned interpreter is the FEA's process,
+a fork of the run a figure worker."""
+
+from __future__ import annotations
+
+import importlib.util
+import multiprocessing
+import sys
+from pathlib import Path
+
+import psutil
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_whole_job.py"
+
+
+def load_bench():
+    spec = importlib.util.spec_from_file_location("bench_whole_job", BENCH)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up
+    spec.loader.exec_module(module)
+    return module
+
+
+def _wait(event) -> None:
+    event.wait(30)
+
+
+def test_the_children_of_a_run_are_told_apart_by_how_they_started():
+    bench = load_bench()
+    me = psutil.Process()
+    children = {}
+    for method in ("spawn", "fork"):
+        context = multiprocessing.get_context(method)
+        event = context.Event()
+        child = context.Process(target=_wait, args=(event,))
+        child.start()
+        children[method] = (child, event)
+    try:
+        roles = {method: bench._role(psutil.Process(c.pid), me.cmdline()) for method, (c, _) in children.items()}
+    finally:
+        for child, event in children.values():
+            event.set()
+            child.join(30)
+    assert roles == {"spawn": "FEA", "fork": "figure workers"}
+
+
+def test_a_runs_line_says_when_and_of_what_its_peak_was():
+    bench = load_bench()
+    run = bench.Run(peak_pss_by_role={"run": 120e6, "FEA": 600e6, "figure workers": 230e6}, peak_at_s=7.25)
+    run.peak_after = "stress level 2: local element 1.1 mm"
+    assert bench.peak_line(run) == (
+        "PSS peak at 7.2 s, after 'stress level 2: local element 1.1 mm': run 120, FEA 600, figure workers 230, "
+        "other 0 MB"
+    )
