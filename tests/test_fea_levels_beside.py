@@ -14,6 +14,7 @@ import multiprocessing
 import os
 import signal
 import time
+from functools import partial
 from pathlib import Path
 
 import psutil
@@ -26,7 +27,7 @@ import pipeline
 import stages.fea
 from fem import FemError, get_material, stiffness_studies
 from fem.settings import FeaSettings
-from stages.beside import BesideError
+from stages.beside import Beside, BesideError
 
 pytestmark = pytest.mark.filterwarnings("ignore:mesh. a wall:fem.errors.FemWarning")  # coarse on purpose
 ALUMINIUM, TITANIUM = get_material("al6061-t6"), get_material("ti-grade2")
@@ -47,22 +48,41 @@ def _one_thread(monkeypatch) -> None:
         monkeypatch.setenv(name, "1")
 
 
-def test_the_coarser_levels_beside_give_the_one_process_k_bit_for_bit(monkeypatch):
-    _one_thread(monkeypatch)
+def _study_answer(estimates) -> dict:
+    return {
+        name: (e.levels, e.stiffness_N_per_m, e.stiffness_rel_error_estimate, e.finest.mesh_size_m)
+        for name, e in estimates.items()
+    }
+
+
+def levels_in_one_process(part, settings, materials):
+    """The study in a fresh process, every level there (one step: its answer)."""
+    yield _study_answer(stiffness_studies(part, materials, settings))
+
+
+def levels_in_two_processes(part, settings, materials):
+    """The study in a fresh process, its coarser levels in another (one step: its answer, its progress)."""
     lines: list[str] = []
+    coarser = stages.fea.CoarserLevelsBeside(part, settings, materials)
+    estimates = stiffness_studies(part, materials, settings, progress=lines.append, coarser=coarser)
+    yield _study_answer(estimates), lines, coarser.pid
+
+
+def test_the_coarser_levels_beside_give_the_one_process_k_bit_for_bit(monkeypatch):
+    # both studies in fresh processes on one thread: this one's libraries may be loaded already
+    _one_thread(monkeypatch)
     part = geometry.as_part(None)
     part.geometry  # noqa: B018 (measured here and handed over with the part, as stages.fea does)
+    materials = [ALUMINIUM, TITANIUM]
     with threadpool_limits(limits=1):
-        apart = stiffness_studies(None, [ALUMINIUM, TITANIUM], COARSE)
-        coarser = stages.fea.CoarserLevelsBeside(part, COARSE, [ALUMINIUM, TITANIUM])
-        beside = stiffness_studies(part, [ALUMINIUM, TITANIUM], COARSE, progress=lines.append, coarser=coarser)
-    assert _ended(coarser.pid)
-    for name in (ALUMINIUM.name, TITANIUM.name):
-        a, b = beside[name], apart[name]
-        assert len(a.levels) == 3 and a.levels == b.levels  # sizes, DOFs and k of every level
-        assert a.stiffness_N_per_m == b.stiffness_N_per_m
-        assert a.stiffness_rel_error_estimate == b.stiffness_rel_error_estimate
-        assert a.finest.mesh_size_m == COARSE.mesh_sizes_m[-1]
+        apart = Beside(partial(levels_in_one_process, part, COARSE, materials), "one process")
+        together = Beside(partial(levels_in_two_processes, part, COARSE, materials), "two processes")
+        one, (two, lines, pid) = apart.next(), together.next()
+        apart.close()
+        together.close()
+    assert _ended(pid)
+    assert two == one  # sizes, DOFs and k of every level; the estimate; the finest level's size
+    assert [len(levels) for levels, *_ in two.values()] == [3, 3]
     assert [line.split(",")[0] for line in lines] == [f"FEA level {n}/3" for n in (1, 1, 2, 2, 3, 3)]
 
 
