@@ -40,7 +40,6 @@ from dynamics.solvers.clearance_verlet import (
     SPEED_CAPACITY,
     TANH_IS_ONE,
     _crossing,
-    _rows_times,
     _switch_impulse,
     _tanh,
     stable_omega_h,
@@ -153,11 +152,11 @@ def _accel_into(
         for i in range(dofs.shape[0]):
             f[dofs[i]] -= cw[i]
             p_damp += wv[i] * cw[i]
-    elif not kv:  # C v, four rows at a time on the padded C (clearance_verlet._rows_times)
+    elif not kv:  # C v, four rows at a time on the padded C in its own precision (`_rows_times_into`)
         vp, cv_out = work[4], work[5]
         for i in range(n):
             vp[i] = v[i]
-        _rows_times(cmat, vp, cv_out)
+        _rows_times_into(cmat, vp, cv_out)
         for i in range(n):
             f[i] -= cv_out[i]
             p_damp += v[i] * cv_out[i]
@@ -288,7 +287,7 @@ def _run_loops(
         np.zeros(nw),
         np.zeros(nw),
         np.zeros(n),
-        np.zeros(cmat.shape[1]),
+        np.zeros(cmat.shape[1], dtype=cmat.dtype),
         np.zeros(cmat.shape[0]),
         np.zeros(3),
     )
@@ -526,6 +525,28 @@ def _span_rates(j, v, acc, z_rel, zd, zdd, q, span_int, span_float, wheel_float)
     return de, dde
 
 
+def _rows_times_into(mat, x, out):
+    """out = mat x as clearance_verlet._rows_times (four rows at a time, the padded C), summed in mat's
+    own precision: float64 gives _rows_times' sums; float32 (`DAMPING_PRODUCT_PRECISIONS`) holds C in
+    half the cache and the compiler runs twice the lanes."""
+    zero = mat[0, 0] - mat[0, 0]
+    for i in range(0, mat.shape[0], 4):
+        s0 = zero
+        s1 = zero
+        s2 = zero
+        s3 = zero
+        for j in range(mat.shape[1]):
+            xj = x[j]
+            s0 += mat[i, j] * xj
+            s1 += mat[i + 1, j] * xj
+            s2 += mat[i + 2, j] * xj
+            s3 += mat[i + 3, j] * xj
+        out[i] = s0
+        out[i + 1] = s1
+        out[i + 2] = s2
+        out[i + 3] = s3
+
+
 def _record(t_el, contact, stats):
     for j in range(t_el.shape[0]):
         stats[1] += not contact[j]
@@ -542,11 +563,26 @@ if numba is not None:
         "_kinetic_abs_J",
         "_span_impulses_into",
         "_span_rates",
+        "_rows_times_into",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
 else:  # pragma: no cover
     _run = _run_loops
+
+
+# The global law's dense product C q' (the machine up to DENSE_LINK_LIMIT links), summed in C's
+# precision (`_rows_times_into`). On the wheels it is single: the product was 0.9 of the step's 2.4 us
+# at 85 links (C in double does not fit the core's cache beside the step's arrays), single takes about
+# half of that, and its rounding (1e-7 of C q') moves the station metrics by about 1e-7 (bench_machine's
+# window), four orders below the step's 1e-3. The link drive keeps double: on this kernel it replicates
+# the ring's (dynamics.solvers.clearance_verlet, double), tested equal to 1e-12.
+DAMPING_PRODUCT_PRECISIONS = {"single": np.float32, "double": np.float64}
+
+
+def default_damping_precision(model) -> str:
+    """The dense damping product's precision for `model` (DAMPING_PRODUCT_PRECISIONS)."""
+    return "double" if model.machine.drive == "link" else "single"
 
 
 @dataclass(frozen=True)
@@ -585,10 +621,17 @@ def integrate(
     record_from: int = 0,
     predictor: str = "euler",
     track_energy: bool = False,
+    damping_precision: str | None = None,
 ) -> MachineRun:
     """Step the clearance machine `model` over the cam's nodes (lift since the dwell, velocity,
-    acceleration; uniform step, n_steps + 1 nodes) from (q0, v0)."""
+    acceleration; uniform step, n_steps + 1 nodes) from (q0, v0); the global law's dense product in
+    `damping_precision` (DAMPING_PRODUCT_PRECISIONS; None: `default_damping_precision`)."""
     theta = PREDICTORS[predictor]
+    precision = default_damping_precision(model) if damping_precision is None else damping_precision
+    if precision not in DAMPING_PRODUCT_PRECISIONS:
+        raise DynamicsError(
+            f"damping_precision: expected one of {sorted(DAMPING_PRODUCT_PRECISIONS)}, got {damping_precision!r}"
+        )
     if theta and model.span_damping != "global":
         raise DynamicsError(f"predictor: {predictor!r} is for the global damping law; use predictor='euler'")
     zr, zd, zdd = (np.ascontiguousarray(x, dtype=float) for x in (z_rel_nodes, zd_nodes, zdd_nodes))
@@ -623,7 +666,7 @@ def integrate(
             arr.dof_float,
             arr.wheel_float,
             arr.par,
-            arr.cmat,
+            np.ascontiguousarray(arr.cmat, dtype=DAMPING_PRODUCT_PRECISIONS[precision]),
             arr.reduced,
             1e6 * scale,
             *out,
