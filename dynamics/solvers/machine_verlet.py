@@ -56,14 +56,19 @@ N_STATS = 11
 
 
 def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
-    """Per wheel: the feed's departure d, its slope dd/du and its rate dd/dt at the wheel's angle."""
+    """Per wheel: the feed's departure d, its slope dd/du and its rate dd/dt at the wheel's angle
+    (wheel_float as `_step_wheels` gives it). One sine per wheel and step (the trigonometry was a
+    tenth of the step): the cosine from it where the pin is within 1 rad of the strand's tangent
+    (cos > 0.54, the root to a few ulps), else its own call."""
     for i in range(wheel_float.shape[0]):
         r, rm, g0, dof = wheel_float[i, 0], wheel_float[i, 1], wheel_float[i, 2], int(wheel_float[i, 3])
         u = q[dof] if dof >= 0 else 0.0
         ud = v[dof] if dof >= 0 else 0.0
         ang = (z_rel + u) / rm
-        wd[i] = r * (math.sin(g0 + ang) - math.sin(g0)) - rm * ang
-        wsl[i] = (r * math.cos(g0 + ang) - rm) / rm
+        sine = math.sin(g0 + ang)
+        cosine = math.sqrt(1.0 - sine * sine) if abs(g0 + ang) < 1.0 else math.cos(g0 + ang)
+        wd[i] = r * (sine - wheel_float[i, 4]) - rm * ang
+        wsl[i] = (r * cosine - rm) / rm
         wdt[i] = wsl[i] * (zd + ud)
 
 
@@ -663,8 +668,8 @@ def integrate(
             int(record_from),
             arr.span_int,
             arr.span_float,
-            arr.dof_float,
-            arr.wheel_float,
+            np.asfortranarray(arr.dof_float),  # its columns contiguous: the DOF loops run as vectors
+            _step_wheels(arr.wheel_float),
             arr.par,
             np.ascontiguousarray(arr.cmat, dtype=DAMPING_PRODUCT_PRECISIONS[precision]),
             arr.reduced,
@@ -696,6 +701,11 @@ def integrate(
         dissipated_damping_J=float(energy[1]),
         dissipated_friction_J=float(energy[2]),
     )
+
+
+def _step_wheels(wheel_float: np.ndarray) -> np.ndarray:
+    """MachineArrays.wheel_float with sin(gamma at the dwell) as a fifth column (`_wheels_into`)."""
+    return np.ascontiguousarray(np.column_stack([wheel_float, np.sin(wheel_float[:, 2])]))
 
 
 def stable_step_s(model, safety: float, predictor: str) -> float:
