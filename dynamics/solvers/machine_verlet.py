@@ -3,7 +3,8 @@ clearance chain's explicit velocity Verlet (dynamics.solvers.clearance_verlet: t
 velocity predictors and stability limit) on any chain topology, the spans as a loop over the packed
 arrays (behind, ahead, carriage, wheel), the forces back through the transposed incidence, the
 polygonal feed d(a) of each wheel as a time-dependent offset of its two wheel-end spans evaluated at
-every step, the global damping law as the plain product C q' (the machine has no mirror symmetry).
+every step, the global damping law as the plain product C q' (the machine has no mirror symmetry; in
+single precision on the wheels, DAMPING_PRODUCT_PRECISIONS).
 The Kelvin-Voigt dashpot's force jump at a contact change is located within the step as the ring's
 (clearance_verlet._switch_impulse, `_span_impulses_into`: an impulse through the span's incidence,
 its work counted as damping), so the step stays second order through the switches.
