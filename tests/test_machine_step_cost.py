@@ -80,3 +80,6 @@ def test_one_sine_per_wheel_gives_the_feed_of_both_calls(gamma0):
         assert wd[0] == pytest.approx(r * (math.sin(gamma0 + ang) - math.sin(gamma0)) - rm * ang, abs=1e-15)
         assert wsl[0] == pytest.approx(slope, abs=1e-14)
         assert wdt[0] == pytest.approx(1.5 * slope, abs=1e-14)
+        four = np.zeros(1), np.zeros(1), np.zeros(1)  # MachineArrays' own four columns: the same feed
+        mv._wheels_into(np.zeros(1), np.zeros(1), z_rel, 1.5, wheels[:, :4].copy(), *four)
+        assert (four[0][0], four[1][0], four[2][0]) == (wd[0], wsl[0], wdt[0])

@@ -58,9 +58,10 @@ N_STATS = 11
 
 def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
     """Per wheel: the feed's departure d, its slope dd/du and its rate dd/dt at the wheel's angle
-    (wheel_float as `_step_wheels` gives it). One sine per wheel and step (the trigonometry was a
-    tenth of the step): the cosine from it where the pin is within 1 rad of the strand's tangent
-    (cos > 0.54, the root to a few ulps), else its own call."""
+    (wheel_float as `_step_wheels` gives it; MachineArrays.wheel_float's four columns work too, the
+    dwell's sine then computed here). One sine per wheel and step (the trigonometry was a tenth of
+    the step): the cosine from it where the pin is within 1 rad of the strand's tangent (cos > 0.54,
+    the root to a few ulps), else its own call."""
     for i in range(wheel_float.shape[0]):
         r, rm, g0, dof = wheel_float[i, 0], wheel_float[i, 1], wheel_float[i, 2], int(wheel_float[i, 3])
         u = q[dof] if dof >= 0 else 0.0
@@ -68,7 +69,8 @@ def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
         ang = (z_rel + u) / rm
         sine = math.sin(g0 + ang)
         cosine = math.sqrt(1.0 - sine * sine) if abs(g0 + ang) < 1.0 else math.cos(g0 + ang)
-        wd[i] = r * (sine - wheel_float[i, 4]) - rm * ang
+        sine0 = wheel_float[i, 4] if wheel_float.shape[1] > 4 else math.sin(g0)
+        wd[i] = r * (sine - sine0) - rm * ang
         wsl[i] = (r * cosine - rm) / rm
         wdt[i] = wsl[i] * (zd + ud)
 
