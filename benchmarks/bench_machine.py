@@ -9,9 +9,12 @@ dynamics stage with the machine.
    180 rpm, 0.094 mm free play, global damping. Station metrics (RMS x, v, a, max |a|, residual
    vibration at the machine's four stations) at the default step (ab2 at 0.31 of its limit) and at
    every finer number of steps per sample up to twice it, against the same integrator at 1/16 of the default
-   step; the time is the median of interleaved runs; the worst metric names the metric and station
-   that set the error. The target row is the fewest steps per sample
+   step; the time is the median CPU (thread) time of interleaved runs; the worst metric names the metric and
+   station that set the error. The target row is the fewest steps per sample
    from which every finer one holds 1e-3 (the window runs from rest: the default run's two-level step does not apply).
+   With BENCH_MACHINE_OLD_TREE=<a checkout of older code> (e.g. `git worktree add --detach /tmp/old
+   main`) that tree's compiled step (its dynamics/solvers/machine_verlet.py) runs the same windows in the
+   same process, interleaved run by run, beside this tree's.
 2. The impact statistics (closing speeds, approach energy, force spike) of the default run on wheels
    (steady state, default step) against the same run at 16x the steps: modified sine and cycloidal,
    both materials (modified sine, aluminium and titanium with --quick).
@@ -22,8 +25,11 @@ dynamics stage with the machine.
 
 from __future__ import annotations
 
+import os
 import statistics
+import sys
 import time
+import types
 
 import numpy as np
 
@@ -74,23 +80,42 @@ def _station_metrics(model, cam, t, y, v, a) -> np.ndarray:
     return np.array(out)
 
 
-def _window_run(model, cam, t, sub):
-    """Two index cycles from rest at `sub` steps per output sample, the seat change between them."""
+def _window_run(model, cam, t, sub, kernel=mv):
+    """Two index cycles from rest at `sub` steps per output sample, the seat change between them (the
+    window ends at the second cycle's end: no seat change after it); `kernel` the compiled step's module.
+    Returns (CPU seconds of this thread, station metrics)."""
+    start = time.thread_time()
     h = (t[1] - t[0]) / sub
     per_cycle = (t.size - 1) // 2
-    zr, zd, zdd = mv.cycle_nodes(cam, h, per_cycle * sub)
+    zr, zd, zdd = kernel.cycle_nodes(cam, h, per_cycle * sub)
     q = v = np.zeros(model.topology.n_dof)
     ys, vs, accs = [], [], []
-    start = time.perf_counter()
     for cycle in range(2):
-        run = mv.integrate(model, zr, zd, zdd, h, q, v, out_every=sub, predictor="ab2")
+        run = kernel.integrate(model, zr, zd, zdd, h, q, v, out_every=sub, predictor="ab2")
         take = slice(0, per_cycle + (cycle == 1))
         ys.append(run.q[take])
         vs.append(run.v[take])
         accs.append(run.a[take] + zdd[::sub][take, None] * model.arrays.dof_float[:, 1])
-        q, v, _ = mv.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
-    seconds = time.perf_counter() - start
+        if cycle == 0:
+            q, v, _ = kernel.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
+    seconds = time.thread_time() - start
     return seconds, _station_metrics(model, cam, t, np.concatenate(ys), np.concatenate(vs), np.concatenate(accs))
+
+
+def _old_kernel():
+    """The compiled step of the tree at BENCH_MACHINE_OLD_TREE as its own module (compiled in this
+    process, not cached), or None."""
+    tree = os.environ.get("BENCH_MACHINE_OLD_TREE")
+    if not tree:
+        return None
+    path = os.path.join(tree, "dynamics", "solvers", "machine_verlet.py")
+    with open(path) as f:
+        source = f.read().replace("cache=True", "cache=False")
+    module = types.ModuleType("old_machine_verlet")
+    module.__file__ = path
+    sys.modules[module.__name__] = module  # the dataclasses look their module up
+    exec(compile(source, path, "exec"), module.__dict__)
+    return module
 
 
 def _ring_window_s(cam, t, sub) -> float:
@@ -101,9 +126,9 @@ def _ring_window_s(cam, t, sub) -> float:
     tf = np.linspace(t[0], t[-1], sub * (t.size - 1) + 1)
     _, zd, zdd, _ = cam.svaj(tf)
     zeros = np.zeros(N_LINKS)
-    start = time.perf_counter()
+    start = time.thread_time()
     clearance_verlet.integrate(ring, zd, zdd, tf[1] - tf[0], zeros, zeros, out_every=sub, predictor="ab2")
-    return time.perf_counter() - start
+    return time.thread_time() - start
 
 
 def _window_table(quick: bool) -> list[str]:
@@ -115,51 +140,65 @@ def _window_table(quick: bool) -> list[str]:
     default = mv.substeps_for(model, t[1] - t[0], 0.31, "ab2")
     _, ref = _window_run(model, cam, t, 16 * default)
     scale = np.abs(ref).reshape(4, 5).max(axis=0)  # per metric, its largest over the stations
+    kernels = {"this tree": mv}
+    old = _old_kernel()
+    if old is not None:
+        kernels["old tree"] = old
+    head = " | ".join(f"{name}: CPU time | per step | error" for name in kernels)
     lines = [
         "Clearance machine, one 85-link window (2 index cycles from rest, 4 samples/degree, aluminium, "
         "modified sine, 180 rpm, 0.094 mm; wheels 12 teeth, 6 seated, polygonal feed); error = worst "
         f"station metric against {16 * default} steps/sample, relative to that metric's largest station value; "
-        "time = median of interleaved runs:",
+        "time = median CPU (thread) time of interleaved runs"
+        + (f" (old tree: {os.environ['BENCH_MACHINE_OLD_TREE']}, same process)" if old is not None else "")
+        + ":",
         "",
-        "| steps/sample | time | per step | error | worst metric |",
-        "|---|---|---|---|---|",
+        f"| steps/sample | {head} | worst metric (this tree) |",
+        "|---|" + "---|---|---|" * len(kernels) + "---|",
     ]
     subs = list(range(default, 2 * default + 1))  # every one: the error is not monotone below 2x (performance.md)
     repeats = 3 if quick else 9
-    times = {sub: [] for sub in subs}
+    times = {(name, sub): [] for name in kernels for sub in subs}
     errors, worst = {}, {}
     stations = list(model.machine.stations())
-    _window_run(model, cam, t, default)  # compile
+    for kernel in kernels.values():
+        _window_run(model, cam, t, default, kernel)  # compile
     for _ in range(repeats):
         for sub in subs:
-            seconds, metrics = _window_run(model, cam, t, sub)
-            times[sub].append(seconds)
-            relative = np.abs(metrics - ref).reshape(4, 5) / scale
-            errors[sub] = float(np.max(relative))
-            station, metric = np.unravel_index(np.argmax(relative), relative.shape)
-            worst[sub] = f"{METRIC_NAMES[metric]}, {stations[station]}"
+            for name, kernel in kernels.items():
+                seconds, metrics = _window_run(model, cam, t, sub, kernel)
+                times[name, sub].append(seconds)
+                relative = np.abs(metrics - ref).reshape(4, 5) / scale
+                errors[name, sub] = float(np.max(relative))
+                station, metric = np.unravel_index(np.argmax(relative), relative.shape)
+                worst[name, sub] = f"{METRIC_NAMES[metric]}, {stations[station]}"
     steps = t.size - 1
     for sub in subs:
-        median = statistics.median(times[sub])
-        lines.append(
-            f"| {sub} | {1e3 * median:.1f} ms | {1e6 * median / (steps * sub):.2f} us | {errors[sub]:.1e} | {worst[sub]} |"
-        )
+        cells = []
+        for name in kernels:
+            median = statistics.median(times[name, sub])
+            cells.append(f"{1e3 * median:.1f} ms | {1e6 * median / (steps * sub):.2f} us | {errors[name, sub]:.1e}")
+        lines.append(f"| {sub} | {' | '.join(cells)} | {worst['this tree', sub]} |")
     ring_s = [_ring_window_s(cam, t, 2 * default) for _ in range(repeats)]
     lines.append(
         f"Yardstick, same run: today's 85-link ring (single-link drive, same chain) over the same window "
         f"at {2 * default} steps/sample: {1e3 * statistics.median(ring_s):.1f} ms"
     )
-    # the error is not monotone in the step: a step holds 1e-3 when every finer one here does too
-    holding = [sub for i, sub in enumerate(subs) if all(errors[s] <= 1e-3 for s in subs[i:])]
-    if holding:
-        sub = holding[0]
-        met = statistics.median(times[sub]) <= TARGET_WINDOW_S
-        lines.append(
-            f"Target (1e-3 within {1e3 * TARGET_WINDOW_S:.0f} ms, at {sub} steps/sample, the fewest here from which "
-            f"every finer step holds 1e-3): **{'met' if met else 'NOT met'}**"
-        )
-    else:
-        lines.append(f"Target (1e-3 within {1e3 * TARGET_WINDOW_S:.0f} ms): **NOT met** (no step here holds 1e-3)")
+    for name in kernels:
+        # the error is not monotone in the step: a step holds 1e-3 when every finer one here does too
+        holding = [sub for i, sub in enumerate(subs) if all(errors[name, s] <= 1e-3 for s in subs[i:])]
+        if holding:
+            sub = holding[0]
+            median = statistics.median(times[name, sub])
+            met = median <= TARGET_WINDOW_S
+            lines.append(
+                f"Target, {name} (1e-3 within {1e3 * TARGET_WINDOW_S:.0f} ms, at {sub} steps/sample, the fewest here "
+                f"from which every finer step holds 1e-3: {1e3 * median:.1f} ms): **{'met' if met else 'NOT met'}**"
+            )
+        else:
+            lines.append(
+                f"Target, {name} (1e-3 within {1e3 * TARGET_WINDOW_S:.0f} ms): **NOT met** (no step here holds 1e-3)"
+            )
     return lines
 
 

@@ -3,8 +3,13 @@ clearance chain's explicit velocity Verlet (dynamics.solvers.clearance_verlet: t
 velocity predictors and stability limit) on any chain topology, the spans as a loop over the packed
 arrays (behind, ahead, carriage, wheel), the forces back through the transposed incidence, the
 polygonal feed d(a) of each wheel as a time-dependent offset of its two wheel-end spans evaluated at
+<<<<<<< HEAD
 every step, the global damping law as the plain product C q' (the machine has no mirror symmetry;
 the single-link drive's C has, and its machine packs it in the ring's two blocks: `mirror_packed`).
+=======
+every step, the global damping law as the plain product C q' (the machine has no mirror symmetry; in
+single precision on the wheels, DAMPING_PRODUCT_PRECISIONS).
+>>>>>>> window
 The Kelvin-Voigt dashpot's force jump at a contact change is located within the step as the ring's
 (clearance_verlet._switch_impulse, `_span_impulses_into`: an impulse through the span's incidence,
 its work counted as damping), so the step stays second order through the switches.
@@ -41,7 +46,6 @@ from dynamics.solvers.clearance_verlet import (
     SPEED_CAPACITY,
     TANH_IS_ONE,
     _crossing,
-    _rows_times,
     _switch_impulse,
     _tanh,
     stable_omega_h,
@@ -61,14 +65,21 @@ N_PAR = 8
 
 
 def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
-    """Per wheel: the feed's departure d, its slope dd/du and its rate dd/dt at the wheel's angle."""
+    """Per wheel: the feed's departure d, its slope dd/du and its rate dd/dt at the wheel's angle
+    (wheel_float as `_step_wheels` gives it; MachineArrays.wheel_float's four columns work too, the
+    dwell's sine then computed here). One sine per wheel and step (the trigonometry was a tenth of
+    the step): the cosine from it where the pin is within 1 rad of the strand's tangent (cos > 0.54,
+    the root to a few ulps), else its own call."""
     for i in range(wheel_float.shape[0]):
         r, rm, g0, dof = wheel_float[i, 0], wheel_float[i, 1], wheel_float[i, 2], int(wheel_float[i, 3])
         u = q[dof] if dof >= 0 else 0.0
         ud = v[dof] if dof >= 0 else 0.0
         ang = (z_rel + u) / rm
-        wd[i] = r * (math.sin(g0 + ang) - math.sin(g0)) - rm * ang
-        wsl[i] = (r * math.cos(g0 + ang) - rm) / rm
+        sine = math.sin(g0 + ang)
+        cosine = math.sqrt(1.0 - sine * sine) if abs(g0 + ang) < 1.0 else math.cos(g0 + ang)
+        sine0 = wheel_float[i, 4] if wheel_float.shape[1] > 4 else math.sin(g0)
+        wd[i] = r * (sine - sine0) - rm * ang
+        wsl[i] = (r * cosine - rm) / rm
         wdt[i] = wsl[i] * (zd + ud)
 
 
@@ -159,11 +170,11 @@ def _accel_into(
             p_damp += wv[i] * cw[i]
     elif not kv and par.shape[0] > N_PAR:  # the ring's C in its mirror blocks (`_mirror_damping_into`)
         p_damp += _mirror_damping_into(cmat, par, v, work[4], work[5], f)
-    elif not kv:  # C v, four rows at a time on the padded C (clearance_verlet._rows_times)
+    elif not kv:  # C v, four rows at a time on the padded C in its own precision (`_rows_times_into`)
         vp, cv_out = work[4], work[5]
         for i in range(n):
             vp[i] = v[i]
-        _rows_times(cmat, vp, cv_out)
+        _rows_times_into(cmat, vp, cv_out)
         for i in range(n):
             f[i] -= cv_out[i]
             p_damp += v[i] * cv_out[i]
@@ -204,12 +215,12 @@ def _mirror_damping_into(cmat, par, v, wc, cw, f):
         wc[1] = v[pairs + 1]
     for p in range(pairs):
         wc[nf + p] = r * (v[1 + p] + v[n - 1 - p])
-    _rows_times(cmat[:rs], wc, cw[:rs])
+    _rows_times_into(cmat[:rs], wc, cw[:rs])
     for p in range(pairs):
         wc[p] = r * (v[1 + p] - v[n - 1 - p])
     for p in range(pairs, pairs + nf):  # the antisymmetric block's padding columns
         wc[p] = 0.0
-    _rows_times(cmat[rs:], wc, cw[rs:])
+    _rows_times_into(cmat[rs:], wc, cw[rs:])
     power = v[0] * cw[0]
     f[0] -= cw[0]
     if nf == 2:
@@ -350,7 +361,7 @@ def _run_loops(
         np.zeros(nw),
         np.zeros(nw),
         np.zeros(n),
-        np.zeros(cmat.shape[1]),
+        np.zeros(cmat.shape[1], dtype=cmat.dtype),
         np.zeros(cmat.shape[0]),
         np.zeros(3),
     )
@@ -590,12 +601,38 @@ def _span_rates(j, v, acc, z_rel, zd, zdd, q, span_int, span_float, wheel_float)
     return de, dde
 
 
+def _rows_times_into(mat, x, out):
+    """out = mat x as clearance_verlet._rows_times (four rows at a time, the padded C), summed in mat's
+    own precision: float64 gives _rows_times' sums; float32 (`DAMPING_PRODUCT_PRECISIONS`) holds C in
+    half the cache and the compiler runs twice the lanes."""
+    zero = mat[0, 0] - mat[0, 0]
+    for i in range(0, mat.shape[0], 4):
+        s0 = zero
+        s1 = zero
+        s2 = zero
+        s3 = zero
+        for j in range(mat.shape[1]):
+            xj = x[j]
+            s0 += mat[i, j] * xj
+            s1 += mat[i + 1, j] * xj
+            s2 += mat[i + 2, j] * xj
+            s3 += mat[i + 3, j] * xj
+        out[i] = s0
+        out[i + 1] = s1
+        out[i + 2] = s2
+        out[i + 3] = s3
+
+
 def _record(t_el, contact, stats):
+    # summed in locals, stored once: through stats itself each span waited on the last one's store
+    # (a tenth of the step at 85 links)
+    free, seen, peak, low = stats[1], stats[2], stats[3], stats[4]
     for j in range(t_el.shape[0]):
-        stats[1] += not contact[j]
-        stats[2] += 1
-        stats[3] = max(stats[3], t_el[j])
-        stats[4] = min(stats[4], t_el[j])
+        free += not contact[j]
+        seen += 1
+        peak = max(peak, t_el[j])
+        low = min(low, t_el[j])
+    stats[1], stats[2], stats[3], stats[4] = free, seen, peak, low
 
 
 if numba is not None:
@@ -607,11 +644,26 @@ if numba is not None:
         "_span_impulses_into",
         "_span_rates",
         "_mirror_damping_into",
+        "_rows_times_into",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
 else:  # pragma: no cover
     _run = _run_loops
+
+
+# The global law's dense product C q' (the machine up to DENSE_LINK_LIMIT links), summed in C's
+# precision (`_rows_times_into`). On the wheels it is single: the product was 0.9 of the step's 2.4 us
+# at 85 links (C in double does not fit the core's cache beside the step's arrays), single takes about
+# half of that, and its rounding (1e-7 of C q') moves the station metrics by about 1e-7 (bench_machine's
+# window), four orders below the step's 1e-3. The link drive keeps double: on this kernel it replicates
+# the ring's (dynamics.solvers.clearance_verlet, double), tested equal to 1e-12.
+DAMPING_PRODUCT_PRECISIONS = {"single": np.float32, "double": np.float64}
+
+
+def default_damping_precision(model) -> str:
+    """The dense damping product's precision for `model` (DAMPING_PRODUCT_PRECISIONS)."""
+    return "double" if model.machine.drive == "link" else "single"
 
 
 @dataclass(frozen=True)
@@ -651,10 +703,17 @@ def integrate(
     record_from: int = 0,
     predictor: str = "euler",
     track_energy: bool = False,
+    damping_precision: str | None = None,
 ) -> MachineRun:
     """Step the clearance machine `model` over the cam's nodes (lift since the dwell, velocity,
-    acceleration; uniform step, n_steps + 1 nodes) from (q0, v0)."""
+    acceleration; uniform step, n_steps + 1 nodes) from (q0, v0); the global law's dense product in
+    `damping_precision` (DAMPING_PRODUCT_PRECISIONS; None: `default_damping_precision`)."""
     theta = PREDICTORS[predictor]
+    precision = default_damping_precision(model) if damping_precision is None else damping_precision
+    if precision not in DAMPING_PRODUCT_PRECISIONS:
+        raise DynamicsError(
+            f"damping_precision: expected one of {sorted(DAMPING_PRODUCT_PRECISIONS)}, got {damping_precision!r}"
+        )
     if theta and model.span_damping != "global":
         raise DynamicsError(f"predictor: {predictor!r} is for the global damping law; use predictor='euler'")
     zr, zd, zdd = (np.ascontiguousarray(x, dtype=float) for x in (z_rel_nodes, zd_nodes, zdd_nodes))
@@ -686,10 +745,10 @@ def integrate(
             int(record_from),
             arr.span_int,
             arr.span_float,
-            arr.dof_float,
-            arr.wheel_float,
+            np.asfortranarray(arr.dof_float),  # its columns contiguous: the DOF loops run as vectors
+            _step_wheels(arr.wheel_float),
             arr.par,
-            arr.cmat,
+            np.ascontiguousarray(arr.cmat, dtype=DAMPING_PRODUCT_PRECISIONS[precision]),
             arr.reduced,
             1e6 * scale,
             *out,
@@ -720,6 +779,11 @@ def integrate(
         dissipated_damping_J=float(energy[1]),
         dissipated_friction_J=float(energy[2]),
     )
+
+
+def _step_wheels(wheel_float: np.ndarray) -> np.ndarray:
+    """MachineArrays.wheel_float with sin(gamma at the dwell) as a fifth column (`_wheels_into`)."""
+    return np.ascontiguousarray(np.column_stack([wheel_float, np.sin(wheel_float[:, 2])]))
 
 
 def stable_step_s(model, safety: float, predictor: str) -> float:
