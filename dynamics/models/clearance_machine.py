@@ -21,6 +21,12 @@ strands only: the seated links ride on their wheel, not on the guide.
 
 With clearance 0 and friction 0 the model is MachineOnWheels exactly (tested against
 dynamics.solvers.machine_steady and machine_ivp).
+
+Seating through a tooth contact stiffness (MachineOnWheels.tooth_stiffness_N_per_m finite): the tooth
+springs k_t (y - u - s) from each seated link to its wheel's seat (held to the cam's frame on a held
+sprocket), s the link's seat offset, a state entry after the DOFs (`n_state`, `seats`) without mass
+or force, carried and closed by the seat change (dynamics.solvers.tooth_transfer); tested against the
+DOP853 reference and for its energy (tests/test_tooth_seating.py).
 """
 
 from __future__ import annotations

@@ -19,9 +19,10 @@ Parts:
   + J / R_m^2 with the polygonal action, the seated pins running on the pitch circle).
 - Tooth contact stiffness (`tooth_stiffness_N_per_m`, default inf = rigid seating): each seated
   link its own DOF held to its wheel's seat by a spring k_t (a coupling of the topology), every span
-  elastic, each wheel a DOF of J / R_m^2; k_t -> infinity is rigid seating to first order in k / k_t.
-  Its seat change (the link seating where it is) is not built: the transfer and the clearance
-  machine refuse it (dynamics.response.seating says where rigid seating does not hold).
+  elastic, each wheel a DOF of J / R_m^2; k_t -> infinity is rigid seating to first order in k / k_t
+  between seat changes. Its seat change (the link seating where it is and settling into its gap over
+  an index) runs in the clearance machine's compiled step (dynamics.solvers.tooth_transfer); the
+  linear and DOP853 steady state here (machine_steady.transfer) refuse it (rigid seating's transfer).
 - Drive compliance: a torsional spring k_theta (N m/rad) between the cam's angle and the sprocket, a
   path stiffness k_theta / R_m^2 on the sprocket's DOF; infinite: the sprocket follows the cam
   (its seated links held to the cam's motion, no DOF).
