@@ -348,6 +348,10 @@ def _drive_force(model: ClearanceMachine, run: _Window, zdd: np.ndarray) -> np.n
     ends = model.machine.wheel_ends[0]
     if ends.dof is not None:
         return -model.topology.ground_vector()[ends.dof] * run.q[:, ends.dof]
+    if model.seats:  # a held sprocket's tooth springs, -k_t (y - offset) on its seated links
+        seated = list(model.seats[0][1])
+        offsets = model.topology.n_dof + np.arange(len(seated))
+        return -model.machine.tooth_stiffness_N_per_m * np.sum(run.q[:, seated] - run.q[:, offsets], axis=1)
     seated = len(model.machine.groups[0]) * model.chain.link_mass_kg
     return run.tension_N[:, ends.behind_span] - run.tension_N[:, ends.ahead_span] + seated * zdd
 

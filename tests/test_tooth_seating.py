@@ -141,11 +141,11 @@ def _relabelled(machine: MachineOnWheels):
     return model, (q0, v0), (q1, v1), run
 
 
-@pytest.mark.parametrize("phase", [0.0, 0.25])
-def test_the_relabelled_steady_state_repeats_after_one_index(phase):
+@pytest.mark.parametrize("phase, held", [(0.0, False), (0.25, False), (0.0, True), (0.25, True)])
+def test_the_relabelled_steady_state_repeats_after_one_index(phase, held):
     """x0 = T(P(x0)) with the seat offsets carried: one more index from x0 lands on x0 (in the next
     index's places) to the steady state's tolerance; only the arriving links' offsets are not 0."""
-    model, (q0, v0), (q1, v1), run = _relabelled(_machine(True, phase=phase, ratio=1e2))
+    model, (q0, v0), (q1, v1), run = _relabelled(_machine(True, held=held, phase=phase, ratio=1e2))
     assert np.max(np.abs(q1 - q0)) <= 1e-8 * np.max(np.abs(run.q))
     assert np.max(np.abs(v1 - v0)) <= 1e-8 * np.max(np.abs(run.v))
     assert np.count_nonzero(model.seat_offsets_m(q0)) == 2

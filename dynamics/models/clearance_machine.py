@@ -122,7 +122,7 @@ class ClearanceMachine:
         mach = self.machine
         if mach.rigid_seating:
             return ()
-        return tuple((ends.dof, seated) for ends, (_, seated) in zip(mach.wheel_ends, mach._seated_blocks()))
+        return tuple((ends.dof, seated) for ends, (_, seated) in zip(mach.wheel_ends, mach.seated_blocks()))
 
     @property
     def n_state(self) -> int:

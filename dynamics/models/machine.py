@@ -278,7 +278,7 @@ class MachineOnWheels:
             places[0] if held else (),
         )
 
-    def _seated_blocks(self) -> tuple[tuple[Wheel, tuple[int, ...]], ...]:
+    def seated_blocks(self) -> tuple[tuple[Wheel, tuple[int, ...]], ...]:
         """(wheel, its seated links) for the sprocket and the idler wheel, in `wheel_ends` order."""
         out = [(self.sprocket, self.groups[0])]
         if self.idler_place is not None:
@@ -296,7 +296,7 @@ class MachineOnWheels:
         masses = [c.link_mass_kg] * n
         links = [(j,) for j in range(n)]
         ground, couplings, wheel_dofs = [], [], []
-        for i, (wheel, seated) in enumerate(self._seated_blocks()):
+        for i, (wheel, seated) in enumerate(self.seated_blocks()):
             radius = wheel.pitch_radius_m if self.polygonal else wheel.feed_radius_m
             for j in seated:
                 masses[j] = c.link_mass_kg * (radius / wheel.feed_radius_m) ** 2
@@ -354,7 +354,7 @@ class MachineOnWheels:
             # span j joins link j to link j + 1; the wheels' DOFs follow the links' (none when held)
             wheel_dofs = iter(self.topology.wheel_dofs)
             out = []
-            for i, (wheel, seated) in enumerate(self._seated_blocks()):
+            for i, (wheel, seated) in enumerate(self.seated_blocks()):
                 dof = None if (i == 0 and self.drive_held) else next(wheel_dofs)
                 out.append(WheelEnds(wheel, dof, (seated[0] - 1) % self.n_links, seated[-1]))
             return tuple(out)
