@@ -27,12 +27,15 @@ slides into its gap as it articulates onto the wheel. In the 1-D model:
 Nothing is dissipated at the instant: the seating speed |y' - u'| of the arriving link is reported, its
 kinetic energy relative to the seat stays in the tooth spring's motion (damped by the model's damping),
 and the transfer's change of stored energy is that of the seated links' mass with the polygonal action
-(m (R / R_m)^2 seated against m free, at the speeds kept) and of d's change over the lag.
+(m (R / R_m)^2 seated against m free, at the speeds kept), of the leaving link's tooth spring (its
+deflection under the strand's tension, released) and of d's change over the lag.
 """
 
 from __future__ import annotations
 
 import numpy as np
+
+from dynamics.errors import DynamicsError
 
 
 def tooth_transfer(model, q: np.ndarray, v: np.ndarray, angles_after_rad, engage_s: float, zdot_m_s: float = 0.0):
@@ -42,6 +45,8 @@ def tooth_transfer(model, q: np.ndarray, v: np.ndarray, angles_after_rad, engage
     frame (0 at the dwell; the angle one tooth back inside the index); `engage_s` the time to the next
     seat change (one index cycle), over which the arriving link's offset closes; `zdot_m_s` the cam's
     speed."""
+    if not (engage_s is not None and engage_s > 0):
+        raise DynamicsError(f"engage_s: expected the time to the next seat change (> 0 s), got {engage_s!r}")
     mach = model.machine
     n_links, n_dof = mach.n_links, model.topology.n_dof
     q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
