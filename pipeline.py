@@ -307,6 +307,15 @@ def _add_machine_arguments(p: argparse.ArgumentParser, d: RunConfig) -> None:
         "seats at the dwell; a phase F puts the seat change inside the index, when the cam has lifted 1 - F of a "
         "pitch)",
     )
+    p.add_argument(
+        "--tooth-stiffness",
+        default=None,
+        metavar="N/m",
+        help="seating on the wheels: a tooth contact stiffness in N/m (each seated link held to its seat by it, "
+        "the arriving link seating where it is), rigid (the seated links move with their wheel), or auto (default: "
+        "rigid seating where it holds for the run, else the tooth stiffness of the pin's line contact on the "
+        "tooth, 9.5e8 N/m, and the run says so)",
+    )
 
 
 def _split_ids(text: str, option: str) -> tuple[str, ...]:
@@ -324,6 +333,18 @@ def _pin_clearance_m(text: str | None, default_m: float) -> float:
         return mm_to_m(float(text))
     except ValueError:
         raise SettingsError(f"--pin-clearance: expected a free play >= 0 mm or inf, got {text!r}") from None
+
+
+def _tooth_stiffness(text: str | None) -> float | None:
+    """--tooth-stiffness: N/m, rigid (inf) or auto (None, the default)."""
+    if text is None or text.strip().lower() == "auto":
+        return None
+    if text.strip().lower() in ("rigid", "inf"):
+        return float("inf")
+    try:
+        return float(text)
+    except ValueError:
+        raise SettingsError(f"--tooth-stiffness: expected a stiffness in N/m, rigid or auto, got {text!r}") from None
 
 
 def _rayleigh(text: str | None) -> tuple[float, float] | None:
@@ -392,6 +413,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         idler_inertia_kg_m2=args.idler_inertia,
         polygonal_action=not args.no_polygonal_action,
         tooth_phase=args.tooth_phase,
+        tooth_stiffness_N_per_m=_tooth_stiffness(args.tooth_stiffness),
     )
     check_run_config(cfg)
     return replace(cfg, link_source=link_source(args.geometry, args))

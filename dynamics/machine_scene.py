@@ -115,8 +115,8 @@ def simulate_machine(
     linear = ClearanceMachine(model.machine, 0.0, "global", None, model.friction_chain)
     lin_pred = verlet.default_predictor(linear) if predictor is None else predictor
     lin_safety = verlet.default_safety(linear, lin_pred) if safety is None else safety
-    n_dof = model.topology.n_dof
-    start = (np.zeros(n_dof), np.zeros(n_dof))
+    n_state = model.n_state  # the DOFs, and a tooth model's seat offsets
+    start = (np.zeros(n_state), np.zeros(n_state))
     lin_sub = mv.substeps_for(linear, h_out, lin_safety, lin_pred)
     # the linear machine first to CHOICE_TOL: its minimum tension decides the model (and gives the
     # preload for full contact) and its state starts the clearance machine's steady state, which
@@ -332,6 +332,8 @@ def _link_spans(model: ClearanceMachine) -> np.ndarray:
 
 
 def _link_tensions(model: ClearanceMachine, span_tension: np.ndarray) -> np.ndarray:
+    if model.seats:  # a tooth model: every link span is a span of its own
+        return span_tension
     spans = _link_spans(model)
     out = np.empty((span_tension.shape[0], model.n_links))
     free = spans >= 0
@@ -346,6 +348,10 @@ def _drive_force(model: ClearanceMachine, run: _Window, zdd: np.ndarray) -> np.n
     ends = model.machine.wheel_ends[0]
     if ends.dof is not None:
         return -model.topology.ground_vector()[ends.dof] * run.q[:, ends.dof]
+    if model.seats:  # a held sprocket's tooth springs, -k_t (y - offset) on its seated links
+        seated = list(model.seats[0][1])
+        offsets = model.topology.n_dof + np.arange(len(seated))
+        return -model.machine.tooth_stiffness_N_per_m * np.sum(run.q[:, seated] - run.q[:, offsets], axis=1)
     seated = len(model.machine.groups[0]) * model.chain.link_mass_kg
     return run.tension_N[:, ends.behind_span] - run.tension_N[:, ends.ahead_span] + seated * zdd
 

@@ -233,8 +233,10 @@ def machine_cycle_summary(cycle) -> dict:
 
 
 def seating_validity_summary(validity) -> dict:
-    """Which seating model ran and whether it holds (dynamics.response.seating.SeatingValidity), SI."""
-    return {
+    """Which seating model ran and whether it holds (dynamics.response.seating.SeatingValidity), SI; the
+    tooth model's k_t and, where the run switched to it, rigid seating's verdict it left (the keys are
+    there only when the tooth model ran: rigid seating's record is as it was)."""
+    out = {
         "model": validity.model,
         "valid": validity.valid,
         "reason": validity.reason,
@@ -244,6 +246,11 @@ def seating_validity_summary(validity) -> dict:
         "at_rest_threshold": validity.threshold,
         "instead": validity.instead,
     }
+    if validity.tooth_stiffness_N_per_m is not None:
+        out["tooth_stiffness_N_per_m"] = validity.tooth_stiffness_N_per_m
+        left = validity.switched_from
+        out["switched_from"] = None if left is None else seating_validity_summary(left)
+    return out
 
 
 def _machine(results: RunResults) -> dict:
@@ -379,6 +386,12 @@ def _machine_inputs(cfg) -> dict:
         "idler_inertia_kg_m2": cfg.idler_inertia_kg_m2,
         "polygonal_action": cfg.polygonal_action,
         "tooth_phase": cfg.tooth_phase,
+        # --tooth-stiffness as given (not given, auto: no key, the default run's record as it was)
+        **(
+            {}
+            if cfg.tooth_stiffness_N_per_m is None
+            else {"tooth_stiffness": "rigid" if np.isinf(cfg.tooth_stiffness_N_per_m) else cfg.tooth_stiffness_N_per_m}
+        ),
     }
 
 

@@ -200,10 +200,17 @@ def _seating_paragraphs(summary: dict) -> str:
         for cam, scenario in data["cams"].items():
             seating = scenario.get("machine", {}).get("seating_model")
             if seating is not None:
-                key = (seating["model"], seating["valid"], seating["reason"], seating.get("instead"))
+                key = (
+                    seating["model"],
+                    seating["valid"],
+                    seating["reason"],
+                    seating.get("instead"),
+                    seating.get("tooth_stiffness_N_per_m"),
+                )
                 groups.setdefault(key, []).append((f"{material} / {cam}", seating["snap_J"]))
     out = ""
-    for (model, valid, reason, instead), runs in groups.items():
+    for (model, valid, reason, instead, k_t), runs in groups.items():
+        model = model if k_t is None else f"{model} (k_t = {k_t:.3g} N/m)"
         snaps = [snap for _, snap in runs]
         which = f"all {len(runs)} scenarios" if len(groups) == 1 else ", ".join(name for name, _ in runs)
         verdict = "holds" if valid else "does NOT hold"

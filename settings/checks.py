@@ -105,12 +105,34 @@ def _check_machine(cfg: RunConfig) -> None:
         ("--idler-wrap-links", cfg.idler_wrap_links_used, cfg.idler_teeth_used),
     ):
         _require(wrap < teeth, f"{option}: expected fewer seated links than the wheel's {teeth} teeth, got {wrap}")
+    _check_tooth_stiffness(cfg)
     seated = cfg.sprocket_wrap_links + cfg.idler_wrap_links_used
     _require(
         cfg.links - seated >= 2,
         f"--links: {seated} links seated on the wheels leave {cfg.links - seated} free of {cfg.links}; expected at "
         "least two free links (more --links or fewer --sprocket-wrap-links/--idler-wrap-links)",
     )
+
+
+def _check_tooth_stiffness(cfg: RunConfig) -> None:
+    """A tooth contact stiffness asked for (a finite --tooth-stiffness) needs what its model carries
+    (dynamics.models.machine): no tensioner, wheels with inertia (each is a body of its own)."""
+    k_t = cfg.tooth_stiffness_N_per_m
+    if k_t is None or k_t == float("inf"):
+        return
+    _require(
+        cfg.tensioner_rate_N_per_m is None,
+        "--tooth-stiffness: seating through a tooth stiffness is built for a fixed idler axle; expected no "
+        "--tensioner-rate with it (or --tooth-stiffness rigid)",
+    )
+    for option, inertia in (
+        ("--sprocket-inertia", cfg.sprocket_inertia_kg_m2),
+        ("--idler-inertia", cfg.idler_inertia_kg_m2),
+    ):
+        _require(
+            inertia is None or inertia > 0,
+            f"{option}: expected > 0 kg*m^2 with --tooth-stiffness (the wheel is a body of its own), got {inertia!r}",
+        )
 
 
 def _check_mqp2012(cfg: RunConfig) -> None:

@@ -122,6 +122,10 @@ class RunConfig:
     idler_inertia_kg_m2: float | None = None  # None: the default wheel inertia at the idler's pitch radius
     polygonal_action: bool = True
     tooth_phase: float = 0.0  # fraction of a tooth at the dwell; 0: a pin seats at the dwell
+    # seating: None: rigid seating where it holds for the run, else (dynamics.response.seating) the tooth
+    # contact stiffness dynamics.models.wheels.DEFAULT_TOOTH_STIFFNESS_N_PER_M; inf: rigid seating always;
+    # a value: seating through that tooth contact stiffness always
+    tooth_stiffness_N_per_m: float | None = None
 
     @property
     def focus_station(self) -> str:
@@ -234,4 +238,7 @@ LIMITS: dict[str, Limit] = {
     "idler_wrap_links": Limit("--idler-wrap-links", "a whole number of seated links", AT_LEAST_ZERO, whole=True),
     "idler_inertia_kg_m2": Limit("--idler-inertia", "a finite inertia", AT_LEAST_ZERO, "kg*m^2"),
     "tooth_phase": Limit("--tooth-phase", "a fraction of a tooth", Bounds(0.0, True, 1.0, False)),
+    "tooth_stiffness_N_per_m": Limit(
+        "--tooth-stiffness", "a tooth contact stiffness (or rigid, auto)", ABOVE_ZERO, "N/m", finite=False
+    ),
 }

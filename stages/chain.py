@@ -140,7 +140,7 @@ def simulate_scenario(
     from dynamics.response.metrics import link_metrics, settling_times, tension_extremes
     from dynamics.scene import simulate_scene
     from reporting.history import CamHistory
-    from stages.machine import machine_cycle, machine_parts
+    from stages.machine import machine_cycle, machine_parts, switches_to_tooth_model, tooth_model_scene
 
     t = output_times_s(cfg.rpm, samples_per_degree)
     cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
@@ -149,14 +149,24 @@ def simulate_scenario(
     # a one-station question keeps one link's history (the spring tensions are kept whole: they are
     # what the slack check and the stress need)
     kept = None if cfg.station is None else (places[cfg.station],)
-    r, contact = simulate_scene(
-        scene,
-        model,
-        cam,
-        t,
-        links=None if kept is None else [link - 1 for link in kept],
-        n_modes=modes_to_keep(cfg.links),
-    )
+
+    def simulate(scene):
+        return simulate_scene(
+            scene,
+            model,
+            cam,
+            t,
+            links=None if kept is None else [link - 1 for link in kept],
+            n_modes=modes_to_keep(cfg.links),
+        )
+
+    r, contact = simulate(scene)
+    left = None  # rigid seating's verdict where the run leaves it for the tooth model
+    if contact.seating is not None:
+        rigid = machine_cycle(contact.seating, scene.steady_state, *_cam_peaks(r)).seating_validity
+        if switches_to_tooth_model(cfg, scene, rigid):
+            scene, left = tooth_model_scene(scene), rigid
+            r, contact = simulate(scene)
     history = CamHistory(
         material,
         cam_id,
@@ -181,11 +191,18 @@ def simulate_scenario(
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
     seats = None
     if contact.seating is not None:
-        peaks = float(np.max(np.abs(r.zdot_m_s))), float(np.max(np.abs(r.zddot_m_s2)))
-        seats = machine_cycle(contact.seating, scene.steady_state, *peaks)
+        k_t = scene.layout.tooth_stiffness_N_per_m
+        seats = machine_cycle(contact.seating, scene.steady_state, *_cam_peaks(r), k_t, left)
     return Scenario(
         history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst, contact, seats
     )
+
+
+def _cam_peaks(response) -> tuple[float, float]:
+    """The cam's largest speed and acceleration over the window (the scale of its state at a seat change)."""
+    import numpy as np
+
+    return float(np.max(np.abs(response.zdot_m_s))), float(np.max(np.abs(response.zddot_m_s2)))
 
 
 def scenario_to_tolerance(cfg: RunConfig, result: MaterialStiffness, material: str, cam_id: str) -> Scenario:
@@ -238,12 +255,14 @@ def run_dynamics(
                 scenarios[name, cam_id] = simulate_scenario(
                     cfg, models[name], name, cam_id, result.pitch_m, cfg.samples_per_degree
                 )
+                _say_seating_switch(scenarios[name, cam_id], f"{name} / {cam_id}", progress)
             else:
                 scenarios[name, cam_id] = sc = scenario_to_tolerance(cfg, result, name, cam_id)
                 progress(
                     f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
                     f"estimated error {100 * sc.rel_error_estimate['total']:.2g} %"
                 )
+                _say_seating_switch(sc, f"{name} / {cam_id}", progress)
         scene = chain_scene(cfg, result.pitch_m)
         chains[name] = MaterialChain(
             models[name], natural_frequencies_Hz(scene, models[name]), machine_parts(scene, models[name])
@@ -254,6 +273,17 @@ def run_dynamics(
             + ("" if modes_to_keep(cfg.links) is None else f", solved in its {modes_to_keep(cfg.links)} lowest modes")
         )
     return chains, scenarios
+
+
+def _say_seating_switch(scenario: Scenario, name: str, progress: Progress) -> None:
+    """The progress line of a scenario that left rigid seating for the tooth contact stiffness."""
+    validity = None if scenario.machine is None else scenario.machine.seating_validity
+    if validity is not None and validity.switched_from is not None:
+        progress(
+            f"dynamics {name}: rigid seating does not hold (the seats change inside the index, with the cam "
+            f"moving): switched to seating through a tooth contact stiffness of "
+            f"{validity.tooth_stiffness_N_per_m:.3g} N/m (--tooth-stiffness rigid keeps rigid seating)"
+        )
 
 
 def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialStiffness], progress: Progress) -> dict[str, SweepResult]:

@@ -38,7 +38,34 @@ def machine_layout(cfg: RunConfig, pitch_m: float) -> MachineLayout:
     idler = None
     if cfg.idler_wrap_links_used > 0:
         idler = _wheel(cfg.idler_teeth_used, pitch_m, cfg.idler_wrap_links_used, cfg.idler_inertia_kg_m2, phase)
-    return MachineLayout("wheels", sprocket, idler, cfg.drive_stiffness_N_m_per_rad, cfg.polygonal_action)
+    k_t = cfg.tooth_stiffness_N_per_m
+    rigid = k_t is None or k_t == float("inf")  # None: rigid where it holds (`tooth_model_layout` else)
+    return MachineLayout(
+        "wheels",
+        sprocket,
+        idler,
+        cfg.drive_stiffness_N_m_per_rad,
+        cfg.polygonal_action,
+        float("inf") if rigid else float(k_t),
+    )
+
+
+def switches_to_tooth_model(cfg: RunConfig, scene: Scene, validity: SeatingValidity) -> bool:
+    """Whether the run leaves rigid seating for the tooth contact stiffness (--tooth-stiffness auto, the
+    default): where rigid seating does not hold for it and the tooth model carries the scene (no
+    tensioner, wheels with inertia; dynamics.models.machine)."""
+    if cfg.tooth_stiffness_N_per_m is not None or validity.valid or not scene.layout.on_wheels:
+        return False
+    wheels = (scene.layout.sprocket, scene.layout.idler)
+    return scene.tensioner is None and all(w is None or w.inertia_kg_m2 > 0 for w in wheels)
+
+
+def tooth_model_scene(scene: Scene) -> Scene:
+    """The scene with its wheels seating through the default tooth contact stiffness
+    (dynamics.models.wheels.DEFAULT_TOOTH_STIFFNESS_N_PER_M)."""
+    from dynamics.models.wheels import DEFAULT_TOOTH_STIFFNESS_N_PER_M
+
+    return replace(scene, layout=replace(scene.layout, tooth_stiffness_N_per_m=DEFAULT_TOOTH_STIFFNESS_N_PER_M))
 
 
 def _wheel(teeth: int, pitch_m: float, wrap: int, inertia_kg_m2: float | None, tooth_phase: float) -> Wheel:
@@ -131,10 +158,17 @@ class MachineCycle:
 
 
 def machine_cycle(
-    changes: SeatChanges, steady_state: bool, peak_speed_m_s: float, peak_acceleration_m_s2: float
+    changes: SeatChanges,
+    steady_state: bool,
+    peak_speed_m_s: float,
+    peak_acceleration_m_s2: float,
+    tooth_stiffness_N_per_m: float = float("inf"),
+    switched_from: SeatingValidity | None = None,
 ) -> MachineCycle:
-    """`peak_*`: the cam's over the scenario's window (the scale of the cam's state at the seat change)."""
-    from dynamics.response.seating import rigid_seating_validity
+    """`peak_*`: the cam's over the scenario's window (the scale of the cam's state at the seat change);
+    `tooth_stiffness_N_per_m` the seating that ran (inf: rigid), `switched_from` rigid seating's verdict
+    where the run left it for the tooth model."""
+    from dynamics.response.seating import rigid_seating_validity, tooth_seating_validity
 
     seating = {
         name: WheelSeating(float(speed), float(energy))
@@ -144,5 +178,9 @@ def machine_cycle(
         "relabelled" if steady_state else None,
         seating,
         float(changes.transfer_energy_change_J),
-        rigid_seating_validity(changes, peak_speed_m_s, peak_acceleration_m_s2),
+        rigid_seating_validity(changes, peak_speed_m_s, peak_acceleration_m_s2)
+        if tooth_stiffness_N_per_m == float("inf")
+        else tooth_seating_validity(
+            changes, peak_speed_m_s, peak_acceleration_m_s2, tooth_stiffness_N_per_m, switched_from
+        ),
     )

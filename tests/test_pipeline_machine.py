@@ -408,11 +408,20 @@ def test_a_figure_the_machine_does_not_measure_is_null_in_summary_json():
 
 @pytest.mark.slow  # 15 s: a whole pipeline run
 def test_a_run_with_a_tooth_phase_says_so(tmp_path):
-    """--tooth-phase 0.5: the seats change at mid-index; summary.json's machine and the report say the
-    phase, the seating figures are there."""
+    """--tooth-phase 0.5 with --tooth-stiffness rigid: the seats change at mid-index; summary.json's
+    machine and the report say the phase, the seating figures are there, rigid seating flagged."""
     out = tmp_path / "out"
     args = ["--mesh-size", "10", "--links", "16", "--samples-per-degree", "2", "--no-images", "-q"]
-    args += ["--materials", "al6061-t6", "--cams", "modified-sine", "--tooth-phase", "0.5"]
+    args += [
+        "--materials",
+        "al6061-t6",
+        "--cams",
+        "modified-sine",
+        "--tooth-phase",
+        "0.5",
+        "--tooth-stiffness",
+        "rigid",
+    ]
     assert pipeline.main([*args, "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
     s = json.loads((out / "summary.json").read_text())
     assert s["machine"]["tooth_phase"] == 0.5 and s["machine"]["steady_state_frame"] == "relabelled"
@@ -425,3 +434,26 @@ def test_a_run_with_a_tooth_phase_says_so(tmp_path):
     report = (out / "report.html").read_text()
     assert "tooth phase 0.5 (the seats change inside the index, when the cam has lifted 0.5 of a pitch)" in report
     assert "Seating: rigid seating does NOT hold" in report
+
+
+@pytest.mark.slow  # 15 s: a whole pipeline run
+def test_a_run_where_rigid_seating_fails_switches_to_the_tooth_model_and_says_so(tmp_path, capsys):
+    """--tooth-phase 0.5 (auto seating, the default): the scenario runs seating through the default
+    tooth contact stiffness; summary.json's seating_model, the report and the progress line say so."""
+    from dynamics.models.wheels import DEFAULT_TOOTH_STIFFNESS_N_PER_M
+
+    out = tmp_path / "out"
+    args = ["--mesh-size", "10", "--links", "16", "--samples-per-degree", "2", "--no-images"]
+    args += ["--materials", "al6061-t6", "--cams", "modified-sine", "--tooth-phase", "0.5"]
+    assert pipeline.main([*args, "--out", str(out), "--cache-dir", str(tmp_path / "cache")]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    seating_model = s["materials"]["al6061-t6"]["cams"]["modified-sine"]["machine"]["seating_model"]
+    assert seating_model["model"] == "seating through a tooth contact stiffness" and seating_model["valid"] is True
+    assert seating_model["tooth_stiffness_N_per_m"] == DEFAULT_TOOTH_STIFFNESS_N_PER_M
+    assert seating_model["switched_from"]["model"] == "rigid seating"
+    assert seating_model["switched_from"]["valid"] is False and "tooth_stiffness" not in s["inputs"]
+    assert (
+        "Seating: seating through a tooth contact stiffness (k_t = 9.5e+08 N/m) holds"
+        in (out / "report.html").read_text()
+    )
+    assert "switched to seating through a tooth contact stiffness of 9.5e+08 N/m" in capsys.readouterr().err

@@ -21,6 +21,12 @@ strands only: the seated links ride on their wheel, not on the guide.
 
 With clearance 0 and friction 0 the model is MachineOnWheels exactly (tested against
 dynamics.solvers.machine_steady and machine_ivp).
+
+Seating through a tooth contact stiffness (MachineOnWheels.tooth_stiffness_N_per_m finite): the tooth
+springs k_t (y - u - s) from each seated link to its wheel's seat (held to the cam's frame on a held
+sprocket), s the link's seat offset, a state entry after the DOFs (`n_state`, `seats`) without mass
+or force, carried and closed by the seat change (dynamics.solvers.tooth_transfer); tested against the
+DOP853 reference and for its energy (tests/test_tooth_seating.py).
 """
 
 from __future__ import annotations
@@ -53,9 +59,13 @@ class MachineArrays:
 
     span_int: np.ndarray  # (n_spans, 4) int64: behind, ahead, carriage, wheel (-1: none / held)
     span_float: np.ndarray  # (n_spans, 2): carriage gain, polygon sign
-    dof_float: np.ndarray  # (n_dof, 7): 1/mass, inertial load / mass, ground k, ground c, friction links, f0, mass
+    # (n_state, 10): 1/mass, inertial load / mass, ground k, ground c, friction links, f0, mass, and the tooth
+    # spring of a seated link (tooth model): its wheel's DOF (-1: held to the cam), k_t (0: none), the state
+    # index of its seat offset. The seat offsets are state entries after the DOFs (`n_state`), frozen
+    # (no mass, no force: constant between seat changes)
+    dof_float: np.ndarray
     wheel_float: np.ndarray  # (n_wheels, 4): R, R_m, gamma at the dwell, DOF (-1 held) as float
-    par: np.ndarray  # k, P, k g, beta k, kv flag, F_c, 1 / v_s, m (one link)
+    par: np.ndarray  # k, P, k g, beta k, kv flag, F_c, 1 / v_s, m (one link), tooth springs flag
     # the global law's C, padded for the four-row product (clearance_verlet._padded); zeros for Kelvin-Voigt
     cmat: np.ndarray
     # the O(N) global law above DENSE_LINK_LIMIT links: (chain DOFs, tri, scalars, factors, sm,
@@ -76,11 +86,6 @@ class ClearanceMachine:
     def __post_init__(self) -> None:
         if not (self.clearance_m >= 0 and not np.isnan(self.clearance_m)):
             raise DynamicsError(f"clearance_m: expected a free play >= 0 m (inf allowed), got {self.clearance_m!r}")
-        if not self.machine.rigid_seating:
-            raise DynamicsError(
-                "tooth_stiffness_N_per_m: the clearance machine's compiled step has no tooth springs; "
-                "expected rigid seating (inf)"
-            )
         if self.span_damping not in SPAN_DAMPING_LAWS:
             raise DynamicsError(
                 f"span_damping: expected one of {', '.join(SPAN_DAMPING_LAWS)}, got {self.span_damping!r}"
@@ -109,6 +114,23 @@ class ClearanceMachine:
     @property
     def n_links(self) -> int:
         return self.machine.n_links
+
+    @cached_property
+    def seats(self) -> tuple[tuple[int | None, tuple[int, ...]], ...]:
+        """Tooth model: per wheel (in `wheel_ends` order) its DOF (None: held to the cam) and its seated
+        links in place order; () with rigid seating."""
+        mach = self.machine
+        if mach.rigid_seating:
+            return ()
+        return tuple((ends.dof, seated) for ends, (_, seated) in zip(mach.wheel_ends, mach.seated_blocks()))
+
+    @property
+    def n_state(self) -> int:
+        """Entries of the compiled step's state q: the DOFs, then (tooth model) one seat offset per
+        seated link, in `seats` order: where the link seated relative to its wheel's seat, which its
+        tooth spring pulls it to (k_t (y - u - offset)); carried through the relabelling
+        (dynamics.solvers.tooth_transfer)."""
+        return self.topology.n_dof + sum(len(seated) for _, seated in self.seats)
 
     @property
     def beta_s(self) -> float:
@@ -169,8 +191,10 @@ class ClearanceMachine:
                 span_int[span, 3] = i
                 span_float[span, 1] = sign
         masses = np.asarray(topo.masses_kg, dtype=float)
-        moves = np.array([1.0 if carried else 0.0 for carried in topo.links])
+        moves = topo.moves_with_cam()  # the links' DOFs, and a tooth model's wheels
         ground = topo.ground_vector()
+        tooth = self._tooth_columns()
+        ground[tooth[:, 1] > 0] = 0.0  # a held seat's tooth spring is in the tooth columns (with its offset)
         ground_c = np.zeros(topo.n_dof)
         if mach.tensioner is not None:
             # the dense global law's C holds c_t; the O(N) form leaves it to the carriage's own dashpot
@@ -186,9 +210,13 @@ class ClearanceMachine:
         friction_links = np.array(
             [1.0 if (carried and d not in wheel_dofs) else 0.0 for d, carried in enumerate(topo.links)]
         )
+        friction_links[tooth[:, 1] > 0] = 0.0  # a tooth model's seated links ride on their wheel
         b = self._incidence
         f0 = topo.preload_N * np.asarray(b.sum(axis=0)).reshape(-1)
-        dof_float = np.column_stack([1.0 / masses, moves, ground, ground_c, friction_links, f0, masses])
+        dof_float = np.column_stack([1.0 / masses, moves, ground, ground_c, friction_links, f0, masses, tooth])
+        frozen = np.zeros((self.n_state - topo.n_dof, dof_float.shape[1]))  # the seat offsets
+        frozen[:, 7] = -1.0
+        dof_float = np.vstack([dof_float, frozen])
         k = topo.span_stiffness_N_per_m
         par = np.array(
             [
@@ -200,18 +228,46 @@ class ClearanceMachine:
                 c.coulomb_force_N,
                 1.0 / c.friction_velocity_scale_m_s,
                 c.link_mass_kg,
+                1.0 if self.seats else 0.0,
             ]
         )
         dense = not (kv or self.reduced_damping)
-        cmat = _padded(self.damping_matrix if dense else np.zeros((1, 1)))
+        cmat = _padded(_with_offsets(self.damping_matrix, self.n_state) if dense else np.zeros((1, 1)))
         reduced = _reduced_arrays(self.machine) if (self.reduced_damping and not kv) else _NO_REDUCED
         return MachineArrays(span_int, span_float, np.ascontiguousarray(dof_float), wheel_float, par, cmat, reduced)
+
+    def _tooth_columns(self) -> np.ndarray:
+        """(n_dof, 3): per DOF its tooth spring (the `arrays` dof_float columns 7-9): its wheel's DOF
+        (-1: held to the cam, or none), k_t (0: none), the state index of its seat offset."""
+        out = np.zeros((self.topology.n_dof, 3))
+        out[:, 0] = -1.0
+        offset = self.topology.n_dof
+        for dof, seated in self.seats:
+            for link in seated:  # the tooth topology's DOF j is link j
+                out[link] = (-1.0 if dof is None else dof, self.machine.tooth_stiffness_N_per_m, offset)
+                offset += 1
+        return out
+
+    def seat_offsets_m(self, q: np.ndarray) -> np.ndarray:
+        """The seat offsets of states q (..., n_state): (..., n_state - n_dof), empty with rigid seating."""
+        return np.asarray(q, dtype=float)[..., self.topology.n_dof :]
+
+    def tooth_energy_J(self, q: np.ndarray) -> float:
+        """The tooth springs' elastic energy 1/2 k_t (y - u - offset)^2 of one state (0: rigid seating)."""
+        q = np.asarray(q, dtype=float)
+        cols = self._tooth_columns()
+        energy = 0.0
+        for i in np.flatnonzero(cols[:, 1] > 0):
+            wheel, k_t, offset = int(cols[i, 0]), cols[i, 1], int(cols[i, 2])
+            gap = q[i] - (q[wheel] if wheel >= 0 else 0.0) - q[offset]
+            energy += 0.5 * k_t * gap * gap
+        return float(energy)
 
     # --- the span law on the machine -------------------------------------------------------------
 
     def stretches_m(self, q: np.ndarray, z_rel_m) -> np.ndarray:
         """Span stretches (..., n_spans) of DOF states (..., n_dof) at the cam's lift since the dwell."""
-        q = np.atleast_2d(np.asarray(q, dtype=float))
+        q = np.atleast_2d(np.asarray(q, dtype=float))[:, : self.topology.n_dof]
         z_rel = np.broadcast_to(np.asarray(z_rel_m, dtype=float), q.shape[:1])
         b = self._incidence
         e = np.asarray((b @ q.T).T) if self.reduced_damping else q @ b.T
@@ -231,7 +287,8 @@ class ClearanceMachine:
     def stored_energy_J(self, q, v, zdot_m_s: float, z_rel_m: float) -> float:
         """Kinetic + elastic energy (absolute frame) of one state: 1/2 sum M (q' + z')^2 (the carriage
         without z'), the spans' law energy (dynamics.models.clearance.span_energy_J, from the unstressed
-        length), the ground springs, and -2 P u of the carriage's preload balance (-f0 . q)."""
+        length), the ground springs, the tooth springs, and -2 P u of the carriage's preload balance
+        (-f0 . q). The seat offsets (tooth model) carry no mass and no force of their own."""
         arr = self.arrays
         q, v = np.asarray(q, dtype=float), np.asarray(v, dtype=float)
         masses, moves, ground, f0 = arr.dof_float[:, 6], arr.dof_float[:, 1], arr.dof_float[:, 2], arr.dof_float[:, 5]
@@ -239,7 +296,8 @@ class ClearanceMachine:
         e = self.stretches_m(q, z_rel_m)[0]
         kinetic = 0.5 * float(np.sum(masses * (v + moves * zdot_m_s) ** 2))
         elastic = float(np.sum(span_energy_J(e, c.preload_N, c.stiffness_N_per_m, self.clearance_m)))
-        return kinetic + elastic + 0.5 * float(np.sum(ground * q**2)) - float(f0 @ q)
+        energy = kinetic + elastic + 0.5 * float(np.sum(ground * q**2)) - float(f0 @ q)
+        return energy + self.tooth_energy_J(q) if self.seats else energy
 
 
 _NO_REDUCED = (
@@ -271,6 +329,16 @@ def _top_frequency_sparse(machine: MachineOnWheels) -> float:
     bound = float(np.max(np.asarray(abs(s).sum(axis=1)).reshape(-1)))
     lam = eigsh(s, k=1, sigma=1.001 * bound, which="LM", return_eigenvectors=False, tol=1e-10)[0]
     return float(np.sqrt(max(lam, 0.0)))
+
+
+def _with_offsets(c: np.ndarray, n_state: int) -> np.ndarray:
+    """C on the compiled step's state: zero rows and columns for the seat offsets (none: C itself)."""
+    n = c.shape[0]
+    if n == n_state:
+        return c
+    out = np.zeros((n_state, n_state))
+    out[:n, :n] = c
+    return out
 
 
 def _damping_matrix(machine: MachineOnWheels) -> np.ndarray:

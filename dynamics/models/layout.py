@@ -24,6 +24,7 @@ class MachineLayout:
     idler: Wheel | None = None  # None: the idler is a point inside a span (today's)
     drive_torsional_stiffness_N_m_per_rad: float | None = None  # None: the report's k_d at R_m; inf: held
     polygonal: bool = True
+    tooth_stiffness_N_per_m: float = float("inf")  # inf: rigid seating (dynamics.models.machine)
 
     def __post_init__(self) -> None:
         if self.drive not in DRIVES:
@@ -45,6 +46,7 @@ class MachineLayout:
             idler=self.idler,
             tensioner=tensioner,
             polygonal=self.polygonal,
+            tooth_stiffness_N_per_m=self.tooth_stiffness_N_per_m,
         )
 
 

@@ -19,9 +19,10 @@ Parts:
   + J / R_m^2 with the polygonal action, the seated pins running on the pitch circle).
 - Tooth contact stiffness (`tooth_stiffness_N_per_m`, default inf = rigid seating): each seated
   link its own DOF held to its wheel's seat by a spring k_t (a coupling of the topology), every span
-  elastic, each wheel a DOF of J / R_m^2; k_t -> infinity is rigid seating to first order in k / k_t.
-  Its seat change (the link seating where it is) is not built: the transfer and the clearance
-  machine refuse it (dynamics.response.seating says where rigid seating does not hold).
+  elastic, each wheel a DOF of J / R_m^2; k_t -> infinity is rigid seating to first order in k / k_t
+  between seat changes. Its seat change (the link seating where it is and settling into its gap over
+  an index) runs in the clearance machine's compiled step (dynamics.solvers.tooth_transfer); the
+  linear and DOP853 steady state here (machine_steady.transfer) refuse it (rigid seating's transfer).
 - Drive compliance: a torsional spring k_theta (N m/rad) between the cam's angle and the sprocket, a
   path stiffness k_theta / R_m^2 on the sprocket's DOF; infinite: the sprocket follows the cam
   (its seated links held to the cam's motion, no DOF).
@@ -277,7 +278,7 @@ class MachineOnWheels:
             places[0] if held else (),
         )
 
-    def _seated_blocks(self) -> tuple[tuple[Wheel, tuple[int, ...]], ...]:
+    def seated_blocks(self) -> tuple[tuple[Wheel, tuple[int, ...]], ...]:
         """(wheel, its seated links) for the sprocket and the idler wheel, in `wheel_ends` order."""
         out = [(self.sprocket, self.groups[0])]
         if self.idler_place is not None:
@@ -295,7 +296,7 @@ class MachineOnWheels:
         masses = [c.link_mass_kg] * n
         links = [(j,) for j in range(n)]
         ground, couplings, wheel_dofs = [], [], []
-        for i, (wheel, seated) in enumerate(self._seated_blocks()):
+        for i, (wheel, seated) in enumerate(self.seated_blocks()):
             radius = wheel.pitch_radius_m if self.polygonal else wheel.feed_radius_m
             for j in seated:
                 masses[j] = c.link_mass_kg * (radius / wheel.feed_radius_m) ** 2
@@ -353,7 +354,7 @@ class MachineOnWheels:
             # span j joins link j to link j + 1; the wheels' DOFs follow the links' (none when held)
             wheel_dofs = iter(self.topology.wheel_dofs)
             out = []
-            for i, (wheel, seated) in enumerate(self._seated_blocks()):
+            for i, (wheel, seated) in enumerate(self.seated_blocks()):
                 dof = None if (i == 0 and self.drive_held) else next(wheel_dofs)
                 out.append(WheelEnds(wheel, dof, (seated[0] - 1) % self.n_links, seated[-1]))
             return tuple(out)

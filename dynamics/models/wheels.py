@@ -137,3 +137,25 @@ def default_wheel_inertia_kg_m2(pitch_m: float, teeth: int) -> float:
     """The run's default wheel inertia: a solid steel disc of the pitch radius, DEFAULT_WHEEL_THICKNESS_M
     thick (0.688 kg m^2 at z = 12 on the 112.5 mm pitch); an upper bound, a plate or spoked wheel is lighter."""
     return steel_disc_inertia_kg_m2(pitch_radius_m(pitch_m, teeth), DEFAULT_WHEEL_THICKNESS_M)
+
+
+# Tooth contact stiffness (docs/physics.md, "Rigid seating's validity and the tooth contact stiffness"):
+# the pin's line contact on the tooth flank, steel on steel, by Palmgren's roller-on-raceway line
+# contact, delta = PALMGREN_MM * Q^0.9 / l^0.8 (delta in mm, Q in N, l in mm; A. Palmgren, Ball and
+# Roller Bearing Engineering, 1959, as quoted by T. A. Harris, Rolling Bearing Analysis), whose tangent
+# stiffness dQ / d delta = Q^0.1 l^0.8 / (0.9 PALMGREN_MM) N/mm grows only as Q^0.1: the default takes
+# it at the run's default preload on the default link's 30 mm of pin (its body height), along the path
+# (the flank's pressure angle, the tooth's and the pin's bending, all in series, would soften it: an
+# upper bound of the seat's stiffness).
+PALMGREN_MM = 3.84e-5
+DEFAULT_TOOTH_LOAD_N = 2224.0  # settings.RunConfig.preload_N's default
+DEFAULT_TOOTH_CONTACT_LENGTH_M = 0.030  # geometry.dimensions.LinkDimensions.body_height_m's default
+
+
+def line_contact_stiffness_N_per_m(load_N: float, length_m: float) -> float:
+    """Palmgren's steel line contact's tangent stiffness at `load_N` over a contact `length_m` long."""
+    length_mm = 1e3 * length_m
+    return float(load_N**0.1 * length_mm**0.8 / (0.9 * PALMGREN_MM) * 1e3)
+
+
+DEFAULT_TOOTH_STIFFNESS_N_PER_M = line_contact_stiffness_N_per_m(DEFAULT_TOOTH_LOAD_N, DEFAULT_TOOTH_CONTACT_LENGTH_M)

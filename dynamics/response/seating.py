@@ -16,11 +16,13 @@ RIGID_SEATING_AT_REST (the seat change meets the cam at rest to the project's de
 dwell they are not (tooth phase 0.25: the cam at 0.75 of a pitch, decelerating, speed ~0.5 of its
 peak). The snap itself is recorded beside it (J per index), so the report shows its size.
 
-Where rigid seating does not hold, the verdict names the model that should run instead: seating
-through a tooth contact stiffness (dynamics.models.machine.MachineOnWheels.tooth_stiffness_N_per_m,
-each seated link held to its wheel's seat by a spring). That model is built and verified between seat
-changes (tests/test_tooth_stiffness.py) but its seat change and the compiled step are not, so the run
-does not switch to it: it says so (`instead`) and the report shows the verdict as a warning.
+Where rigid seating does not hold, the verdict names the model that holds there: seating through a
+tooth contact stiffness (dynamics.models.machine.MachineOnWheels.tooth_stiffness_N_per_m, each seated
+link held to its wheel's seat by a spring, the arriving link seating where it is and settling into its
+gap over one index: dynamics.solvers.tooth_transfer). The run switches to it with the default k_t
+(stages.machine.switches_to_tooth_model, `--tooth-stiffness auto`, the default) and says so: the
+verdict of the model that ran is `tooth_seating_validity`'s, with rigid seating's verdict it left
+(`switched_from`); `--tooth-stiffness rigid` keeps rigid seating and its warning.
 """
 
 from __future__ import annotations
@@ -30,9 +32,10 @@ from dataclasses import dataclass
 RIGID_SEATING_AT_REST = 1e-3
 
 RIGID = "rigid seating"
+TOOTH_STIFFNESS_MODEL = "seating through a tooth contact stiffness"
 TOOTH_STIFFNESS = (
     "seating through a tooth contact stiffness (a spring from each seated link to its seat, so the arriving "
-    "link seats where it is); built as a model, not yet run by the pipeline"
+    "link seats where it is)"
 )
 
 
@@ -48,6 +51,8 @@ class SeatingValidity:
     cam_acceleration_fraction: float  # |z''| at the seat change over the window's max |z''|
     instead: str | None  # the model the run should use where this one does not hold (None: it holds)
     threshold: float = RIGID_SEATING_AT_REST
+    tooth_stiffness_N_per_m: float | None = None  # the tooth model's k_t (None: rigid seating ran)
+    switched_from: SeatingValidity | None = None  # rigid seating's verdict where the run left it for this model
 
 
 def seat_snap_J(seating) -> float:
@@ -71,3 +76,33 @@ def rigid_seating_validity(seating, peak_speed_m_s: float, peak_acceleration_m_s
     )
     instead = None if valid else TOOTH_STIFFNESS
     return SeatingValidity(RIGID, valid, reason, seat_snap_J(seating), float(speed), float(accel), instead)
+
+
+def tooth_seating_validity(
+    seating,
+    peak_speed_m_s: float,
+    peak_acceleration_m_s2: float,
+    tooth_stiffness_N_per_m: float,
+    switched_from: SeatingValidity | None = None,
+) -> SeatingValidity:
+    """The verdict on seating through a tooth contact stiffness: it holds at any instant of the seat
+    change (the arriving link seats where it is, no snap); the cam's state there recorded as for rigid
+    seating. `switched_from`: rigid seating's verdict where the run left it for this model."""
+    speed = abs(seating.cam_speed_m_s) / peak_speed_m_s if peak_speed_m_s > 0 else 0.0
+    accel = abs(seating.cam_acceleration_m_s2) / peak_acceleration_m_s2 if peak_acceleration_m_s2 > 0 else 0.0
+    reason = (
+        "the arriving link seats where it is and settles into its tooth gap over one index through the tooth spring"
+    )
+    if switched_from is not None:
+        reason += "; the run switched to it from rigid seating, which does not hold here: " + switched_from.reason
+    return SeatingValidity(
+        TOOTH_STIFFNESS_MODEL,
+        True,
+        reason,
+        seat_snap_J(seating),
+        float(speed),
+        float(accel),
+        None,
+        tooth_stiffness_N_per_m=float(tooth_stiffness_N_per_m),
+        switched_from=switched_from,
+    )

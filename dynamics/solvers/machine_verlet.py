@@ -178,6 +178,18 @@ def _accel_into(
         for i in range(n):
             f[i] -= cv_out[i]
             p_damp += v[i] * cv_out[i]
+    if par[8] > 0.0:  # tooth springs k_t (y - u - offset), Kelvin-Voigt: their dashpot beta k_t (y' - u')
+        for i in range(n):
+            if dof_float[i, 8] > 0.0:
+                w, kt, o = int(dof_float[i, 7]), dof_float[i, 8], int(dof_float[i, 9])
+                fs = kt * (q[i] - q[o] - (q[w] if w >= 0 else 0.0))
+                if kv:
+                    dv = v[i] - (v[w] if w >= 0 else 0.0)
+                    fs += beta_k / k * kt * dv
+                    p_damp += beta_k / k * kt * dv * dv
+                f[i] -= fs
+                if w >= 0:
+                    f[w] += fs
     cam = 0.0
     for i in range(n):
         f[i] -= dof_float[i, 2] * q[i] + dof_float[i, 3] * v[i]
@@ -823,25 +835,36 @@ def cycle_nodes(cam, step_s: float, n_steps: int):
     return s - s[0], np.asarray(v, dtype=float), np.asarray(a, dtype=float)
 
 
-def seat_change(model, q, v, z_rel_end_m: float):
-    """(q, v) after the transfer at the dwell, and its Seating."""
+def seat_change(model, q, v, z_rel_end_m: float, cycle_s: float | None = None):
+    """(q, v) after the transfer at the dwell, and its Seating; `cycle_s` (the index cycle) the tooth
+    model's engagement time (dynamics.solvers.tooth_transfer)."""
     from dynamics.solvers.machine_steady import transfer
+    from dynamics.solvers.tooth_transfer import tooth_transfer
 
-    q_new, v_new, speeds, impacts = transfer(model.machine, q, v)
+    if model.seats:  # a tooth stiffness: the links seat where they are, their seat offsets carried
+        q_new, v_new, speeds, impacts = tooth_transfer(model, q, v, np.zeros(len(model.seats)), cycle_s)
+    else:
+        q_new, v_new, speeds, impacts = transfer(model.machine, q, v)
     change = model.stored_energy_J(q_new, v_new, 0.0, 0.0) - model.stored_energy_J(q, v, 0.0, z_rel_end_m)
     return q_new, v_new, Seating(speeds, impacts, float(change))
 
 
-def seat_change_inside(model, q, v, z_rel_m: float, zdot_m_s: float, zddot_m_s2: float = 0.0):
+def seat_change_inside(
+    model, q, v, z_rel_m: float, zdot_m_s: float, zddot_m_s2: float = 0.0, cycle_s: float | None = None
+):
     """(q, v) after the transfer inside the index (tooth phase != 0) at the cam's lift since the dwell
     `z_rel_m`, speed `zdot_m_s` and acceleration `zddot_m_s2` (recorded in the Seating), and its
-    Seating; after it the lift counts one pitch on."""
+    Seating; after it the lift counts one pitch on. `cycle_s`: as for `seat_change`."""
     from dynamics.solvers.machine_steady import transfer
+    from dynamics.solvers.tooth_transfer import tooth_transfer
 
     mach = model.machine
     radii = np.array([ends.wheel.feed_radius_m for ends in mach.wheel_ends])
-    q_new, v_new, speeds, impacts = transfer(mach, q, v, angles_rad=z_rel_m / radii, zdot_m_s=zdot_m_s)
     pitch = mach.sprocket.pitch_m
+    if model.seats:  # a tooth stiffness: the links seat where they are, their seat offsets carried
+        q_new, v_new, speeds, impacts = tooth_transfer(model, q, v, (z_rel_m - pitch) / radii, cycle_s, zdot_m_s)
+    else:
+        q_new, v_new, speeds, impacts = transfer(mach, q, v, angles_rad=z_rel_m / radii, zdot_m_s=zdot_m_s)
     after = model.stored_energy_J(q_new, v_new, zdot_m_s, z_rel_m - pitch)
     change = after - model.stored_energy_J(q, v, zdot_m_s, z_rel_m)
     return q_new, v_new, Seating(speeds, impacts, float(change), float(zdot_m_s), float(zddot_m_s2))
@@ -907,7 +930,9 @@ def index_cycle(
     if before == 0:
         rows.append(_first_row(to_seat))
     _, zd_seat, zdd_seat, _ = (float(x[0]) for x in cam.svaj(np.array([t_seat])))
-    q1, v1, seating = seat_change_inside(model, to_seat.q[-1], to_seat.v[-1], lift_at(t_seat) - s0, zd_seat, zdd_seat)
+    q1, v1, seating = seat_change_inside(
+        model, to_seat.q[-1], to_seat.v[-1], lift_at(t_seat) - s0, zd_seat, zdd_seat, n_steps * step_s
+    )
     if not on_node:
         to_node = _sub_steps(model, cam, (t_seat, nxt * step_s), step_s, s0 + pitch, q1, v1, predictor, track_energy)
         pieces.append(to_node)
@@ -1006,7 +1031,7 @@ def next_index_start(model, cam, nodes, step_s: float, q0, v0, *, out_every: int
     run, inside = index_cycle(model, cam, nodes, step_s, q0, v0, out_every=out_every, predictor=predictor)
     if inside is not None:
         return run.q[-1], run.v[-1], run, inside
-    q1, v1, seating = seat_change(model, run.q[-1], run.v[-1], float(nodes[0][-1]))
+    q1, v1, seating = seat_change(model, run.q[-1], run.v[-1], float(nodes[0][-1]), (nodes[1].size - 1) * step_s)
     return q1, v1, run, seating
 
 
