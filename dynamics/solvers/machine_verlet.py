@@ -60,8 +60,9 @@ except ImportError:  # pragma: no cover
 # impact kinetic energy, largest closing speed, closing speeds stored, dashpot work in impact contacts,
 # peak |T| in a contact begun by an impact (its whole length)
 N_STATS = 12
-# entries of MachineArrays.par; more: the ring's mirror blocks (`mirror_packed`)
-N_PAR = 8
+# entries of MachineArrays.par (ClearanceMachine.arrays: the last, par[8], whether links seat on tooth
+# springs); more: the ring's mirror blocks (`mirror_packed`)
+N_PAR = 9
 
 
 def _wheels_into(q, v, z_rel, zd, wheel_float, wd, wsl, wdt):
