@@ -307,6 +307,8 @@ def _add_machine_arguments(p: argparse.ArgumentParser, d: RunConfig) -> None:
         "seats at the dwell; a phase F puts the seat change inside the index, when the cam has lifted 1 - F of a "
         "pitch)",
     )
+    from dynamics.models.wheels import DEFAULT_TOOTH_STIFFNESS_N_PER_M  # numpy only: the start-up stays light
+
     p.add_argument(
         "--tooth-stiffness",
         default=None,
@@ -314,7 +316,7 @@ def _add_machine_arguments(p: argparse.ArgumentParser, d: RunConfig) -> None:
         help="seating on the wheels: a tooth contact stiffness in N/m (each seated link held to its seat by it, "
         "the arriving link seating where it is), rigid (the seated links move with their wheel), or auto (default: "
         "rigid seating where it holds for the run, else the tooth stiffness of the pin's line contact on the "
-        "tooth, 9.5e8 N/m, and the run says so)",
+        f"tooth, {DEFAULT_TOOTH_STIFFNESS_N_PER_M:.2g} N/m, and the run says so)",
     )
 
 
