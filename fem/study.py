@@ -11,11 +11,7 @@ on its half (`mirror_symmetry`, geometry.symmetry): the same discrete problem at
 unknowns.
 Each level is meshed once and solved for all materials at once (`link.analyse_link_materials`),
 the finest first and each in a thread of its own, so that the coarser levels are meshed and solved
-on the second core beside the finest one's solve. A caller that can start a process of its own
-(the pipeline's FEA process) has the coarser levels meshed and solved there instead
-(`solve_coarser_levels`, passed to `stiffness_studies` as `coarser`): the levels' Python work
-(assembly, curved cells) holds the GIL, so threads overlap it little (measured: 7.3 CPU s for the
-default link's two levels in threads against 5.9 s in two processes).
+on the second core beside the finest one's solve.
 """
 
 from __future__ import annotations
@@ -26,8 +22,6 @@ import warnings
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from functools import partial
-from typing import Protocol
 
 from . import budget, quality
 from .errors import FemError, FemWarning
@@ -43,41 +37,6 @@ from .settings import LEVEL_RATIO, FeaSettings, levels_for_finest, settings_with
 # pocket is crossed by flattened elements and k jumps by 1.5 % (measured, 7.5 -> 6 mm).
 PITCH_FRACTION = 1 / 25
 BORE_FRACTION = 0.52
-
-
-@dataclass(frozen=True)
-class LevelStiffness:
-    """What a study keeps of a level other than its finest, per material: its k and unknowns (small
-    and picklable: it comes back from the process that solved it)."""
-
-    stiffness_N_per_m: float
-    dofs: int
-    whole_link_dofs: int
-    timing_s: dict[str, float]
-
-    @classmethod
-    def of(cls, solution: LinkSolution) -> LevelStiffness:
-        return cls(solution.stiffness_N_per_m, solution.dofs, solution.whole_link_dofs, dict(solution.timing_s))
-
-
-@dataclass(frozen=True)
-class CoarserLevel:
-    """One of a study's levels other than its finest, solved by `solve_coarser_levels`."""
-
-    mesh_size_m: float
-    mesh_s: float  # meshing it (wall, in its process)
-    by_material: dict[str, LevelStiffness]
-    warnings: tuple[str, ...]  # the FemWarnings it raised, raised again where the study is joined
-
-
-class CoarserLevels(Protocol):
-    """The coarser levels of a study solved elsewhere (a process of the caller's): `result()` waits
-    for them, `cancel()` stops the work when the study does not need it (the finest level's budget
-    check changed the sizes)."""
-
-    def result(self) -> list[CoarserLevel]: ...
-
-    def cancel(self) -> None: ...
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,7 +104,6 @@ def stiffness_studies(
     settings: FeaSettings | None = None,
     *,
     progress: Callable[[str], None] | None = None,
-    coarser: CoarserLevels | None = None,
     **changes,
 ) -> dict[str, StiffnessEstimate]:
     """`stiffness_study` for several materials, meshing each level once for all of them.
@@ -155,11 +113,6 @@ def stiffness_studies(
     that meshing the next level and the levels' solves overlap on the machine's cores (gmsh, numpy
     and PARDISO release the GIL; the levels share nothing). False where the caller already keeps
     every core busy, as the design study's workers do (one task per core).
-    `coarser`: the levels other than the finest, solved elsewhere by `solve_coarser_levels` with the
-    same source, materials and settings (a process the caller started before this study, so that
-    they are meshed and solved on the second core beside the finest): only the finest level is
-    solved here, then `coarser.result()` is awaited; the same meshes, so the same k. Where the
-    finest level's budget check changes the sizes, `coarser` is cancelled and every level solved here.
     `settings.mirror_symmetry`: where the link is mirror symmetric about the plane through its bore
     axes (checked, geometry.symmetry), solve the finest level on its half (`LinkSolution.mirrored`),
     the same discrete problem as the whole link meshed as that half and its mirror image, at about
@@ -170,6 +123,7 @@ def stiffness_studies(
     (`whole_link_dofs`). False: every level on the whole link.
     """
     import geometry
+    from geometry.mesh_estimate import estimated_dofs
 
     if not materials:
         raise FemError("stiffness_studies: expected at least one material")
@@ -177,25 +131,50 @@ def stiffness_studies(
     order, concurrent_levels, mirror_symmetry = settings.order, settings.concurrent_levels, settings.mirror_symmetry
     start = study_start = time.perf_counter()
     part = geometry.as_part(source, symmetry=mirror_symmetry)
-    requested, wall_reference_m = _requested_sizes(part, settings)
-    mesh_level = partial(_mesh_level, part, settings, wall_reference_m)
-    estimate_levels = partial(_estimated_level_dofs, part, settings, wall_reference_m)
-    memory = budget.MemoryBudget.gigabytes(settings.max_memory_gb)
-    given = settings.mesh_sizes_m is not None
-    planned = _fit_before_meshing(requested, estimate_levels, memory, given)
+    sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
+    # Thin walls (geometry.walls: planar, rings round holes) thinner than half the finest size asked
+    # for get a size field on every level, the same fraction of each level's size (geometry.meshing.THIN_WALL_FRACTION). The reference is the
+    # finest size asked for, kept where the budget coarsens the levels. Where a wall is refined, a
+    # third, coarser level checks the asymptotic range (`with_wall_check_level`).
+    wall_reference_m = sizes[-1]
+    sizes = with_wall_check_level(sizes, part.geometry.mesh_features.walls, wall_reference_m)
     mesh_time = time.perf_counter() - start
 
+    def mesh_level(level: int, level_sizes: tuple[float, ...]):
+        return geometry.mesh_part(
+            part,
+            mesh_size_m=level_sizes[level],
+            order=settings.mesh_order,
+            bore_refinement=settings.bore_refinement,
+            mirror=mirror_symmetry and level == len(level_sizes) - 1,
+            wall_reference_m=wall_reference_m,  # every level refines the same walls alike
+        )
+
+    def estimate_levels(level_sizes: tuple[float, ...]) -> list[float]:
+        """Unknowns of every level (finest first) estimated before meshing."""
+        features = part.geometry.mesh_features
+        half = mirror_symmetry and part.mirror_plane is not None
+        return [
+            estimated_dofs(
+                features, h, settings.bore_refinement * h, settings.mesh_order, half and i == 0, wall_reference_m
+            )
+            for i, h in enumerate(reversed(level_sizes))
+        ]
+
     start = time.perf_counter()
-    sizes, finest_link = _within_budget(planned, requested, mesh_level, order, memory, given)
+    sizes, finest_link = _within_budget(
+        sizes,
+        mesh_level,
+        estimate_levels,
+        order,
+        budget.MemoryBudget.gigabytes(settings.max_memory_gb),
+        given=settings.mesh_sizes_m is not None,
+    )
     mesh_time += time.perf_counter() - start
-    if coarser is not None and sizes != planned:
-        coarser.cancel()  # it solves the planned levels, not these
-        coarser = None
-    here = [len(sizes) - 1] if coarser is not None else list(range(len(sizes)))
     # finest first: it is the longest solve, so the coarser levels are meshed and solved beside it
-    with ThreadPoolExecutor(max_workers=len(here) if concurrent_levels else 1, thread_name_prefix="fem-level") as pool:
+    with ThreadPoolExecutor(max_workers=len(sizes) if concurrent_levels else 1, thread_name_prefix="fem-level") as pool:
         pending = {}
-        for level in reversed(here):
+        for level in reversed(range(len(sizes))):
             start = time.perf_counter()
             finest = level == len(sizes) - 1
             link = finest_link if finest else mesh_level(level, sizes)
@@ -220,27 +199,14 @@ def stiffness_studies(
             )
             if not concurrent_levels:
                 pending[level].result()  # an error stops the study before the next level is meshed
-        solved: list[dict] = [pending[level].result() if level in pending else {} for level in range(len(sizes))]
+        solved = [pending[level].result() for level in range(len(sizes))]
     release_free_memory()  # the levels' threads' arenas
-    if coarser is not None:
-        levels = coarser.result()
-        if [level.mesh_size_m for level in levels] != list(sizes[:-1]):
-            raise FemError(
-                f"the coarser levels solved beside have sizes {[level.mesh_size_m for level in levels]}, "
-                f"expected {list(sizes[:-1])}"
-            )
-        for level in levels:
-            mesh_time += level.mesh_s
-            for message in level.warnings:
-                warnings.warn(message, FemWarning, stacklevel=2)
-        solved[:-1] = [level.by_material for level in levels]
-    solutions = {m.name: [by_material[m.name] for by_material in solved] for m in materials}
+    solutions: dict[str, list[LinkSolution]] = {m.name: [s[m.name] for s in solved] for m in materials}
     if progress is not None:
-        for level, h in enumerate(sizes):
-            for name, sols in solutions.items():
-                solution = sols[level]
+        for level, (h, by_material) in enumerate(zip(sizes, solved), start=1):
+            for solution in by_material.values():
                 progress(
-                    f"FEA level {level + 1}/{len(sizes)}, {name}: h = {h * 1e3:.2f} mm, "
+                    f"FEA level {level}/{len(sizes)}, {solution.material.name}: h = {h * 1e3:.2f} mm, "
                     f"{solution.dofs} DOFs, k = {solution.stiffness_N_per_m:.5g} N/m, "
                     f"{sum(solution.timing_s.values()):.1f} s"
                 )
@@ -254,84 +220,6 @@ def stiffness_studies(
         )
         for i, (name, sols) in enumerate(solutions.items())
     }
-
-
-def solve_coarser_levels(source, materials: Sequence[Material], settings: FeaSettings) -> list[CoarserLevel]:
-    """The levels of `stiffness_studies(source, materials, settings)` other than its finest, as
-    planned before its finest is meshed (coarsened to the memory budget's estimate), meshed and
-    solved one after the other (coarse to fine in the list): what a study given `coarser` awaits.
-    Run in a process of its own; its FemWarnings are kept in the levels, not raised."""
-    import geometry
-
-    part = geometry.as_part(source, symmetry=settings.mirror_symmetry)
-    requested, wall_reference_m = _requested_sizes(part, settings)
-    sizes = _fit_before_meshing(
-        requested,
-        partial(_estimated_level_dofs, part, settings, wall_reference_m),
-        budget.MemoryBudget.gigabytes(settings.max_memory_gb),
-        given=settings.mesh_sizes_m is not None,
-    )
-    levels: list[CoarserLevel] = []
-    for level in reversed(range(len(sizes) - 1)):  # the order stiffness_studies meshes them in
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", FemWarning)
-            start = time.perf_counter()
-            link = _mesh_level(part, settings, wall_reference_m, level, sizes)
-            mesh_s = time.perf_counter() - start
-            check_mesh_and_materials(link, materials, settings.order, warn_quality=False)
-            by_material = analyse_link_materials(
-                link,
-                materials,
-                order=settings.order,
-                load_N=settings.load_N,
-                solver=settings.solver,
-                stress=False,
-                checked=True,
-            )
-        messages = tuple(dict.fromkeys(str(w.message) for w in caught if issubclass(w.category, FemWarning)))
-        solved = {name: LevelStiffness.of(solution) for name, solution in by_material.items()}
-        levels.insert(0, CoarserLevel(sizes[level], mesh_s, solved, messages))
-        del link, by_material
-    return levels
-
-
-def _requested_sizes(part, settings: FeaSettings) -> tuple[tuple[float, ...], float]:
-    """(the levels' sizes asked for, coarse to fine, the wall check's level included; the thin walls'
-    reference size). Thin walls (geometry.walls: planar, rings round holes) thinner than half the
-    finest size asked for get a size field on every level, the same fraction of each level's size
-    (geometry.meshing.THIN_WALL_FRACTION). The reference is the finest size asked for, kept where
-    the budget coarsens the levels. Where a wall is refined, a third, coarser level checks the
-    asymptotic range (`with_wall_check_level`)."""
-    sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
-    wall_reference_m = sizes[-1]
-    return with_wall_check_level(sizes, part.geometry.mesh_features.walls, wall_reference_m), wall_reference_m
-
-
-def _mesh_level(part, settings: FeaSettings, wall_reference_m: float, level: int, level_sizes: tuple[float, ...]):
-    import geometry
-
-    return geometry.mesh_part(
-        part,
-        mesh_size_m=level_sizes[level],
-        order=settings.mesh_order,
-        bore_refinement=settings.bore_refinement,
-        mirror=settings.mirror_symmetry and level == len(level_sizes) - 1,
-        wall_reference_m=wall_reference_m,  # every level refines the same walls alike
-    )
-
-
-def _estimated_level_dofs(part, settings: FeaSettings, wall_reference_m: float, level_sizes: tuple[float, ...]):
-    """Unknowns of every level (finest first) estimated before meshing."""
-    from geometry.mesh_estimate import estimated_dofs
-
-    features = part.geometry.mesh_features
-    half = settings.mirror_symmetry and part.mirror_plane is not None
-    return [
-        estimated_dofs(
-            features, h, settings.bore_refinement * h, settings.mesh_order, half and i == 0, wall_reference_m
-        )
-        for i, h in enumerate(reversed(level_sizes))
-    ]
 
 
 def refined_down_to_m(walls, wall_reference_m: float) -> float:
@@ -375,18 +263,14 @@ def _fit_before_meshing(sizes: tuple[float, ...], estimate_levels, memory: budge
 
 
 def _within_budget(
-    planned: tuple[float, ...],
-    requested: tuple[float, ...],
-    mesh_level,
-    order: int,
-    memory: budget.MemoryBudget,
-    given: bool,
+    sizes: tuple[float, ...], mesh_level, estimate_levels, order: int, memory: budget.MemoryBudget, given: bool
 ):
-    """(sizes, finest level's mesh) whose levels' solves fit the memory budget: from the `planned`
-    sizes (`requested` ones fitted to the estimate before meshing, `_fit_before_meshing`), the
-    finest level is meshed and its unknowns counted before any solve; default sizes are coarsened
-    until the count fits (FemWarning), given sizes that do not fit are a FemError naming the options."""
-    sizes = planned
+    """(sizes, finest level's mesh) whose levels' solves fit the memory budget: sizes that cannot
+    fit by the estimate before meshing are coarsened or refused at once; then the finest level is
+    meshed and its unknowns counted before any solve; default sizes are coarsened until the
+    count fits (FemWarning), given sizes that do not fit are a FemError naming the options."""
+    requested = sizes
+    sizes = _fit_before_meshing(sizes, estimate_levels, memory, given)
     for _ in range(budget.MAX_RETRIES + 1):
         link = mesh_level(len(sizes) - 1, sizes)
         copies = 2 if link.mirror_plane is not None else 1
@@ -411,14 +295,13 @@ def _within_budget(
 
 def estimate_from_levels(
     sizes: Sequence[float],
-    solutions: list[LinkSolution | LevelStiffness],
+    solutions: list[LinkSolution],
     mesh_time_s: float,
     fit_last: int | None = None,
     order: int = 2,
     wall_s: float | None = None,
 ) -> StiffnessEstimate:
-    """The estimate from solved levels (coarse to fine; the finest a `LinkSolution`, the others
-    `LevelStiffness` will do); k is extrapolated from the last `fit_last`
+    """The estimate from solved levels (coarse to fine); k is extrapolated from the last `fit_last`
     levels (all when None), every level is recorded. `wall_s`, if given, is recorded as the
     timing's "wall" beside the stages' sum ("total")."""
     timing: dict[str, float] = {"mesh": mesh_time_s}

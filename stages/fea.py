@@ -127,19 +127,16 @@ def _solve_stiffness(
     stiffness_tolerance: float | None,
     progress: Progress,
     solved_levels: dict | None,
-    coarser: CoarserLevelsBeside | None = None,
 ) -> dict:
-    """Stiffness studies of the materials not in the cache: fixed levels (the coarser ones from
-    `coarser` where given), or refined to a k tolerance (reusing the levels in `solved_levels`, see
-    fem.adaptive)."""
+    """Stiffness studies of the materials not in the cache: fixed levels, or refined to a k tolerance
+    (reusing the levels in `solved_levels`, see fem.adaptive)."""
     from fem import stiffness_studies
     from fem.adaptive import stiffnesses_to_tolerance
 
     source = part.name if part.is_step else "built-in default link"
     if stiffness_tolerance is None:
-        where = "" if coarser is None else f" (the coarser in process {coarser.pid})"
-        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, 2 mesh levels{where}")
-        return stiffness_studies(part, materials, settings, progress=progress, coarser=coarser)
+        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, 2 mesh levels")
+        return stiffness_studies(part, materials, settings, progress=progress)
     progress(
         f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, refining to a k error <= "
         f"{100 * stiffness_tolerance:.2g} %"
@@ -157,20 +154,11 @@ def _fea_steps(
     solved_levels: dict | None,
     images: dict,
     progress: Progress,
-    levels_beside: bool = False,
 ) -> Iterator[tuple[dict, list[str]]]:
     """The FEA of the materials not in the cache, in two steps, each with the FemWarnings' messages
     it raised: first each material's stiffness record (all the chain needs), then its converged
     stress (StressAnswer), the deformed images rendered where asked for. Run here or in a process
-    beside the run (stages.beside), the same code either way. `levels_beside` (fixed levels only):
-    the coarser levels are meshed and solved in a process of their own (`CoarserLevelsBeside`),
-    started first, beside this one's finest level: the stiffness is ready after the slower of the
-    two instead of their sum."""
-    if levels_beside:
-        # The part measured here (its body, bores and sizes: 0.3 CPU s) goes to the coarser levels'
-        # process with it, which then starts while this one imports what the finest level needs.
-        part.geometry  # noqa: B018 (a cached property)
-    coarser = CoarserLevelsBeside(part, settings, materials) if levels_beside else None
+    beside the run (stages.beside), the same code either way."""
     import warnings
 
     from fem import render_deformed
@@ -178,13 +166,9 @@ def _fea_steps(
     from fem.heap import release_free_memory
     from fem.stress import stress_study
 
-    try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", FemWarning)
-            studies = _solve_stiffness(part, settings, materials, stiffness_tolerance, progress, solved_levels, coarser)
-    finally:
-        if coarser is not None:
-            coarser.cancel()  # after a failure here; nothing to stop once it has handed its levels over
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FemWarning)
+        studies = _solve_stiffness(part, settings, materials, stiffness_tolerance, progress, solved_levels)
     release_free_memory()  # the levels' threads' freed arrays
     yield {name: _stiffness_record(name, study) for name, study in studies.items()}, _messages(caught)
     finest = {name: study.finest for name, study in studies.items()}
@@ -206,55 +190,6 @@ def _fea_steps(
     release_free_memory()  # the levels' arrays, before the dynamics and the figures
     answers = {name: StressAnswer(s.peak_Pa_per_N, s.rel_change, s.description) for name, s in stresses.items()}
     yield answers, _messages(caught)
-
-
-class CoarserLevelsBeside:
-    """The coarser levels of the FEA's stiffness study (fem.study.solve_coarser_levels) in a fresh
-    process of their own (stages.beside), started before the study so that its interpreter, imports
-    and the link's CAD come up beside this process's own: `fem.study.CoarserLevels`."""
-
-    def __init__(self, part: Part, settings: FeaSettings, materials: list):
-        from stages.beside import Beside
-
-        self._process = Beside(partial(_coarser_level_steps, part, settings, materials), "the FEA's coarser levels")
-
-    @property
-    def pid(self) -> int:
-        return self._process.pid
-
-    def result(self) -> list:
-        levels = self._process.next()
-        self._process.close()
-        return levels
-
-    def cancel(self) -> None:
-        self._process.cancel()
-
-
-def _coarser_level_steps(part: Part, settings: FeaSettings, materials: list) -> Iterator[list]:
-    """The one step of `CoarserLevelsBeside`'s process."""
-    _end_with_parent()
-    from fem.study import solve_coarser_levels
-
-    yield solve_coarser_levels(part, materials, settings)
-
-
-def _end_with_parent() -> None:
-    """Have the kernel stop this process when its parent ends (Linux): the FEA's process is stopped
-    with SIGTERM or SIGKILL where the run fails elsewhere, which leaves it no time to stop its own
-    children, and an orphan would go on meshing on a core the machine needs."""
-    import ctypes
-    import multiprocessing
-    import os
-    import signal
-
-    if not sys.platform.startswith("linux"):
-        return
-    pr_set_pdeathsig = 1
-    ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGKILL)
-    parent = multiprocessing.parent_process()
-    if parent is not None and os.getppid() != parent.pid:  # the parent ended before the call above
-        os._exit(1)
 
 
 def _messages(caught) -> list[str]:
@@ -366,13 +301,8 @@ def start_fea(
     missing = [library[name] for name in cfg.materials if name not in out]
     if not missing:
         return FeaInProgress.done(out)
-    beside = beside and may_start_children()
-    # the levels planned ahead (fixed, not refined to a tolerance) beside each other, where the FEA is
-    levels_beside = beside and stiffness_tolerance is None
-    steps = partial(
-        _fea_steps, part, settings, missing, stiffness_tolerance, solved_levels, images, progress, levels_beside
-    )
-    if beside:
+    steps = partial(_fea_steps, part, settings, missing, stiffness_tolerance, solved_levels, images, progress)
+    if beside and may_start_children():
         process = Beside(steps, "the FEA")
         progress(f"FEA: in process {process.pid}, beside the dynamics and the figures from the stiffness on")
         next_step = process.next
