@@ -59,6 +59,7 @@ class RunResults:
     scenarios: dict[tuple[str, str], Scenario]  # (material, cam law) -> its scenario
     sweeps: dict[str, SweepResult]  # material -> its speed sweep (empty without --rpm-sweep)
     timing: dict[str, float]  # wall seconds per stage; the outputs add theirs
+    tolerance_shortfall: str | None = None  # --tolerance: why it is not met (None: met, or no --tolerance)
 
     @property
     def fea(self) -> dict[str, MaterialFea]:

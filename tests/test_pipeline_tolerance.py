@@ -9,6 +9,13 @@ from stages import tolerance
 from stages.progress import Progress
 
 
+def _scenario(time_step: float, stiffness: float) -> SimpleNamespace:
+    """What run_to_tolerance reads of a scenario: its error estimate."""
+    return SimpleNamespace(
+        rel_error_estimate={"time_step": time_step, "stiffness": stiffness, "total": time_step + stiffness}
+    )
+
+
 def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
     calls = []
 
@@ -19,13 +26,14 @@ def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
     def dynamics(cfg, fea_results, progress):
         k_error = fea_results["al6061-t6"].stiffness_rel_error_estimate
         # metrics that move 3x as much as k: the first pass's k is not good enough
-        return {}, {("al6061-t6", "modified-sine"): SimpleNamespace(rel_error_estimate={"stiffness": 3 * k_error})}
+        return {}, {("al6061-t6", "modified-sine"): _scenario(0.001, 3 * k_error)}
 
     monkeypatch.setattr(tolerance, "run_fea", fea)
     monkeypatch.setattr(tolerance, "run_dynamics", dynamics)
     cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q"])
     timing: dict = {}
-    tolerance.run_to_tolerance(cfg, Progress(quiet=True), timing)
+    *_, shortfall = tolerance.run_to_tolerance(cfg, Progress(quiet=True), timing)
+    assert shortfall is None  # 0.1 % + 3 x 0.27 % <= 2 %
     (first_tol, first_levels), (second_tol, second_levels) = calls
     assert first_tol == pytest.approx(0.01)  # half the tolerance goes to k
     assert second_tol == pytest.approx(0.8 * 0.01 * 0.01 / 0.03)  # what the measured 3x sensitivity asks for
@@ -47,7 +55,7 @@ def test_no_second_pass_when_k_is_good_enough(monkeypatch):
         "run_dynamics",
         lambda cfg, fea, progress: (
             {},
-            {("al6061-t6", "modified-sine"): SimpleNamespace(rel_error_estimate={"stiffness": 0.5 * 0.01})},
+            {("al6061-t6", "modified-sine"): _scenario(0.001, 0.5 * 0.01)},
         ),
     )
     cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q"])
@@ -65,3 +73,72 @@ def test_the_clearance_chains_step_gets_a_quarter_of_the_tolerance():
     assert chain_scene(pipeline.parse_cli(["-q"]), pitch_m).accuracy is None
     linear = pipeline.parse_cli(["--tolerance", "0.02", "--model", "linear", "-q"])
     assert chain_scene(linear, pitch_m).accuracy is None
+
+
+def _unreachable_below(best: float, over_dofs: bool = True):
+    """A run_fea whose levels stop at an estimated k error `best` (None: before any estimate)."""
+    from fem.adaptive import ToleranceNotReached
+
+    calls = []
+
+    def fea(cfg, progress, stiffness_tolerance, levels, part=None):
+        calls.append(stiffness_tolerance)
+        if best is None or stiffness_tolerance < best:
+            raise ToleranceNotReached("rel_tolerance not reached", best, over_dofs)
+        return {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=best)}
+
+    return fea, calls
+
+
+def test_a_k_the_fea_cannot_reach_gives_the_results_at_its_best_and_says_why(monkeypatch):
+    """Issue #24: the refinement pass asks for a k error the levels cannot reach within
+    --max-fea-dofs: the run goes on at the best k (no level solved again) and says why the tolerance
+    is not met, naming the option that goes further."""
+    fea, calls = _unreachable_below(0.0032)
+    monkeypatch.setattr(tolerance, "run_fea", fea)
+    monkeypatch.setattr(
+        tolerance,
+        "run_dynamics",
+        lambda cfg, fea_results, progress: (
+            {},
+            {
+                ("al6061-t6", "modified-sine"): _scenario(
+                    0.0045, 3 * fea_results["al6061-t6"].stiffness_rel_error_estimate
+                )
+            },
+        ),
+    )
+    cfg = pipeline.parse_cli(["--tolerance", "0.01", "--materials", "al6061-t6", "-q"])
+    done, _, _, shortfall = tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
+    assert done["al6061-t6"].stiffness_rel_error_estimate == 0.0032
+    # first pass 0.5 % met; the refinement asks for 0.8 x 0.32 % x 0.5 % / 0.96 %, is refused, then
+    # the best estimate's own tolerance
+    assert calls[0] == pytest.approx(0.005)
+    assert calls[1] == pytest.approx(0.8 * 0.0032 * 0.005 / 0.0096)
+    assert calls[2] == pytest.approx(0.0032, rel=1e-6)
+    assert "tolerance 1 % not met" in shortfall
+    assert "--max-fea-dofs" in shortfall and "max_dofs" not in shortfall.replace("--max-fea-dofs", "")
+
+
+def test_the_shortfall_is_said_only_where_the_estimate_is_above_the_tolerance():
+    assert tolerance.tolerance_shortfall(0.01, {("a", "b"): _scenario(0.004, 0.005)}, "the FEA's k error stops") is None
+    said = tolerance.tolerance_shortfall(0.01, {("a", "b"): _scenario(0.004, 0.007)}, None)
+    assert said.startswith("tolerance 1 % not met: estimated error 1.1 % (time step 0.4 %, k 0.7 %)")
+
+
+def test_no_k_estimate_within_the_budget_is_a_one_line_error_naming_the_option(monkeypatch):
+    from fem.errors import FemError
+
+    fea, _ = _unreachable_below(None)
+    monkeypatch.setattr(tolerance, "run_fea", fea)
+    cfg = pipeline.parse_cli(["--tolerance", "0.01", "--materials", "al6061-t6", "--max-fea-dofs", "1000", "-q"])
+    with pytest.raises(FemError, match=r"^--tolerance 0\.01: .*--max-fea-dofs 1000.*expected a larger --max-fea-dofs$"):
+        tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
+
+
+def test_max_fea_dofs_is_a_checked_setting():
+    from settings import SettingsError
+
+    assert pipeline.parse_cli(["-q"]).max_fea_dofs == 400_000  # fem.adaptive.DEFAULT_MAX_DOFS, the old limit
+    with pytest.raises(SettingsError, match="--max-fea-dofs"):
+        pipeline.parse_cli(["--max-fea-dofs", "0", "-q"])
