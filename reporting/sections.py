@@ -139,7 +139,7 @@ def run_section(report: Report) -> list[html.Section]:
         + "."
     )
     shortfall = report.summary["fidelity"].get("tolerance_not_met_because")
-    short = html.paragraph(f"--tolerance: {shortfall.capitalize()}.", "warn") if shortfall else ""
+    short = html.paragraph(f"{shortfall[:1].upper()}{shortfall[1:]}.", "warn") if shortfall else ""
     return [html.Section("Run", intro + short + _model_paragraphs(report.results))]
 
 

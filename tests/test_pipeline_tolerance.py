@@ -145,3 +145,27 @@ def test_max_fea_dofs_is_a_checked_setting():
     assert pipeline.parse_cli(["-q"]).max_fea_dofs == 400_000  # fem.adaptive.DEFAULT_MAX_DOFS, the old limit
     with pytest.raises(SettingsError, match="--max-fea-dofs"):
         pipeline.parse_cli(["--max-fea-dofs", "0", "-q"])
+
+
+def test_the_k_error_allowed_is_measured_and_keeps_the_metrics_within_the_budget():
+    """stages.chain.stiffness_error_allowed on a short chain on its wheels: the k error it returns,
+    re-measured, moves the metrics by at most the budget, and no more than twice below the error
+    that just meets it (this chain's metrics move about 3.2x its k error, measured from 1.5e-4 to 2e-2)."""
+    from dynamics.response.fidelity import stiffness_sensitivity
+    from stages.chain import chain_model, simulate_scenario, stiffness_error_allowed
+    from stages.fea import MaterialStiffness
+
+    cfg = pipeline.parse_cli(["--tolerance", "0.01", "--links", "24", "--cams", "modified-sine", "-q"])
+    k_error = 0.02
+    result = MaterialStiffness("al6061-t6", 9.32e7, k_error, 0.373, 4.4e-4, 0.1125, 0.01)
+
+    def stations_with_k(k):
+        return simulate_scenario(cfg, chain_model(cfg, result, k), "al6061-t6", "modified-sine", 0.1125, 8).stations
+
+    reference = simulate_scenario(cfg, chain_model(cfg, result), "al6061-t6", "modified-sine", 0.1125, 8)
+    budget = 0.004
+    allowed = stiffness_error_allowed(cfg, result, reference, budget)
+    assert stiffness_sensitivity(stations_with_k, result.stiffness_N_per_m, allowed, reference.stations) <= budget
+    effect = stiffness_sensitivity(stations_with_k, result.stiffness_N_per_m, k_error, reference.stations)
+    assert effect > budget  # the scene asks for a finer k than the FEA's
+    assert allowed > 0.5 * budget / 3.2
