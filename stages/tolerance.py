@@ -41,14 +41,19 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict, part=None
             f"{100 * stiffness_tolerance:.2g} % error by at most {100 * 0.8 * budget:.2g} % (measured): "
             f"refining the FEA to {100 * stiffness_tolerance:.2g} %"
         )
-        fea, short = _fea_pass(fea_of_part, cfg, progress, timing, stiffness_tolerance, levels)
-        chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
+        refined, short = _fea_pass(fea_of_part, cfg, progress, timing, stiffness_tolerance, levels, fea)
+        if refined is not fea:
+            fea = refined
+            chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     return fea, chains, scenarios, tolerance_shortfall(cfg.tolerance, scenarios, short)
 
 
-def _fea_pass(fea_of_part, cfg: RunConfig, progress: Progress, timing: dict, stiffness_tolerance: float, levels):
+def _fea_pass(
+    fea_of_part, cfg: RunConfig, progress: Progress, timing: dict, stiffness_tolerance: float, levels, last=None
+):
     """The FEA to `stiffness_tolerance`, or, where its next level would pass --max-fea-dofs (or a size
-    the geometry refuses), at the best k estimate its solved levels give (no level solved again):
+    the geometry refuses), at the best k estimate its solved levels give (no level solved again;
+    `last`, the previous pass's FEA, where the levels stop no finer than it did):
     (the FEA, why k is short of the tolerance or None)."""
     from fem.adaptive import ToleranceNotReached
     from fem.errors import FemError
@@ -66,6 +71,9 @@ def _fea_pass(fea_of_part, cfg: RunConfig, progress: Progress, timing: dict, sti
             f"the FEA's k error stops at {100 * exc.best_rel_error:.2g} % (asked for {100 * stiffness_tolerance:.2g} %) "
             f"at {limit}" + ("; a larger --max-fea-dofs refines further" if exc.over_dofs else "")
         )
+        if last is not None and exc.best_rel_error >= max(r.stiffness_rel_error_estimate for r in last.values()):
+            progress(f"{short}: going on at the last pass's k")
+            return last, short
         progress(f"{short}: going on at that k")
         # the best estimate's own tolerance: met by the levels already solved
         fea = timed(timing, "fea", progress, fea_of_part, cfg, progress, exc.best_rel_error * (1 + 1e-9), levels)
