@@ -61,12 +61,6 @@ def _default_max_memory_gb() -> float:
     return DEFAULT_MAX_MEMORY_GB
 
 
-def _default_max_fea_dofs() -> int:
-    from fem.adaptive import DEFAULT_MAX_DOFS
-
-    return DEFAULT_MAX_DOFS
-
-
 def _default_cache_dir() -> Path:
     from fem.cache import default_cache_dir
 
@@ -95,7 +89,8 @@ class RunConfig:
     mesh_size_m: float | None = None  # finest FEA level; None: chosen for < 1 % error in k
     order: int = 2
     max_memory_gb: float = field(default_factory=_default_max_memory_gb)  # the FEA solves' memory budget
-    max_fea_dofs: int = field(default_factory=_default_max_fea_dofs)  # --tolerance: the finest FEA level's size
+    # --tolerance: the finest FEA level's size (fem.adaptive.DEFAULT_MAX_DOFS, which imports the solvers)
+    max_fea_dofs: int = 400_000
     hardware_mass_kg: float = field(default_factory=_default_hardware_mass_kg)
     nest_mass_kg: float = field(default_factory=_default_nest_mass_kg)
     cache_dir: Path = field(default_factory=_default_cache_dir)
