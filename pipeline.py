@@ -119,6 +119,14 @@ def build_parser() -> argparse.ArgumentParser:
         "fit it, a --mesh-size that does not fit is refused (default: %(default)s)",
     )
     p.add_argument(
+        "--max-fea-dofs",
+        type=int,
+        default=d.max_fea_dofs,
+        metavar="DOFS",
+        help="with --tolerance: the largest FEA level the k refinement may solve; beyond it the run reports "
+        "its best k and says the tolerance was not met (default: %(default)s)",
+    )
+    p.add_argument(
         "--order",
         type=int,
         choices=registries.ELEMENT_ORDERS,
@@ -387,6 +395,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         mesh_size_m=d.mesh_size_m if args.mesh_size is None else mm_to_m(args.mesh_size),
         order=args.order,
         max_memory_gb=args.max_memory,
+        max_fea_dofs=args.max_fea_dofs,
         hardware_mass_kg=args.hardware_mass,
         nest_mass_kg=args.nest_mass,
         cache_dir=args.cache_dir,
@@ -457,8 +466,10 @@ def run(cfg: RunConfig, progress: Progress) -> None:
             chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, stiffness, progress)
             _write_outputs(cfg, fea, chains, scenarios, timing, progress)
     else:
-        done, chains, scenarios = run_to_tolerance(cfg, progress, timing, part)
-        _write_outputs(cfg, FeaInProgress.done(done), chains, scenarios, timing, progress)
+        done, chains, scenarios, shortfall = run_to_tolerance(cfg, progress, timing, part)
+        if shortfall is not None:
+            progress(shortfall)
+        _write_outputs(cfg, FeaInProgress.done(done), chains, scenarios, timing, progress, shortfall)
 
 
 def _import_chain_and_outputs() -> None:
@@ -476,12 +487,14 @@ def _import_chain_and_outputs() -> None:
     cpu_target.target_context.refresh()
 
 
-def _write_outputs(cfg: RunConfig, fea, chains, scenarios, timing: dict, progress: Progress) -> None:
+def _write_outputs(
+    cfg: RunConfig, fea, chains, scenarios, timing: dict, progress: Progress, shortfall: str | None = None
+) -> None:
     from reporting.outputs import write_default_outputs
     from stages.chain import RunResults, run_rpm_sweeps
 
     sweeps = timed(timing, "rpm_sweep", progress, run_rpm_sweeps, cfg, fea.stiffness, progress) if cfg.rpm_sweep else {}
-    write_default_outputs(RunResults(cfg, fea, chains, scenarios, sweeps, timing), progress)
+    write_default_outputs(RunResults(cfg, fea, chains, scenarios, sweeps, timing, shortfall), progress)
 
 
 def main(argv: list[str] | None = None) -> int:

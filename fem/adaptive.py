@@ -47,6 +47,17 @@ def bounding_diagonal_m(source) -> float:
     return as_part(source, symmetry=False).geometry.all_solids_diagonal_m
 
 
+class ToleranceNotReached(FemError):
+    """The tolerance needs a level beyond `max_dofs` (`over_dofs`) or a size geometry refuses: the
+    message says which; `best_rel_error` is the finest levels' estimate (None: fewer than MIN_LEVELS
+    solved), a tolerance a second call with the same solved levels meets without solving anything new."""
+
+    def __init__(self, message: str, best_rel_error: float | None, over_dofs: bool):
+        super().__init__(message)
+        self.best_rel_error = best_rel_error
+        self.over_dofs = over_dofs
+
+
 def _check(rel_tolerance: float, start_mesh_size_m: float | None, max_dofs: int, ratio: float) -> None:
     if not (isinstance(rel_tolerance, (int, float)) and math.isfinite(rel_tolerance) and 0 < rel_tolerance < 1):
         raise FemError(f"rel_tolerance={rel_tolerance!r}: expected a relative error in (0, 1), e.g. 0.01")
@@ -134,13 +145,11 @@ def stiffnesses_to_tolerance(
         if len(first) >= 2:
             predicted = first[-1].dofs * first[-1].dofs / first[-2].dofs
             if predicted > max_dofs:
-                raise FemError(
-                    _unreached(
-                        rel_tolerance,
-                        sizes,
-                        solutions,
-                        f"the next level (h = {h * 1e3:.3g} mm) would have about {predicted:.3g} DOFs, above max_dofs = {max_dofs}",
-                    )
+                raise _unreached(
+                    rel_tolerance,
+                    sizes,
+                    solutions,
+                    f"the next level (h = {h * 1e3:.3g} mm) would have about {predicted:.3g} DOFs, above max_dofs = {max_dofs}",
                 )
         level_start = time.perf_counter()
         level = (*settings_key, f"{h:.12e}")
@@ -156,8 +165,8 @@ def stiffnesses_to_tolerance(
             except geometry.GeometryError as exc:
                 if not sizes:
                     raise
-                raise FemError(
-                    _unreached(rel_tolerance, sizes, solutions, f"geometry refused the next level: {exc}")
+                raise _unreached(
+                    rel_tolerance, sizes, solutions, f"geometry refused the next level: {exc}", False
                 ) from None
             known[(*level, "mesh seconds")] = time.perf_counter() - level_start
         mesh_time += known[(*level, "mesh seconds")]
@@ -187,13 +196,11 @@ def stiffnesses_to_tolerance(
         if None not in errors.values() and max(errors.values()) <= rel_tolerance:
             break
         if first[-1].dofs > max_dofs:
-            raise FemError(
-                _unreached(
-                    rel_tolerance,
-                    sizes,
-                    solutions,
-                    f"this level already has {first[-1].dofs} DOFs, above max_dofs = {max_dofs}",
-                )
+            raise _unreached(
+                rel_tolerance,
+                sizes,
+                solutions,
+                f"this level already has {first[-1].dofs} DOFs, above max_dofs = {max_dofs}",
             )
         h /= ratio
     return {
@@ -211,7 +218,9 @@ def _error(solutions: list[LinkSolution]) -> float | None:
     ).rel_error_estimate
 
 
-def _unreached(rel_tolerance: float, sizes: list[float], solutions: dict[str, list[LinkSolution]], why: str) -> str:
+def _unreached(
+    rel_tolerance: float, sizes: list[float], solutions: dict[str, list[LinkSolution]], why: str, over_dofs: bool = True
+) -> ToleranceNotReached:
     errors = [_error(sols) for sols in solutions.values()]
     error = None if None in errors else max(errors)
     reached = (
@@ -219,4 +228,8 @@ def _unreached(rel_tolerance: float, sizes: list[float], solutions: dict[str, li
         if error is None
         else f"best estimated error {error:.2e} at h = {sizes[-1] * 1e3:.3g} mm"
     )
-    return f"rel_tolerance={rel_tolerance:g} not reached: {why} ({reached}); expected a looser tolerance or a larger max_dofs"
+    return ToleranceNotReached(
+        f"rel_tolerance={rel_tolerance:g} not reached: {why} ({reached}); expected a looser tolerance or a larger max_dofs",
+        error,
+        over_dofs,
+    )

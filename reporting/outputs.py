@@ -315,17 +315,20 @@ def default_summary(results: RunResults) -> dict:
             for name, r in fea.items()
         },
         "ranking": {"station": _focus(cfg), "by_material": _rankings(scenarios, fea, cfg.cams, _focus(cfg))},
-        "fidelity": _fidelity(cfg, fea, scenarios),
+        "fidelity": _fidelity(cfg, fea, scenarios, results.tolerance_shortfall),
         "timing_s": results.timing,
     }
 
 
-def _fidelity(cfg, fea: dict, scenarios: dict) -> dict:
-    """What resolution each stage used and the error it is estimated to leave in the metrics."""
+def _fidelity(cfg, fea: dict, scenarios: dict, shortfall: str | None) -> dict:
+    """What resolution each stage used and the error it is estimated to leave in the metrics; with
+    --tolerance, whether it is met and, where not, why."""
     estimates = [sc.rel_error_estimate["total"] for sc in scenarios.values() if sc.rel_error_estimate]
     models = {sc.contact.model for sc in scenarios.values()}
+    met = {} if cfg.tolerance is None else {"tolerance_met": shortfall is None, "tolerance_not_met_because": shortfall}
     return {
         "tolerance": cfg.tolerance,
+        **met,
         "fea": {
             m: {
                 "mesh_size_m": r.mesh_size_m,

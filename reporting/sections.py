@@ -138,7 +138,9 @@ def run_section(report: Report) -> list[html.Section]:
         + ", ".join(f"{k} = link {v}" for k, v in report.summary["stations"].items())
         + "."
     )
-    return [html.Section("Run", intro + _model_paragraphs(report.results))]
+    shortfall = report.summary["fidelity"].get("tolerance_not_met_because")
+    short = html.paragraph(f"{shortfall[:1].upper()}{shortfall[1:]}.", "warn") if shortfall else ""
+    return [html.Section("Run", intro + short + _model_paragraphs(report.results))]
 
 
 def _wheel_words(name: str, wheel: dict) -> str:

@@ -89,6 +89,8 @@ class RunConfig:
     mesh_size_m: float | None = None  # finest FEA level; None: chosen for < 1 % error in k
     order: int = 2
     max_memory_gb: float = field(default_factory=_default_max_memory_gb)  # the FEA solves' memory budget
+    # --tolerance: the finest FEA level's size (fem.adaptive.DEFAULT_MAX_DOFS, which imports the solvers)
+    max_fea_dofs: int = 400_000
     hardware_mass_kg: float = field(default_factory=_default_hardware_mass_kg)
     nest_mass_kg: float = field(default_factory=_default_nest_mass_kg)
     cache_dir: Path = field(default_factory=_default_cache_dir)
@@ -218,6 +220,7 @@ LIMITS: dict[str, Limit] = {
     "hardware_mass_kg": Limit("--hardware-mass", "a mass", AT_LEAST_ZERO, "kg"),
     "nest_mass_kg": Limit("--nest-mass", "a mass", AT_LEAST_ZERO, "kg"),
     "max_memory_gb": Limit("--max-memory", "a memory budget", Bounds(MIN_MAX_MEMORY_GB), "GB"),
+    "max_fea_dofs": Limit("--max-fea-dofs", "a whole number of DOFs", Bounds(1, True), whole=True),
     "mesh_size_m": Limit("--mesh-size", "an element size", ABOVE_ZERO, "mm", MM_PER_M),
     "samples_per_degree": Limit("--samples-per-degree", "a whole number", Bounds(1, True), whole=True),
     "tolerance": Limit("--tolerance", "a relative tolerance (e.g. 0.01)", Bounds(0.0, False, 1.0, False)),

@@ -127,9 +127,10 @@ def _solve_stiffness(
     stiffness_tolerance: float | None,
     progress: Progress,
     solved_levels: dict | None,
+    max_dofs: int,
 ) -> dict:
     """Stiffness studies of the materials not in the cache: fixed levels, or refined to a k tolerance
-    (reusing the levels in `solved_levels`, see fem.adaptive)."""
+    (reusing the levels in `solved_levels`, see fem.adaptive) on levels of at most `max_dofs` DOFs."""
     from fem import stiffness_studies
     from fem.adaptive import stiffnesses_to_tolerance
 
@@ -142,7 +143,7 @@ def _solve_stiffness(
         f"{100 * stiffness_tolerance:.2g} %"
     )
     return stiffnesses_to_tolerance(
-        part, materials, stiffness_tolerance, settings, progress=progress, solved=solved_levels
+        part, materials, stiffness_tolerance, settings, progress=progress, solved=solved_levels, max_dofs=max_dofs
     )
 
 
@@ -154,6 +155,7 @@ def _fea_steps(
     solved_levels: dict | None,
     images: dict,
     progress: Progress,
+    max_dofs: int,
 ) -> Iterator[tuple[dict, list[str]]]:
     """The FEA of the materials not in the cache, in two steps, each with the FemWarnings' messages
     it raised: first each material's stiffness record (all the chain needs), then its converged
@@ -168,7 +170,7 @@ def _fea_steps(
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
-        studies = _solve_stiffness(part, settings, materials, stiffness_tolerance, progress, solved_levels)
+        studies = _solve_stiffness(part, settings, materials, stiffness_tolerance, progress, solved_levels, max_dofs)
     release_free_memory()  # the levels' threads' freed arrays
     yield {name: _stiffness_record(name, study) for name, study in studies.items()}, _messages(caught)
     finest = {name: study.finest for name, study in studies.items()}
@@ -301,7 +303,9 @@ def start_fea(
     missing = [library[name] for name in cfg.materials if name not in out]
     if not missing:
         return FeaInProgress.done(out)
-    steps = partial(_fea_steps, part, settings, missing, stiffness_tolerance, solved_levels, images, progress)
+    steps = partial(
+        _fea_steps, part, settings, missing, stiffness_tolerance, solved_levels, images, progress, cfg.max_fea_dofs
+    )
     if beside and may_start_children():
         process = Beside(steps, "the FEA")
         progress(f"FEA: in process {process.pid}, beside the dynamics and the figures from the stiffness on")

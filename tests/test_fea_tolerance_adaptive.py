@@ -130,3 +130,25 @@ def test_estimate_is_honest_against_a_finer_reference(coarse_and_tighter):
         assert reference.stiffness_rel_error_estimate < 0.5 * estimate.stiffness_rel_error_estimate
         actual = abs(estimate.stiffness_N_per_m - reference.stiffness_N_per_m) / reference.stiffness_N_per_m
         assert actual <= 2 * estimate.stiffness_rel_error_estimate
+
+
+def test_an_unreached_tolerance_carries_the_best_estimate_the_solved_levels_meet():
+    """--tolerance goes on at the best k its levels reached (stages.tolerance): the estimate the
+    error carries is a tolerance that the same solved levels meet with no new solve."""
+    import fem.adaptive
+
+    solved: dict = {}
+    # 12, 9 and 6.75 mm give about 11k, 18k and 29k DOFs; the fourth level (~47k) is above 40k
+    with pytest.raises(fem.adaptive.ToleranceNotReached) as unreached:
+        stiffnesses_to_tolerance(None, [ALUMINIUM], 1e-4, start_mesh_size_m=START_M, max_dofs=40_000, solved=solved)
+    assert unreached.value.over_dofs
+    best = unreached.value.best_rel_error
+    assert 1e-4 < best < 0.05
+    solves: list[int] = []
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(fem.adaptive, "analyse_link", lambda *a, **k: solves.append(1))
+        again = stiffnesses_to_tolerance(
+            None, [ALUMINIUM], best * (1 + 1e-9), start_mesh_size_m=START_M, max_dofs=40_000, solved=solved
+        )
+    assert solves == []
+    assert again[ALUMINIUM.name].stiffness_rel_error_estimate == pytest.approx(best, rel=1e-9)

@@ -306,6 +306,7 @@ def test_tolerance_picks_the_resolution_and_reports_an_estimate_within_it(cache_
     s = _summary(out)
     fidelity = s["fidelity"]
     assert fidelity["tolerance"] == 0.2
+    assert fidelity["tolerance_met"] is True and fidelity["tolerance_not_met_because"] is None
     assert fidelity["fea"]["al6061-t6"]["stiffness_rel_error_estimate"] <= 0.1
     assert fidelity["dynamics"]["metrics_rel_error_estimate"] <= 0.2
     estimate = s["materials"]["al6061-t6"]["cams"]["modified-sine"]["rel_error_estimate"]
