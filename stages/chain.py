@@ -142,7 +142,7 @@ def simulate_scenario(
     from dynamics.response.metrics import link_metrics, settling_times, tension_extremes
     from dynamics.scene import simulate_scene
     from reporting.history import CamHistory
-    from stages.machine import machine_cycle, machine_parts, switches_to_tooth_model, tooth_model_scene
+    from stages.machine import machine_cycle, machine_parts, seating_that_runs
 
     t = output_times_s(cfg.rpm, samples_per_degree)
     cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, rpm=cfg.rpm)
@@ -152,23 +152,16 @@ def simulate_scenario(
     # what the slack check and the stress need)
     kept = None if cfg.station is None else (places[cfg.station],)
 
-    def simulate(scene):
-        return simulate_scene(
-            scene,
-            model,
-            cam,
-            t,
-            links=None if kept is None else [link - 1 for link in kept],
-            n_modes=modes_to_keep(cfg.links),
-        )
-
-    r, contact = simulate(scene)
-    left = None  # rigid seating's verdict where the run leaves it for the tooth model
-    if contact.seating is not None:
-        rigid = machine_cycle(contact.seating, scene.steady_state, *_cam_peaks(r)).seating_validity
-        if switches_to_tooth_model(cfg, scene, rigid):
-            scene, left = tooth_model_scene(scene), rigid
-            r, contact = simulate(scene)
+    # left: rigid seating's verdict where the run leaves it for the tooth model (decided before the run)
+    scene, left = seating_that_runs(cfg, scene, model, cam, t)
+    r, contact = simulate_scene(
+        scene,
+        model,
+        cam,
+        t,
+        links=None if kept is None else [link - 1 for link in kept],
+        n_modes=modes_to_keep(cfg.links),
+    )
     history = CamHistory(
         material,
         cam_id,
@@ -193,8 +186,7 @@ def simulate_scenario(
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))
     seats = None
     if contact.seating is not None:
-        k_t = scene.layout.tooth_stiffness_N_per_m
-        seats = machine_cycle(contact.seating, scene.steady_state, *_cam_peaks(r), k_t, left)
+        seats = machine_cycle(contact.seating, scene.steady_state, *_cam_peaks(r), scene.layout, left)
     return Scenario(
         history, metrics, stations, tension_extremes(r.tension_N), samples_per_degree, None, worst, contact, seats
     )

@@ -38,26 +38,72 @@ def machine_layout(cfg: RunConfig, pitch_m: float) -> MachineLayout:
     idler = None
     if cfg.idler_wrap_links_used > 0:
         idler = _wheel(cfg.idler_teeth_used, pitch_m, cfg.idler_wrap_links_used, cfg.idler_inertia_kg_m2, phase)
-    k_t = cfg.tooth_stiffness_N_per_m
-    rigid = k_t is None or k_t == float("inf")  # None: rigid where it holds (`tooth_model_layout` else)
+    k_t = cfg.tooth_stiffness_N_per_m  # None (auto): rigid where it holds (`seating_that_runs` else)
     return MachineLayout(
         "wheels",
         sprocket,
         idler,
         cfg.drive_stiffness_N_m_per_rad,
         cfg.polygonal_action,
-        float("inf") if rigid else float(k_t),
+        float("inf") if k_t is None else float(k_t),
     )
 
 
 def switches_to_tooth_model(cfg: RunConfig, scene: Scene, validity: SeatingValidity) -> bool:
     """Whether the run leaves rigid seating for the tooth contact stiffness (--tooth-stiffness auto, the
     default): where rigid seating does not hold for it and the tooth model carries the scene (no
-    tensioner, wheels with inertia; dynamics.models.machine)."""
+    tensioner, wheels with inertia, at most DENSE_LINK_LIMIT links; dynamics.models.machine)."""
+    from dynamics.models.reduction import DENSE_LINK_LIMIT
+
     if cfg.tooth_stiffness_N_per_m is not None or validity.valid or not scene.layout.on_wheels:
         return False
     wheels = (scene.layout.sprocket, scene.layout.idler)
-    return scene.tensioner is None and all(w is None or w.inertia_kg_m2 > 0 for w in wheels)
+    carried = scene.tensioner is None and cfg.links <= DENSE_LINK_LIMIT
+    return carried and all(w is None or w.inertia_kg_m2 > 0 for w in wheels)
+
+
+def seating_that_runs(
+    cfg: RunConfig, scene: Scene, model: ChainModel, cam, t_s
+) -> tuple[Scene, SeatingValidity | None]:
+    """(the scene to simulate, rigid seating's verdict where the run leaves it for the tooth model, else
+    None), decided before simulating: rigid seating's verdict depends only on the cam's state at the
+    seat change's instant against its peaks over the window `t_s` (`rigid_seating_before_run`), so a
+    scenario that switches (--tooth-stiffness auto) is simulated once, with the teeth."""
+    if cfg.tooth_stiffness_N_per_m is not None or not scene.layout.on_wheels:
+        return scene, None
+    rigid = rigid_seating_before_run(scene_machine(scene, model), cam, t_s)
+    if not switches_to_tooth_model(cfg, scene, rigid):
+        return scene, None
+    return tooth_model_scene(scene), rigid
+
+
+def rigid_seating_before_run(machine: MachineOnWheels, cam, t_s) -> SeatingValidity:
+    """Rigid seating's verdict on `machine` from its layout and the cam alone (dynamics.response.seating):
+    the cam's speed and acceleration where its lift since the dwell reaches the seat change's
+    (MachineOnWheels.seat_change_lift_m, located as the compiled step locates it:
+    dynamics.solvers.machine_ivp.seat_change_time_s; 0 at the dwell) against their peaks at the
+    output times `t_s`. The run records the same two fractions; the snap needs the rigid run, which
+    this verdict avoids: its snap_J is None."""
+    import numpy as np
+
+    from dynamics.errors import DynamicsError
+    from dynamics.response.seating import rigid_seating_verdict
+    from dynamics.solvers.machine_ivp import seat_change_time_s
+
+    _, speeds, accelerations, _ = cam.svaj(np.asarray(t_s, dtype=float))
+    peaks = float(np.max(np.abs(speeds))), float(np.max(np.abs(accelerations)))
+    lift = machine.seat_change_lift_m
+    if lift is None:  # at the dwell, where every cam law is at rest
+        return rigid_seating_verdict(0.0, 0.0, *peaks, None)
+
+    def lift_at(time):
+        return float(cam.svaj(np.array([time]))[0][0])
+
+    t_seat = seat_change_time_s(lift_at, 0.0, cam.period_s, lift_at(0.0), lift)
+    if t_seat is None:
+        raise DynamicsError("seat change: the cam's lift does not reach it within the index cycle")
+    _, speed, acceleration, _ = (float(x[0]) for x in cam.svaj(np.array([t_seat])))
+    return rigid_seating_verdict(speed, acceleration, *peaks, None)
 
 
 def tooth_model_scene(scene: Scene) -> Scene:
@@ -162,12 +208,12 @@ def machine_cycle(
     steady_state: bool,
     peak_speed_m_s: float,
     peak_acceleration_m_s2: float,
-    tooth_stiffness_N_per_m: float = float("inf"),
+    layout: MachineLayout | None = None,
     switched_from: SeatingValidity | None = None,
 ) -> MachineCycle:
     """`peak_*`: the cam's over the scenario's window (the scale of the cam's state at the seat change);
-    `tooth_stiffness_N_per_m` the seating that ran (inf: rigid), `switched_from` rigid seating's verdict
-    where the run left it for the tooth model."""
+    `layout` the one that ran (its seating; None: rigid seating), `switched_from` rigid seating's
+    verdict where the run left it for the tooth model."""
     from dynamics.response.seating import rigid_seating_validity, tooth_seating_validity
 
     seating = {
@@ -179,8 +225,8 @@ def machine_cycle(
         seating,
         float(changes.transfer_energy_change_J),
         rigid_seating_validity(changes, peak_speed_m_s, peak_acceleration_m_s2)
-        if tooth_stiffness_N_per_m == float("inf")
+        if layout is None or layout.rigid_seating
         else tooth_seating_validity(
-            changes, peak_speed_m_s, peak_acceleration_m_s2, tooth_stiffness_N_per_m, switched_from
+            changes, peak_speed_m_s, peak_acceleration_m_s2, layout.tooth_stiffness_N_per_m, switched_from
         ),
     )

@@ -11,7 +11,8 @@ span elastic, each wheel a DOF, a coupling spring k_t from each seated link to i
   first-order-hold solver on the polygon-free tooth model to its tolerance.
 - Energy: over one index cycle from rest, the drive's work = damping dissipation + the change of the
   stored energy (the tooth springs' included), verification.machine_energy.
-Not built (checked to refuse): a tensioner with a tooth stiffness, the seat change in the linear and
+Not built (checked to refuse): a tensioner with a tooth stiffness, more than DENSE_LINK_LIMIT links (the
+O(N) damping form leaves the wheels out), the seat change in the linear and
 DOP853 steady state (dynamics.solvers.machine_steady; the compiled step's is built:
 tests/test_tooth_seating.py)."""
 
@@ -139,6 +140,10 @@ def test_energy_balances_over_an_index_with_tooth_springs(polygonal):
         (dict(tooth_stiffness_N_per_m=np.nan), "tooth_stiffness_N_per_m"),
         (dict(tooth_stiffness_N_per_m=1e9, tensioner=Tensioner(2e5, 20.0, 500.0)), "tensioner"),
         (dict(tooth_stiffness_N_per_m=1e9, idler=Wheel(12, P, 2, inertia_kg_m2=0.0)), "idler inertia"),
+        (
+            dict(tooth_stiffness_N_per_m=1e9, chain=ChainModel(401, 2.03, 9.3e7)),
+            "up to 400 links.*--tooth-stiffness rigid",
+        ),
     ],
 )
 def test_a_tooth_model_it_cannot_run_is_refused_in_one_line(change, word):

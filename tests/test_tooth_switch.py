@@ -33,6 +33,7 @@ def test_the_option_maps_onto_its_one_setting(text, value):
         (["--tooth-stiffness", "-1"], "--tooth-stiffness"),
         (["--tooth-stiffness", "1e9", "--tensioner-rate", "2e5", "--tensioner-mass", "20"], "--tensioner-rate"),
         (["--tooth-stiffness", "1e9", "--idler-inertia", "0"], "--idler-inertia"),
+        (["--tooth-stiffness", "1e9", "--links", "401"], "--tooth-stiffness: .* up to 400 links, got --links 401"),
     ],
 )
 def test_a_bad_tooth_stiffness_is_one_line_naming_the_option(argv, word):
@@ -64,8 +65,12 @@ def test_the_switch_is_auto_only_and_where_rigid_seating_does_not_hold():
     assert not switches_to_tooth_model(RunConfig(tooth_phase=0.25, tooth_stiffness_N_per_m=np.inf), scene, _flagged())
     tensioned = RunConfig(tooth_phase=0.25, tensioner_rate_N_per_m=2e5, tensioner_mass_kg=20.0)
     assert not switches_to_tooth_model(tensioned, chain_scene(tensioned, P), _flagged())  # the model has none
+    long = RunConfig(tooth_phase=0.25, links=401)
+    assert not switches_to_tooth_model(long, chain_scene(long, P), _flagged())  # the model stops at 400 links
+    assert switches_to_tooth_model(replace(long, links=400), chain_scene(long, P), _flagged())
     assert tooth_model_scene(scene).layout.tooth_stiffness_N_per_m == DEFAULT_TOOTH_STIFFNESS_N_PER_M
     assert chain_scene(RunConfig(), P).layout.tooth_stiffness_N_per_m == np.inf  # auto starts rigid
+    assert chain_scene(RunConfig(), P).layout.rigid_seating and not tooth_model_scene(scene).layout.rigid_seating
 
 
 def test_rigid_seatings_record_is_as_it_was():
@@ -104,11 +109,14 @@ def test_a_run_inside_the_index_switches_and_says_so():
     ).machine.seating_validity
     verdict = switched.seating_validity
     assert verdict.valid and verdict.tooth_stiffness_N_per_m == DEFAULT_TOOTH_STIFFNESS_N_PER_M
-    assert verdict.switched_from == kept and not kept.valid
+    # decided before the run (stages.machine.rigid_seating_before_run): rigid seating's verdict but its snap,
+    # which only a rigid run would give
+    assert verdict.switched_from == replace(kept, snap_J=None) and not kept.valid
     assert switched.seating["sprocket"].impact_energy_J == 0.0  # the tooth takes the link, no plastic impact
     assert abs(verdict.snap_J) < 0.1 * abs(kept.snap_J)
     summary = json.loads(json.dumps(machine_cycle_summary(switched), allow_nan=False))["seating_model"]
     assert summary["model"] == "seating through a tooth contact stiffness" and summary["instead"] is None
     assert summary["switched_from"]["model"] == "rigid seating" and summary["switched_from"]["valid"] is False
+    assert summary["switched_from"]["snap_J"] is None
     html = _seating_paragraphs({"materials": {"al": {"cams": {"a": {"machine": {"seating_model": summary}}}}}})
     assert "k_t = 9.5e+08 N/m" in html and "switched to it from rigid seating" in html and "warn" not in html

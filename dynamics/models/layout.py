@@ -36,6 +36,11 @@ class MachineLayout:
     def on_wheels(self) -> bool:
         return self.drive == "wheels"
 
+    @property
+    def rigid_seating(self) -> bool:
+        """Seated links and their wheel one body (no tooth contact stiffness: inf, today's model)."""
+        return self.tooth_stiffness_N_per_m == float("inf")
+
     def machine(self, chain: ChainModel, tensioner: Tensioner | None) -> MachineOnWheels:
         """The machine of one material's chain (checked by MachineOnWheels)."""
         return MachineOnWheels(

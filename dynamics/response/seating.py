@@ -46,7 +46,9 @@ class SeatingValidity:
     model: str  # the seating model that ran
     valid: bool
     reason: str  # words for the report; no numbers, so equal reasons group
-    snap_J: float  # the seat change's change of stored energy not taken by the seating impacts, per index
+    # the seat change's change of stored energy not taken by the seating impacts, per index (None: the
+    # verdict was decided before the run, which did not run this model: stages.machine.rigid_seating_before_run)
+    snap_J: float | None
     cam_speed_fraction: float  # |z'| at the seat change over the window's max |z'|
     cam_acceleration_fraction: float  # |z''| at the seat change over the window's max |z''|
     instead: str | None  # the model the run should use where this one does not hold (None: it holds)
@@ -64,8 +66,26 @@ def seat_snap_J(seating) -> float:
 def rigid_seating_validity(seating, peak_speed_m_s: float, peak_acceleration_m_s2: float) -> SeatingValidity:
     """`seating`: a dynamics.solvers.machine_verlet.Seating (the cam's speed and acceleration at the
     seat change included); the peaks of the cam over the window."""
-    speed = abs(seating.cam_speed_m_s) / peak_speed_m_s if peak_speed_m_s > 0 else 0.0
-    accel = abs(seating.cam_acceleration_m_s2) / peak_acceleration_m_s2 if peak_acceleration_m_s2 > 0 else 0.0
+    return rigid_seating_verdict(
+        seating.cam_speed_m_s,
+        seating.cam_acceleration_m_s2,
+        peak_speed_m_s,
+        peak_acceleration_m_s2,
+        seat_snap_J(seating),
+    )
+
+
+def rigid_seating_verdict(
+    cam_speed_m_s: float,
+    cam_acceleration_m_s2: float,
+    peak_speed_m_s: float,
+    peak_acceleration_m_s2: float,
+    snap_J: float | None,
+) -> SeatingValidity:
+    """Rigid seating's verdict from the cam's speed and acceleration at the seat change and their peaks
+    over the window; `snap_J` as SeatingValidity's."""
+    speed = abs(cam_speed_m_s) / peak_speed_m_s if peak_speed_m_s > 0 else 0.0
+    accel = abs(cam_acceleration_m_s2) / peak_acceleration_m_s2 if peak_acceleration_m_s2 > 0 else 0.0
     valid = max(speed, accel) <= RIGID_SEATING_AT_REST
     reason = (
         "the seats change with the cam at rest (the dwell): the arriving link is moved by the residual vibration's stretch only"
@@ -75,7 +95,7 @@ def rigid_seating_validity(seating, peak_speed_m_s: float, peak_acceleration_m_s
         "let it seat where it is)"
     )
     instead = None if valid else TOOTH_STIFFNESS
-    return SeatingValidity(RIGID, valid, reason, seat_snap_J(seating), float(speed), float(accel), instead)
+    return SeatingValidity(RIGID, valid, reason, snap_J, float(speed), float(accel), instead)
 
 
 def tooth_seating_validity(
