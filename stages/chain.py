@@ -41,7 +41,8 @@ class Scenario:
 
 @dataclass(frozen=True)
 class MaterialChain:
-    """One material's chain as the dynamics stage made it, with its lowest natural frequencies."""
+    """One material's chain as the dynamics stage made it, with the lowest natural frequencies of the
+    model its scenarios ran (the tooth model's where they switched to it: `scene_that_ran`)."""
 
     model: ChainModel
     natural_frequencies_Hz: np.ndarray  # the lowest REPORTED_MODES of the machine (fewer for a shorter chain)
@@ -258,7 +259,7 @@ def run_dynamics(
                     f"{100 * sc.rel_error_estimate['time_step']:.2g} %, k {100 * sc.rel_error_estimate['stiffness']:.2g} %)"
                 )
                 _say_seating_switch(sc, f"{name} / {cam_id}", progress)
-        scene = chain_scene(cfg, result.pitch_m)
+        scene = scene_that_ran(chain_scene(cfg, result.pitch_m), [scenarios[name, cam_id] for cam_id in cfg.cams])
         chains[name] = MaterialChain(
             models[name], natural_frequencies_Hz(scene, models[name]), machine_parts(scene, models[name])
         )
@@ -268,6 +269,23 @@ def run_dynamics(
             + ("" if modes_to_keep(cfg.links) is None else f", solved in its {modes_to_keep(cfg.links)} lowest modes")
         )
     return chains, scenarios
+
+
+def scene_that_ran(scene: Scene, scenarios: list[Scenario]) -> Scene:
+    """The scene as the material's scenarios ran it, for the modes reported beside them: with their
+    tooth contact stiffness where they switched to it (--tooth-stiffness auto, rigid seating invalid;
+    the switch is the tooth phase's, the same for every cam law but within 1e-3 of a dwell, where a
+    law that switched wins: the modes are then the tooth model's)."""
+    from dataclasses import replace
+
+    ran = [
+        sc.machine.seating_validity.tooth_stiffness_N_per_m
+        for sc in scenarios
+        if sc.machine is not None and sc.machine.seating_validity.switched_from is not None
+    ]
+    if not ran:
+        return scene
+    return replace(scene, layout=replace(scene.layout, tooth_stiffness_N_per_m=ran[0]))
 
 
 def _say_seating_switch(scenario: Scenario, name: str, progress: Progress) -> None:

@@ -8,7 +8,7 @@ import pytest
 
 from dynamics.errors import DynamicsError
 from dynamics.machine_scene import machine_model
-from dynamics.response.sweep import LINK_DRIVE_MODEL, MACHINE_MODEL, machine_modes, machine_rpm_sweep, rpm_sweep
+from dynamics.response.sweep import LINK_DRIVE_MODEL, MACHINE_MODEL, machine_rpm_sweep, rpm_sweep
 from settings.run import RunConfig
 from stages import chain as chain_stage
 from stages.fea import MaterialStiffness
@@ -47,7 +47,7 @@ def test_the_wheels_sweeps_critical_speeds_come_from_the_machines_frequencies_ca
     cfg = _cfg(tensioner_rate_N_per_m=2e5, tensioner_mass_kg=15.0)
     scene = chain_stage.chain_scene(cfg, PITCH_M)
     model = chain_stage.chain_model(cfg, FEA["al"])
-    frequencies, fraction = machine_modes(scene_machine(scene, model))
+    frequencies, fraction = scene_machine(scene, model).modes()
     reported = chain_stage.natural_frequencies_Hz(scene, model)
     np.testing.assert_allclose(frequencies[: reported.size], reported, rtol=1e-9)
     assert fraction.sum() == pytest.approx(1.0, rel=1e-9)

@@ -120,3 +120,23 @@ def test_a_run_inside_the_index_switches_and_says_so():
     assert summary["switched_from"]["snap_J"] is None
     html = _seating_paragraphs({"materials": {"al": {"cams": {"a": {"machine": {"seating_model": summary}}}}}})
     assert "k_t = 9.5e+08 N/m" in html and "switched to it from rigid seating" in html and "warn" not in html
+
+
+@pytest.mark.parametrize("phase, switched", [(0.25, True), (0.0, False)])
+def test_the_reported_modes_are_the_model_that_ran(phase, switched):
+    """The material's natural frequencies (summary.json, the report, the progress line) are those of
+    the machine its scenarios ran: the tooth model's where the run switched to it (its frequencies
+    differ from rigid seating's: the wheels are bodies of their own, the tooth springs in), rigid
+    seating's as before at phase 0."""
+    from stages.chain import natural_frequencies_Hz, run_dynamics
+    from stages.fea import MaterialStiffness
+
+    cfg = RunConfig(links=24, tooth_phase=phase, cams=("modified-sine",), samples_per_degree=2)
+    fea = {"al": MaterialStiffness("al", 9.0092e7, 0.01, 1.2, 4.4e-4, P, 0.01)}
+    chains, scenarios = run_dynamics(cfg, fea, lambda *_: None)
+    assert (scenarios["al", "modified-sine"].machine.seating_validity.switched_from is not None) == switched
+    scene, model = chain_scene(cfg, P), chains["al"].model
+    rigid = natural_frequencies_Hz(scene, model)
+    teeth = natural_frequencies_Hz(tooth_model_scene(scene), model)
+    assert np.max(np.abs(teeth / rigid - 1.0)) > 1e-3
+    np.testing.assert_array_equal(chains["al"].natural_frequencies_Hz, teeth if switched else rigid)

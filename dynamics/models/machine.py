@@ -421,6 +421,18 @@ class MachineOnWheels:
         lam = eigh(self.stiffness_matrix(), self.mass_matrix(), eigvals_only=True)
         return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi)
 
+    def modes(self) -> tuple[np.ndarray, np.ndarray]:
+        """(natural frequencies in Hz, effective mass fractions), ascending: the modes of (K, M) (its
+        places, wheels, tooth springs and carriage as built) and each mode's share (phi_j^T r)^2 /
+        (r^T M^-1 r) of the cam's base excitation -r z'' (r the inertial load; the shares of all modes
+        sum to 1). The frequencies are `natural_frequencies_Hz`'s."""
+        m = self.mass_matrix()
+        lam, shapes = eigh(self.stiffness_matrix(), m)
+        load = self.inertial_load()
+        participation = shapes.T @ load
+        fraction = participation**2 / float(load @ np.linalg.solve(m, load))
+        return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi), fraction
+
     def lowest_natural_frequencies_Hz(self, count: int) -> np.ndarray:
         """The `count` lowest natural frequencies: the dense eigensolve up to DENSE_LINK_LIMIT links (the
         figures as reported so far), above it shift-invert Lanczos on the sparse K and M (no N x N

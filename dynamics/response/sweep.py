@@ -4,7 +4,7 @@ Two models: `rpm_sweep`, the link drive's linear chain, modal (below); `machine_
 machine on its wheels, whose relabelled steady state (the seat changes, the polygonal feed) is not a
 periodic response of fixed modes: each point is the linear machine's own run at that speed
 (dynamics.machine_scene.simulate_machine), critical speeds from the machine's frequencies
-(`machine_modes`). The rest of this docstring is the link drive's modal sweep.
+(MachineOnWheels.modes). The rest of this docstring is the link drive's modal sweep.
 
 Why it is fast. The chain is linear (friction 0) and written relative to the cam, y = x - z 1, under
 the force -M 1 z''(t) (dynamics.models.chain). In the modes of (K, M) every mode j is a damped oscillator
@@ -377,19 +377,6 @@ def rpm_sweep(
     )
 
 
-def machine_modes(machine) -> tuple[np.ndarray, np.ndarray]:
-    """(natural frequencies in Hz, effective mass fractions) of the machine on its wheels
-    (dynamics.models.machine.MachineOnWheels: its places, wheels and tensioner carriage), ascending:
-    the modes of its (K, M) and each mode's share (phi_j^T r)^2 / (r^T M^-1 r) of the cam's base
-    excitation -r z'' (r the inertial load; the shares of all modes sum to 1)."""
-    m = machine.mass_matrix()
-    lam, shapes = eigh(machine.stiffness_matrix(), m)
-    load = machine.inertial_load()
-    participation = shapes.T @ load
-    fraction = participation**2 / float(load @ np.linalg.solve(m, load))
-    return np.sqrt(np.clip(lam, 0.0, None)) / (2 * np.pi), fraction
-
-
 def _machine_station(station, machine) -> tuple[str, int]:
     """(name, 0-based place) of a station name or a 1-based link number on the machine."""
     places = machine.stations()
@@ -422,7 +409,7 @@ def machine_rpm_sweep(
     runs it (dynamics.machine_scene.simulate_machine, choice "linear", its default step) in its
     relabelled periodic steady state over the pipeline's window (two index cycles from an index's
     start at `samples_per_cycle` per cycle); the metrics are the pipeline's (link_metrics) at the
-    station's place. Critical speeds from the machine's own natural frequencies (`machine_modes`),
+    station's place. Critical speeds from the machine's own natural frequencies (MachineOnWheels.modes),
     for the modes with at least `min_mass_fraction` of the excitation. Not modal: every point is a
     steady-state search, about a thousand times the link drive's cost per point: `done(cam_id)`, when
     given, is called as each cam law's speeds are done (the stage's progress lines)."""
@@ -451,7 +438,7 @@ def machine_rpm_sweep(
             peak[i, j] = lm.max_abs_acceleration_m_s2[0]
         if done is not None:
             done(cam_id)
-    frequencies, fraction = machine_modes(model.machine)
+    frequencies, fraction = model.machine.modes()
     cycles_per_rev = 360.0 / cycle_deg
     excited = tuple(int(j) + 1 for j in np.flatnonzero(fraction >= min_mass_fraction))
     critical = critical_speeds_rpm(frequencies, cycles_per_rev, (float(r.min()), float(r.max())), max_harmonic, excited)
