@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
+from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance_machine import ClearanceMachine
 from dynamics.models.layout import MachineLayout
@@ -74,6 +75,21 @@ def test_the_seat_change_is_when_the_cam_has_lifted_one_minus_the_phase_of_a_pit
     for phase in (0.1, 0.5, 0.9):
         assert _machine(phase, polygonal=polygonal).seat_change_lift_m == pytest.approx((1 - phase) * P, rel=1e-14)
     assert _machine(0.5, polygonal=polygonal).sprocket.seat_change_angle_rad == pytest.approx(np.pi / 12, rel=1e-14)
+
+
+@pytest.mark.parametrize("teeth", [8, 12, 17, 25, 40])
+def test_each_wheels_own_seat_change_is_the_one_instant_whatever_its_size(teeth):
+    """A wheel's seats change when it has turned (1 - phase) of its tooth, and one of its teeth feeds one
+    pitch whatever its size (R_m 2 pi / z = p): at one tooth phase every wheel's own seat change is at
+    the cam's lift (1 - phase) p, the instant the solvers take for all (MachineOnWheels.seat_change_lift_m,
+    the sprocket's), so an idler of another size than the sprocket changes its seats at the sprocket's
+    instant exactly (to round-off); a different phase per wheel is refused."""
+    for phase in (0.1, 0.25, 0.5, 0.75):
+        wheel = Wheel(teeth, P, 2, inertia_kg_m2=0.1, tooth_phase=phase)
+        own = wheel.seat_change_angle_rad * wheel.feed_radius_m
+        assert own == pytest.approx(_machine(phase).seat_change_lift_m, rel=1e-14)
+    with pytest.raises(DynamicsError, match="tooth_phase: the idler's"):
+        MachineOnWheels(CHAIN, sprocket=Wheel(12, P, 3, 0.3, 0.25), idler=Wheel(teeth, P, 2, 0.1, 0.5))
 
 
 def _response_after(cycle, t_from):
