@@ -143,8 +143,8 @@ class MachineOnWheels:
             )
         if self.n_links > DENSE_LINK_LIMIT:
             # the O(N) damping form (dynamics.models.machine_damping) leaves the wheels' DOFs out of its
-            # block; on the tooth model, where they are bodies of their own, it ran 0.89 of the peak
-            # displacement away from the dense law at 401 links (docs/limitations.md): not carried
+            # block; on the tooth model, where they are bodies of their own, that damps the lowest mode
+            # at 1.65 instead of zeta 0.13 (docs/physics.md, "Above 400 links"): not carried
             raise DynamicsError(
                 f"tooth_stiffness_N_per_m: seating through a tooth stiffness is built up to {DENSE_LINK_LIMIT} links "
                 f"(the dense damping law), got {self.n_links}; expected rigid seating above (--tooth-stiffness rigid)"
