@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from . import budget, quality
 from .errors import FemError, FemWarning
 from .heap import release_free_memory
-from .link import LinkSolution, analyse_link_materials, check_mesh_and_materials
+from .link import LinkSolution, analyse_link_materials, check_mesh_and_materials, fallback_note
 from .materials import Material
 from .richardson import Extrapolation, extrapolate, rate_bracket
 from .settings import LEVEL_RATIO, FeaSettings, levels_for_finest, settings_with
@@ -53,6 +53,8 @@ class StiffnessEstimate:
     levels: tuple[tuple[float, int, float], ...]  # (mesh_size_m, dofs, stiffness_N_per_m), coarse to fine
     finest: LinkSolution
     timing_s: dict[str, float]  # summed over levels: mesh, assembly, load, solve, post, total; the study's wall
+    # one line per level whose solver was not the one asked for (LinkSolution.solver_fallback)
+    solver_fallbacks: tuple[str, ...] = ()
 
 
 def finest_size_for(pitch_m: float, bore_radius_m: float) -> float:
@@ -208,7 +210,7 @@ def stiffness_studies(
                 progress(
                     f"FEA level {level}/{len(sizes)}, {solution.material.name}: h = {h * 1e3:.2f} mm, "
                     f"{solution.dofs} DOFs, k = {solution.stiffness_N_per_m:.5g} N/m, "
-                    f"{sum(solution.timing_s.values()):.1f} s"
+                    f"{sum(solution.timing_s.values()):.1f} s{fallback_note(solution)}"
                 )
     # Meshing is shared and booked to the first material, as analyse_link_materials books the
     # shared assembly: the first material's timing is the cost of the study, the others' the extra.
@@ -325,4 +327,7 @@ def estimate_from_levels(
         levels=tuple((h, s.dofs, s.stiffness_N_per_m) for h, s in zip(sizes, solutions)),
         finest=solutions[-1],
         timing_s=timing,
+        solver_fallbacks=tuple(
+            f"level of {h * 1e3:.3g} mm: {s.solver_fallback}" for h, s in zip(sizes, solutions) if s.solver_fallback
+        ),
     )
