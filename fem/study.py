@@ -133,13 +133,7 @@ def stiffness_studies(
     order, concurrent_levels, mirror_symmetry = settings.order, settings.concurrent_levels, settings.mirror_symmetry
     start = study_start = time.perf_counter()
     part = geometry.as_part(source, symmetry=mirror_symmetry)
-    sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
-    # Thin walls (geometry.walls: planar, rings round holes) thinner than half the finest size asked
-    # for get a size field on every level, the same fraction of each level's size (geometry.meshing.THIN_WALL_FRACTION). The reference is the
-    # finest size asked for, kept where the budget coarsens the levels. Where a wall is refined, a
-    # third, coarser level checks the asymptotic range (`with_wall_check_level`).
-    wall_reference_m = sizes[-1]
-    sizes = with_wall_check_level(sizes, part.geometry.mesh_features.walls, wall_reference_m)
+    sizes, wall_reference_m = planned_mesh_sizes(part, settings)
     mesh_time = time.perf_counter() - start
 
     def mesh_level(level: int, level_sizes: tuple[float, ...]):
@@ -222,6 +216,20 @@ def stiffness_studies(
         )
         for i, (name, sols) in enumerate(solutions.items())
     }
+
+
+def planned_mesh_sizes(part, settings: FeaSettings) -> tuple[tuple[float, ...], float]:
+    """(the stiffness study's level sizes coarse to fine before the memory budget, the finest size
+    asked for) of `part` (a `geometry.Part`): settings.mesh_sizes_m or `default_mesh_sizes`, with
+    `with_wall_check_level`'s third level where a thin wall is refined.
+
+    Thin walls (geometry.walls: planar, rings round holes) thinner than half the finest size asked
+    for get a size field on every level, the same fraction of each level's size
+    (geometry.meshing.THIN_WALL_FRACTION). The reference is the finest size asked for, kept where the
+    budget coarsens the levels (which keeps their number)."""
+    sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
+    wall_reference_m = sizes[-1]
+    return with_wall_check_level(sizes, part.geometry.mesh_features.walls, wall_reference_m), wall_reference_m
 
 
 def refined_down_to_m(walls, wall_reference_m: float) -> float:

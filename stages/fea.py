@@ -133,10 +133,12 @@ def _solve_stiffness(
     (reusing the levels in `solved_levels`, see fem.adaptive) on levels of at most `max_dofs` DOFs."""
     from fem import stiffness_studies
     from fem.adaptive import stiffnesses_to_tolerance
+    from fem.study import planned_mesh_sizes
 
     source = part.name if part.is_step else "built-in default link"
     if stiffness_tolerance is None:
-        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, 2 mesh levels")
+        n_levels = len(planned_mesh_sizes(part, settings)[0])
+        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, {n_levels} mesh levels")
         return stiffness_studies(part, materials, settings, progress=progress)
     progress(
         f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, refining to a k error <= "
