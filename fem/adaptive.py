@@ -23,7 +23,7 @@ import time
 from collections.abc import Callable, Sequence
 
 from .errors import FemError
-from .link import LinkSolution, analyse_link
+from .link import LinkSolution, analyse_link, fallback_note
 from .materials import Material
 from .richardson import extrapolate, rate_bracket
 from .settings import FeaSettings, settings_with
@@ -192,6 +192,7 @@ def stiffnesses_to_tolerance(
                 f"FEA level {len(sizes)}: h = {h * 1e3:.3g} mm, {first[-1].dofs} DOFs, k (N/m) {ks}, "
                 f"estimated error {f'n/a (needs {MIN_LEVELS} levels)' if worst is None else f'{worst:.2e}'}, "
                 + ("solved in an earlier pass" if reused else f"{time.perf_counter() - level_start:.1f} s")
+                + fallback_note(first[-1])
             )
         if None not in errors.values() and max(errors.values()) <= rel_tolerance:
             break

@@ -162,6 +162,7 @@ def report(estimate: StiffnessEstimate) -> dict:
         "tets": s.n_tets,
         "dofs": s.dofs,
         "solver": s.solver,
+        "solver_fallback": s.solver_fallback,
         "timing_s": estimate.timing_s,
     }
 

@@ -88,11 +88,18 @@ class LinkSolution:
     displacement_m: np.ndarray  # (3, basis.N) at load_N
     von_mises_at_dofs_Pa: np.ndarray  # (basis.N,) element-node values averaged per DOF, at load_N
     away_from_clamp_at_dofs: np.ndarray  # (basis.N,) bool: the DOF is beyond clamp_exclusion_radius_m of the rims
+    # why `solver` is not the one asked for (AMG-CG did not converge: fem.solvers.solve_reported); None: it is
+    solver_fallback: str | None = None
 
     @property
     def mirrored(self) -> bool:
         """Solved on the half of a mirror-symmetric link: mesh, n_tets, dofs and fields are that half's."""
         return self.link.mirror_plane is not None
+
+
+def fallback_note(solution: LinkSolution) -> str:
+    """ ", <why the solver changed>" for a progress line; "" when the asked-for solver solved it."""
+    return "" if solution.solver_fallback is None else f", {solution.solver_fallback}"
 
 
 @dataclass(frozen=True, eq=False)
@@ -407,6 +414,7 @@ def analyse_link_materials(
     results: dict[str, LinkSolution] = {}
     first: tuple[Material, np.ndarray] | None = None
     factor = None
+    fallback = None  # why the first solve left the asked-for solver: the others use the one it took
     modes = rigid_body_modes(problem.dof_locations(basis))[free] if method == "amg" else None
     try:
         for material in materials:
@@ -422,7 +430,8 @@ def analyse_link_materials(
                     factor = solvers.Factorization(K)
                     u[free] = factor.solve(f[free])
                 else:
-                    u[free] = solvers.solve(K, f[free], method, near_nullspace=modes)
+                    solved = solvers.solve_reported(K, f[free], method, near_nullspace=modes)
+                    u[free], method, fallback = solved.x, solved.solver, solved.fallback
                 first = (material, u)
             else:
                 u[free] = _reuse(first, material, K, f[free], free, factor, method, modes)
@@ -431,6 +440,8 @@ def analyse_link_materials(
             results[material.name] = _solution(
                 mesh, sk_mesh, basis, material, order, load_N, f, u, free, K, method, stress_points, timing, whole_dofs
             )
+            if fallback is not None:
+                results[material.name] = replace(results[material.name], solver_fallback=fallback)
             timing["post"] = timing.get("post", 0.0) + time.perf_counter() - start
     finally:
         if factor is not None:

@@ -16,10 +16,14 @@ LINEAR_SOLVERS = ("pardiso", "amg", "spsolve")  # fem.solvers.SOLVERS; "auto" pi
 
 
 def check_element_order(order: int) -> None:
+    """Refuse an order that fem.problem.ELEMENTS does not implement, in the bad-input form."""
     if order not in ELEMENT_ORDERS:
-        raise FemError(f"element order must be 1 or 2, got {order!r}")
+        expected = ", ".join(map(str, ELEMENT_ORDERS))
+        raise FemError(f"element order {order!r}: expected one of {expected} (P1 / P2 tetrahedra); set it with --order")
 
 
 def check_linear_solver(method: str) -> None:
+    """Refuse a linear solver that fem.solvers.SOLVERS does not implement, in the bad-input form."""
     if method != "auto" and method not in LINEAR_SOLVERS:
-        raise FemError(f"unknown solver {method!r}; expected auto or one of {', '.join(LINEAR_SOLVERS)}")
+        expected = ", ".join(("auto", *LINEAR_SOLVERS))
+        raise FemError(f"linear solver {method!r}: expected one of {expected}; set it with python -m fem --solver")

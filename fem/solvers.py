@@ -15,15 +15,18 @@ import contextlib
 import glob
 import os
 import sys
+import warnings
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import FemError
+from .errors import FemError, FemWarning
 from .options import check_linear_solver
 
 AMG_RELATIVE_TOLERANCE = 1e-10  # residual; k is then converged far below discretisation error
+AMG_MAX_ITERATIONS = 1000  # CG iterations; the link's P2 systems converge in tens (measured)
 # Residual of the CG that reuses another material's factorisation: k then agrees with a direct
 # solve to ~1e-9 and stresses to ~1e-6 (measured), far below the discretisation error of either.
 # Each decade costs about one back-substitution (measured convergence rate ~0.1 per iteration).
@@ -169,10 +172,17 @@ def _amg(A: sp.csr_matrix, b: np.ndarray, near_nullspace: np.ndarray | None) -> 
     # of setup at 34k DOFs (0.2 s without) for the same CG iteration count (measured).
     ml = pyamg.smoothed_aggregation_solver(A.tocsr(), B=near_nullspace, symmetry="symmetric", improve_candidates=None)
     residuals: list[float] = []
-    x = ml.solve(b, tol=AMG_RELATIVE_TOLERANCE, accel="cg", maxiter=1000, residuals=residuals)
+    x = ml.solve(b, tol=AMG_RELATIVE_TOLERANCE, accel="cg", maxiter=AMG_MAX_ITERATIONS, residuals=residuals)
     if residuals[-1] > AMG_RELATIVE_TOLERANCE * np.linalg.norm(b) * 10:
-        raise FemError(f"AMG-CG did not converge: relative residual {residuals[-1] / np.linalg.norm(b):.1e}")
+        raise AmgNotConverged(
+            f"AMG-CG did not converge in {AMG_MAX_ITERATIONS} iterations "
+            f"(relative residual {residuals[-1] / np.linalg.norm(b):.1e})"
+        )
     return x
+
+
+class AmgNotConverged(FemError):
+    """AMG-CG stopped above its residual tolerance (`solve` then falls back to a direct solver)."""
 
 
 def _spsolve(A: sp.csr_matrix, b: np.ndarray, near_nullspace: np.ndarray | None) -> np.ndarray:
@@ -205,8 +215,44 @@ def resolve(method: str) -> str:
     return method
 
 
-def solve(A: sp.spmatrix, b: np.ndarray, method: str = "auto", near_nullspace: np.ndarray | None = None) -> np.ndarray:
-    """Solve A x = b for symmetric positive definite A."""
+def direct_solver() -> str:
+    """The direct solver to fall back on: PARDISO where it is installed, else SuperLU."""
+    return "pardiso" if _has_pardiso() else "spsolve"
+
+
+@dataclass(frozen=True)
+class Solved:
+    """A solution, the solver that produced it and, if it is not the one asked for, why."""
+
+    x: np.ndarray
+    solver: str
+    fallback: str | None = None  # one line: why the asked-for solver's answer was not used
+
+
+def solve_reported(
+    A: sp.spmatrix, b: np.ndarray, method: str = "auto", near_nullspace: np.ndarray | None = None
+) -> Solved:
+    """Solve A x = b for symmetric positive definite A; where AMG-CG does not converge or pyamg is
+    not installed, solve it again with `direct_solver()` and say so (`Solved.fallback`)."""
     method = resolve(method)
-    with explained_solver_errors(method, A.shape[0]):
-        return np.asarray(SOLVERS[method](sp.csr_matrix(A), np.asarray(b, dtype=float), near_nullspace))
+    A, b = sp.csr_matrix(A), np.asarray(b, dtype=float)
+    try:
+        with explained_solver_errors(method, A.shape[0]):
+            return Solved(np.asarray(SOLVERS[method](A, b, near_nullspace)), method)
+    except (AmgNotConverged, ImportError) as exc:
+        if method != "amg":
+            raise
+        why = str(exc) if isinstance(exc, AmgNotConverged) else f"AMG-CG is not available ({exc})"
+    direct = direct_solver()
+    with explained_solver_errors(direct, A.shape[0]):
+        x = np.asarray(SOLVERS[direct](A, b, None))
+    return Solved(x, direct, f"{why}: solved by {direct} instead")
+
+
+def solve(A: sp.spmatrix, b: np.ndarray, method: str = "auto", near_nullspace: np.ndarray | None = None) -> np.ndarray:
+    """Solve A x = b for symmetric positive definite A (with `solve_reported`'s fallback from AMG-CG,
+    said as a FemWarning: callers that keep the solver in their result call `solve_reported`)."""
+    solved = solve_reported(A, b, method, near_nullspace)
+    if solved.fallback is not None:
+        warnings.warn(solved.fallback, FemWarning, stacklevel=2)
+    return solved.x

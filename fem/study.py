@@ -26,7 +26,7 @@ from dataclasses import dataclass
 from . import budget, quality
 from .errors import FemError, FemWarning
 from .heap import release_free_memory
-from .link import LinkSolution, analyse_link_materials, check_mesh_and_materials
+from .link import LinkSolution, analyse_link_materials, check_mesh_and_materials, fallback_note
 from .materials import Material
 from .richardson import Extrapolation, extrapolate, rate_bracket
 from .settings import LEVEL_RATIO, FeaSettings, levels_for_finest, settings_with
@@ -53,6 +53,8 @@ class StiffnessEstimate:
     levels: tuple[tuple[float, int, float], ...]  # (mesh_size_m, dofs, stiffness_N_per_m), coarse to fine
     finest: LinkSolution
     timing_s: dict[str, float]  # summed over levels: mesh, assembly, load, solve, post, total; the study's wall
+    # one line per level whose solver was not the one asked for (LinkSolution.solver_fallback)
+    solver_fallbacks: tuple[str, ...] = ()
 
 
 def finest_size_for(pitch_m: float, bore_radius_m: float) -> float:
@@ -131,13 +133,7 @@ def stiffness_studies(
     order, concurrent_levels, mirror_symmetry = settings.order, settings.concurrent_levels, settings.mirror_symmetry
     start = study_start = time.perf_counter()
     part = geometry.as_part(source, symmetry=mirror_symmetry)
-    sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
-    # Thin walls (geometry.walls: planar, rings round holes) thinner than half the finest size asked
-    # for get a size field on every level, the same fraction of each level's size (geometry.meshing.THIN_WALL_FRACTION). The reference is the
-    # finest size asked for, kept where the budget coarsens the levels. Where a wall is refined, a
-    # third, coarser level checks the asymptotic range (`with_wall_check_level`).
-    wall_reference_m = sizes[-1]
-    sizes = with_wall_check_level(sizes, part.geometry.mesh_features.walls, wall_reference_m)
+    sizes, wall_reference_m = planned_mesh_sizes(part, settings)
     mesh_time = time.perf_counter() - start
 
     def mesh_level(level: int, level_sizes: tuple[float, ...]):
@@ -208,7 +204,7 @@ def stiffness_studies(
                 progress(
                     f"FEA level {level}/{len(sizes)}, {solution.material.name}: h = {h * 1e3:.2f} mm, "
                     f"{solution.dofs} DOFs, k = {solution.stiffness_N_per_m:.5g} N/m, "
-                    f"{sum(solution.timing_s.values()):.1f} s"
+                    f"{sum(solution.timing_s.values()):.1f} s{fallback_note(solution)}"
                 )
     # Meshing is shared and booked to the first material, as analyse_link_materials books the
     # shared assembly: the first material's timing is the cost of the study, the others' the extra.
@@ -220,6 +216,20 @@ def stiffness_studies(
         )
         for i, (name, sols) in enumerate(solutions.items())
     }
+
+
+def planned_mesh_sizes(part, settings: FeaSettings) -> tuple[tuple[float, ...], float]:
+    """(the stiffness study's level sizes coarse to fine before the memory budget, the finest size
+    asked for) of `part` (a `geometry.Part`): settings.mesh_sizes_m or `default_mesh_sizes`, with
+    `with_wall_check_level`'s third level where a thin wall is refined.
+
+    Thin walls (geometry.walls: planar, rings round holes) thinner than half the finest size asked
+    for get a size field on every level, the same fraction of each level's size
+    (geometry.meshing.THIN_WALL_FRACTION). The reference is the finest size asked for, kept where the
+    budget coarsens the levels (which keeps their number)."""
+    sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
+    wall_reference_m = sizes[-1]
+    return with_wall_check_level(sizes, part.geometry.mesh_features.walls, wall_reference_m), wall_reference_m
 
 
 def refined_down_to_m(walls, wall_reference_m: float) -> float:
@@ -241,8 +251,9 @@ def with_wall_check_level(sizes: tuple[float, ...], walls, wall_reference_m: flo
     built-in link at --mesh-size 10 (its 2.535 mm rails refined) two levels gave 9.461e7 N/m
     +- 0.90 % against the converged 9.352e7 (+1.17 %: outside), and 13.3 / 10 mm instead of
     13.33 / 10 gave 9.406e7 +- 1.34 %; with the third level, 9.461e7 +- 1.28 %
-    (tests/test_fea_thin_wall_estimate.py). No default level of the built-in link or the corpus
-    refines a wall (docs/verification.md): their runs keep two levels."""
+    (tests/test_fea_thin_wall_estimate.py). No default level of the built-in link or the example
+    STEP refines a wall: their runs keep two levels (the 400 mm arm bar's default refines the
+    2.45 mm between a hole and a planar face, docs/physics.md)."""
     if len(sizes) != 2 or refined_down_to_m(walls, wall_reference_m) == math.inf:
         return sizes
     return (sizes[0] ** 2 / sizes[1], *sizes)
@@ -325,4 +336,7 @@ def estimate_from_levels(
         levels=tuple((h, s.dofs, s.stiffness_N_per_m) for h, s in zip(sizes, solutions)),
         finest=solutions[-1],
         timing_s=timing,
+        solver_fallbacks=tuple(
+            f"level of {h * 1e3:.3g} mm: {s.solver_fallback}" for h, s in zip(sizes, solutions) if s.solver_fallback
+        ),
     )

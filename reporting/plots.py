@@ -6,6 +6,7 @@ tensions in kN. Every function writes one PNG and returns its path.
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -129,20 +130,36 @@ def close_spare_figures() -> None:
 
 def _rendered(fig) -> np.ndarray:
     """The figure's RGBA pixels at DPI, drawn once on a canvas MARGIN_INCHES larger on every side."""
-    from io import BytesIO
-
     from matplotlib.transforms import Bbox
 
     width, height = fig.get_size_inches()
     grown = Bbox.from_extents(-MARGIN_INCHES, -MARGIN_INCHES, width + MARGIN_INCHES, height + MARGIN_INCHES)
-    buffer = BytesIO()
-    fig.savefig(buffer, format="rgba", dpi=DPI, bbox_inches=grown)
-    # the pixels as the Agg renderer that drew them holds them (its own size: computing the canvas's
-    # width from the figure's inches disagreed with it by a pixel for some sizes)
-    pixels = np.asarray(fig.canvas.renderer.buffer_rgba())
-    if pixels.nbytes != buffer.getbuffer().nbytes:
-        raise RuntimeError("the figure's raw pixels and its renderer's differ in size")
-    return pixels
+    # savefig is the public way to draw with an explicit bbox_inches; its "rgba" format writes the Agg
+    # renderer's own buffer, which the sink keeps instead of a copy (the renderer's own size:
+    # computing the canvas's width from the figure's inches disagreed with it by a pixel for some sizes)
+    sink = _RendererPixels()
+    fig.savefig(sink, format="rgba", dpi=DPI, bbox_inches=grown)
+    return sink.pixels
+
+
+class _RendererPixels(io.RawIOBase):
+    """A file for savefig(format="rgba"): matplotlib's Agg canvas writes its renderer's buffer_rgba()
+    (a height x width x 4 memoryview) to it once (`FigureCanvasAgg.print_raw`); kept as an array on
+    that memory, not copied."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.pixels: np.ndarray | None = None
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, data) -> int:
+        pixels = np.asarray(data)
+        if self.pixels is not None or pixels.ndim != 3 or pixels.shape[2] != 4:
+            raise RuntimeError("savefig(format='rgba') did not write the renderer's RGBA buffer in one piece")
+        self.pixels = pixels
+        return pixels.nbytes
 
 
 def _fix_title_positions(fig) -> list:

@@ -133,10 +133,12 @@ def _solve_stiffness(
     (reusing the levels in `solved_levels`, see fem.adaptive) on levels of at most `max_dofs` DOFs."""
     from fem import stiffness_studies
     from fem.adaptive import stiffnesses_to_tolerance
+    from fem.study import planned_mesh_sizes
 
     source = part.name if part.is_step else "built-in default link"
     if stiffness_tolerance is None:
-        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, 2 mesh levels")
+        n_levels = len(planned_mesh_sizes(part, settings)[0])
+        progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, {n_levels} mesh levels")
         return stiffness_studies(part, materials, settings, progress=progress)
     progress(
         f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, refining to a k error <= "
@@ -266,6 +268,7 @@ def start_fea(
     concurrent_levels: bool = True,
     part: Part | None = None,
     beside: bool = False,
+    stress_later: bool = False,
 ) -> FeaInProgress:
     """Stiffness, mass and stress per material, from the cache when nothing they depend on changed.
     Without `beside`, everything is solved here before it returns. With `beside`, it returns once a
@@ -274,7 +277,10 @@ def start_fea(
     the deformed images while the caller runs the dynamics; `FeaInProgress.result()` waits for them.
     The records are stored in the cache when complete.
     `concurrent_levels`: see fem.stiffness_studies (False where every core already runs a task).
-    `part`: the run's part (stages.geometry.inspect_geometry); None resolves it here."""
+    `part`: the run's part (stages.geometry.inspect_geometry); None resolves it here.
+    `stress_later` (without `beside`): the stress study and the images wait for `result()`, which a
+    caller that may not need them never calls (the --tolerance pass a second pass replaces); nothing
+    is stored in the cache then."""
     from fem import load_materials
     from fem.cache import FeaCache, cache_key
     from processes import may_start_children
@@ -310,6 +316,8 @@ def start_fea(
         process = Beside(steps, "the FEA")
         progress(f"FEA: in process {process.pid}, beside the dynamics and the figures from the stiffness on")
         next_step = process.next
+    elif stress_later:  # the stiffness at `stiffness`, the stresses only at `result()`
+        process, next_step = None, steps().__next__
     else:  # both steps now: the levels' arrays are freed before the dynamics and the figures
         process, next_step = None, iter(list(steps())).__next__
     records: dict[str, dict] = {}

@@ -6,7 +6,7 @@ from functools import partial
 
 from settings import RunConfig
 from stages.chain import run_dynamics, stiffness_error_allowed
-from stages.fea import run_fea
+from stages.fea import FeaInProgress, start_fea
 from stages.geometry import resolve_run_part
 from stages.progress import Progress, timed
 
@@ -21,10 +21,12 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict, part=None
     estimate its levels reached and says why the tolerance is not met.
     `part`: the run's geometry.Part (None: resolved here, once for both passes).
     Returns the FEA, the chains, the scenarios and why the tolerance is not met (None: met)."""
-    fea_of_part = partial(run_fea, part=resolve_run_part(cfg) if part is None else part)
+    fea_of_part = partial(_start_pass, part=resolve_run_part(cfg) if part is None else part)
     budget = cfg.tolerance / 2
     levels: dict = {}  # the refinement pass extends the first pass's levels instead of re-solving them
-    fea, short = _fea_pass(fea_of_part, cfg, progress, timing, budget, levels)
+    # the first pass's stress study waits until it is known that no second pass replaces it
+    first, short = _fea_pass(fea_of_part, cfg, progress, timing, budget, levels)
+    fea = first.stiffness
     chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     from_k = max(sc.rel_error_estimate["stiffness"] for sc in scenarios.values())
     if from_k > budget and short is None:
@@ -41,25 +43,37 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict, part=None
             f"{100 * stiffness_tolerance:.2g} % error by at most {100 * 0.8 * budget:.2g} % (measured): "
             f"refining the FEA to {100 * stiffness_tolerance:.2g} %"
         )
-        refined, short = _fea_pass(fea_of_part, cfg, progress, timing, stiffness_tolerance, levels, fea)
-        if refined is not fea:
-            fea = refined
-            chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
-    return fea, chains, scenarios, tolerance_shortfall(cfg.tolerance, scenarios, short)
+        refined, short = _fea_pass(fea_of_part, cfg, progress, timing, stiffness_tolerance, levels, first)
+        if refined is not first:
+            done = timed(timing, "fea", progress, refined.result)
+            chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, done, progress)
+            return done, chains, scenarios, tolerance_shortfall(cfg.tolerance, scenarios, short)
+    done = timed(timing, "fea", progress, first.result)
+    return done, chains, scenarios, tolerance_shortfall(cfg.tolerance, scenarios, short)
+
+
+def _start_pass(cfg: RunConfig, progress: Progress, stiffness_tolerance: float, levels: dict, part) -> FeaInProgress:
+    """One FEA pass in this process, its stiffness solved now and its stress study at `result()`."""
+    return start_fea(cfg, progress, stiffness_tolerance, levels, part=part, stress_later=True)
 
 
 def _fea_pass(
     fea_of_part, cfg: RunConfig, progress: Progress, timing: dict, stiffness_tolerance: float, levels, last=None
 ):
-    """The FEA to `stiffness_tolerance`, or, where its next level would pass --max-fea-dofs (or a size
-    the geometry refuses), at the best k estimate its solved levels give (no level solved again;
-    `last`, the previous pass's FEA, where the levels stop no finer than it did):
-    (the FEA, why k is short of the tolerance or None)."""
+    """The FEA to `stiffness_tolerance` (a `FeaInProgress`, its stiffness solved), or, where its next
+    level would pass --max-fea-dofs (or a size the geometry refuses), at the best k estimate its
+    solved levels give (no level solved again; `last`, the previous pass's FEA, where the levels stop
+    no finer than it did): (the FEA, why k is short of the tolerance or None)."""
     from fem.adaptive import ToleranceNotReached
     from fem.errors import FemError
 
+    def solved(tolerance: float) -> FeaInProgress:
+        run = fea_of_part(cfg, progress, tolerance, levels)
+        run.stiffness  # noqa: B018 (the levels solved now: a ToleranceNotReached is raised here)
+        return run
+
     try:
-        return timed(timing, "fea", progress, fea_of_part, cfg, progress, stiffness_tolerance, levels), None
+        return timed(timing, "fea", progress, solved, stiffness_tolerance), None
     except ToleranceNotReached as exc:
         limit = f"--max-fea-dofs {cfg.max_fea_dofs}" if exc.over_dofs else "the finest mesh the geometry takes"
         if exc.best_rel_error is None:
@@ -71,13 +85,14 @@ def _fea_pass(
             f"the FEA's k error stops at {100 * exc.best_rel_error:.2g} % (asked for {100 * stiffness_tolerance:.2g} %) "
             f"at {limit}" + ("; a larger --max-fea-dofs refines further" if exc.over_dofs else "")
         )
-        if last is not None and exc.best_rel_error >= max(r.stiffness_rel_error_estimate for r in last.values()):
+        if last is not None and exc.best_rel_error >= max(
+            r.stiffness_rel_error_estimate for r in last.stiffness.values()
+        ):
             progress(f"{short}: going on at the last pass's k")
             return last, short
         progress(f"{short}: going on at that k")
         # the best estimate's own tolerance: met by the levels already solved
-        fea = timed(timing, "fea", progress, fea_of_part, cfg, progress, exc.best_rel_error * (1 + 1e-9), levels)
-        return fea, short
+        return timed(timing, "fea", progress, solved, exc.best_rel_error * (1 + 1e-9)), short
 
 
 def tolerance_shortfall(tolerance: float, scenarios: dict, fea_short: str | None) -> str | None:

@@ -80,3 +80,20 @@ def test_a_check_level_only_where_a_wall_is_refined():
     assert with_wall_check_level((0.006, 0.0045), (rail,), 0.0045) == (0.006, 0.0045)  # the default levels
     assert with_wall_check_level((0.008, 0.006), (), 0.006) == (0.008, 0.006)
     assert with_wall_check_level((0.01, 0.008, 0.006), (rail,), 0.006) == (0.01, 0.008, 0.006)  # three given
+
+
+def test_the_stages_level_count_is_the_studys(monkeypatch):
+    """The FEA stage's "N mesh levels" line counts the study's planned levels: 3 where the rails are
+    refined (10 mm on the built-in link), 2 at the default sizes."""
+    import fem
+    from fem.settings import FeaSettings
+    from fem.study import planned_mesh_sizes
+    from stages.fea import _solve_stiffness
+
+    part = geometry.resolve_part(None)
+    monkeypatch.setattr(fem, "stiffness_studies", lambda *args, **kwargs: {})  # the line, not the solves
+    for settings, n_levels in ((FeaSettings.with_finest(0.010), 3), (FeaSettings(), 2)):
+        assert len(planned_mesh_sizes(part, settings)[0]) == n_levels
+        lines: list[str] = []
+        _solve_stiffness(part, settings, [ALUMINIUM], None, lines.append, None, 0)
+        assert lines == [f"FEA al6061-t6: built-in default link, P2, {n_levels} mesh levels"]

@@ -38,8 +38,11 @@ def test_with_finest_adds_the_coarser_level():
 @pytest.mark.parametrize(
     "fields, message",
     [
-        ({"order": 3}, "element order must be 1 or 2"),
-        ({"solver": "cholesky"}, "unknown solver 'cholesky'"),
+        ({"order": 3}, "element order 3: expected one of 1, 2 .*; set it with --order"),
+        (
+            {"solver": "cholesky"},
+            "linear solver 'cholesky': expected one of auto, pardiso, amg, spsolve; set it with python -m fem --solver",
+        ),
         ({"mesh_sizes_m": (0.004, 0.006)}, "sizes must decrease"),
         ({"mesh_sizes_m": (0.006,)}, "expected 2 or 3 sizes"),
         ({"load_N": 0.0}, "load_N must be a positive number"),
@@ -65,3 +68,12 @@ def test_the_keyword_form_solves_the_same_problem():
     by_keywords = stiffness_study(None, ALUMINIUM, mesh_sizes_m=COARSE_LEVELS_M, order=1, mirror_symmetry=False)
     assert by_object.stiffness_N_per_m == by_keywords.stiffness_N_per_m
     assert by_object.levels == by_keywords.levels
+
+
+def test_the_element_order_message_follows_the_declared_orders(monkeypatch):
+    from fem import options
+
+    monkeypatch.setattr(options, "ELEMENT_ORDERS", (1, 2, 3))
+    options.check_element_order(3)
+    with pytest.raises(FemError, match=r"element order 4: expected one of 1, 2, 3 "):
+        options.check_element_order(4)

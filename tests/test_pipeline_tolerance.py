@@ -6,7 +6,17 @@ import pytest
 
 import pipeline
 from stages import tolerance
+from stages.fea import FeaInProgress
 from stages.progress import Progress
+
+
+def _use_fea(monkeypatch, fea) -> None:
+    """Each --tolerance FEA pass is `fea(cfg, progress, stiffness_tolerance, levels, part)`'s records."""
+    monkeypatch.setattr(
+        tolerance,
+        "_start_pass",
+        lambda cfg, progress, tol, levels, part: FeaInProgress.done(fea(cfg, progress, tol, levels, part)),
+    )
 
 
 def _scenario(time_step: float, stiffness: float) -> SimpleNamespace:
@@ -28,7 +38,7 @@ def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
         # metrics that move 3x as much as k: the first pass's k is not good enough
         return {}, {("al6061-t6", "modified-sine"): _scenario(0.001, 3 * k_error)}
 
-    monkeypatch.setattr(tolerance, "run_fea", fea)
+    _use_fea(monkeypatch, fea)
     monkeypatch.setattr(tolerance, "run_dynamics", dynamics)
     # metrics linear in k (3x): the k error allowed is the budget's share over 3
     monkeypatch.setattr(tolerance, "stiffness_error_allowed", lambda cfg, result, sc, budget: budget / 3)
@@ -45,9 +55,8 @@ def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
 
 def test_no_second_pass_when_k_is_good_enough(monkeypatch):
     calls = []
-    monkeypatch.setattr(
-        tolerance,
-        "run_fea",
+    _use_fea(
+        monkeypatch,
         lambda cfg, progress, tol, levels, part=None: (
             calls.append(tol) or {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=tol)}
         ),
@@ -78,7 +87,7 @@ def test_the_clearance_chains_step_gets_a_quarter_of_the_tolerance():
 
 
 def _unreachable_below(best: float | None, over_dofs: bool = True, first: float | None = None):
-    """A run_fea whose levels stop at an estimated k error `best` (None: before any estimate); a
+    """An FEA pass whose levels stop at an estimated k error `best` (None: before any estimate); a
     pass asking for `first` or more stops there (None: at `best`)."""
     from fem.adaptive import ToleranceNotReached
 
@@ -102,7 +111,7 @@ def test_a_k_the_fea_cannot_reach_gives_the_results_at_its_best_and_says_why(mon
     (nothing run again); where they went further, the FEA is taken at their best (no level solved
     again) and the chain re-run on it."""
     fea, calls = _unreachable_below(0.0032, first=first_k_error)
-    monkeypatch.setattr(tolerance, "run_fea", fea)
+    _use_fea(monkeypatch, fea)
     monkeypatch.setattr(tolerance, "stiffness_error_allowed", lambda cfg, result, sc, budget: budget / 3)
     chain_runs = []
 
@@ -135,7 +144,7 @@ def test_no_k_estimate_within_the_budget_is_a_one_line_error_naming_the_option(m
     from fem.errors import FemError
 
     fea, _ = _unreachable_below(None)
-    monkeypatch.setattr(tolerance, "run_fea", fea)
+    _use_fea(monkeypatch, fea)
     cfg = pipeline.parse_cli(["--tolerance", "0.01", "--materials", "al6061-t6", "--max-fea-dofs", "1000", "-q"])
     with pytest.raises(FemError, match=r"^--tolerance 0\.01: .*--max-fea-dofs 1000.*expected a larger --max-fea-dofs$"):
         tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
@@ -191,3 +200,40 @@ def test_a_run_whose_fea_stops_short_writes_its_results_and_says_why(tmp_path, c
     because = fidelity["tolerance_not_met_because"]
     assert because.startswith("tolerance 5 % not met") and "--max-fea-dofs 15000" in because
     assert because in capsys.readouterr().err  # the progress line
+
+
+class _Pass:
+    """A --tolerance FEA pass that counts whether its stress study (`result()`) was asked for."""
+
+    def __init__(self, k_error: float):
+        self.stiffness = {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=k_error)}
+        self.stress_studies = 0
+
+    def result(self) -> dict:
+        self.stress_studies += 1
+        return self.stiffness
+
+
+@pytest.mark.parametrize("sensitivity, second_pass", [(3.0, True), (0.5, False)])
+def test_the_first_pass_stress_study_runs_only_where_no_second_pass_replaces_it(monkeypatch, sensitivity, second_pass):
+    passes: list[_Pass] = []
+    monkeypatch.setattr(
+        tolerance, "_start_pass", lambda cfg, progress, tol, levels, part: passes.append(_Pass(tol)) or passes[-1]
+    )
+    monkeypatch.setattr(
+        tolerance,
+        "run_dynamics",
+        lambda cfg, fea, progress: (
+            {},
+            {
+                ("al6061-t6", "modified-sine"): _scenario(
+                    0.001, sensitivity * fea["al6061-t6"].stiffness_rel_error_estimate
+                )
+            },
+        ),
+    )
+    monkeypatch.setattr(tolerance, "stiffness_error_allowed", lambda cfg, result, sc, budget: budget / 3)
+    cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q"])
+    done, *_ = tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
+    assert [p.stress_studies for p in passes] == ([0, 1] if second_pass else [1])
+    assert done is passes[-1].stiffness

@@ -219,3 +219,26 @@ def test_the_jobs_of_a_batch_are_drawn_together_largest_batch_first(tmp_path):
     assert list(paths) == list(jobs)
     pair = {int(paths["material", i].read_text().split()[-1]) for i in "13"}
     assert len(pair) == 1 and pair != {os.getpid()}  # one worker drew both
+
+
+def test_a_figure_is_rendered_to_the_pixels_savefig_writes(tmp_path):
+    """plots._rendered keeps the Agg renderer's own buffer from one savefig: the same bytes as
+    savefig(format="rgba") writes to a file for the same grown canvas, in the renderer's shape."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from matplotlib.transforms import Bbox
+
+    from reporting import plots
+
+    for figsize in ((6.0, 4.0), (3.3, 2.7)):
+        fig, ax = plt.subplots(figsize=figsize)
+        ax.plot([0.0, 1.0], [0.0, 2e-3])
+        ax.set_ylabel("a long y label")
+        pixels = plots._rendered(fig).copy()
+        width, height = figsize
+        m = plots.MARGIN_INCHES
+        path = tmp_path / "figure.rgba"
+        fig.savefig(path, format="rgba", dpi=plots.DPI, bbox_inches=Bbox.from_extents(-m, -m, width + m, height + m))
+        plt.close(fig)
+        assert pixels.shape[2] == 4 and pixels.shape[1] > (width + 2 * m) * plots.DPI - 2
+        assert np.array_equal(pixels.ravel(), np.fromfile(path, dtype=np.uint8))

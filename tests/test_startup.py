@@ -98,9 +98,15 @@ def test_the_declared_fea_choices_are_the_implemented_ones():
     assert tuple(SOLVERS) == LINEAR_SOLVERS
     assert resolve("auto") in LINEAR_SOLVERS
     for bad in (0, 3):
-        with pytest.raises(FemError, match="element order must be 1 or 2"):
+        with pytest.raises(
+            FemError, match=f"element order {bad}: expected one of {', '.join(map(str, ELEMENT_ORDERS))} "
+        ):
             element(bad)
-        with pytest.raises(FemError, match="element order must be 1 or 2"):
+        with pytest.raises(
+            FemError, match=f"element order {bad}: expected one of {', '.join(map(str, ELEMENT_ORDERS))} "
+        ):
             FeaSettings(order=bad)
-    with pytest.raises(FemError, match="unknown solver 'cholmod'"):
+    with pytest.raises(
+        FemError, match=f"linear solver 'cholmod': expected one of auto, {', '.join(LINEAR_SOLVERS)}; set it with"
+    ):
         FeaSettings(solver="cholmod")
