@@ -60,6 +60,19 @@ except ImportError:  # pragma: no cover
 # impact kinetic energy, largest closing speed, closing speeds stored, dashpot work in impact contacts,
 # peak |T| in a contact begun by an impact (its whole length)
 N_STATS = 12
+# the station peaks tracked at every step (`_station_peaks_into`), per station: max |a| (absolute),
+# max |x - z|, max |v - z'|, max |a - z''|, max |x - z| at the dwell's nodes: the max/min metrics of
+# dynamics.response.metrics.LinkMetrics (PEAK_METRICS names them), as the machine's frame of places has them
+PEAK_METRICS = (
+    "max_abs_acceleration_m_s2",
+    "max_deviation_m",
+    "max_velocity_deviation_m_s",
+    "max_acceleration_deviation_m_s2",
+    "residual_vibration_m",
+)
+N_PEAKS = len(PEAK_METRICS)
+# node flags (`integrate(node_flags=)`): the node is in the output window / in a dwell of the cam
+IN_WINDOW, IN_DWELL = 1, 2
 # entries of MachineArrays.par (ClearanceMachine.arrays: the last, par[8], whether links seat on tooth
 # springs); more: the ring's mirror blocks (`mirror_packed`)
 N_PAR = 9
@@ -318,6 +331,40 @@ def _span_impulses_into(
                 v[dof] -= span_float[j, 1] * wsl[wi] * impulse * dof_float[dof, 0]
 
 
+def _fold_peak(s, m, y, hist, peaks, interpolate):
+    """Station s's metric m at a node (y; -1 where the node does not count) into peaks[s, m]: y
+    itself and, with `interpolate`, where the last node is the largest of the last three, the vertex
+    of the parabola through them (within their bracket: above the middle one by at most 1/8 of the
+    outer two's difference). hist[:, s, m]: the last two nodes' values."""
+    older, last = hist[0, s, m], hist[1, s, m]
+    if y > peaks[s, m]:
+        peaks[s, m] = y
+    if interpolate and older >= 0.0 and y >= 0.0 and last >= older and last >= y:
+        bend = 2.0 * last - older - y
+        if bend > 0.0:
+            peaks[s, m] = max(peaks[s, m], last + (y - older) * (y - older) / (8.0 * bend))
+    hist[0, s, m] = last
+    hist[1, s, m] = y
+
+
+def _station_peaks_into(q, v, a, zdd, flag, stations, hist, peaks, interpolate):
+    """The station peaks (PEAK_METRICS) at one node folded into `peaks` (stations x N_PEAKS,
+    `_fold_peak`): q, v, a the DOFs' motion relative to the cam, zdd the cam's acceleration, `flag`
+    the node's IN_WINDOW | IN_DWELL; a station's DOF -1 moves with the cam (its deviations 0)."""
+    on = (flag & IN_WINDOW) != 0
+    dwell = on and (flag & IN_DWELL) != 0
+    for s in range(stations.shape[0]):
+        d = stations[s]
+        x = q[d] if d >= 0 else 0.0
+        xd = v[d] if d >= 0 else 0.0
+        xdd = a[d] if d >= 0 else 0.0
+        _fold_peak(s, 0, abs(xdd + zdd) if on else -1.0, hist, peaks, interpolate)
+        _fold_peak(s, 1, abs(x) if on else -1.0, hist, peaks, interpolate)
+        _fold_peak(s, 2, abs(xd) if on else -1.0, hist, peaks, interpolate)
+        _fold_peak(s, 3, abs(xdd) if on else -1.0, hist, peaks, interpolate)
+        _fold_peak(s, 4, abs(x) if dwell else -1.0, hist, peaks, interpolate)
+
+
 def _run_loops(
     q,
     v,
@@ -344,10 +391,15 @@ def _run_loops(
     speeds,
     track_energy,
     energy,
+    stations,
+    node_flags,
+    peaks,
+    interpolate,
 ):
     """The step loop (module docstring); `energy` (cam work, damping and friction dissipation)
     integrated trapezoidally in the powers at the steps' states when `track_energy` (one more force
-    evaluation per step)."""
+    evaluation per step); the station peaks at every node (`_station_peaks_into`: the acceleration
+    the step computed, with its predicted velocity, and at an output node the output's)."""
     n_steps = zd.shape[0] - 1
     n = q.shape[0]
     ns = span_int.shape[0]
@@ -415,6 +467,8 @@ def _run_loops(
     out_a[0] = a
     out_t[0] = t_el
     row = 1
+    hist = np.full((2, stations.shape[0], peaks.shape[1]), -1.0)
+    _station_peaks_into(q, v, a, zdd[0], node_flags[0], stations, hist, peaks, interpolate)
     if record_from == 0:
         _record(t_el, contact, stats)
     hh = 0.5 * h
@@ -570,6 +624,9 @@ def _run_loops(
                 for m in range(3):
                     energy[m] += hh * (p_prev[m] + work[6][m])
                     p_prev[m] = work[6][m]
+        _station_peaks_into(
+            q, v, a_out if on_output else a, zdd[i + 1], node_flags[i + 1], stations, hist, peaks, interpolate
+        )
         if on_output:
             out_q[row] = q
             out_v[row] = v
@@ -658,6 +715,8 @@ if numba is not None:
         "_span_rates",
         "_mirror_damping_into",
         "_rows_times_into",
+        "_fold_peak",
+        "_station_peaks_into",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
@@ -701,6 +760,9 @@ class MachineRun:
     cam_work_J: float = 0.0  # the energy terms, when integrate(track_energy=True)
     dissipated_damping_J: float = 0.0
     dissipated_friction_J: float = 0.0
+    # (stations, N_PEAKS) the station peaks (PEAK_METRICS) over every node of the window
+    # (integrate(stations=)); NaN where no node counted; None: not tracked
+    station_peaks: np.ndarray | None = None
 
 
 def integrate(
@@ -717,10 +779,17 @@ def integrate(
     predictor: str = "euler",
     track_energy: bool = False,
     damping_precision: str | None = None,
+    stations=None,
+    node_flags=None,
+    interpolate_peaks: bool = True,
 ) -> MachineRun:
     """Step the clearance machine `model` over the cam's nodes (lift since the dwell, velocity,
     acceleration; uniform step, n_steps + 1 nodes) from (q0, v0); the global law's dense product in
-    `damping_precision` (DAMPING_PRODUCT_PRECISIONS; None: `default_damping_precision`)."""
+    `damping_precision` (DAMPING_PRODUCT_PRECISIONS; None: `default_damping_precision`). `stations`:
+    DOFs (-1: a place that moves with the cam) whose peaks (PEAK_METRICS) are tracked at every node
+    over the nodes `node_flags` (IN_WINDOW | IN_DWELL per node; None: every node in the window, none
+    in a dwell), by the largest node or, `interpolate_peaks`, the parabola through the three nodes
+    around it (`_fold_peak`)."""
     theta = PREDICTORS[predictor]
     precision = default_damping_precision(model) if damping_precision is None else damping_precision
     if precision not in DAMPING_PRODUCT_PRECISIONS:
@@ -745,6 +814,13 @@ def integrate(
     stats[3], stats[4] = -np.inf, np.inf
     speeds = np.zeros(SPEED_CAPACITY)
     energy = np.zeros(3)
+    dofs = np.zeros(0, dtype=np.int64) if stations is None else np.asarray(stations, dtype=np.int64).reshape(-1)
+    if np.any(dofs >= n) or np.any(dofs < -1):
+        raise DynamicsError(f"integrate: expected station DOFs in -1..{n - 1}, got {dofs.tolist()}")
+    flags = np.full(n_steps + 1, IN_WINDOW, dtype=np.int64) if node_flags is None else np.asarray(node_flags)
+    if flags.shape != (n_steps + 1,):
+        raise DynamicsError(f"integrate: expected one node flag per cam node ({n_steps + 1}), got {flags.shape}")
+    peaks = np.full((dofs.size, N_PEAKS), -1.0)
     with np.errstate(over="ignore", invalid="ignore"):
         _run(
             q0,
@@ -769,6 +845,10 @@ def integrate(
             speeds,
             bool(track_energy),
             energy,
+            dofs,
+            flags.astype(np.int64),
+            peaks,
+            bool(interpolate_peaks),
         )
     if stats[5] or not np.all(np.isfinite(out[0])):
         raise SolverDivergedError(
@@ -791,6 +871,7 @@ def integrate(
         cam_work_J=float(energy[0]),
         dissipated_damping_J=float(energy[1]),
         dissipated_friction_J=float(energy[2]),
+        station_peaks=None if stations is None else np.where(peaks < 0.0, np.nan, peaks),
     )
 
 
@@ -872,7 +953,18 @@ def seat_change_inside(
 
 
 def index_cycle(
-    model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str, track_energy: bool = False
+    model,
+    cam,
+    nodes,
+    step_s: float,
+    q0,
+    v0,
+    *,
+    out_every: int,
+    predictor: str,
+    track_energy: bool = False,
+    stations=None,
+    flags_at=None,
 ):
     """One index cycle from its start over the cam's `nodes` (cycle_nodes), outputs every `out_every`
     steps: (MachineRun, Seating of a seat change inside it or None). At tooth phase 0 this is
@@ -883,17 +975,31 @@ def index_cycle(
     the next output node, then the remaining nodes with the lift counted one pitch on (the next
     index's frame, so nothing is left to do at the cycle's end); outputs at or after the instant
     are in the new labels. The statistics are merged over the pieces (the free-play fraction
-    weighted by their durations)."""
+    weighted by their durations). `stations` and `flags_at` (the node flags at times since the
+    cycle's start): the station peaks (`integrate`)."""
     from dynamics.solvers.machine_ivp import seat_change_time_s
 
     zr, zd, zdd = nodes
+    n_steps = zd.size - 1
+    flags = None if flags_at is None else flags_at(step_s * np.arange(n_steps + 1))
+    peaks = {"stations": stations, "flags_at": flags_at}
     lift = model.machine.seat_change_lift_m
     if lift is None:
         run = integrate(
-            model, zr, zd, zdd, step_s, q0, v0, out_every=out_every, predictor=predictor, track_energy=track_energy
+            model,
+            zr,
+            zd,
+            zdd,
+            step_s,
+            q0,
+            v0,
+            out_every=out_every,
+            predictor=predictor,
+            track_energy=track_energy,
+            stations=stations,
+            node_flags=flags,
         )
         return run, None
-    n_steps = zd.size - 1
 
     def lift_at(time):
         return float(cam.svaj(np.array([time]))[0][0])
@@ -920,12 +1026,14 @@ def index_cycle(
             out_every=out_every,
             predictor=predictor,
             track_energy=track_energy,
+            stations=stations,
+            node_flags=None if flags is None else flags[: before + 1],
         )
         pieces.append(head)
         durations.append(before * step_s)
         rows.append(head)
         q0, v0 = head.q[-1], head.v[-1]
-    to_seat = _sub_steps(model, cam, (before * step_s, t_seat), step_s, s0, q0, v0, predictor, track_energy)
+    to_seat = _sub_steps(model, cam, (before * step_s, t_seat), step_s, s0, q0, v0, predictor, track_energy, **peaks)
     pieces.append(to_seat)
     durations.append(t_seat - before * step_s)
     if before == 0:
@@ -935,7 +1043,9 @@ def index_cycle(
         model, to_seat.q[-1], to_seat.v[-1], lift_at(t_seat) - s0, zd_seat, zdd_seat, n_steps * step_s
     )
     if not on_node:
-        to_node = _sub_steps(model, cam, (t_seat, nxt * step_s), step_s, s0 + pitch, q1, v1, predictor, track_energy)
+        to_node = _sub_steps(
+            model, cam, (t_seat, nxt * step_s), step_s, s0 + pitch, q1, v1, predictor, track_energy, **peaks
+        )
         pieces.append(to_node)
         durations.append(nxt * step_s - t_seat)
         rows.append(_last_row(to_node))
@@ -952,6 +1062,8 @@ def index_cycle(
             out_every=out_every,
             predictor=predictor,
             track_energy=track_energy,
+            stations=stations,
+            node_flags=None if flags is None else flags[nxt:],
         )
         pieces.append(tail)
         durations.append((n_steps - nxt) * step_s)
@@ -959,9 +1071,11 @@ def index_cycle(
     return _merged(pieces, rows, durations, step_s), seating
 
 
-def _sub_steps(model, cam, span_s, step_s: float, s_ref: float, q0, v0, predictor, track_energy):
+def _sub_steps(
+    model, cam, span_s, step_s: float, s_ref: float, q0, v0, predictor, track_energy, stations=None, flags_at=None
+):
     """Over span_s = (t0, t1) in the fewest equal steps of at most step_s, the lift counted from s_ref;
-    outputs at both ends."""
+    outputs at both ends; the station peaks as index_cycle's."""
     t0, t1 = span_s
     n = max(1, int(math.ceil((t1 - t0) / step_s - 1e-9)))
     t = t0 + (t1 - t0) * np.arange(n + 1) / n
@@ -978,6 +1092,8 @@ def _sub_steps(model, cam, span_s, step_s: float, s_ref: float, q0, v0, predicto
         out_every=n,
         predictor=predictor,
         track_energy=track_energy,
+        stations=stations,
+        node_flags=None if flags_at is None else flags_at(t),
     )
 
 
@@ -1022,14 +1138,36 @@ def _merged(pieces, rows, durations, step_s: float) -> MachineRun:
         cam_work_J=sum(p.cam_work_J for p in pieces),
         dissipated_damping_J=sum(p.dissipated_damping_J for p in pieces),
         dissipated_friction_J=sum(p.dissipated_friction_J for p in pieces),
+        station_peaks=merged_peaks([p.station_peaks for p in pieces]),
     )
 
 
-def next_index_start(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str):
+def merged_peaks(peaks):
+    """The station peaks of consecutive runs (MachineRun.station_peaks): the larger, NaN where no
+    run counted a node; None when none tracked them."""
+    tracked = [p for p in peaks if p is not None]
+    return np.fmax.reduce(tracked) if tracked else None
+
+
+def next_index_start(
+    model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str, stations=None, flags_at=None
+):
     """The relabelled map x0 -> T(P(x0)): the state at the start of the next index in the next
     index's labels, with the seats changed inside the cycle (a tooth phase other than 0) or after it.
-    Returns (q1, v1, the cycle's MachineRun, the seat change's Seating)."""
-    run, inside = index_cycle(model, cam, nodes, step_s, q0, v0, out_every=out_every, predictor=predictor)
+    Returns (q1, v1, the cycle's MachineRun, the seat change's Seating); the station peaks as
+    index_cycle's."""
+    run, inside = index_cycle(
+        model,
+        cam,
+        nodes,
+        step_s,
+        q0,
+        v0,
+        out_every=out_every,
+        predictor=predictor,
+        stations=stations,
+        flags_at=flags_at,
+    )
     if inside is not None:
         return run.q[-1], run.v[-1], run, inside
     q1, v1, seating = seat_change(model, run.q[-1], run.v[-1], float(nodes[0][-1]), (nodes[1].size - 1) * step_s)
