@@ -347,10 +347,27 @@ def _fold_peak(s, m, y, hist, peaks, interpolate):
     hist[1, s, m] = y
 
 
-def _station_peaks_into(q, v, a, zdd, flag, stations, hist, peaks, interpolate):
+def _fold_jump(s, m, y, hist, peaks, switch, pending):
+    """Station s's acceleration metric m at a node where the Kelvin-Voigt dashpot's force jumps at a
+    contact change of a span at its DOF: the two one-sided values at the change, each extrapolated
+    linearly from the two nodes on its side (from the last two nodes when the change was within this
+    step, `switch` its fraction of the step; from this node and the last when it was within the last
+    step, `pending` the rest of that step after it), folded in as nodes are."""
+    older, last = hist[0, s, m], hist[1, s, m]
+    if switch >= 0.0 and older >= 0.0 and last >= 0.0:
+        peaks[s, m] = max(peaks[s, m], last + switch * (last - older))
+    if pending >= 0.0 and last >= 0.0 and y >= 0.0:
+        peaks[s, m] = max(peaks[s, m], last + pending * (last - y))
+
+
+def _station_peaks_into(q, v, a, zdd, flag, stations, hist, peaks, interpolate, switch, pending):
     """The station peaks (PEAK_METRICS) at one node folded into `peaks` (stations x N_PEAKS,
     `_fold_peak`): q, v, a the DOFs' motion relative to the cam, zdd the cam's acceleration, `flag`
-    the node's IN_WINDOW | IN_DWELL; a station's DOF -1 moves with the cam (its deviations 0)."""
+    the node's IN_WINDOW | IN_DWELL; a station's DOF -1 moves with the cam (its deviations 0).
+    switch[s]: the fraction of the step ending here at which a span at station s changed contact
+    under the Kelvin-Voigt law (-1: none), pending[s] the rest of the last step after such a change
+    (updated here): with `interpolate`, the accelerations' one-sided values at the change
+    (`_fold_jump`), and no parabola across it."""
     on = (flag & IN_WINDOW) != 0
     dwell = on and (flag & IN_DWELL) != 0
     for s in range(stations.shape[0]):
@@ -358,11 +375,40 @@ def _station_peaks_into(q, v, a, zdd, flag, stations, hist, peaks, interpolate):
         x = q[d] if d >= 0 else 0.0
         xd = v[d] if d >= 0 else 0.0
         xdd = a[d] if d >= 0 else 0.0
-        _fold_peak(s, 0, abs(xdd + zdd) if on else -1.0, hist, peaks, interpolate)
-        _fold_peak(s, 1, abs(x) if on else -1.0, hist, peaks, interpolate)
-        _fold_peak(s, 2, abs(xd) if on else -1.0, hist, peaks, interpolate)
-        _fold_peak(s, 3, abs(xdd) if on else -1.0, hist, peaks, interpolate)
-        _fold_peak(s, 4, abs(x) if dwell else -1.0, hist, peaks, interpolate)
+        y_abs = abs(xdd + zdd) if on else -1.0
+        y_dev = abs(xdd) if on else -1.0
+        smooth = interpolate and switch[s] < 0.0 and pending[s] < 0.0
+        if interpolate and (switch[s] >= 0.0 or pending[s] >= 0.0):
+            _fold_jump(s, 0, y_abs, hist, peaks, switch[s], pending[s])
+            _fold_jump(s, 3, y_dev, hist, peaks, switch[s], pending[s])
+        pending[s] = 1.0 - switch[s] if switch[s] >= 0.0 else -1.0
+        _fold_peak(s, 0, y_abs, hist, peaks, smooth)
+        _fold_peak(s, 1, abs(x) if on else -1.0, hist, peaks, smooth)
+        _fold_peak(s, 2, abs(xd) if on else -1.0, hist, peaks, smooth)
+        _fold_peak(s, 3, y_dev, hist, peaks, smooth)
+        _fold_peak(s, 4, abs(x) if dwell else -1.0, hist, peaks, smooth)
+
+
+def _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switch):
+    """switch[s]: the fraction of the step at which a span with an end at station s's DOF changed
+    contact (the crossing of the span law's threshold interpolated, `_crossing`), -1 where none did."""
+    k, preload, kg = par[0], par[1], par[2]
+    for s in range(stations.shape[0]):
+        switch[s] = -1.0
+    for j in range(span_int.shape[0]):
+        d_old, d_new = preload + k * e_old[j], preload + k * e_new[j]
+        on_old = (d_old >= 0.0) | (d_old <= -kg)
+        on_new = (d_new >= 0.0) | (d_new <= -kg)
+        if on_old == on_new:
+            continue
+        on_side = d_new if on_new else d_old
+        frac = _crossing(d_old, d_new, 0.0 if on_side >= 0.0 else -kg)
+        b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
+        wdof = int(wheel_float[wi, 3]) if wi >= 0 else -1
+        for s in range(stations.shape[0]):
+            d = stations[s]
+            if d >= 0 and (d == b or d == fw or d == c or d == wdof):
+                switch[s] = frac
 
 
 def _run_loops(
@@ -468,7 +514,9 @@ def _run_loops(
     out_t[0] = t_el
     row = 1
     hist = np.full((2, stations.shape[0], peaks.shape[1]), -1.0)
-    _station_peaks_into(q, v, a, zdd[0], node_flags[0], stations, hist, peaks, interpolate)
+    switch = np.full(stations.shape[0], -1.0)  # the Kelvin-Voigt law's contact changes at the stations
+    pending = np.full(stations.shape[0], -1.0)
+    _station_peaks_into(q, v, a, zdd[0], node_flags[0], stations, hist, peaks, interpolate, switch, pending)
     if record_from == 0:
         _record(t_el, contact, stats)
     hh = 0.5 * h
@@ -501,6 +549,8 @@ def _run_loops(
         for j in range(n):
             v[j] = wh[j] + hh * a[j]
         if kv:
+            if stations.shape[0] > 0:
+                _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switch)
             before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy and kv else 0.0
             _span_impulses_into(
                 h,
@@ -625,7 +675,17 @@ def _run_loops(
                     energy[m] += hh * (p_prev[m] + work[6][m])
                     p_prev[m] = work[6][m]
         _station_peaks_into(
-            q, v, a_out if on_output else a, zdd[i + 1], node_flags[i + 1], stations, hist, peaks, interpolate
+            q,
+            v,
+            a_out if on_output else a,
+            zdd[i + 1],
+            node_flags[i + 1],
+            stations,
+            hist,
+            peaks,
+            interpolate,
+            switch,
+            pending,
         )
         if on_output:
             out_q[row] = q
@@ -716,7 +776,9 @@ if numba is not None:
         "_mirror_damping_into",
         "_rows_times_into",
         "_fold_peak",
+        "_fold_jump",
         "_station_peaks_into",
+        "_switches_at_stations",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
@@ -789,7 +851,8 @@ def integrate(
     DOFs (-1: a place that moves with the cam) whose peaks (PEAK_METRICS) are tracked at every node
     over the nodes `node_flags` (IN_WINDOW | IN_DWELL per node; None: every node in the window, none
     in a dwell), by the largest node or, `interpolate_peaks`, the parabola through the three nodes
-    around it (`_fold_peak`)."""
+    around it (`_fold_peak`; under the Kelvin-Voigt law not across a station's contact change, where
+    the dashpot's force jumps: there the one-sided values, `_fold_jump`)."""
     theta = PREDICTORS[predictor]
     precision = default_damping_precision(model) if damping_precision is None else damping_precision
     if precision not in DAMPING_PRODUCT_PRECISIONS:
