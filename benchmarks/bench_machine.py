@@ -107,7 +107,7 @@ def _window_run(model, cam, t, sub, kernel=mv):
         if peaks:
             peaks["node_flags"] = flags[cycle]
         run = kernel.integrate(model, zr, zd, zdd, h, q, v, out_every=sub, predictor="ab2", **peaks)
-        step_peaks.append(run.station_peaks)
+        step_peaks.append(run.station_peaks if peaks else None)
         take = slice(0, per_cycle + (cycle == 1))
         ys.append(run.q[take])
         vs.append(run.v[take])

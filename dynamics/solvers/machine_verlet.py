@@ -60,7 +60,7 @@ except ImportError:  # pragma: no cover
 # impact kinetic energy, largest closing speed, closing speeds stored, dashpot work in impact contacts,
 # peak |T| in a contact begun by an impact (its whole length)
 N_STATS = 12
-# the station peaks tracked at every step (`_station_peaks_into`), per station: max |a| (absolute),
+# the station peaks over every step (`_station_nodes_into` in the step, `step_peaks` after it), per station: max |a| (absolute),
 # max |x - z|, max |v - z'|, max |a - z''|, max |x - z| at the dwell's nodes: the max/min metrics of
 # dynamics.response.metrics.LinkMetrics (PEAK_METRICS names them), as the machine's frame of places has them
 PEAK_METRICS = (
@@ -331,70 +331,23 @@ def _span_impulses_into(
                 v[dof] -= span_float[j, 1] * wsl[wi] * impulse * dof_float[dof, 0]
 
 
-def _fold_peak(s, m, y, hist, peaks, interpolate):
-    """Station s's metric m at a node (y; -1 where the node does not count) into peaks[s, m]: y
-    itself and, with `interpolate`, where the last node is the largest of the last three, the vertex
-    of the parabola through them (within their bracket: above the middle one by at most 1/8 of the
-    outer two's difference). hist[:, s, m]: the last two nodes' values."""
-    older, last = hist[0, s, m], hist[1, s, m]
-    if y > peaks[s, m]:
-        peaks[s, m] = y
-    if interpolate and older >= 0.0 and y >= 0.0 and last >= older and last >= y:
-        bend = 2.0 * last - older - y
-        if bend > 0.0:
-            peaks[s, m] = max(peaks[s, m], last + (y - older) * (y - older) / (8.0 * bend))
-    hist[0, s, m] = last
-    hist[1, s, m] = y
-
-
-def _fold_jump(s, m, y, hist, peaks, switch, pending):
-    """Station s's acceleration metric m at a node where the Kelvin-Voigt dashpot's force jumps at a
-    contact change of a span at its DOF: the two one-sided values at the change, each extrapolated
-    linearly from the two nodes on its side (from the last two nodes when the change was within this
-    step, `switch` its fraction of the step; from this node and the last when it was within the last
-    step, `pending` the rest of that step after it), folded in as nodes are."""
-    older, last = hist[0, s, m], hist[1, s, m]
-    if switch >= 0.0 and older >= 0.0 and last >= 0.0:
-        peaks[s, m] = max(peaks[s, m], last + switch * (last - older))
-    if pending >= 0.0 and last >= 0.0 and y >= 0.0:
-        peaks[s, m] = max(peaks[s, m], last + pending * (last - y))
-
-
-def _station_peaks_into(q, v, a, zdd, flag, stations, hist, peaks, interpolate, switch, pending):
-    """The station peaks (PEAK_METRICS) at one node folded into `peaks` (stations x N_PEAKS,
-    `_fold_peak`): q, v, a the DOFs' motion relative to the cam, zdd the cam's acceleration, `flag`
-    the node's IN_WINDOW | IN_DWELL; a station's DOF -1 moves with the cam (its deviations 0).
-    switch[s]: the fraction of the step ending here at which a span at station s changed contact
-    under the Kelvin-Voigt law (-1: none), pending[s] the rest of the last step after such a change
-    (updated here): with `interpolate`, the accelerations' one-sided values at the change
-    (`_fold_jump`), and no parabola across it."""
-    on = (flag & IN_WINDOW) != 0
-    dwell = on and (flag & IN_DWELL) != 0
+def _station_nodes_into(q, v, a, node, stations, values):
+    """values[node, s] = (q, q', q'') at station s's DOF (0 for a place held to the cam): what
+    `step_peaks` folds into the peaks after the run (a few stores per node; folding them here, in the
+    step, cost a sixth of the step at 85 links)."""
     for s in range(stations.shape[0]):
         d = stations[s]
-        x = q[d] if d >= 0 else 0.0
-        xd = v[d] if d >= 0 else 0.0
-        xdd = a[d] if d >= 0 else 0.0
-        y_abs = abs(xdd + zdd) if on else -1.0
-        y_dev = abs(xdd) if on else -1.0
-        smooth = interpolate and switch[s] < 0.0 and pending[s] < 0.0
-        if interpolate and (switch[s] >= 0.0 or pending[s] >= 0.0):
-            _fold_jump(s, 0, y_abs, hist, peaks, switch[s], pending[s])
-            _fold_jump(s, 3, y_dev, hist, peaks, switch[s], pending[s])
-        pending[s] = 1.0 - switch[s] if switch[s] >= 0.0 else -1.0
-        _fold_peak(s, 0, y_abs, hist, peaks, smooth)
-        _fold_peak(s, 1, abs(x) if on else -1.0, hist, peaks, smooth)
-        _fold_peak(s, 2, abs(xd) if on else -1.0, hist, peaks, smooth)
-        _fold_peak(s, 3, y_dev, hist, peaks, smooth)
-        _fold_peak(s, 4, abs(x) if dwell else -1.0, hist, peaks, smooth)
+        if d >= 0:
+            values[node, s, 0] = q[d]
+            values[node, s, 1] = v[d]
+            values[node, s, 2] = a[d]
 
 
 def _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switch):
     """switch[s]: the fraction of the step at which a span with an end at station s's DOF changed
-    contact (the crossing of the span law's threshold interpolated, `_crossing`), -1 where none did."""
+    contact (the crossing of the span law's threshold interpolated, `_crossing`); left as it is (-1)
+    where none did."""
     k, preload, kg = par[0], par[1], par[2]
-    for s in range(stations.shape[0]):
-        switch[s] = -1.0
     for j in range(span_int.shape[0]):
         d_old, d_new = preload + k * e_old[j], preload + k * e_new[j]
         on_old = (d_old >= 0.0) | (d_old <= -kg)
@@ -438,14 +391,15 @@ def _run_loops(
     track_energy,
     energy,
     stations,
-    node_flags,
-    peaks,
-    interpolate,
+    station_values,
+    switches,
 ):
     """The step loop (module docstring); `energy` (cam work, damping and friction dissipation)
     integrated trapezoidally in the powers at the steps' states when `track_energy` (one more force
-    evaluation per step); the station peaks at every node (`_station_peaks_into`: the acceleration
-    the step computed, with its predicted velocity, and at an output node the output's)."""
+    evaluation per step); the stations' motion at every node into `station_values` (`_station_nodes_into`:
+    the acceleration the step computed, with its predicted velocity, and at an output node the
+    output's) and, under the Kelvin-Voigt law, their spans' contact changes into `switches`
+    (`_switches_at_stations`, at the node ending the step)."""
     n_steps = zd.shape[0] - 1
     n = q.shape[0]
     ns = span_int.shape[0]
@@ -513,10 +467,7 @@ def _run_loops(
     out_a[0] = a
     out_t[0] = t_el
     row = 1
-    hist = np.full((2, stations.shape[0], peaks.shape[1]), -1.0)
-    switch = np.full(stations.shape[0], -1.0)  # the Kelvin-Voigt law's contact changes at the stations
-    pending = np.full(stations.shape[0], -1.0)
-    _station_peaks_into(q, v, a, zdd[0], node_flags[0], stations, hist, peaks, interpolate, switch, pending)
+    _station_nodes_into(q, v, a, 0, stations, station_values)
     if record_from == 0:
         _record(t_el, contact, stats)
     hh = 0.5 * h
@@ -550,7 +501,7 @@ def _run_loops(
             v[j] = wh[j] + hh * a[j]
         if kv:
             if stations.shape[0] > 0:
-                _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switch)
+                _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switches[i + 1])
             before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy and kv else 0.0
             _span_impulses_into(
                 h,
@@ -674,19 +625,7 @@ def _run_loops(
                 for m in range(3):
                     energy[m] += hh * (p_prev[m] + work[6][m])
                     p_prev[m] = work[6][m]
-        _station_peaks_into(
-            q,
-            v,
-            a_out if on_output else a,
-            zdd[i + 1],
-            node_flags[i + 1],
-            stations,
-            hist,
-            peaks,
-            interpolate,
-            switch,
-            pending,
-        )
+        _station_nodes_into(q, v, a_out if on_output else a, i + 1, stations, station_values)
         if on_output:
             out_q[row] = q
             out_v[row] = v
@@ -775,9 +714,7 @@ if numba is not None:
         "_span_rates",
         "_mirror_damping_into",
         "_rows_times_into",
-        "_fold_peak",
-        "_fold_jump",
-        "_station_peaks_into",
+        "_station_nodes_into",
         "_switches_at_stations",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
@@ -851,8 +788,8 @@ def integrate(
     DOFs (-1: a place that moves with the cam) whose peaks (PEAK_METRICS) are tracked at every node
     over the nodes `node_flags` (IN_WINDOW | IN_DWELL per node; None: every node in the window, none
     in a dwell), by the largest node or, `interpolate_peaks`, the parabola through the three nodes
-    around it (`_fold_peak`; under the Kelvin-Voigt law not across a station's contact change, where
-    the dashpot's force jumps: there the one-sided values, `_fold_jump`)."""
+    around it (`step_peaks`; under the Kelvin-Voigt law not across a station's contact change, where
+    the dashpot's force jumps: there the one-sided values)."""
     theta = PREDICTORS[predictor]
     precision = default_damping_precision(model) if damping_precision is None else damping_precision
     if precision not in DAMPING_PRODUCT_PRECISIONS:
@@ -883,7 +820,8 @@ def integrate(
     flags = np.full(n_steps + 1, IN_WINDOW, dtype=np.int64) if node_flags is None else np.asarray(node_flags)
     if flags.shape != (n_steps + 1,):
         raise DynamicsError(f"integrate: expected one node flag per cam node ({n_steps + 1}), got {flags.shape}")
-    peaks = np.full((dofs.size, N_PEAKS), -1.0)
+    station_values = np.zeros((n_steps + 1 if dofs.size else 0, dofs.size, 3))
+    switches = np.full((n_steps + 1 if dofs.size else 0, dofs.size), -1.0)
     with np.errstate(over="ignore", invalid="ignore"):
         _run(
             q0,
@@ -909,9 +847,8 @@ def integrate(
             bool(track_energy),
             energy,
             dofs,
-            flags.astype(np.int64),
-            peaks,
-            bool(interpolate_peaks),
+            station_values,
+            switches,
         )
     if stats[5] or not np.all(np.isfinite(out[0])):
         raise SolverDivergedError(
@@ -934,7 +871,7 @@ def integrate(
         cam_work_J=float(energy[0]),
         dissipated_damping_J=float(energy[1]),
         dissipated_friction_J=float(energy[2]),
-        station_peaks=None if stations is None else np.where(peaks < 0.0, np.nan, peaks),
+        station_peaks=None if stations is None else step_peaks(station_values, zdd, flags, switches, interpolate_peaks),
     )
 
 
@@ -1203,6 +1140,62 @@ def _merged(pieces, rows, durations, step_s: float) -> MachineRun:
         dissipated_friction_J=sum(p.dissipated_friction_J for p in pieces),
         station_peaks=merged_peaks([p.station_peaks for p in pieces]),
     )
+
+
+def step_peaks(values, zdd, flags, switches, interpolate: bool = True) -> np.ndarray:
+    """The station peaks (stations x PEAK_METRICS; NaN where no node counted) of the stations' motion
+    at every node (values: nodes x stations x (q, q', q''), relative to the cam; zdd the cam's
+    acceleration; flags IN_WINDOW | IN_DWELL per node; switches: nodes x stations, the fraction of
+    the step ending at the node at which a span at the station changed contact under the
+    Kelvin-Voigt law, -1 none). The deviations |q| and |q'| are smooth where they peak (the chain's
+    low modes): their largest node. The accelerations |q'' + z''| and |q''| peak on impact spikes a
+    few steps wide: their largest node and, with `interpolate`, the vertex of the parabola through
+    the three nodes around each node larger than both neighbours (within their bracket: at most 1/8
+    of the outer two's difference above it), not across a contact change at the station, where the
+    Kelvin-Voigt dashpot's force jumps: there the two one-sided values at the change, each
+    extrapolated linearly from the two nodes on its side (docs/physics.md, Station peaks)."""
+    on = (np.asarray(flags) & IN_WINDOW) != 0
+    dwell = on & ((np.asarray(flags) & IN_DWELL) != 0)
+    q, qd, qdd = np.abs(values[:, :, 0]), np.abs(values[:, :, 1]), values[:, :, 2]
+    out = np.full((values.shape[1], N_PEAKS), np.nan)
+    if not on.any():
+        return out
+    out[:, 1] = q[on].max(axis=0)
+    out[:, 2] = qd[on].max(axis=0)
+    if dwell.any():
+        out[:, 4] = q[dwell].max(axis=0)
+    for column, y in ((0, np.abs(qdd + np.asarray(zdd)[:, None])), (3, np.abs(qdd))):
+        y = np.where(on[:, None], y, -1.0)  # a node outside the window takes no part
+        peak = y.max(axis=0)
+        if interpolate and y.shape[0] >= 3:
+            peak = np.maximum(peak, _parabola_peaks(y, switches))
+            peak = np.maximum(peak, _one_sided_peaks(y, switches))
+        out[:, column] = peak
+    return out
+
+
+def _parabola_peaks(y, switches) -> np.ndarray:
+    """Per column, the largest vertex of the parabolas through three nodes of y (>= 0: counted) whose
+    middle node is the largest, where no contact change falls in their two steps."""
+    older, last, new = y[:-2], y[1:-1], y[2:]
+    bend = 2.0 * last - older - new
+    smooth = (switches[1:-1] < 0.0) & (switches[2:] < 0.0)
+    peak = (older >= 0.0) & (new >= 0.0) & (last >= older) & (last >= new) & (bend > 0.0) & smooth
+    vertex = last + (new - older) ** 2 / (8.0 * np.where(peak, bend, 1.0))
+    return np.where(peak, vertex, -1.0).max(axis=0, initial=-1.0)
+
+
+def _one_sided_peaks(y, switches) -> np.ndarray:
+    """Per column, the largest one-sided value at a contact change within a step (its fraction f of
+    the step ending at node j): y[j-1] + f (y[j-1] - y[j-2]) and y[j] + (1 - f) (y[j] - y[j+1])."""
+    best = np.full(y.shape[1], -1.0)
+    for j, col in zip(*np.nonzero(switches >= 0.0)):
+        f = switches[j, col]
+        if j >= 2 and y[j - 1, col] >= 0.0 and y[j - 2, col] >= 0.0:
+            best[col] = max(best[col], y[j - 1, col] + f * (y[j - 1, col] - y[j - 2, col]))
+        if j + 1 < y.shape[0] and y[j, col] >= 0.0 and y[j + 1, col] >= 0.0:
+            best[col] = max(best[col], y[j, col] + (1.0 - f) * (y[j, col] - y[j + 1, col]))
+    return best
 
 
 def merged_peaks(peaks):
