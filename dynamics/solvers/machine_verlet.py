@@ -1154,48 +1154,47 @@ def step_peaks(values, zdd, flags, switches, interpolate: bool = True) -> np.nda
     of the outer two's difference above it), not across a contact change at the station, where the
     Kelvin-Voigt dashpot's force jumps: there the two one-sided values at the change, each
     extrapolated linearly from the two nodes on its side (docs/physics.md, Station peaks)."""
-    on = (np.asarray(flags) & IN_WINDOW) != 0
-    dwell = on & ((np.asarray(flags) & IN_DWELL) != 0)
-    q, qd, qdd = np.abs(values[:, :, 0]), np.abs(values[:, :, 1]), values[:, :, 2]
-    out = np.full((values.shape[1], N_PEAKS), np.nan)
-    if not on.any():
-        return out
-    out[:, 1] = q[on].max(axis=0)
-    out[:, 2] = qd[on].max(axis=0)
-    if dwell.any():
-        out[:, 4] = q[dwell].max(axis=0)
-    for column, y in ((0, np.abs(qdd + np.asarray(zdd)[:, None])), (3, np.abs(qdd))):
-        y = np.where(on[:, None], y, -1.0)  # a node outside the window takes no part
-        peak = y.max(axis=0)
-        if interpolate and y.shape[0] >= 3:
-            peak = np.maximum(peak, _parabola_peaks(y, switches))
-            peak = np.maximum(peak, _one_sided_peaks(y, switches))
-        out[:, column] = peak
-    return out
+    out = np.full((values.shape[1], N_PEAKS), -1.0)
+    _step_peaks_into(
+        values, np.asarray(zdd, dtype=float), np.asarray(flags, dtype=np.int64), switches, bool(interpolate), out
+    )
+    return np.where(out < 0.0, np.nan, out)
 
 
-def _parabola_peaks(y, switches) -> np.ndarray:
-    """Per column, the largest vertex of the parabolas through three nodes of y (>= 0: counted) whose
-    middle node is the largest, where no contact change falls in their two steps."""
-    older, last, new = y[:-2], y[1:-1], y[2:]
-    bend = 2.0 * last - older - new
-    smooth = (switches[1:-1] < 0.0) & (switches[2:] < 0.0)
-    peak = (older >= 0.0) & (new >= 0.0) & (last >= older) & (last >= new) & (bend > 0.0) & smooth
-    vertex = last + (new - older) ** 2 / (8.0 * np.where(peak, bend, 1.0))
-    return np.where(peak, vertex, -1.0).max(axis=0, initial=-1.0)
+def _step_peaks_into(values, zdd, flags, switches, interpolate, out):
+    """step_peaks' folding, one pass over the nodes per station and metric (out starts at -1)."""
+    for s in range(values.shape[1]):
+        for i in range(values.shape[0]):
+            if flags[i] & IN_WINDOW:
+                x, xd = abs(values[i, s, 0]), abs(values[i, s, 1])
+                out[s, 1] = max(out[s, 1], x)
+                out[s, 2] = max(out[s, 2], xd)
+                if flags[i] & IN_DWELL:
+                    out[s, 4] = max(out[s, 4], x)
+        for col in (0, 3):
+            best, older, last = -1.0, -1.0, -1.0
+            for i in range(values.shape[0]):
+                acc = values[i, s, 2] + (zdd[i] if col == 0 else 0.0)
+                y = abs(acc) if flags[i] & IN_WINDOW else -1.0
+                best = max(best, y)
+                if interpolate and i >= 2:
+                    smooth = switches[i - 1, s] < 0.0 and switches[i, s] < 0.0
+                    if smooth and older >= 0.0 and y >= 0.0 and last >= older and last >= y:
+                        bend = 2.0 * last - older - y
+                        if bend > 0.0:
+                            best = max(best, last + (y - older) * (y - older) / (8.0 * bend))
+                    after = switches[i - 1, s]  # a change in the step before the last node: from its far side
+                    if after >= 0.0 and last >= 0.0 and y >= 0.0:
+                        best = max(best, last + (1.0 - after) * (last - y))
+                    before = switches[i, s]  # a change in the step to this node: from its near side
+                    if before >= 0.0 and last >= 0.0 and older >= 0.0:
+                        best = max(best, last + before * (last - older))
+                older, last = last, y
+            out[s, col] = best
 
 
-def _one_sided_peaks(y, switches) -> np.ndarray:
-    """Per column, the largest one-sided value at a contact change within a step (its fraction f of
-    the step ending at node j): y[j-1] + f (y[j-1] - y[j-2]) and y[j] + (1 - f) (y[j] - y[j+1])."""
-    best = np.full(y.shape[1], -1.0)
-    for j, col in zip(*np.nonzero(switches >= 0.0)):
-        f = switches[j, col]
-        if j >= 2 and y[j - 1, col] >= 0.0 and y[j - 2, col] >= 0.0:
-            best[col] = max(best[col], y[j - 1, col] + f * (y[j - 1, col] - y[j - 2, col]))
-        if j + 1 < y.shape[0] and y[j, col] >= 0.0 and y[j + 1, col] >= 0.0:
-            best[col] = max(best[col], y[j, col] + (1.0 - f) * (y[j, col] - y[j + 1, col]))
-    return best
+if numba is not None:  # a pass over every node of the window: in Python it cost a sixth of the step
+    _step_peaks_into = numba.njit(cache=True)(_step_peaks_into)
 
 
 def merged_peaks(peaks):
