@@ -7,7 +7,9 @@ dynamics stage with the machine.
    from rest: the default layout (12-tooth sprocket and idler wheel, six links seated on each,
    steel-disc inertia, the drive's default compliance, polygonal feed), aluminium, modified sine,
    180 rpm, 0.094 mm free play, global damping. Station metrics (RMS x, v, a, max |a|, residual
-   vibration at the machine's four stations) at the default step (ab2 at 0.31 of its limit) and at
+   vibration at the machine's four stations; the two peaks over every step, the kernel's station peaks,
+   for this tree, over the output samples for an old tree's kernel, which does not track them)
+   at the default step (ab2 at 0.31 of its limit) and at
    every finer number of steps per sample up to twice it, against the same integrator at 1/16 of the default
    step; the time is the median CPU (thread) time of interleaved runs; the worst metric names the metric and
    station that set the error. The target row is the fewest steps per sample
@@ -64,25 +66,28 @@ def _window_times() -> np.ndarray:
 METRIC_NAMES = ("RMS x", "RMS v", "RMS a", "max |a|", "residual vibration")
 
 
-def _station_metrics(model, cam, t, y, v, a) -> np.ndarray:
-    """RMS x, v, a, max |a| over the window and max |x - z| over the dwell at the four stations."""
+def _station_metrics(model, cam, t, y, v, a, step_peaks=None) -> np.ndarray:
+    """RMS x, v, a, max |a| over the window and max |x - z| over the dwell at the four stations; the
+    two peaks the kernel's over every step (`step_peaks`, machine_verlet.PEAK_METRICS per station)
+    where it tracks them, else the output samples'."""
     dwell = cam.dwell_mask(t)
     dof = model.topology.link_dof()[list(model.machine.stations().values())]
     out = []
-    for d in dof:
+    for i, d in enumerate(dof):
         out += [
             np.sqrt(np.mean(y[:, d] ** 2)),
             np.sqrt(np.mean(v[:, d] ** 2)),
             np.sqrt(np.mean(a[:, d] ** 2)),
-            np.max(np.abs(a[:, d])),
-            np.max(np.abs(y[dwell, d])),
+            np.max(np.abs(a[:, d])) if step_peaks is None else step_peaks[i, 0],
+            np.max(np.abs(y[dwell, d])) if step_peaks is None else step_peaks[i, 4],
         ]
     return np.array(out)
 
 
 def _window_run(model, cam, t, sub, kernel=mv):
     """Two index cycles from rest at `sub` steps per output sample, the seat change between them (the
-    window ends at the second cycle's end: no seat change after it); `kernel` the compiled step's module.
+    window ends at the second cycle's end: no seat change after it); `kernel` the compiled step's module
+    (its station peaks over every step when it tracks them: this tree's, not an old tree's).
     Returns (CPU seconds of this thread, station metrics)."""
     start = time.thread_time()
     h = (t[1] - t[0]) / sub
@@ -90,8 +95,19 @@ def _window_run(model, cam, t, sub, kernel=mv):
     zr, zd, zdd = kernel.cycle_nodes(cam, h, per_cycle * sub)
     q = v = np.zeros(model.topology.n_dof)
     ys, vs, accs = [], [], []
+    peaks = {}
+    if hasattr(kernel, "PEAK_METRICS"):  # every node of both cycles is in the window
+        since = h * np.arange(zd.size)
+        peaks = {"stations": model.topology.link_dof()[list(model.machine.stations().values())]}
+        flags = [
+            kernel.IN_WINDOW | np.where(cam.dwell_mask(c * cam.period_s + since), kernel.IN_DWELL, 0) for c in (0, 1)
+        ]
+    step_peaks = []
     for cycle in range(2):
-        run = kernel.integrate(model, zr, zd, zdd, h, q, v, out_every=sub, predictor="ab2")
+        if peaks:
+            peaks["node_flags"] = flags[cycle]
+        run = kernel.integrate(model, zr, zd, zdd, h, q, v, out_every=sub, predictor="ab2", **peaks)
+        step_peaks.append(run.station_peaks if peaks else None)
         take = slice(0, per_cycle + (cycle == 1))
         ys.append(run.q[take])
         vs.append(run.v[take])
@@ -99,7 +115,10 @@ def _window_run(model, cam, t, sub, kernel=mv):
         if cycle == 0:
             q, v, _ = kernel.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
     seconds = time.thread_time() - start
-    return seconds, _station_metrics(model, cam, t, np.concatenate(ys), np.concatenate(vs), np.concatenate(accs))
+    stepped = np.fmax(*step_peaks) if peaks else None
+    return seconds, _station_metrics(
+        model, cam, t, np.concatenate(ys), np.concatenate(vs), np.concatenate(accs), stepped
+    )
 
 
 def _old_kernel():

@@ -33,10 +33,13 @@ a sprocket held to the cam, the strand-end tensions' difference plus the seated 
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
 
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance_machine import ClearanceMachine
+from dynamics.response.metrics import LinkMetrics
 from dynamics.scene import (
     DEFAULT_MAX_CYCLES,
     DEFAULT_TOL,
@@ -161,9 +164,10 @@ def simulate_machine(
 
 
 class _Window:
-    """The outputs of consecutive index cycles at the output times, with their statistics."""
+    """The outputs of consecutive index cycles at the output times, with their statistics and the
+    station peaks over every step (machine_verlet.MachineRun.station_peaks)."""
 
-    def __init__(self, q, v, a, tension, runs, seating, step_s):
+    def __init__(self, q, v, a, tension, runs, seating, step_s, station_peaks=None):
         self.q, self.v, self.a, self.tension_N = q, v, a, tension
         self.seating = seating
         self.step_s = step_s
@@ -178,6 +182,7 @@ class _Window:
         self.impact_dissipated_J = sum(r.impact_dissipated_J for r in runs)
         self.impact_max_speed_m_s = max(r.impact_max_speed_m_s for r in runs)
         self.impact_speeds_m_s = np.concatenate([r.impact_speeds_m_s for r in runs])
+        self.station_peaks = station_peaks
 
 
 def _searched_and_settled(
@@ -291,29 +296,80 @@ def _window(model, cam, t, per_cycle, sub, state, predictor, periodic=False) -> 
     sample at a cycle's start is the state after the seat change. `periodic`: the state is the
     relabelled steady state (x0 = T(P(x0)) to its tolerance), so every cycle is the first one in
     the frame of places and is stepped once."""
-    h = (t[1] - t[0]) / sub
+    h_out = t[1] - t[0]
+    h = h_out / sub
     zr, zd, zdd = mv.cycle_nodes(cam, h, per_cycle * sub)
+    stations = station_dofs(model)
     q0, v0 = state
-    rows_q, rows_v, rows_a, rows_t, runs = [], [], [], [], []
+    rows_q, rows_v, rows_a, rows_t, runs, peaks = [], [], [], [], [], []
     seating = None
     remaining = t.size
     while remaining > 0:
+        cycle_start_s = t[t.size - remaining]
+        flags_at = _node_flags(cam, cycle_start_s, (remaining - 1) * h_out)
         if remaining == 1 and runs:  # the window ends at an index's start: the state after the seat change
-            start = mv.integrate(model, zr[:2], zd[:2], zdd[:2], h, q0, v0, out_every=1, predictor=predictor)
+            start = mv.integrate(
+                model,
+                zr[:2],
+                zd[:2],
+                zdd[:2],
+                h,
+                q0,
+                v0,
+                out_every=1,
+                predictor=predictor,
+                stations=stations,
+                node_flags=flags_at(np.array([0.0, h])),
+            )
             for rows, out in ((rows_q, start.q), (rows_v, start.v), (rows_a, start.a), (rows_t, start.tension_N)):
                 rows.append(out[:1])
+            peaks.append(start.station_peaks)
             break
         if not (periodic and runs):  # periodic: every cycle is the first, seat change included
             q_next, v_next, run, seating = mv.next_index_start(
-                model, cam, (zr, zd, zdd), h, q0, v0, out_every=sub, predictor=predictor
+                model,
+                cam,
+                (zr, zd, zdd),
+                h,
+                q0,
+                v0,
+                out_every=sub,
+                predictor=predictor,
+                stations=stations,
+                flags_at=flags_at,
             )
+            peaks.append(run.station_peaks)
         runs.append(run)
         take = min(per_cycle, remaining)
         for rows, out in ((rows_q, run.q), (rows_v, run.v), (rows_a, run.a), (rows_t, run.tension_N)):
             rows.append(out[:take])
         remaining -= take
         q0, v0 = q_next, v_next
-    return _Window(*(np.concatenate(r) for r in (rows_q, rows_v, rows_a, rows_t)), runs, seating, h)
+    return _Window(
+        *(np.concatenate(r) for r in (rows_q, rows_v, rows_a, rows_t)), runs, seating, h, mv.merged_peaks(peaks)
+    )
+
+
+def station_dofs(model: ClearanceMachine) -> np.ndarray:
+    """The DOF at each of the machine's four stations (places, Machine.stations(), in its order; -1: a
+    place held to the cam), whose peaks the kernel tracks at every step."""
+    return model.topology.link_dof()[list(model.machine.stations().values())]
+
+
+def _node_flags(cam, cycle_start_s: float, window_left_s: float):
+    """The node flags (machine_verlet.IN_WINDOW | IN_DWELL) at times since an index cycle's start at
+    `cycle_start_s`: in the window up to `window_left_s` after it (the window's last sample), in a
+    dwell where the cam's dwell mask says (every node counts as a dwell node when the cam has none,
+    as dynamics.scene.station_values counts its samples)."""
+    has_mask = hasattr(cam, "dwell_mask")
+
+    def flags_at(since_s):
+        since = np.asarray(since_s, dtype=float)
+        inside = since <= window_left_s * (1.0 + 1e-12) + 1e-15
+        dwell = cam.dwell_mask(cycle_start_s + since) if has_mask else np.ones(since.size, dtype=bool)
+        return np.where(inside, mv.IN_WINDOW, 0) | np.where(dwell, mv.IN_DWELL, 0)
+
+    return flags_at
 
 
 def _link_spans(model: ClearanceMachine) -> np.ndarray:
@@ -387,8 +443,24 @@ def _response(model, cam, t, run: _Window, links, sub, ss) -> ChainResponse:
             "steady_state": ss,
             "carriage_m": run.q[:, -1] if model.tensioner is not None else None,
             "frame": "places (relabelled: each index moves every link one place ahead)",
+            "station_peaks": _station_peaks(model, run),
         },
     )
+
+
+def _station_peaks(model: ClearanceMachine, run: _Window) -> dict[str, dict[str, float]] | None:
+    """Per station (place) its peaks over every step (machine_verlet.PEAK_METRICS): the residual
+    vibration, when no node of the window lies in a dwell, is the deviation's peak (as
+    dynamics.scene.station_values then counts every sample)."""
+    if run.station_peaks is None:
+        return None
+    out = {}
+    for name, row in zip(model.machine.stations(), run.station_peaks):
+        values = dict(zip(mv.PEAK_METRICS, (float(x) for x in row)))
+        if np.isnan(values["residual_vibration_m"]):
+            values["residual_vibration_m"] = values["max_deviation_m"]
+        out[name] = values
+    return out
 
 
 def _free_play_fraction(model, chosen, run: _Window) -> float:
@@ -418,6 +490,7 @@ def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, 
         sub,
         impacts=impacts,
         seating=run.seating,
+        peak_sampling="output samples" if run.station_peaks is None else "every step",
     )
 
 
@@ -456,6 +529,16 @@ def simulate_machine_to_accuracy(
 
 
 def _station_values(model: ClearanceMachine, cam, t_eval_s, response: ChainResponse) -> np.ndarray:
-    """dynamics.scene.station_values of a machine's response at its four stations (places)."""
+    """dynamics.scene.station_values of a machine's response at its four stations (places), its peaks
+    those over every step (the response's diagnostics "station_peaks") where it has them."""
     cols = list(model.machine.stations().values())
-    return station_values(cam, np.asarray(t_eval_s, dtype=float), response.x_m, response.v_m_s, response.a_m_s2, cols)
+    values = station_values(cam, np.asarray(t_eval_s, dtype=float), response.x_m, response.v_m_s, response.a_m_s2, cols)
+    peaks = response.diagnostics.get("station_peaks")
+    if peaks is None:
+        return values
+    names = [f.name for f in fields(LinkMetrics)]
+    blocks = values.reshape(len(names), len(cols))
+    for i, name in enumerate(names):
+        if name in mv.PEAK_METRICS:
+            blocks[i] = [peaks[station][name] for station in model.machine.stations()]
+    return blocks.ravel()

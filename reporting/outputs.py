@@ -154,6 +154,7 @@ def _contact_summary(contact) -> dict:
             "statement": ss.statement,
         },
         "steps_per_output_sample": contact.steps_per_output,
+        "peak_sampling": contact.peak_sampling,
     }
 
 

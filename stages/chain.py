@@ -182,6 +182,9 @@ def simulate_scenario(
         stations = {name: metrics.at_link(link) for name, link in places.items()}
     else:
         stations = {cfg.station: replace(metrics.at_link(1), link=kept[0])}
+    # the machine kernel's peaks over every step (ContactSummary.peak_sampling), where it tracked them
+    step_peaks = r.diagnostics.get("station_peaks") or {}
+    stations = {name: replace(s, **step_peaks.get(name, {})) for name, s in stations.items()}
     settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
     # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))

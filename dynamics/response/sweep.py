@@ -408,8 +408,10 @@ def machine_rpm_sweep(
     polygonal feed, the wheels and the carriage as the model has them) runs exactly as the pipeline
     runs it (dynamics.machine_scene.simulate_machine, choice "linear", its default step) in its
     relabelled periodic steady state over the pipeline's window (two index cycles from an index's
-    start at `samples_per_cycle` per cycle); the metrics are the pipeline's (link_metrics) at the
-    station's place. Critical speeds from the machine's own natural frequencies (MachineOnWheels.modes),
+    start at `samples_per_cycle` per cycle); the metrics are the pipeline's at the station's place
+    (its peaks over every step, the response's "station_peaks", as the pipeline's stations take
+    them; at a link number, not a station, the output samples'). Critical speeds from the machine's
+    own natural frequencies (MachineOnWheels.modes),
     for the modes with at least `min_mass_fraction` of the excitation. Not modal: every point is a
     steady-state search, about a thousand times the link drive's cost per point: `done(cam_id)`, when
     given, is called as each cam law's speeds are done (the stage's progress lines)."""
@@ -433,9 +435,17 @@ def machine_rpm_sweep(
             t = np.arange(2 * samples_per_cycle + 1) / per_degree / (360.0 / 60.0 * rpm)
             cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, index_deg=index_deg, dwell_deg=dwell_deg, rpm=rpm)
             out, _ = simulate_machine(model, cam, t, choice="linear", links=[place])
-            lm = link_metrics(out.x_m, out.v_m_s, out.a_m_s2, out.z_m, out.zdot_m_s, out.zddot_m_s2, cam.dwell_mask(t))
-            residual[i, j] = lm.residual_vibration_m[0]
-            peak[i, j] = lm.max_abs_acceleration_m_s2[0]
+            at_station = (out.diagnostics.get("station_peaks") or {}).get(name)
+            if at_station is None:
+                lm = link_metrics(
+                    out.x_m, out.v_m_s, out.a_m_s2, out.z_m, out.zdot_m_s, out.zddot_m_s2, cam.dwell_mask(t)
+                )
+                at_station = {
+                    "residual_vibration_m": lm.residual_vibration_m[0],
+                    "max_abs_acceleration_m_s2": lm.max_abs_acceleration_m_s2[0],
+                }
+            residual[i, j] = at_station["residual_vibration_m"]
+            peak[i, j] = at_station["max_abs_acceleration_m_s2"]
         if done is not None:
             done(cam_id)
     frequencies, fraction = model.machine.modes()

@@ -60,6 +60,19 @@ except ImportError:  # pragma: no cover
 # impact kinetic energy, largest closing speed, closing speeds stored, dashpot work in impact contacts,
 # peak |T| in a contact begun by an impact (its whole length)
 N_STATS = 12
+# the station peaks over every step (`_station_nodes_into` in the step, `step_peaks` after it), per station: max |a| (absolute),
+# max |x - z|, max |v - z'|, max |a - z''|, max |x - z| at the dwell's nodes: the max/min metrics of
+# dynamics.response.metrics.LinkMetrics (PEAK_METRICS names them), as the machine's frame of places has them
+PEAK_METRICS = (
+    "max_abs_acceleration_m_s2",
+    "max_deviation_m",
+    "max_velocity_deviation_m_s",
+    "max_acceleration_deviation_m_s2",
+    "residual_vibration_m",
+)
+N_PEAKS = len(PEAK_METRICS)
+# node flags (`integrate(node_flags=)`): the node is in the output window / in a dwell of the cam
+IN_WINDOW, IN_DWELL = 1, 2
 # entries of MachineArrays.par (ClearanceMachine.arrays: the last, par[8], whether links seat on tooth
 # springs); more: the ring's mirror blocks (`mirror_packed`)
 N_PAR = 9
@@ -318,6 +331,39 @@ def _span_impulses_into(
                 v[dof] -= span_float[j, 1] * wsl[wi] * impulse * dof_float[dof, 0]
 
 
+def _station_nodes_into(q, v, a, node, stations, values):
+    """values[node, s] = (q, q', q'') at station s's DOF (0 for a place held to the cam): what
+    `step_peaks` folds into the peaks after the run (a few stores per node; folding them here, in the
+    step, cost a sixth of the step at 85 links)."""
+    for s in range(stations.shape[0]):
+        d = stations[s]
+        if d >= 0:
+            values[node, s, 0] = q[d]
+            values[node, s, 1] = v[d]
+            values[node, s, 2] = a[d]
+
+
+def _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switch):
+    """switch[s]: the fraction of the step at which a span with an end at station s's DOF changed
+    contact (the crossing of the span law's threshold interpolated, `_crossing`); left as it is (-1)
+    where none did."""
+    k, preload, kg = par[0], par[1], par[2]
+    for j in range(span_int.shape[0]):
+        d_old, d_new = preload + k * e_old[j], preload + k * e_new[j]
+        on_old = (d_old >= 0.0) | (d_old <= -kg)
+        on_new = (d_new >= 0.0) | (d_new <= -kg)
+        if on_old == on_new:
+            continue
+        on_side = d_new if on_new else d_old
+        frac = _crossing(d_old, d_new, 0.0 if on_side >= 0.0 else -kg)
+        b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
+        wdof = int(wheel_float[wi, 3]) if wi >= 0 else -1
+        for s in range(stations.shape[0]):
+            d = stations[s]
+            if d >= 0 and (d == b or d == fw or d == c or d == wdof):
+                switch[s] = frac
+
+
 def _run_loops(
     q,
     v,
@@ -344,10 +390,16 @@ def _run_loops(
     speeds,
     track_energy,
     energy,
+    stations,
+    station_values,
+    switches,
 ):
     """The step loop (module docstring); `energy` (cam work, damping and friction dissipation)
     integrated trapezoidally in the powers at the steps' states when `track_energy` (one more force
-    evaluation per step)."""
+    evaluation per step); the stations' motion at every node into `station_values` (`_station_nodes_into`:
+    the acceleration the step computed, with its predicted velocity, and at an output node the
+    output's) and, under the Kelvin-Voigt law, their spans' contact changes into `switches`
+    (`_switches_at_stations`, at the node ending the step)."""
     n_steps = zd.shape[0] - 1
     n = q.shape[0]
     ns = span_int.shape[0]
@@ -415,6 +467,7 @@ def _run_loops(
     out_a[0] = a
     out_t[0] = t_el
     row = 1
+    _station_nodes_into(q, v, a, 0, stations, station_values)
     if record_from == 0:
         _record(t_el, contact, stats)
     hh = 0.5 * h
@@ -447,6 +500,8 @@ def _run_loops(
         for j in range(n):
             v[j] = wh[j] + hh * a[j]
         if kv:
+            if stations.shape[0] > 0:
+                _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switches[i + 1])
             before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy and kv else 0.0
             _span_impulses_into(
                 h,
@@ -570,6 +625,7 @@ def _run_loops(
                 for m in range(3):
                     energy[m] += hh * (p_prev[m] + work[6][m])
                     p_prev[m] = work[6][m]
+        _station_nodes_into(q, v, a_out if on_output else a, i + 1, stations, station_values)
         if on_output:
             out_q[row] = q
             out_v[row] = v
@@ -658,6 +714,8 @@ if numba is not None:
         "_span_rates",
         "_mirror_damping_into",
         "_rows_times_into",
+        "_station_nodes_into",
+        "_switches_at_stations",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
@@ -701,6 +759,9 @@ class MachineRun:
     cam_work_J: float = 0.0  # the energy terms, when integrate(track_energy=True)
     dissipated_damping_J: float = 0.0
     dissipated_friction_J: float = 0.0
+    # (stations, N_PEAKS) the station peaks (PEAK_METRICS) over every node of the window
+    # (integrate(stations=)); NaN where no node counted; None: not tracked
+    station_peaks: np.ndarray | None = None
 
 
 def integrate(
@@ -717,10 +778,18 @@ def integrate(
     predictor: str = "euler",
     track_energy: bool = False,
     damping_precision: str | None = None,
+    stations=None,
+    node_flags=None,
+    interpolate_peaks: bool = True,
 ) -> MachineRun:
     """Step the clearance machine `model` over the cam's nodes (lift since the dwell, velocity,
     acceleration; uniform step, n_steps + 1 nodes) from (q0, v0); the global law's dense product in
-    `damping_precision` (DAMPING_PRODUCT_PRECISIONS; None: `default_damping_precision`)."""
+    `damping_precision` (DAMPING_PRODUCT_PRECISIONS; None: `default_damping_precision`). `stations`:
+    DOFs (-1: a place that moves with the cam) whose peaks (PEAK_METRICS) are tracked at every node
+    over the nodes `node_flags` (IN_WINDOW | IN_DWELL per node; None: every node in the window, none
+    in a dwell), by the largest node or, `interpolate_peaks`, the parabola through the three nodes
+    around it (`step_peaks`; under the Kelvin-Voigt law not across a station's contact change, where
+    the dashpot's force jumps: there the one-sided values)."""
     theta = PREDICTORS[predictor]
     precision = default_damping_precision(model) if damping_precision is None else damping_precision
     if precision not in DAMPING_PRODUCT_PRECISIONS:
@@ -745,6 +814,14 @@ def integrate(
     stats[3], stats[4] = -np.inf, np.inf
     speeds = np.zeros(SPEED_CAPACITY)
     energy = np.zeros(3)
+    dofs = np.zeros(0, dtype=np.int64) if stations is None else np.asarray(stations, dtype=np.int64).reshape(-1)
+    if np.any(dofs >= n) or np.any(dofs < -1):
+        raise DynamicsError(f"integrate: expected station DOFs in -1..{n - 1}, got {dofs.tolist()}")
+    flags = np.full(n_steps + 1, IN_WINDOW, dtype=np.int64) if node_flags is None else np.asarray(node_flags)
+    if flags.shape != (n_steps + 1,):
+        raise DynamicsError(f"integrate: expected one node flag per cam node ({n_steps + 1}), got {flags.shape}")
+    station_values = np.zeros((n_steps + 1 if dofs.size else 0, dofs.size, 3))
+    switches = np.full((n_steps + 1 if dofs.size else 0, dofs.size), -1.0)
     with np.errstate(over="ignore", invalid="ignore"):
         _run(
             q0,
@@ -769,6 +846,9 @@ def integrate(
             speeds,
             bool(track_energy),
             energy,
+            dofs,
+            station_values,
+            switches,
         )
     if stats[5] or not np.all(np.isfinite(out[0])):
         raise SolverDivergedError(
@@ -791,6 +871,7 @@ def integrate(
         cam_work_J=float(energy[0]),
         dissipated_damping_J=float(energy[1]),
         dissipated_friction_J=float(energy[2]),
+        station_peaks=None if stations is None else step_peaks(station_values, zdd, flags, switches, interpolate_peaks),
     )
 
 
@@ -872,7 +953,18 @@ def seat_change_inside(
 
 
 def index_cycle(
-    model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str, track_energy: bool = False
+    model,
+    cam,
+    nodes,
+    step_s: float,
+    q0,
+    v0,
+    *,
+    out_every: int,
+    predictor: str,
+    track_energy: bool = False,
+    stations=None,
+    flags_at=None,
 ):
     """One index cycle from its start over the cam's `nodes` (cycle_nodes), outputs every `out_every`
     steps: (MachineRun, Seating of a seat change inside it or None). At tooth phase 0 this is
@@ -883,17 +975,31 @@ def index_cycle(
     the next output node, then the remaining nodes with the lift counted one pitch on (the next
     index's frame, so nothing is left to do at the cycle's end); outputs at or after the instant
     are in the new labels. The statistics are merged over the pieces (the free-play fraction
-    weighted by their durations)."""
+    weighted by their durations). `stations` and `flags_at` (the node flags at times since the
+    cycle's start): the station peaks (`integrate`)."""
     from dynamics.solvers.machine_ivp import seat_change_time_s
 
     zr, zd, zdd = nodes
+    n_steps = zd.size - 1
+    flags = None if flags_at is None else flags_at(step_s * np.arange(n_steps + 1))
+    peaks = {"stations": stations, "flags_at": flags_at}
     lift = model.machine.seat_change_lift_m
     if lift is None:
         run = integrate(
-            model, zr, zd, zdd, step_s, q0, v0, out_every=out_every, predictor=predictor, track_energy=track_energy
+            model,
+            zr,
+            zd,
+            zdd,
+            step_s,
+            q0,
+            v0,
+            out_every=out_every,
+            predictor=predictor,
+            track_energy=track_energy,
+            stations=stations,
+            node_flags=flags,
         )
         return run, None
-    n_steps = zd.size - 1
 
     def lift_at(time):
         return float(cam.svaj(np.array([time]))[0][0])
@@ -920,12 +1026,14 @@ def index_cycle(
             out_every=out_every,
             predictor=predictor,
             track_energy=track_energy,
+            stations=stations,
+            node_flags=None if flags is None else flags[: before + 1],
         )
         pieces.append(head)
         durations.append(before * step_s)
         rows.append(head)
         q0, v0 = head.q[-1], head.v[-1]
-    to_seat = _sub_steps(model, cam, (before * step_s, t_seat), step_s, s0, q0, v0, predictor, track_energy)
+    to_seat = _sub_steps(model, cam, (before * step_s, t_seat), step_s, s0, q0, v0, predictor, track_energy, **peaks)
     pieces.append(to_seat)
     durations.append(t_seat - before * step_s)
     if before == 0:
@@ -935,7 +1043,9 @@ def index_cycle(
         model, to_seat.q[-1], to_seat.v[-1], lift_at(t_seat) - s0, zd_seat, zdd_seat, n_steps * step_s
     )
     if not on_node:
-        to_node = _sub_steps(model, cam, (t_seat, nxt * step_s), step_s, s0 + pitch, q1, v1, predictor, track_energy)
+        to_node = _sub_steps(
+            model, cam, (t_seat, nxt * step_s), step_s, s0 + pitch, q1, v1, predictor, track_energy, **peaks
+        )
         pieces.append(to_node)
         durations.append(nxt * step_s - t_seat)
         rows.append(_last_row(to_node))
@@ -952,6 +1062,8 @@ def index_cycle(
             out_every=out_every,
             predictor=predictor,
             track_energy=track_energy,
+            stations=stations,
+            node_flags=None if flags is None else flags[nxt:],
         )
         pieces.append(tail)
         durations.append((n_steps - nxt) * step_s)
@@ -959,9 +1071,11 @@ def index_cycle(
     return _merged(pieces, rows, durations, step_s), seating
 
 
-def _sub_steps(model, cam, span_s, step_s: float, s_ref: float, q0, v0, predictor, track_energy):
+def _sub_steps(
+    model, cam, span_s, step_s: float, s_ref: float, q0, v0, predictor, track_energy, stations=None, flags_at=None
+):
     """Over span_s = (t0, t1) in the fewest equal steps of at most step_s, the lift counted from s_ref;
-    outputs at both ends."""
+    outputs at both ends; the station peaks as index_cycle's."""
     t0, t1 = span_s
     n = max(1, int(math.ceil((t1 - t0) / step_s - 1e-9)))
     t = t0 + (t1 - t0) * np.arange(n + 1) / n
@@ -978,6 +1092,8 @@ def _sub_steps(model, cam, span_s, step_s: float, s_ref: float, q0, v0, predicto
         out_every=n,
         predictor=predictor,
         track_energy=track_energy,
+        stations=stations,
+        node_flags=None if flags_at is None else flags_at(t),
     )
 
 
@@ -1022,14 +1138,91 @@ def _merged(pieces, rows, durations, step_s: float) -> MachineRun:
         cam_work_J=sum(p.cam_work_J for p in pieces),
         dissipated_damping_J=sum(p.dissipated_damping_J for p in pieces),
         dissipated_friction_J=sum(p.dissipated_friction_J for p in pieces),
+        station_peaks=merged_peaks([p.station_peaks for p in pieces]),
     )
 
 
-def next_index_start(model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str):
+def step_peaks(values, zdd, flags, switches, interpolate: bool = True) -> np.ndarray:
+    """The station peaks (stations x PEAK_METRICS; NaN where no node counted) of the stations' motion
+    at every node (values: nodes x stations x (q, q', q''), relative to the cam; zdd the cam's
+    acceleration; flags IN_WINDOW | IN_DWELL per node; switches: nodes x stations, the fraction of
+    the step ending at the node at which a span at the station changed contact under the
+    Kelvin-Voigt law, -1 none). The deviations |q| and |q'| are smooth where they peak (the chain's
+    low modes): their largest node. The accelerations |q'' + z''| and |q''| peak on impact spikes a
+    few steps wide: their largest node and, with `interpolate`, the vertex of the parabola through
+    the three nodes around each node larger than both neighbours (within their bracket: at most 1/8
+    of the outer two's difference above it), not across a contact change at the station, where the
+    Kelvin-Voigt dashpot's force jumps: there the two one-sided values at the change, each
+    extrapolated linearly from the two nodes on its side (docs/physics.md, Station peaks)."""
+    out = np.full((values.shape[1], N_PEAKS), -1.0)
+    _step_peaks_into(
+        values, np.asarray(zdd, dtype=float), np.asarray(flags, dtype=np.int64), switches, bool(interpolate), out
+    )
+    return np.where(out < 0.0, np.nan, out)
+
+
+def _step_peaks_into(values, zdd, flags, switches, interpolate, out):
+    """step_peaks' folding, one pass over the nodes per station and metric (out starts at -1)."""
+    for s in range(values.shape[1]):
+        for i in range(values.shape[0]):
+            if flags[i] & IN_WINDOW:
+                x, xd = abs(values[i, s, 0]), abs(values[i, s, 1])
+                out[s, 1] = max(out[s, 1], x)
+                out[s, 2] = max(out[s, 2], xd)
+                if flags[i] & IN_DWELL:
+                    out[s, 4] = max(out[s, 4], x)
+        for col in (0, 3):
+            best, older, last = -1.0, -1.0, -1.0
+            for i in range(values.shape[0]):
+                acc = values[i, s, 2] + (zdd[i] if col == 0 else 0.0)
+                y = abs(acc) if flags[i] & IN_WINDOW else -1.0
+                best = max(best, y)
+                if interpolate and i >= 2:
+                    smooth = switches[i - 1, s] < 0.0 and switches[i, s] < 0.0
+                    if smooth and older >= 0.0 and y >= 0.0 and last >= older and last >= y:
+                        bend = 2.0 * last - older - y
+                        if bend > 0.0:
+                            best = max(best, last + (y - older) * (y - older) / (8.0 * bend))
+                    after = switches[i - 1, s]  # a change in the step before the last node: from its far side
+                    if after >= 0.0 and last >= 0.0 and y >= 0.0:
+                        best = max(best, last + (1.0 - after) * (last - y))
+                    before = switches[i, s]  # a change in the step to this node: from its near side
+                    if before >= 0.0 and last >= 0.0 and older >= 0.0:
+                        best = max(best, last + before * (last - older))
+                older, last = last, y
+            out[s, col] = best
+
+
+if numba is not None:  # a pass over every node of the window: in Python it cost a sixth of the step
+    _step_peaks_into = numba.njit(cache=True)(_step_peaks_into)
+
+
+def merged_peaks(peaks):
+    """The station peaks of consecutive runs (MachineRun.station_peaks): the larger, NaN where no
+    run counted a node; None when none tracked them."""
+    tracked = [p for p in peaks if p is not None]
+    return np.fmax.reduce(tracked) if tracked else None
+
+
+def next_index_start(
+    model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str, stations=None, flags_at=None
+):
     """The relabelled map x0 -> T(P(x0)): the state at the start of the next index in the next
     index's labels, with the seats changed inside the cycle (a tooth phase other than 0) or after it.
-    Returns (q1, v1, the cycle's MachineRun, the seat change's Seating)."""
-    run, inside = index_cycle(model, cam, nodes, step_s, q0, v0, out_every=out_every, predictor=predictor)
+    Returns (q1, v1, the cycle's MachineRun, the seat change's Seating); the station peaks as
+    index_cycle's."""
+    run, inside = index_cycle(
+        model,
+        cam,
+        nodes,
+        step_s,
+        q0,
+        v0,
+        out_every=out_every,
+        predictor=predictor,
+        stations=stations,
+        flags_at=flags_at,
+    )
     if inside is not None:
         return run.q[-1], run.v[-1], run, inside
     q1, v1, seating = seat_change(model, run.q[-1], run.v[-1], float(nodes[0][-1]), (nodes[1].size - 1) * step_s)

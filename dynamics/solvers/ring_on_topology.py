@@ -71,6 +71,14 @@ def machine_of(model) -> ClearanceMachine:
     )
 
 
+@dataclasses.dataclass(frozen=True)
+class RingRun(verlet.Run):
+    """clearance_verlet's Run with the station peaks the machine kernel tracked at every step
+    (machine_verlet.MachineRun.station_peaks; None: no stations asked)."""
+
+    station_peaks: np.ndarray | None = None
+
+
 def integrate(
     model,
     zd_nodes,
@@ -85,10 +93,14 @@ def integrate(
     record_from: int = 0,
     track_energy: bool = False,
     predictor: str = "euler",
-) -> verlet.Run:
+    stations=None,
+    node_flags=None,
+) -> RingRun:
     """clearance_verlet.integrate's call and result, stepped by machine_verlet on the ring's topology
     (the carriage, when a tensioner is modelled, is its last DOF). The cam's lift is not needed: the
-    link drive has no wheel whose feed angle it sets, so the lift nodes are zeros."""
+    link drive has no wheel whose feed angle it sets, so the lift nodes are zeros. `stations` (0-based
+    links, the ring's DOFs) and `node_flags`: their peaks over every step, as the machine on its
+    wheels gets them (machine_verlet.integrate)."""
     machine = machine_of(model)
     zd = np.ascontiguousarray(zd_nodes, dtype=float)
     n = model.n_links
@@ -107,9 +119,11 @@ def integrate(
         record_from=record_from,
         predictor=predictor,
         track_energy=track_energy,
+        stations=stations,
+        node_flags=node_flags,
     )
     rows = run.q.shape[0]
-    return verlet.Run(
+    return RingRun(
         run.q[:, :n],
         run.v[:, :n],
         run.a[:, :n],
@@ -130,4 +144,5 @@ def integrate(
         impact_max_speed_m_s=run.impact_max_speed_m_s,
         impact_kinetic_energy_J=run.impact_kinetic_energy_J,
         impact_dissipated_J=run.impact_dissipated_J,
+        station_peaks=run.station_peaks,
     )
