@@ -131,3 +131,33 @@ def test_long_chains_take_single_precision_factors_with_the_same_products():
     np.testing.assert_allclose(single.times(v), want, rtol=0, atol=0.1 * tolerance * np.max(np.abs(want)))
     with pytest.raises(DynamicsError, match="factor_precision"):
         of_machine(long_machine, factor_precision="half")
+
+
+@pytest.mark.slow
+def test_a_10000_link_machine_steps_the_same_on_single_precision_factors(monkeypatch):
+    """The 10,000-link machine (tensioned idler wheel, polygonal feed) takes single-precision factors
+    by default; 400 steps of an index cycle from a disturbed state end where the same steps on the
+    double factors end, to the damping's tolerance of the largest |q| and |q'| (measured 2.4e-6 and
+    4.2e-6; the rule's own error, 1e-5 against 1e-7, moves them by 2.4e-7 and 7.3e-7). Without free
+    play and friction: with them an impact or a stick-slip switch a step earlier or later amplifies
+    any difference (the rule's own error moves v by 2.6e-6 there, the rounding by 5e-4 after 400
+    steps, 1.6e-4 after a cycle); their effect on the station metrics is bench_long_wheels' check."""
+    from dynamics.models import machine_damping
+
+    chain = ChainModel(10_000, 2.03, 9.331e7, damping_ratio=0.13)
+    layout = MachineLayout("wheels", WHEEL, WHEEL, None, True)
+    single = ClearanceMachine.of(chain, layout, TENSIONER, 0.0)
+    assert single.arrays.reduced[3].dtype == np.float32
+    monkeypatch.setattr(machine_damping, "SINGLE_PRECISION_FACTORS_ABOVE_LINKS", 20_000)
+    double = ClearanceMachine.of(chain, layout, TENSIONER, 0.0)
+    assert double.arrays.reduced[3].dtype == np.float64
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180)
+    h = mv.stable_step_s(single, 0.9, "ab2")
+    zr, zd, zdd = mv.cycle_nodes(cam, h, 400)
+    rng = np.random.default_rng(2)
+    n = single.arrays.dof_float.shape[0]
+    q0, v0 = 1e-5 * rng.standard_normal(n), 1e-3 * rng.standard_normal(n)
+    runs = [mv.integrate(m, zr, zd, zdd, h, q0, v0, out_every=400, predictor="ab2") for m in (single, double)]
+    tolerance = DEFAULT_MACHINE_DAMPING_TOLERANCE
+    for got, want in ((runs[0].q[-1], runs[1].q[-1]), (runs[0].v[-1], runs[1].v[-1])):
+        np.testing.assert_allclose(got, want, rtol=0, atol=tolerance * np.max(np.abs(want)))
