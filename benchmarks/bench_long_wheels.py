@@ -11,11 +11,15 @@ friction 0.35, preload 2224 N, zeta 0.13), 0.094 mm free play, 180 rpm modified 
 output grid (180 degrees at 4 per degree), `dynamics.scene.simulate_scene` with `--model auto` and
 steady state, plus the machine's lowest natural frequencies (both are what the pipeline's dynamics
 stage does per cam and material). Every run is its own process (python
-benchmarks/bench_long_wheels.py N FORCE_O_N TREE): time is the wall seconds of the scenario after a
-40-link warm-up (numba cache warm), the median of REPEATS runs (one above 2,000 links); memory the
+benchmarks/bench_long_wheels.py N FORCE_O_N TREE): time is the wall and the CPU seconds (the
+process's, time.process_time: on a shared machine the wall is the load's) of the scenario after a
+40-link warm-up (numba cache warm), the median of REPEATS runs (one above 2,000 links), the load
+average at the start of each N beside them; memory the
 process's peak resident set (ru_maxrss) and what the scenario added to it. Check: where the dense
 damping runs (N <= 400) the same run with the O(N) form forced, the worst relative difference of
-the 20 station metrics. With BENCH_LONG_CHAIN_OLD_TREE set to a checkout of the old code, each N
+the 20 station metrics; from there to SINGLE_PRECISION_FACTORS_ABOVE_LINKS the same run with the
+O(N) form's factors in single precision (what longer chains take) against the double ones. With
+BENCH_LONG_CHAIN_OLD_TREE set to a checkout of the old code, each N
 also runs once with that code, in the same benchmark run, stopped after OLD_TIMEOUT_S.
 """
 
@@ -39,9 +43,12 @@ from benchmarks.bench_long_chain import KEYS, OLD_TREE_VARIABLE, SIZES, TARGETS_
 
 REPEATS = 3
 REPEATED_UP_TO = 2000
-# the old code's plain cycling had not settled a 2,000-link machine after 11 min
-OLD_TIMEOUT_S = 300.0
+# the old code at 10,000 links took 256 s of wall at load 10 (e143626)
+OLD_TIMEOUT_S = 600.0
 PITCH_M = 0.1125
+# the scenario's FORCE_O_N that also takes the O(N) form's factors in single precision (checked
+# against the double factors where the default keeps them)
+SINGLE_FACTORS = "single-factors"
 
 
 def _scenario(n: int, force_o_n: bool) -> dict:
@@ -49,7 +56,7 @@ def _scenario(n: int, force_o_n: bool) -> dict:
     from dataclasses import replace
 
     from dynamics.cams import CamProgram
-    from dynamics.models import clearance_machine
+    from dynamics.models import clearance_machine, machine_damping
     from dynamics.models.chain import ChainModel
     from dynamics.response.metrics import link_metrics
     from dynamics.scene import simulate_scene
@@ -59,6 +66,8 @@ def _scenario(n: int, force_o_n: bool) -> dict:
 
     if force_o_n:
         clearance_machine.DENSE_LINK_LIMIT = 0
+    if force_o_n == SINGLE_FACTORS:
+        machine_damping.SINGLE_PRECISION_FACTORS_ABOVE_LINKS = 0
 
     def run(links):
         cfg = RunConfig(links=links, drive="wheels")
@@ -69,20 +78,21 @@ def _scenario(n: int, force_o_n: bool) -> dict:
         cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=cfg.rpm)
         t = output_times_s(cfg.rpm, 4)
         cols = [link - 1 for link in machine_parts(scene, chain).stations.values()]
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         r, contact = simulate_scene(scene, chain, cam, t, links=cols)
         natural_frequencies_Hz(scene, chain)
-        wall = time.perf_counter() - start
+        wall, cpu = time.perf_counter() - start, time.process_time() - start_cpu
         lm = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, cam.dwell_mask(t))
         values = [[float(getattr(lm, k)[i]) for k in KEYS] for i in range(len(cols))]
-        return wall, contact, values
+        return wall, cpu, contact, values
 
     run(40)  # compile / load the numba cache
     before = _rss_MB()
-    wall, contact, values = run(n)
+    wall, cpu, contact, values = run(n)
     ss = contact.steady_state
     return {
         "wall_s": wall,
+        "cpu_s": cpu,
         "added_MB": _rss_MB() - before,
         "peak_MB": _rss_MB(),
         "model": str(contact.model),
@@ -111,48 +121,65 @@ def _median_run(n: int, repeats: int, **options) -> dict | None:
         return None
     out = dict(runs[len(runs) // 2])
     out["wall_s"] = statistics.median(r["wall_s"] for r in runs)
+    out["cpu_s"] = statistics.median(r["cpu_s"] for r in runs)
+    out["cpu_runs"] = [r["cpu_s"] for r in runs]
     out["runs"] = len(runs)
     return out
 
 
 def _row(n, res, form, check, label="") -> str:
     if res is None:
-        return f"| {n}{label} | - | {form} | not finished in {OLD_TIMEOUT_S:.0f} s | - | - | - | - |"
+        return f"| {n}{label} | - | {form} | not finished in {OLD_TIMEOUT_S:.0f} s | - | - | - | - | - |"
     target = TARGETS_S.get(n)
-    mark = "" if target is None else f" (target {target:g} s: {'met' if res['wall_s'] <= target else 'NOT met'})"
+    mark = "" if target is None else f" (target {target:g} s: {'met' if res['cpu_s'] <= target else 'NOT met'})"
     state = f"{'found' if res['found'] else 'NOT found'} after {res['cycles']} index cycles"
-    runs = f"median of {res['runs']}" if res["runs"] > 1 else "one run"
+    runs = (
+        f"median of {res['runs']} ({', '.join(f'{c:.2f}' for c in res['cpu_runs'])})" if res["runs"] > 1 else "one run"
+    )
     return (
-        f"| {n}{label} | {res['model']} ({res['validity']}) | {form} | {res['wall_s']:.2f} s{mark}, {runs} | "
-        f"{res['peak_MB']:.0f} MB (+{res['added_MB']:.0f}) | {state} | {res['steps_per_output']} | {check} |"
+        f"| {n}{label} | {res['model']} ({res['validity']}) | {form} | {res['cpu_s']:.2f} s{mark}, {runs} | "
+        f"{res['wall_s']:.2f} s | {res['peak_MB']:.0f} MB (+{res['added_MB']:.0f}) | {state} | "
+        f"{res['steps_per_output']} | {check} |"
     )
 
 
 def run(quick: bool) -> list[str]:
+    # imported here: the scenario's subprocess puts its tree first on sys.path before importing dynamics
+    from dynamics.models.machine_damping import SINGLE_PRECISION_FACTORS_ABOVE_LINKS
+
     sizes = SIZES[:3] if quick else SIZES
     lines = [
         "Long clearance chains on wheels, the pipeline's scenario (default wheels and link, 0.094 mm, 180 rpm, "
         "steady state) plus the lowest natural frequencies; the global damping dense up to 400 links, its O(N) "
-        "form above (dynamics/models/machine_damping.py)",
+        "form above (dynamics/models/machine_damping.py; its factors in single precision above "
+        f"{SINGLE_PRECISION_FACTORS_ABOVE_LINKS} links)",
         "",
-        "| N | model | damping form | time (scenario) | peak RSS (added) | steady state | steps/sample | "
+        "| N | model | damping form | CPU (scenario) | wall | peak RSS (added) | steady state | steps/sample | "
         "check vs dense C |",
-        "|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     old = os.environ.get(OLD_TREE_VARIABLE)
     for n in sizes:
         repeats = 1 if (quick or n > REPEATED_UP_TO) else REPEATS
+        load = os.getloadavg()[0]
         res = _median_run(n, repeats)
         form = "O(N), 1e-5" if n > 400 else "dense"
+        if n > SINGLE_PRECISION_FACTORS_ABOVE_LINKS:
+            form += ", single-precision factors"
         check = "-"
         if n <= 400:
             reduced = _in_subprocess(n, True)
             a, b = np.array(res["values"]), np.array(reduced["values"])
             check = f"O(N) form: worst station metric {np.max(np.abs(b - a) / np.abs(a)):.1e}"
+        elif n <= SINGLE_PRECISION_FACTORS_ABOVE_LINKS:
+            single = _in_subprocess(n, SINGLE_FACTORS)
+            a, b = np.array(res["values"]), np.array(single["values"])
+            check = f"single-precision factors: worst station metric {np.max(np.abs(b - a) / np.abs(a)):.1e}"
         lines.append(_row(n, res, form, check))
         if old:
             old_res = _median_run(n, 1, tree=Path(old), timeout=OLD_TIMEOUT_S)
-            lines.append(_row(n, old_res, form, "-", " (old tree)"))
+            lines.append(_row(n, old_res, "as the old tree's", "-", " (old tree)"))
+        lines.append(f"| {n}: load average {load:.1f} at the start | | | | | | | | |")
     return lines
 
 

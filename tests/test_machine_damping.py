@@ -6,6 +6,7 @@ import pytest
 from scipy.linalg import eigh
 
 from dynamics.cams import CamProgram
+from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import Tensioner
 from dynamics.models.clearance_machine import ClearanceMachine
@@ -19,9 +20,9 @@ WHEEL = Wheel(12, PITCH_M, 6, 0.688)
 TENSIONER = Tensioner(1e5, 5.0, 100.0)
 
 
-def _reduced_matrix(machine) -> np.ndarray:
+def _reduced_matrix(machine, factor_precision=None) -> np.ndarray:
     """The O(N) form's C as a matrix: its chain block column by column, the carriage's c_t."""
-    red = of_machine(machine)
+    red = of_machine(machine, factor_precision=factor_precision)
     c = np.zeros((machine.topology.n_dof,) * 2)
     c[np.ix_(red.dofs, red.dofs)] = np.column_stack([red.times(e) for e in np.eye(red.dofs.size)])
     if machine.tensioner is not None:
@@ -31,15 +32,17 @@ def _reduced_matrix(machine) -> np.ndarray:
 
 @pytest.mark.parametrize("n_links", [85, pytest.param(400, marks=pytest.mark.slow)])
 @pytest.mark.parametrize("idler", [True, False])
-def test_the_reduced_form_is_the_dense_modal_damping_to_its_tolerance(n_links, idler):
+@pytest.mark.parametrize("factor_precision", ["double", "single"])
+def test_the_reduced_form_is_the_dense_modal_damping_to_its_tolerance(n_links, idler, factor_precision):
     """Every mode of (K, M) on the chain's DOFs (carriage held) keeps zeta to the rule's tolerance
     (DEFAULT_MACHINE_DAMPING_TOLERANCE: the rule's relative error is a function of the eigenvalue, the
     same bound for every mode), the modes stay uncoupled to that level, the carriage's c_t is kept
-    exactly, and the products agree with the dense C."""
+    exactly, and the products agree with the dense C; with the factors in either precision (single:
+    what chains above SINGLE_PRECISION_FACTORS_ABOVE_LINKS take)."""
     chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=0.13)
     layout = MachineLayout("wheels", WHEEL, WHEEL if idler else None, None if idler else 2e6, True)
     machine = layout.machine(chain, TENSIONER)
-    dense, reduced = machine.damping_matrix(), _reduced_matrix(machine)
+    dense, reduced = machine.damping_matrix(), _reduced_matrix(machine, factor_precision)
     assert reduced[-1, -1] == dense[-1, -1] == TENSIONER.damping_N_s_per_m
     dofs = of_machine(machine).dofs
     k, m = machine.stiffness_matrix()[np.ix_(dofs, dofs)], machine.mass_matrix()[np.ix_(dofs, dofs)]
@@ -106,3 +109,55 @@ def test_zolotarevs_rule_leaves_tight_tolerances_to_the_trapezoidal_rule():
     tight = FIT_TOLERANCE_FLOOR / 10
     for got, want in zip(zolotarev_nodes_for(tight, 2.0, 2e6), nodes_for(tight, 2.0, 2e6)):
         np.testing.assert_array_equal(got, want)
+
+
+def test_long_chains_take_single_precision_factors_with_the_same_products():
+    """Above SINGLE_PRECISION_FACTORS_ABOVE_LINKS links the factors are stored in single precision
+    (the recurrences in double): the products agree with the double factors' to well inside the
+    rule's tolerance; up to it the factors stay in double (the dense form's check runs there)."""
+    from dynamics.models.machine_damping import SINGLE_PRECISION_FACTORS_ABOVE_LINKS
+
+    def machine(n_links):
+        chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=0.13)
+        return MachineLayout("wheels", WHEEL, WHEEL, None, True).machine(chain, TENSIONER)
+
+    assert of_machine(machine(SINGLE_PRECISION_FACTORS_ABOVE_LINKS)).factors.dtype == np.float64
+    long_machine = machine(SINGLE_PRECISION_FACTORS_ABOVE_LINKS + 1)
+    single, double = of_machine(long_machine), of_machine(long_machine, factor_precision="double")
+    assert single.factors.dtype == np.float32
+    v = np.random.default_rng(5).standard_normal(single.dofs.size)
+    want = double.times(v)
+    tolerance = DEFAULT_MACHINE_DAMPING_TOLERANCE
+    np.testing.assert_allclose(single.times(v), want, rtol=0, atol=0.1 * tolerance * np.max(np.abs(want)))
+    with pytest.raises(DynamicsError, match="factor_precision"):
+        of_machine(long_machine, factor_precision="half")
+
+
+@pytest.mark.slow
+def test_a_10000_link_machine_steps_the_same_on_single_precision_factors(monkeypatch):
+    """The 10,000-link machine (tensioned idler wheel, polygonal feed) takes single-precision factors
+    by default; 400 steps of an index cycle from a disturbed state end where the same steps on the
+    double factors end, to the damping's tolerance of the largest |q| and |q'| (measured 2.4e-6 and
+    4.2e-6; the rule's own error, 1e-5 against 1e-7, moves them by 2.4e-7 and 7.3e-7). Without free
+    play and friction: with them an impact or a stick-slip switch a step earlier or later amplifies
+    any difference (the rule's own error moves v by 2.6e-6 there, the rounding by 5e-4 after 400
+    steps, 1.6e-4 after a cycle); their effect on the station metrics is bench_long_wheels' check."""
+    from dynamics.models import machine_damping
+
+    chain = ChainModel(10_000, 2.03, 9.331e7, damping_ratio=0.13)
+    layout = MachineLayout("wheels", WHEEL, WHEEL, None, True)
+    single = ClearanceMachine.of(chain, layout, TENSIONER, 0.0)
+    assert single.arrays.reduced[3].dtype == np.float32
+    monkeypatch.setattr(machine_damping, "SINGLE_PRECISION_FACTORS_ABOVE_LINKS", 20_000)
+    double = ClearanceMachine.of(chain, layout, TENSIONER, 0.0)
+    assert double.arrays.reduced[3].dtype == np.float64
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180)
+    h = mv.stable_step_s(single, 0.9, "ab2")
+    zr, zd, zdd = mv.cycle_nodes(cam, h, 400)
+    rng = np.random.default_rng(2)
+    n = single.arrays.dof_float.shape[0]
+    q0, v0 = 1e-5 * rng.standard_normal(n), 1e-3 * rng.standard_normal(n)
+    runs = [mv.integrate(m, zr, zd, zdd, h, q0, v0, out_every=400, predictor="ab2") for m in (single, double)]
+    tolerance = DEFAULT_MACHINE_DAMPING_TOLERANCE
+    for got, want in ((runs[0].q[-1], runs[1].q[-1]), (runs[0].v[-1], runs[1].v[-1])):
+        np.testing.assert_allclose(got, want, rtol=0, atol=tolerance * np.max(np.abs(want)))

@@ -38,6 +38,16 @@ from dynamics.models.reduced_damping import zolotarev_nodes_for
 # with the trapezoidal rule at 1e-4 (14 nodes, its error 0.53 of the tolerance), 9e-5 at 1e-5 (10
 # nodes)): 1e-5 keeps them well inside the 1e-3 output accuracy with fewer nodes than before.
 DEFAULT_MACHINE_DAMPING_TOLERANCE = 1e-5
+# The factors (3 n p numbers, the product's memory traffic) are stored in single precision above this
+# many links (the recurrences still run in double): at 10,000 links they no longer fit in the core's
+# share of L2 and the product is bound by their loads, 385 against 741 us a product (13 nodes, 10,000
+# links; 98 against 142 us at 3,000, 90 against 97 us at 2,000); at 1,000 links the conversions cost
+# more than the loads save (44 against 34 us). Each mode's ratio moves by under 4e-7 (measured at 400
+# and 2,000 links against the dense (K, M) modes: worst ratio error 5.5e-6 and 6.9e-6, the rule's
+# own 5.5e-6 and 6.8e-6), far inside the 1e-5 tolerance; up to this length (where the dense form's
+# check runs) the factors stay in double.
+SINGLE_PRECISION_FACTORS_ABOVE_LINKS = 2000
+FACTOR_PRECISIONS = {"single": np.float32, "double": np.float64}
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,7 +57,8 @@ class MachineDamping:
     dofs: the chain's DOFs in loop order; tri (n, 6): sqrt(m), m, S's diagonal, S's entry (i, i+1),
     K's diagonal, K's entry (i, i+1); scalars: S's corner (0, n-1), K's corner, 2 zeta, alpha, beta
     (alpha M + beta K: Rayleigh damping, or the modal rule's tails); factors (3, n, p): each node's
-    Thomas pivots' inverses, forward coefficients and Sherman-Morrison vector, place by place; sm
+    Thomas pivots' inverses, forward coefficients and Sherman-Morrison vector, place by place (single
+    precision on long chains, SINGLE_PRECISION_FACTORS_ABOVE_LINKS); sm
     (p, 2): (1 / (1 + v.z), corner / gamma); weights (p,)."""
 
     dofs: np.ndarray
@@ -69,8 +80,19 @@ class MachineDamping:
         return out
 
 
-def of_machine(machine, tolerance: float = DEFAULT_MACHINE_DAMPING_TOLERANCE) -> MachineDamping:
-    """The O(N) form of `machine.damping_matrix()`'s chain-DOF block (modal or Rayleigh)."""
+def default_factor_precision(n_links: int) -> str:
+    """The factors' precision (FACTOR_PRECISIONS) for a machine of `n_links` links."""
+    return "single" if n_links > SINGLE_PRECISION_FACTORS_ABOVE_LINKS else "double"
+
+
+def of_machine(
+    machine, tolerance: float = DEFAULT_MACHINE_DAMPING_TOLERANCE, factor_precision: str | None = None
+) -> MachineDamping:
+    """The O(N) form of `machine.damping_matrix()`'s chain-DOF block (modal or Rayleigh), its factors
+    in `factor_precision` (None: `default_factor_precision`)."""
+    precision = default_factor_precision(machine.n_links) if factor_precision is None else factor_precision
+    if precision not in FACTOR_PRECISIONS:
+        raise DynamicsError(f"factor_precision: expected one of {sorted(FACTOR_PRECISIONS)}, got {factor_precision!r}")
     topo = machine.topology
     dofs = np.array([d for d, carried in enumerate(topo.links) if carried], dtype=np.int64)
     k = topo.stiffness_matrix_sparse()[dofs][:, dofs].tocsr()
@@ -95,6 +117,7 @@ def of_machine(machine, tolerance: float = DEFAULT_MACHINE_DAMPING_TOLERANCE) ->
         taus, weights, a, b = zolotarev_nodes_for(tolerance, x_min, x_max)
         alpha, beta = two_zeta * a, two_zeta * b  # the rule's tails: 2 zeta (a M + b K)
     factors, sm = _factors(sd, soff, scorner, np.ascontiguousarray(taus, dtype=float))
+    factors = np.ascontiguousarray(factors, dtype=FACTOR_PRECISIONS[precision])
     tri = np.ascontiguousarray(np.column_stack([rm, m, sd, soff, kd, koff]))
     scalars = np.array([scorner, kcorner, two_zeta, alpha, beta])
     return MachineDamping(dofs, tri, scalars, factors, sm, np.ascontiguousarray(weights, dtype=float))
