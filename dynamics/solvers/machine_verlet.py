@@ -442,7 +442,10 @@ def _run_loops(
         )
         for j in range(n):
             v[j] = wh[j] + hh * a[j]
-        if kv:
+        switches = 0  # Kelvin-Voigt: spans whose contact changed within the step (`contact`: the step's end)
+        for j in range(ns if kv else 0):
+            switches += contact[j] == free[j]
+        if switches:
             before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy and kv else 0.0
             _span_impulses_into(
                 h,
@@ -462,9 +465,9 @@ def _run_loops(
             )
             if track_energy and kv:  # the impulses' work, dissipated by the dashpots
                 energy[1] += before - _kinetic_abs_J(v, zd[i + 1], dof_float)
-            for j in range(ns):
-                e_old[j] = e_new[j]
-                ed_old[j] = ed[j]
+        for j in range(ns if kv else 0):
+            e_old[j] = e_new[j]
+            ed_old[j] = ed[j]
         recording = i + 1 >= record_from
         have_start = False
         # most steps have no impact and no contact begun by one: a branch-free pass (it vectorises)
