@@ -3,13 +3,9 @@ clearance chain's explicit velocity Verlet (dynamics.solvers.clearance_verlet: t
 velocity predictors and stability limit) on any chain topology, the spans as a loop over the packed
 arrays (behind, ahead, carriage, wheel), the forces back through the transposed incidence, the
 polygonal feed d(a) of each wheel as a time-dependent offset of its two wheel-end spans evaluated at
-<<<<<<< HEAD
-every step, the global damping law as the plain product C q' (the machine has no mirror symmetry;
-the single-link drive's C has, and its machine packs it in the ring's two blocks: `mirror_packed`).
-=======
 every step, the global damping law as the plain product C q' (the machine has no mirror symmetry; in
-single precision on the wheels, DAMPING_PRODUCT_PRECISIONS).
->>>>>>> window
+single precision on the wheels, DAMPING_PRODUCT_PRECISIONS; the single-link drive's C has, and its
+machine packs it in the ring's two blocks: `mirror_packed`).
 The Kelvin-Voigt dashpot's force jump at a contact change is located within the step as the ring's
 (clearance_verlet._switch_impulse, `_span_impulses_into`: an impulse through the span's incidence,
 its work counted as damping), so the step stays second order through the switches.
@@ -499,9 +495,12 @@ def _run_loops(
         )
         for j in range(n):
             v[j] = wh[j] + hh * a[j]
-        if kv:
-            if stations.shape[0] > 0:
-                _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switches[i + 1])
+        if kv and stations.shape[0] > 0:
+            _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switches[i + 1])
+        changed = 0  # Kelvin-Voigt: spans whose contact changed within the step (`contact`: the step's end)
+        for j in range(ns if kv else 0):
+            changed += contact[j] == free[j]
+        if changed:
             before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy and kv else 0.0
             _span_impulses_into(
                 h,
@@ -521,15 +520,19 @@ def _run_loops(
             )
             if track_energy and kv:  # the impulses' work, dissipated by the dashpots
                 energy[1] += before - _kinetic_abs_J(v, zd[i + 1], dof_float)
-            for j in range(ns):
-                e_old[j] = e_new[j]
-                ed_old[j] = ed[j]
+        for j in range(ns if kv else 0):
+            e_old[j] = e_new[j]
+            ed_old[j] = ed[j]
         recording = i + 1 >= record_from
         have_start = False
+        # most steps have no impact and no contact begun by one: a branch-free pass (it vectorises)
+        # finds those, and the spans' loop below, with its branches, runs only in the others
+        events = 0
         for j in range(ns):
+            events += (contact[j] & free[j]) | in_impact[j]
+        for j in range(ns if events else 0):
             impact = contact[j] and free[j]
             if not (impact or in_impact[j]):
-                free[j] = not contact[j]
                 continue
             # the span's rate at the step's end (the final velocities): the Kelvin-Voigt dashpot's power
             # (written out: a call here, on every step of a contact, made the Kelvin-Voigt window 3x slower)
@@ -594,8 +597,8 @@ def _run_loops(
                     stats[10] += 0.5 * frac * h * (dash_prev[j] + par[3] * ed_c * ed_c)
                 in_impact[j] = False
                 dash_prev[j] = 0.0
-            free[j] = not contact[j]
         for j in range(ns):
+            free[j] = not contact[j]
             e_prev[j] = e_new[j]
         if recording:
             _record(t_el, contact, stats)
