@@ -131,6 +131,8 @@ def stiffness_studies(
     order, concurrent_levels, mirror_symmetry = settings.order, settings.concurrent_levels, settings.mirror_symmetry
     start = study_start = time.perf_counter()
     part = geometry.as_part(source, symmetry=mirror_symmetry)
+    if mirror_symmetry:  # the finest level (below, first) meshes the half its measurement ends with
+        part.measure_keeping_half()
     sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
     # Thin walls (geometry.walls: planar, rings round holes) thinner than half the finest size asked
     # for get a size field on every level, the same fraction of each level's size (geometry.meshing.THIN_WALL_FRACTION). The reference is the
