@@ -90,7 +90,7 @@ def render_pictures(
     instead of warping the volume mesh and extracting its surface again. The subdivided surface's
     points are the elements' quadratic interpolation of the nodes, linear in the nodal values, so
     warping before or after the extraction gives the same points (to float32 rounding: 1.5e-8 m on
-    the default link; a few hundred of the 1.26 million pixels differ, by one or two levels). The
+    the default link; about 800 of the 1.26 million pixels differ, one of them by more than 16/255). The
     default run's two images: 1.63 instead of 2.12 CPU s, pyvista's import and first window
     included (medians of 3 alternating with e143626, the same solutions, loaded machine)."""
     if scalar not in SCALARS:
