@@ -3,17 +3,19 @@ file or the built-in link, resolved on the way)."""
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Iterator
 
 import gmsh
 import numpy as np
 
 from geometry.bores import BoreOverride
 from geometry.errors import GeometryError
-from geometry.link_mesh import LinkMesh
+from geometry.link_mesh import LinkMesh, MirrorPlane
 from geometry.meshing import mesh_volumes, split_at_loaded_half
 from geometry.part import Part, as_part
-from geometry.session import gmsh_model
+from geometry.session import gmsh_model, taken_model
 from geometry.symmetry import keep_positive_half
 
 #: Default element size as a fraction of the part's bounding-box diagonal (4.2 mm on the default
@@ -74,12 +76,9 @@ def mesh_part(
         )
     name = part.name
     fixed, loaded = part.pins.fixed, part.pins.loaded
-    with gmsh_model("link"):
-        volumes = part.load_body()
+    plane = part.mirror_plane if mirror else None
+    with _body_model(part, plane) as volumes:
         size = _checked_mesh_size(mesh_size_m, part.volume_m3, name)
-        plane = part.mirror_plane if mirror else None
-        if plane is not None:
-            volumes = keep_positive_half(volumes, plane)
         volumes = split_at_loaded_half(volumes, fixed.bore, loaded.bore)
         try:
             arrays = mesh_volumes(
@@ -113,6 +112,20 @@ def mesh_part(
         mirror_plane=plane,
         mirror_facets=arrays.mirror_facets,
     )
+
+
+@contextlib.contextmanager
+def _body_model(part: Part, plane: MirrorPlane | None) -> Iterator[list[int]]:
+    """A gmsh model holding the part's body, or its half on the positive side of `plane`: the half
+    its measurement kept (`Part.measure_keeping_half`), else the body loaded afresh; its solids."""
+    if plane is not None:
+        with taken_model(part.half_model_name) as half:
+            if half is not None:
+                yield half
+                return
+    with gmsh_model("link"):
+        volumes = part.load_body()
+        yield volumes if plane is None else keep_positive_half(volumes, plane)
 
 
 def _check_mesh_options(order: int, bore_refinement: float) -> None:

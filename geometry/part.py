@@ -36,7 +36,7 @@ from geometry.link_mesh import MirrorPlane
 from geometry.mesh_estimate import Hole, MeshFeatures, WallFeature
 from geometry.parametric import add_link
 from geometry.pin_pair import PinBores
-from geometry.session import gmsh_model
+from geometry.session import gmsh_model, keep_model
 from geometry.step_io import import_step_bytes, read_step
 from geometry.symmetry import faces_on_plane, keep_positive_half, symmetry_plane
 from geometry.walls import thin_walls
@@ -96,6 +96,21 @@ class Part:
         """The body, its pin bores, sizes and symmetry: chosen and measured on first use, then kept."""
         return _measure(self)
 
+    def measure_keeping_half(self) -> PartGeometry:
+        """`geometry`, measured now if it is not yet, the mirror half the measurement ends with (a
+        symmetric part) kept in gmsh for the first `mesh_part(self, mirror=True)` in this process
+        (`half_model_name`), which then meshes it instead of building the CAD again and cutting it
+        (the CAD 0.20-0.26 CPU s on the built-in link; the same model, so the same mesh:
+        tests/test_geometry_session.py)."""
+        if "geometry" not in self.__dict__:  # functools.cached_property's slot
+            self.__dict__["geometry"] = _measure(self, keep_half=True)
+        return self.geometry
+
+    @property
+    def half_model_name(self) -> str:
+        """The gmsh model `measure_keeping_half` keeps its mirror half under."""
+        return f"half of {self.name} {self.fingerprint} {self.bores!r}"
+
     @property
     def summary(self) -> PartSummary:
         return self.geometry.summary
@@ -148,12 +163,12 @@ def resolve_part(source=None, *, bores: BoreOverride | None = None, symmetry: bo
     return Part(os.fspath(source), origin, _sha256(data), data, bores, symmetry)
 
 
-def _measure(part: Part) -> PartGeometry:
+def _measure(part: Part, keep_half: bool = False) -> PartGeometry:
     """Load the part into a gmsh model of its own, choose the body and its pin bores (or take the
     manual ones), measure the hardware, then, as each mesh level sees the model (the body alone),
-    the body's volume and size and its symmetry."""
+    the body's volume and size and its symmetry. `keep_half`: see `Part.measure_keeping_half`."""
     name, data, bores = part.name, part.step_bytes, part.bores
-    with gmsh_model("part"):
+    with gmsh_model(part.half_model_name):
         volumes = [add_link(part.origin)] if data is None else import_step_bytes(data, name)
         all_solids_diagonal_m = _model_diagonal_m()
         if bores is not None:
@@ -177,7 +192,10 @@ def _measure(part: Part) -> PartGeometry:
         plane = symmetry_plane([body], pins.fixed.bore, pins.loaded.bore) if part.symmetry_checked else None
         features = _mesh_features(body, volume_m3, pins, diagonal_m)
         if plane is not None:  # last: the half replaces the body in the model
-            features = replace(features, mirror_cut_area_m2=_cut_face_area_m2(body, plane))
+            half = keep_positive_half([body], plane)
+            features = replace(features, mirror_cut_area_m2=_cut_face_area_m2(half, plane))
+            if keep_half:
+                keep_model(part.half_model_name, half)
     return PartGeometry(
         summary=summary,
         scale=_scale(pins, None if data is not None else part.origin),
@@ -208,9 +226,8 @@ def _mesh_features(body: int, volume_m3: float, pins: PinBores, diagonal_m: floa
     )
 
 
-def _cut_face_area_m2(body: int, plane: MirrorPlane) -> float:
-    """Area of the face a mirror half gets on its plane (the body is replaced by that half)."""
-    half = keep_positive_half([body], plane)
+def _cut_face_area_m2(half: list[int], plane: MirrorPlane) -> float:
+    """Area of the face a mirror half (`keep_positive_half`) has on its plane."""
     return sum(gmsh.model.occ.getMass(2, face) for face in faces_on_plane(half, plane))
 
 

@@ -14,31 +14,94 @@ import os
 import sys
 import threading
 from collections.abc import Iterator
+from dataclasses import dataclass
 
 import gmsh
 
 _LOCK = threading.RLock()
 
 
+@dataclass
+class KeptModel:
+    """A model left in gmsh after its `gmsh_model` block (`keep_model`), for one `taken_model`."""
+
+    volumes: list[int]  # its solids, as the block left them
+    owns_gmsh: bool = False  # whether its block initialised gmsh (then the model's removal finalises it)
+
+
+_KEPT: dict[str, KeptModel] = {}
+
+
 @contextlib.contextmanager
 def gmsh_model(name: str = "link") -> Iterator[None]:
-    """Open a fresh gmsh model (initialising gmsh if needed) and remove it afterwards."""
+    """Open a fresh gmsh model (initialising gmsh if needed) and remove it afterwards, unless the
+    block kept it (`keep_model`)."""
     with _LOCK:
+        _drop_kept(name)  # a stale model of the same name would shadow the new one
         owns_gmsh = not gmsh.isInitialized()
         if owns_gmsh:
             # interruptible=False keeps gmsh from replacing the SIGINT handler for good.
             gmsh.initialize(interruptible=False, readConfigFiles=False)
+        kept = None
         try:
-            gmsh.option.setNumber("General.Terminal", 0)
-            gmsh.option.setString("Geometry.OCCTargetUnit", "M")
+            _set_options()
             gmsh.model.add(name)
             try:
                 yield
+                kept = _KEPT.get(name)
             finally:
-                gmsh.model.remove()
+                if kept is None:
+                    _KEPT.pop(name, None)
+                    gmsh.model.remove()
         finally:
-            if owns_gmsh:
+            if kept is not None:
+                kept.owns_gmsh = owns_gmsh
+            elif owns_gmsh:
                 gmsh.finalize()
+
+
+def keep_model(name: str, volumes: list[int]) -> None:
+    """Inside `gmsh_model(name)`: leave that model in gmsh after the block, with these solids, for
+    one `taken_model(name)` (its CAD then need not be built again)."""
+    _KEPT[name] = KeptModel(list(volumes))
+
+
+@contextlib.contextmanager
+def taken_model(name: str) -> Iterator[list[int] | None]:
+    """The model kept under `name` (`keep_model`) made current for the block, its solids given, and
+    removed afterwards; None (and no model) where none is kept."""
+    with _LOCK:
+        kept = _KEPT.pop(name, None)
+        if kept is None:
+            yield None
+            return
+        try:
+            _set_options()
+            gmsh.model.setCurrent(name)
+            yield kept.volumes
+        finally:
+            _remove_kept(name, kept)
+
+
+def _set_options() -> None:
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setString("Geometry.OCCTargetUnit", "M")
+
+
+def _drop_kept(name: str) -> None:
+    kept = _KEPT.pop(name, None)
+    if kept is not None:
+        _remove_kept(name, kept)
+
+
+def _remove_kept(name: str, kept: KeptModel) -> None:
+    gmsh.model.setCurrent(name)
+    gmsh.model.remove()
+    if kept.owns_gmsh:
+        if _KEPT:  # another kept model still needs gmsh: it finalises it when it goes
+            next(iter(_KEPT.values())).owns_gmsh = True
+        else:
+            gmsh.finalize()
 
 
 @contextlib.contextmanager

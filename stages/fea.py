@@ -165,9 +165,9 @@ def _fea_steps(
     beside the run (stages.beside), the same code either way."""
     import warnings
 
-    from fem import render_deformed
     from fem.errors import FemWarning
     from fem.heap import release_free_memory
+    from fem.render import Picture, render_pictures
     from fem.stress import stress_study
 
     with warnings.catch_warnings(record=True) as caught:
@@ -186,10 +186,13 @@ def _fea_steps(
             base=finest,
             progress=progress,
         )
-    for name, study in studies.items():
-        if images[name] is not None:
-            images[name].parent.mkdir(parents=True, exist_ok=True)
-            render_deformed(study.finest, images[name], title=f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
+    render_pictures(
+        [
+            Picture(study.finest, images[name], f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
+            for name, study in studies.items()
+            if images[name] is not None
+        ]
+    )
     del studies, finest
     release_free_memory()  # the levels' arrays, before the dynamics and the figures
     answers = {name: StressAnswer(s.peak_Pa_per_N, s.rel_change, s.description) for name, s in stresses.items()}

@@ -91,3 +91,46 @@ def test_pyvista_does_not_probe_the_display_before_rendering(tmp_path, solution,
     monkeypatch.setattr(subprocess, "Popen", lambda args, *a, **k: probes.append(args) or real_popen(args, *a, **k))
     render_deformed(solution, tmp_path / "link.png", window_size=(320, 200))
     assert probes == []
+
+
+def test_warping_the_surface_gives_the_warped_volume_mesh_surface(solution):
+    """fem.render warps the extracted (subdivided) surface instead of the volume mesh: the points
+    are the same, to float32 rounding, since the subdivision interpolates linearly in nodal values."""
+    from fem.link import whole_link_fields
+    from fem.render import _grid, _surface
+
+    fields = whole_link_fields(solution)
+    undeformed, _ = _surface([fields])
+    factor = 1000.0
+    grid = _grid(fields)
+    grid.point_data["u"] = np.ascontiguousarray(fields.displacement_m.T)
+    subdivision = 2 if solution.order == 2 else 0
+    expected = grid.warp_by_vector("u", factor=factor).extract_surface(
+        algorithm="dataset_surface", nonlinear_subdivision=subdivision
+    )
+    warped = undeformed.warp_by_vector("u0", factor=factor)
+    size = np.ptp(np.asarray(expected.points), axis=0).max()
+    assert warped.n_points == expected.n_points
+    assert np.abs(np.asarray(warped.points) - np.asarray(expected.points)).max() < 1e-6 * size
+
+
+def test_materials_on_one_mesh_share_its_surface_and_render_as_alone(tmp_path, monkeypatch):
+    from fem import render
+    from fem.link import analyse_link_materials
+
+    order = 2
+    solutions = analyse_link_materials(
+        plate_link(0.01, order=order), [get_material("ti-grade2"), get_material("al6061-t6")], order=order
+    )
+    alone = {name: tmp_path / f"alone-{name}.png" for name in solutions}
+    for name, solution in solutions.items():
+        render_deformed(solution, alone[name], window_size=(320, 200))
+    surfaces = []
+    real_surface = render._surface
+    monkeypatch.setattr(render, "_surface", lambda fields: surfaces.append(len(fields)) or real_surface(fields))
+    pictures = [render.Picture(s, tmp_path / f"together-{name}.png") for name, s in solutions.items()]
+    factors = render.render_pictures(pictures, window_size=(320, 200))
+    assert surfaces == [2]  # one surface for both materials
+    assert factors == [render.exaggeration_factor(render.whole_link_fields(s)) for s in solutions.values()]
+    for name, picture in zip(solutions, pictures):
+        assert np.array_equal(matplotlib.image.imread(picture.path), matplotlib.image.imread(alone[name]))

@@ -1,0 +1,47 @@
+"""The mirror half kept from a part's measurement (Part.measure_keeping_half) meshes exactly as the
+half built afresh, is taken once, and leaves gmsh as it found it."""
+
+import gmsh
+import numpy as np
+
+from geometry import session
+from geometry.load import mesh_part
+from geometry.part import resolve_part
+
+SIZE_M = 8e-3  # coarse: the comparison needs any mesh, not a fine one
+MESH_FIELDS = ("points_m", "tets", "tets10", "fixed_bore_facets", "loaded_bore_facets", "mirror_facets")
+
+
+def _mesh(part):
+    return mesh_part(part, mesh_size_m=SIZE_M, order=2, bore_refinement=0.4, mirror=True, wall_reference_m=SIZE_M)
+
+
+def test_kept_half_meshes_as_a_fresh_half_and_is_taken_once():
+    fresh_part = resolve_part(None)
+    fresh_part.geometry  # noqa: B018 (measured without keeping anything)
+    assert fresh_part.half_model_name not in session._KEPT
+    fresh = _mesh(fresh_part)
+
+    part = resolve_part(None)
+    initialised_before = gmsh.isInitialized()
+    part.measure_keeping_half()
+    assert part.mirror_plane is not None
+    assert part.half_model_name in session._KEPT
+    kept = _mesh(part)
+    assert part.half_model_name not in session._KEPT
+    assert gmsh.isInitialized() == initialised_before  # the kept model's removal finalised what it initialised
+    again = _mesh(part)  # nothing kept any more: the CAD built afresh
+
+    for name in MESH_FIELDS:
+        assert np.array_equal(getattr(kept, name), getattr(fresh, name)), name
+        assert np.array_equal(getattr(again, name), getattr(fresh, name)), name
+
+
+def test_a_kept_model_of_the_same_name_is_replaced_by_a_fresh_one():
+    part = resolve_part(None)
+    part.measure_keeping_half()
+    with session.gmsh_model(part.half_model_name):
+        assert gmsh.model.getEntities(3) == []  # the fresh model, not the kept half
+    assert part.half_model_name not in session._KEPT
+    with session.taken_model(part.half_model_name) as volumes:
+        assert volumes is None
