@@ -118,7 +118,7 @@ def _check_tooth_stiffness(cfg: RunConfig) -> None:
     """A tooth contact stiffness asked for (a finite --tooth-stiffness) needs what its model carries
     (dynamics.models.machine): wheels with inertia (each is a body of its own), at most DENSE_LINK_LIMIT
     links (the dense damping law)."""
-    from dynamics.models.reduction import DENSE_LINK_LIMIT
+    from dynamics.options import DENSE_LINK_LIMIT
 
     k_t = cfg.tooth_stiffness_N_per_m
     if k_t is None or k_t == float("inf"):
