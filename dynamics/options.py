@@ -22,6 +22,11 @@ SPAN_DAMPING_LAWS = ("global", "kelvin-voigt")  # dynamics.models.clearance: the
 # per joint. A span has two pin joints: 2 x 47 um of axial free play.
 DEFAULT_PIN_CLEARANCE_M = 94e-6
 
+# Above this many links the pipeline solves in the lowest modes (dynamics.models.reduction, where the
+# figures are) and the tooth model is not built (dynamics.models.machine): the settings refuse
+# --tooth-stiffness above it without importing the solvers
+DENSE_LINK_LIMIT = 400
+
 
 @dataclass(frozen=True)
 class SolverMethod:

@@ -605,6 +605,8 @@ def _sweep_summary(sweep) -> dict:
             cam: {
                 "residual_vibration_m": sweep.residual_vibration_m[i].tolist(),
                 "peak_abs_acceleration_m_s2": sweep.peak_acceleration_m_s2[i].tolist(),
+                # per speed, the seating the run's verdict at that speed ran (null: the link drive)
+                "seating_model": None if sweep.seating_model is None else list(sweep.seating_model[i]),
             }
             for i, cam in enumerate(sweep.cam_ids)
         },

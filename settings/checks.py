@@ -116,9 +116,9 @@ def _check_machine(cfg: RunConfig) -> None:
 
 def _check_tooth_stiffness(cfg: RunConfig) -> None:
     """A tooth contact stiffness asked for (a finite --tooth-stiffness) needs what its model carries
-    (dynamics.models.machine): no tensioner, wheels with inertia (each is a body of its own), at most
-    DENSE_LINK_LIMIT links (the dense damping law)."""
-    from dynamics.models.reduction import DENSE_LINK_LIMIT
+    (dynamics.models.machine): wheels with inertia (each is a body of its own), at most DENSE_LINK_LIMIT
+    links (the dense damping law)."""
+    from dynamics.options import DENSE_LINK_LIMIT
 
     k_t = cfg.tooth_stiffness_N_per_m
     if k_t is None or k_t == float("inf"):
@@ -127,11 +127,6 @@ def _check_tooth_stiffness(cfg: RunConfig) -> None:
         cfg.links <= DENSE_LINK_LIMIT,
         f"--tooth-stiffness: seating through a tooth stiffness is built up to {DENSE_LINK_LIMIT} links, got "
         f"--links {cfg.links}; expected --tooth-stiffness rigid (or auto) above",
-    )
-    _require(
-        cfg.tensioner_rate_N_per_m is None,
-        "--tooth-stiffness: seating through a tooth stiffness is built for a fixed idler axle; expected no "
-        "--tensioner-rate with it (or --tooth-stiffness rigid)",
     )
     for option, inertia in (
         ("--sprocket-inertia", cfg.sprocket_inertia_kg_m2),

@@ -328,6 +328,7 @@ def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialStiffness], progress: 
                 done=lambda cam_id, name=name: progress(
                     f"speed sweep {name} / {cam_id}: {rpms.size} speeds on the linear machine, done"
                 ),
+                model_at=_seating_at_each_speed(cfg, scene, model),
             )
         else:
             sweeps[name] = rpm_sweep(
@@ -342,8 +343,40 @@ def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialStiffness], progress: 
             f"speed sweep {name}: {rpms.size} speeds x {len(cfg.cams)} cam laws on {sweeps[name].model}, "
             f"{len(sweeps[name].critical_speeds)} critical speeds in range"
             + (" (friction left out of the sweep)" if cfg.friction > 0 else "")
+            + _sweep_seating_words(sweeps[name])
         )
     return sweeps
+
+
+def _sweep_seating_words(sweep: SweepResult) -> str:
+    """The sweep's progress line's note on the points that left rigid seating for the tooth model."""
+    from dynamics.response.seating import TOOTH_STIFFNESS_MODEL
+
+    if sweep.seating_model is None:
+        return ""
+    points = [model for row in sweep.seating_model for model in row]
+    switched = points.count(TOOTH_STIFFNESS_MODEL)
+    if switched == 0:
+        return ""
+    return f"; {TOOTH_STIFFNESS_MODEL} at {switched} of {len(points)} points (rigid seating does not hold there)"
+
+
+def _seating_at_each_speed(cfg: RunConfig, scene: Scene, model: ChainModel):
+    """The sweep's machine at one speed: the seating the run's verdict gives at that speed
+    (stages.machine.seating_that_runs, decided before the run as the dynamics stage decides it), so a
+    speed where rigid seating does not hold runs the tooth model as the run at that speed would."""
+    from dynamics.machine_scene import machine_model
+    from stages.machine import seating_that_runs
+
+    machines = {}
+
+    def model_at(cam, t_s):
+        ran, _ = seating_that_runs(cfg, scene, model, cam, t_s)
+        if ran not in machines:  # one machine per seating: its matrices are built once
+            machines[ran] = machine_model(ran, model)
+        return machines[ran]
+
+    return model_at
 
 
 def stiffness_error_allowed(

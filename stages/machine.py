@@ -51,15 +51,14 @@ def machine_layout(cfg: RunConfig, pitch_m: float) -> MachineLayout:
 
 def switches_to_tooth_model(cfg: RunConfig, scene: Scene, validity: SeatingValidity) -> bool:
     """Whether the run leaves rigid seating for the tooth contact stiffness (--tooth-stiffness auto, the
-    default): where rigid seating does not hold for it and the tooth model carries the scene (no
-    tensioner, wheels with inertia, at most DENSE_LINK_LIMIT links; dynamics.models.machine)."""
+    default): where rigid seating does not hold for it and the tooth model carries the scene (wheels
+    with inertia, at most DENSE_LINK_LIMIT links; dynamics.models.machine)."""
     from dynamics.models.reduction import DENSE_LINK_LIMIT
 
     if cfg.tooth_stiffness_N_per_m is not None or validity.valid or not scene.layout.on_wheels:
         return False
     wheels = (scene.layout.sprocket, scene.layout.idler)
-    carried = scene.tensioner is None and cfg.links <= DENSE_LINK_LIMIT
-    return carried and all(w is None or w.inertia_kg_m2 > 0 for w in wheels)
+    return cfg.links <= DENSE_LINK_LIMIT and all(w is None or w.inertia_kg_m2 > 0 for w in wheels)
 
 
 def seating_that_runs(

@@ -143,7 +143,7 @@ def fea_task(inputs: dict, materials: tuple[str, ...], settings: Settings, part:
 def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: Settings) -> dict:
     """The chain of every point in the batch, on one FEA result; one record per point."""
     from dynamics.errors import DynamicsError
-    from stages.chain import chain_model, chain_scene, natural_frequencies_Hz, simulate_scenario
+    from stages.chain import chain_model, chain_scene, natural_frequencies_Hz, scene_that_ran, simulate_scenario
 
     start, cpu_start = time.perf_counter(), time.process_time()
     rows = []
@@ -160,12 +160,13 @@ def chain_task(fea_outcome: dict, material: str, points: list[dict], settings: S
             cfg = point_config(settings, p["inputs"])
             model = chain_model(cfg, fea)
             try:
-                scene = chain_scene(cfg, fea.pitch_m)
-                if (model, scene) not in frequencies:
-                    frequencies[model, scene] = float(natural_frequencies_Hz(scene, model, 1)[0])
                 scenario = simulate_scenario(
                     cfg, model, material, p["inputs"]["cam"], fea.pitch_m, settings.samples_per_degree
                 )
+                # f1 of the model that ran: the tooth model's where the point switched to it (as the pipeline)
+                scene = scene_that_ran(chain_scene(cfg, fea.pitch_m), [scenario])
+                if (model, scene) not in frequencies:
+                    frequencies[model, scene] = float(natural_frequencies_Hz(scene, model, 1)[0])
             except DynamicsError as e:
                 rows.append(record(p, "infeasible", f"chain: {e}", fea_metrics(fea), fea.warnings))
                 continue

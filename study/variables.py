@@ -69,6 +69,7 @@ VARIABLES: dict[str, Variable] = {
         _run("idler_teeth", int),
         _run("idler_wrap_links", int),
         _run("idler_inertia_kg_m2", float),
+        _run("tooth_phase", float),  # the seats change inside the index: the tooth model where rigid seating fails
         _run("tooth_stiffness_N_per_m", float),  # not set: rigid seating where it holds, else the default k_t
         # `geometry` in the study file: its column is geometry_file (the table's `geometry` is the FEA group's id)
         Variable("geometry_file", STEP, "geometry", str),

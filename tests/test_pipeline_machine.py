@@ -397,6 +397,31 @@ def test_a_study_point_on_its_wheels_reports_the_machines_first_frequency():
     assert bad["rows"][0]["status"] == "infeasible" and "wrap" in bad["rows"][0]["reason"]
 
 
+@pytest.mark.parametrize("phase, switched", [(0.25, True), (0.0, False)])
+def test_a_study_points_first_frequency_is_the_model_that_ran(phase, switched):
+    """A study point at tooth phase 0.25 switches to the tooth model (stages.machine.seating_that_runs):
+    its f1 is the tooth machine's, as the pipeline reports it (stages.chain.scene_that_ran), not
+    rigid seating's; at phase 0 rigid seating holds and f1 is rigid seating's as before."""
+    from stages.chain import chain_model, chain_scene, natural_frequencies_Hz
+    from stages.machine import tooth_model_scene
+    from study.spec import Settings
+    from study.tasks import chain_task, point_config
+
+    settings = Settings(samples_per_degree=1)
+    inputs = {"material": "al6061-t6", "cam": "modified-sine", "links": 16, "friction": 0.0, "tooth_phase": phase}
+    point = {"index": 0, "point_id": "p", "geometry": "g", "inputs": inputs}
+    fea = _fea()
+    row = chain_task({"fea": {"al6061-t6": fea}, "reason": None}, "al6061-t6", [point], settings)["rows"][0]
+    assert row["status"] == "ok", row["reason"]
+    cfg = point_config(settings, inputs)
+    assert cfg.tooth_phase == phase
+    model, scene = chain_model(cfg, fea), chain_scene(cfg, PITCH_M)
+    rigid = natural_frequencies_Hz(scene, model, 1)[0]
+    teeth = natural_frequencies_Hz(tooth_model_scene(scene), model, 1)[0]
+    assert abs(teeth / rigid - 1.0) > 1e-3  # the two models' f1 differ: the test tells them apart
+    assert row["first_natural_frequency_Hz"] == (teeth if switched else rigid)
+
+
 def test_a_figure_the_machine_does_not_measure_is_null_in_summary_json():
     from dynamics.scene import ChainModelKind, ContactSummary, ImpactStatistics, Validity
     from reporting.outputs import _contact_summary

@@ -8,7 +8,9 @@ import pytest
 
 from dynamics.errors import DynamicsError
 from dynamics.machine_scene import machine_model
+from dynamics.response.seating import RIGID, TOOTH_STIFFNESS_MODEL
 from dynamics.response.sweep import LINK_DRIVE_MODEL, MACHINE_MODEL, machine_rpm_sweep, rpm_sweep
+from reporting.outputs import _sweep_summary
 from settings.run import RunConfig
 from stages import chain as chain_stage
 from stages.fea import MaterialStiffness
@@ -32,7 +34,7 @@ def test_a_point_of_the_wheels_sweep_is_the_pipelines_linear_machine_run_at_that
     acceleration agree to rounding."""
     cfg = _cfg(rpm_sweep="200:200:1")
     sweep = chain_stage.run_rpm_sweeps(cfg, FEA, _quiet)["al"]
-    assert sweep.model == MACHINE_MODEL
+    assert sweep.model == MACHINE_MODEL and sweep.seating_model == ((RIGID,),)  # tooth phase 0: rigid holds
     run = replace(cfg, rpm=200.0, model="linear")
     model = chain_stage.chain_model(run, FEA["al"])
     scenario = chain_stage.simulate_scenario(run, model, "al", "modified-sine", PITCH_M, run.samples_per_degree)
@@ -41,6 +43,32 @@ def test_a_point_of_the_wheels_sweep_is_the_pipelines_linear_machine_run_at_that
     assert sweep.station_link == station.link
     np.testing.assert_allclose(sweep.residual_vibration_m[0, 0], station.residual_vibration_m, rtol=1e-12)
     np.testing.assert_allclose(sweep.peak_acceleration_m_s2[0, 0], station.max_abs_acceleration_m_s2, rtol=1e-12)
+
+
+@pytest.mark.parametrize("tooth_stiffness, seating", [(None, TOOTH_STIFFNESS_MODEL), (np.inf, RIGID)])
+def test_a_sweep_point_runs_the_seating_the_runs_verdict_gives_at_its_speed(tooth_stiffness, seating):
+    """Tooth phase 0.25 (the seats change inside the index, rigid seating does not hold): the sweep at
+    200 rpm runs the tooth model, as the dynamics stage's scenario at 200 rpm does (--model linear), and
+    agrees with it to rounding; its critical speeds are the tooth machine's. --tooth-stiffness rigid
+    keeps rigid seating in both."""
+    cfg = _cfg(rpm_sweep="200:200:1", tooth_phase=0.25, tooth_stiffness_N_per_m=tooth_stiffness)
+    lines = []
+    sweep = chain_stage.run_rpm_sweeps(cfg, FEA, lines.append)["al"]
+    assert sweep.seating_model == ((seating,),)
+    assert (f"{TOOTH_STIFFNESS_MODEL} at 1 of 1 points" in lines[-1]) == (seating == TOOTH_STIFFNESS_MODEL)
+    assert _sweep_summary(sweep)["cams"]["modified-sine"]["seating_model"] == [seating]  # summary.json
+    run = replace(cfg, rpm=200.0, model="linear")
+    model = chain_stage.chain_model(run, FEA["al"])
+    scenario = chain_stage.simulate_scenario(run, model, "al", "modified-sine", PITCH_M, run.samples_per_degree)
+    assert scenario.machine.seating_validity.model == seating
+    station = scenario.stations[cfg.focus_station]
+    np.testing.assert_allclose(sweep.residual_vibration_m[0, 0], station.residual_vibration_m, rtol=1e-12)
+    np.testing.assert_allclose(sweep.peak_acceleration_m_s2[0, 0], station.max_abs_acceleration_m_s2, rtol=1e-12)
+    ran = chain_stage.scene_that_ran(chain_stage.chain_scene(cfg, PITCH_M), [scenario])
+    np.testing.assert_array_equal(sweep.natural_frequencies_Hz, scene_machine(ran, model).modes()[0])
+    if seating == TOOTH_STIFFNESS_MODEL:  # the two machines' modes differ: the check tells them apart
+        rigid = scene_machine(chain_stage.chain_scene(cfg, PITCH_M), model).modes()[0]
+        assert abs(sweep.natural_frequencies_Hz[0] / rigid[0] - 1.0) > 1e-3
 
 
 def test_the_wheels_sweeps_critical_speeds_come_from_the_machines_frequencies_carriage_included():
@@ -64,7 +92,8 @@ def test_the_link_drives_sweep_is_the_modal_sweep_as_before():
     sweep = chain_stage.run_rpm_sweeps(cfg, FEA, _quiet)["al"]
     model = chain_stage.chain_model(cfg, FEA["al"])
     before = rpm_sweep(model, cfg.cams, np.arange(60.0, 301.0, 40.0), pitch_m=PITCH_M, station=cfg.focus_station)
-    assert sweep.model.startswith(LINK_DRIVE_MODEL)
+    assert sweep.model.startswith(LINK_DRIVE_MODEL) and sweep.seating_model is None  # no seats
+    assert _sweep_summary(sweep)["cams"]["modified-sine"]["seating_model"] is None
     assert np.array_equal(sweep.residual_vibration_m, before.residual_vibration_m)
     assert np.array_equal(sweep.peak_acceleration_m_s2, before.peak_acceleration_m_s2)
     assert sweep.critical_speeds == before.critical_speeds

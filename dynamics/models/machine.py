@@ -136,11 +136,6 @@ class MachineOnWheels:
         k_t = self.tooth_stiffness_N_per_m
         if not (k_t > 0 and not np.isnan(k_t)):
             raise DynamicsError(f"tooth_stiffness_N_per_m: expected > 0 N/m (inf: rigid seating), got {k_t!r}")
-        if self.tensioner is not None:
-            raise DynamicsError(
-                "tooth_stiffness_N_per_m: seating through a tooth stiffness is built for a fixed idler axle only; "
-                "expected no tensioner (rigid seating carries one)"
-            )
         if self.n_links > DENSE_LINK_LIMIT:
             # the O(N) damping form (dynamics.models.machine_damping) leaves the wheels' DOFs out of its
             # block; on the tooth model, where they are bodies of their own, that damps the lowest mode
@@ -300,7 +295,11 @@ class MachineOnWheels:
         after the links) and each seated link held to its wheel's seat by a spring k_t (a coupling;
         to the cam's frame on a sprocket held to the cam). A seated link's mass is m (R / R_m)^2 with
         the polygonal action (its pin runs on the pitch circle, as in the rigid group's mass), so that
-        k_t -> infinity gives the rigid group's mass and stiffness."""
+        k_t -> infinity gives the rigid group's mass and stiffness. The tensioner's carriage, where there
+        is one, is the last DOF, as in the rigid topology: its u lengthens the two spans joining the
+        idler wheel's seated links to the strands (2u the idler point's span without an idler wheel);
+        the seats ride on the wheel, whose path coordinate the carriage does not change, so the spans
+        between seated links and the tooth springs do not feel it."""
         c, k_t, n = self.chain, float(self.tooth_stiffness_N_per_m), self.n_links
         masses = [c.link_mass_kg] * n
         links = [(j,) for j in range(n)]
@@ -320,6 +319,11 @@ class MachineOnWheels:
             if i == 0:
                 ground.append((dof, self.drive_stiffness_N_m_per_rad / wheel.feed_radius_m**2))
         spans = tuple(Span(j, (j + 1) % n) for j in range(n))
+        if self.tensioner is not None:
+            spans = self._spans_on_the_carriage(spans, len(masses))
+            masses.append(self.tensioner.mass_kg)
+            links.append(())
+            ground.append((len(masses) - 1, self.tensioner.rate_N_per_m))
         return ChainTopology(
             tuple(masses),
             tuple(links),
@@ -330,6 +334,20 @@ class MachineOnWheels:
             (),
             tuple(couplings),
             tuple(wheel_dofs),
+        )
+
+    def _spans_on_the_carriage(self, spans: tuple[Span, ...], carriage: int) -> tuple[Span, ...]:
+        """The tooth topology's spans (span j from link j to link j + 1) with the carriage's gain: 1 on
+        each span joining the idler wheel's seated links to a free link, 2 on the idler point's span
+        without an idler wheel (the rigid topology's gains, place by place)."""
+        if self.idler_place is None:
+            idler_point = self._idler_span_link()
+            return tuple(Span(s.behind, s.ahead, carriage, 2.0) if j == idler_point else s for j, s in enumerate(spans))
+        seated = set(self.groups[self.idler_place])
+        n = self.n_links
+        return tuple(
+            Span(s.behind, s.ahead, carriage, 1.0) if (j in seated) != ((j + 1) % n in seated) else s
+            for j, s in enumerate(spans)
         )
 
     def _group_mass(self, wheel: Wheel | None, n_seated: int) -> float:

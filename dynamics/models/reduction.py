@@ -19,6 +19,7 @@ import numpy as np
 
 from dynamics.models.chain import ChainModel
 from dynamics.models.system import SecondOrderSystem
+from dynamics.options import DENSE_LINK_LIMIT  # declared where the settings read it without SciPy
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,11 +60,10 @@ class ProjectedForce:
         return getattr(self.force, "uses_positions", True)
 
 
-# Above this many links the pipeline solves in the lowest MODES_FOR_LONG_CHAINS modes: the dense
+# Above DENSE_LINK_LIMIT links (dynamics.options) the pipeline solves in the lowest MODES_FOR_LONG_CHAINS modes: the dense
 # path's cost grows as N^2.65 (4 s per scenario at N = 1000) and its memory as N^2. 400 modes put
 # the truncation error of a 10,000-link chain at 6e-6 (residual vibration) and 1e-4 (peak
 # acceleration) relative to 800 modes (benchmarks/chart_dynamics_cost.py).
-DENSE_LINK_LIMIT = 400
 MODES_FOR_LONG_CHAINS = 400
 
 

@@ -50,6 +50,7 @@ from dynamics.cams.program import CamProgram
 from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.response.metrics import STATIONS, station_links
+from dynamics.response.seating import RIGID, TOOTH_STIFFNESS_MODEL
 
 # which model a sweep ran, in words (SweepResult.model)
 LINK_DRIVE_MODEL = "the link drive's linear chain"
@@ -256,6 +257,9 @@ class SweepResult:
         "equals a natural frequency of the chain"
     )
     model: str = LINK_DRIVE_MODEL  # which model ran, in words for the report and its plot
+    # on the wheels, the seating model each (cam, speed) ran (dynamics.response.seating.RIGID or
+    # TOOTH_STIFFNESS_MODEL: the run's own verdict at that speed); None: the link drive, which has no seats
+    seating_model: tuple[tuple[str, ...], ...] | None = None
 
 
 def parse_rpm_range(text: str) -> np.ndarray:
@@ -402,6 +406,7 @@ def machine_rpm_sweep(
     max_harmonic: int = 10,
     min_mass_fraction: float = 0.01,
     done=None,
+    model_at=None,
 ) -> SweepResult:
     """`rpm_sweep` on the machine on its wheels: `model` is its dynamics.models.clearance_machine.ClearanceMachine
     (friction 0). At each speed and cam law the linear machine (free play 0, global damping law, the
@@ -414,7 +419,12 @@ def machine_rpm_sweep(
     own natural frequencies (MachineOnWheels.modes),
     for the modes with at least `min_mass_fraction` of the excitation. Not modal: every point is a
     steady-state search, about a thousand times the link drive's cost per point: `done(cam_id)`, when
-    given, is called as each cam law's speeds are done (the stage's progress lines)."""
+    given, is called as each cam law's speeds are done (the stage's progress lines).
+
+    Seating: `model_at(cam, t)`, when given, is the machine that runs the cam law at one speed on the
+    output times `t` (the run's seating verdict at that speed: stages.chain.run_rpm_sweeps), else `model`
+    at every speed; `seating_model` records which seating each point ran, and the modes (critical speeds)
+    are the model's that ran, the tooth model's where any point ran it (as stages.chain.scene_that_ran)."""
     from dynamics.machine_scene import simulate_machine
     from dynamics.response.metrics import link_metrics
 
@@ -429,12 +439,18 @@ def machine_rpm_sweep(
     per_degree = samples_per_cycle / cycle_deg
     residual = np.empty((len(cam_ids), r.size))
     peak = np.empty_like(residual)
+    seating = [[""] * r.size for _ in cam_ids]
+    modes_of = model  # the machine whose modes give the critical speeds: the tooth model's where one ran
     for i, cam_id in enumerate(cam_ids):
         for j, rpm in enumerate(r):
             # the pipeline's output grid (stages.chain.output_times_s): two index cycles in degrees
             t = np.arange(2 * samples_per_cycle + 1) / per_degree / (360.0 / 60.0 * rpm)
             cam = CamProgram.indexing(cam_id, pitch_m=pitch_m, index_deg=index_deg, dwell_deg=dwell_deg, rpm=rpm)
-            out, _ = simulate_machine(model, cam, t, choice="linear", links=[place])
+            ran = model if model_at is None else model_at(cam, t)
+            seating[i][j] = seating_model_of(ran.machine)
+            if seating[i][j] == TOOTH_STIFFNESS_MODEL and seating_model_of(modes_of.machine) == RIGID:
+                modes_of = ran
+            out, _ = simulate_machine(ran, cam, t, choice="linear", links=[place])
             at_station = (out.diagnostics.get("station_peaks") or {}).get(name)
             if at_station is None:
                 lm = link_metrics(
@@ -448,7 +464,7 @@ def machine_rpm_sweep(
             peak[i, j] = at_station["max_abs_acceleration_m_s2"]
         if done is not None:
             done(cam_id)
-    frequencies, fraction = model.machine.modes()
+    frequencies, fraction = modes_of.machine.modes()
     cycles_per_rev = 360.0 / cycle_deg
     excited = tuple(int(j) + 1 for j in np.flatnonzero(fraction >= min_mass_fraction))
     critical = critical_speeds_rpm(frequencies, cycles_per_rev, (float(r.min()), float(r.max())), max_harmonic, excited)
@@ -469,4 +485,10 @@ def machine_rpm_sweep(
             "equals a natural frequency of the machine on its wheels"
         ),
         model=MACHINE_MODEL,
+        seating_model=tuple(tuple(row) for row in seating),
     )
+
+
+def seating_model_of(machine) -> str:
+    """The seating model a dynamics.models.machine.MachineOnWheels runs, in the verdict's words."""
+    return RIGID if np.isinf(machine.tooth_stiffness_N_per_m) else TOOTH_STIFFNESS_MODEL
