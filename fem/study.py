@@ -253,9 +253,8 @@ def with_wall_check_level(sizes: tuple[float, ...], walls, wall_reference_m: flo
     built-in link at --mesh-size 10 (its 2.535 mm rails refined) two levels gave 9.461e7 N/m
     +- 0.90 % against the converged 9.352e7 (+1.17 %: outside), and 13.3 / 10 mm instead of
     13.33 / 10 gave 9.406e7 +- 1.34 %; with the third level, 9.461e7 +- 1.28 %
-    (tests/test_fea_thin_wall_estimate.py). No default level of the built-in link or the example
-    STEP refines a wall: their runs keep two levels (the 400 mm arm bar's default refines the
-    2.45 mm between a hole and a planar face, docs/physics.md)."""
+    (tests/test_fea_thin_wall_estimate.py). No default level of the built-in link or the corpus
+    refines a wall (docs/verification.md): their runs keep two levels."""
     if len(sizes) != 2 or refined_down_to_m(walls, wall_reference_m) == math.inf:
         return sizes
     return (sizes[0] ** 2 / sizes[1], *sizes)

@@ -16,14 +16,8 @@ is parallel and whose radius is larger. The hole's face is sampled as above; a s
 the convex face lies radially out from it (about the convex face's axis, away from the hole's axis:
 the material side) and its foot there lies on that trimmed face; the wall's thickness is the least
 radial distance among the samples that count (the thinnest point, where an off-centre hole comes
-nearest the round), its area the hole face's area times their fraction.
-
-Walls across from a hole: between two holes with parallel axes, and between a hole and a planar
-face parallel to its axis. The thickness is where they come nearest (the axes' distance less both
-radii; the axis's distance from the plane less the radius); the smaller hole's face is sampled, a
-sample counting where it faces the other side within the largest thickness asked for, its foot
-there lies on the trimmed face and the point between them is in the material; the area is the hole
-face's area times their fraction.
+nearest the round), its area the hole face's area times their fraction. Walls between two holes, or
+between a hole and a planar face, are not found.
 """
 
 from __future__ import annotations
@@ -94,18 +88,6 @@ def thin_walls(volumes: list[int], max_thickness_m: float, exclude: Sequence[int
             wall = _ring_wall(hole, outer, max_thickness_m)
             if wall is not None:
                 walls.append(wall)
-    for i, hole in enumerate(holes):
-        for other in holes[i + 1 :]:
-            wall = _hole_pair_wall(hole, other, volumes, max_thickness_m)
-            if wall is not None:
-                walls.append(wall)
-        for tag in tags:
-            if _may_be_hole_plane_wall(hole, bounds[tag], max_thickness_m):
-                if tag not in planes:
-                    planes[tag] = _plane(tag, volumes)
-                wall = _hole_plane_wall(hole, planes[tag], volumes, max_thickness_m)
-                if wall is not None:
-                    walls.append(wall)
     return walls
 
 
@@ -210,81 +192,6 @@ def _ring_wall(hole: _Round, outer: _Round, max_thickness_m: float) -> Wall | No
     if not 0 < thickness < max_thickness_m:
         return None
     return Wall((hole.tag, outer.tag), thickness, fraction * float(gmsh.model.occ.getMass(2, hole.tag)))
-
-
-def _hole_pair_wall(a: _Round, b: _Round, volumes: list[int], max_thickness_m: float) -> Wall | None:
-    """The wall between two holes' faces with parallel axes, or None. Its thickness is the axes'
-    distance less both radii (where the holes come nearest); a sample of the smaller hole's face
-    counts where it faces the other hole within `max_thickness_m`, its foot on the other face lies
-    on that trimmed face and the point between them in the material (not a gap between two lugs)."""
-    if a.cylinder.radius_m > b.cylinder.radius_m:
-        a, b = b, a
-    ca, cb = a.cylinder, b.cylinder
-    if abs(float(ca.axis @ cb.axis)) < _PARALLEL_COS:
-        return None
-    thickness = float(ca.distance_to_axis(cb.point_m[None])[0]) - ca.radius_m - cb.radius_m
-    if not 0 < thickness < max_thickness_m:
-        return None
-    if np.any(a.box[0] > b.box[1] + thickness) or np.any(b.box[0] > a.box[1] + thickness):
-        return None
-    points = _samples(a.tag)
-    if len(points) == 0:
-        return None
-    rel = points - cb.point_m
-    radial = rel - np.outer(rel @ cb.axis, cb.axis)
-    rho = np.linalg.norm(radial, axis=1)
-    feet = points - radial * (1 - cb.radius_m / np.maximum(rho, 1e-300))[:, None]  # on b's cylinder
-    near = (rho - cb.radius_m < max_thickness_m) & (rho > cb.radius_m)
-    counted = [k for k in np.flatnonzero(near) if _on_face(b.tag, feet[k], cb.radius_m)]
-    counted = [k for k in counted if _in_material(0.5 * (points[k] + feet[k]), volumes)]
-    if not counted:
-        return None
-    return Wall((a.tag, b.tag), thickness, len(counted) / len(points) * float(gmsh.model.occ.getMass(2, a.tag)))
-
-
-def _may_be_hole_plane_wall(hole: _Round, plane: _PlaneBounds, max_thickness_m: float) -> bool:
-    """Whether a planar face may be a wall's side across from a hole: parallel to its axis, the
-    plane within `max_thickness_m` of the hole's face, the boxes that near."""
-    c = hole.cylinder
-    gap = abs(float((plane.point - c.point_m) @ plane.normal)) - c.radius_m
-    return (
-        abs(float(plane.normal @ c.axis)) <= np.sqrt(1 - _PARALLEL_COS**2)
-        and 0 < gap < max_thickness_m
-        and not (np.any(hole.box[0] > plane.box[1] + gap) or np.any(plane.box[0] > hole.box[1] + gap))
-    )
-
-
-def _hole_plane_wall(hole: _Round, plane: _Plane, volumes: list[int], max_thickness_m: float) -> Wall | None:
-    """The wall between a hole's face and a planar face parallel to its axis, the material between
-    them, or None. Its thickness is the axis's distance from the plane less the radius; a sample of
-    the hole's face counts where it faces the plane within `max_thickness_m`, its foot on the plane
-    lies on the trimmed face and the point between them in the material."""
-    c = hole.cylinder
-    thickness = float((plane.point - c.point_m) @ plane.normal) - c.radius_m  # the plane's outside beyond the hole
-    if not 0 < thickness < max_thickness_m:
-        return None
-    points = _samples(hole.tag)
-    if len(points) == 0:
-        return None
-    gap = (plane.point - points) @ plane.normal
-    feet = points + np.outer(gap, plane.normal)
-    near = (gap > 0) & (gap < max_thickness_m)
-    counted = [k for k in np.flatnonzero(near) if gmsh.model.isInside(2, plane.tag, list(feet[k])) > 0]
-    counted = [k for k in counted if _in_material(0.5 * (points[k] + feet[k]), volumes)]
-    if not counted:
-        return None
-    area = len(counted) / len(points) * float(gmsh.model.occ.getMass(2, hole.tag))
-    return Wall((hole.tag, plane.tag), thickness, area)
-
-
-def _on_face(tag: int, point: np.ndarray, scale_m: float) -> bool:
-    """Whether a point on a face's surface lies on the trimmed face (its closest point is itself:
-    gmsh's isInside(2, ...) on a cylinder is not trimmed)."""
-    return bool(np.linalg.norm(gmsh.model.getClosestPoint(2, tag, list(point))[0] - point) < _ON_FACE_TOL * scale_m)
-
-
-def _in_material(point: np.ndarray, volumes: list[int]) -> bool:
-    return any(gmsh.model.isInside(3, v, list(point)) > 0 for v in volumes)
 
 
 def _wall(a: _Plane, b: _Plane, max_thickness_m: float) -> Wall | None:

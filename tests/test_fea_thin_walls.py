@@ -18,7 +18,6 @@ from fem.budget import mesh_dofs
 from fem.quality import boundary_facets, thin_wall_warning, thinnest_wall_m
 from fem.settings import DEFAULT_BORE_REFINEMENT
 from geometry import DEFAULT_LINK
-from geometry.bores import face_cylinder
 from geometry.mesh_estimate import BORE_FIELD_OUTER_RADII, Hole, MeshFeatures, WallFeature, estimated_dofs
 from geometry.meshing import THIN_WALL_FRACTION, thin_wall_fields, thin_wall_size
 from geometry.session import gmsh_model
@@ -96,24 +95,21 @@ def test_the_ring_between_a_bore_and_its_lugs_round_is_a_wall(offset_m, thinnest
     with gmsh_model("lug"):
         walls = thin_walls(lug_bar(offset_m), 0.004)
         face_area = 2 * np.pi * 0.0045 * 0.005
-        # each bore is also 6 mm - r from the bar's flat sides: hole-to-plane walls, tested below
-        rings = sorted((w for w in walls if gmsh.model.getType(2, w.faces[1]) != "Plane"), key=lambda w: w.thickness_m)
-    # the bar is 5 mm thick, 12 mm wide: no planar wall
+    rings = sorted(walls, key=lambda w: w.thickness_m)  # the bar is 5 mm thick, 12 mm wide: no planar wall
     assert [w.thickness_m for w in rings] == pytest.approx([thinnest_m, 0.003], rel=1e-6)
     assert rings[0].area_m2 == pytest.approx(5 / 9 * face_area, rel=1e-6)
     with gmsh_model("lug"):
         volumes = lug_bar(offset_m)
         assert thin_walls(volumes, 0.9 * thinnest_m) == []
         # refined from the bore's face, as a planar wall from its smaller face
-        fields = thin_wall_fields(volumes, 0.006, 2.5 * thinnest_m)
-    (field,) = [f for f in fields if f.reach_m == pytest.approx(thinnest_m)][:1]
-    assert field.faces == rings[0].faces[:1]
+        (field,) = thin_wall_fields(volumes, 0.006, 2.5 * thinnest_m)
+    assert field.faces == rings[0].faces[:1] and field.reach_m == pytest.approx(thinnest_m)
     assert field.size_m == pytest.approx(thin_wall_size(thinnest_m, 0.006, 2.5 * thinnest_m))
 
 
 def test_a_plate_thinner_than_half_the_elements_is_found_and_refined(plate):
-    with gmsh_model("walls"):  # below the bores' 3.5 mm walls to the plate's sides
-        (wall,) = thin_walls(plate.load_body(), 0.003)
+    with gmsh_model("walls"):
+        (wall,) = thin_walls(plate.load_body(), 0.005)
     assert wall.thickness_m == pytest.approx(PLATE_THICKNESS_M, rel=1e-9)
     assert wall.area_m2 == pytest.approx(plate.geometry.mesh_features.walls[0].area_m2, rel=1e-9)
     h = 0.004
@@ -137,10 +133,8 @@ def test_the_plates_wall_is_in_the_unknowns_estimate(plate):
     # are a small share of the volume, is rough here (real / estimate 0.73-1.25 at 2-6 mm against a
     # 4 mm reference) but much nearer with the wall than without it (a third of the real count)
     features = plate.geometry.mesh_features
+    assert [w.thickness_m for w in features.walls] == pytest.approx([PLATE_THICKNESS_M])
     h = 0.004
-    # the bores' 3.5 mm walls to the plate's sides and ends are over half of h: not refined
-    refined = [w.thickness_m for w in features.walls if w.thickness_m < THIN_WALL_FRACTION * h]
-    assert refined == pytest.approx([PLATE_THICKNESS_M])
     link = geometry.mesh_part(
         plate, mesh_size_m=h, order=2, bore_refinement=DEFAULT_BORE_REFINEMENT, wall_reference_m=h
     )
@@ -154,11 +148,10 @@ def test_the_plates_wall_is_in_the_unknowns_estimate(plate):
 @pytest.mark.skipif(WILD is None, reason="the wild STEP corpus (../shared/wild/) is absent")
 @pytest.mark.parametrize(("size_m", "reference_m"), [(0.008, 0.008), (0.010667, 0.008), (0.012, 0.012)])
 def test_the_400mm_arm_bars_unknowns_with_its_3_2mm_walls_refined_are_as_estimated(size_m, reference_m):
-    # its channel's 3.2 mm walls are refined where its finest level is over 6.4 mm, and the 2.45 mm
-    # between a hole and a planar face over 4.9 mm (the default finest, 5.72 mm, refines that one)
+    # its channel's 3.2 mm walls are refined where its finest level is over 6.4 mm (the default
+    # finest is 5.72 mm: not refined there); measured 0.96 / 1.07 / 1.05
     part = geometry.resolve_part(WILD / "arm_bar_400mm_inventor.stp")
-    thicknesses = {round(w.thickness_m, 7) for w in part.geometry.mesh_features.walls}
-    assert sorted(thicknesses)[:2] == pytest.approx([0.00245, 0.0032], rel=1e-6)
+    assert min(w.thickness_m for w in part.geometry.mesh_features.walls) == pytest.approx(0.0032, rel=1e-6)
     link = geometry.mesh_part(
         part, mesh_size_m=size_m, order=2, bore_refinement=DEFAULT_BORE_REFINEMENT, wall_reference_m=reference_m
     )
@@ -215,51 +208,3 @@ def test_a_curved_mesh_far_from_the_origin_stays_curved_and_gives_the_same_k(pla
     here, there = (analyse_link(mesh, material, solver="pardiso") for mesh in (link, moved))
     assert here.curved and there.curved
     assert there.stiffness_N_per_m == pytest.approx(here.stiffness_N_per_m, rel=1e-9)
-
-
-def holes_plate() -> list[int]:
-    """A 40 x 20 x 5 mm plate: an r 4 mm hole and an r 3 mm hole 1 mm apart, and an r 3 mm hole
-    1.2 mm from the plate's long side; every other wall is 5 mm or more."""
-    occ = gmsh.model.occ
-    plate = occ.addBox(0, -0.010, 0, 0.040, 0.020, 0.005)
-    holes = [(0.010, 0.0, 0.004), (0.018, 0.0, 0.003), (0.030, 0.0058, 0.003)]
-    body, _ = occ.cut([(3, plate)], [(3, occ.addCylinder(x, y, -0.001, 0, 0, 0.007, r)) for x, y, r in holes])
-    occ.synchronize()
-    return [tag for _, tag in body]
-
-
-def test_the_walls_between_two_holes_and_between_a_hole_and_a_plane_are_found_and_refined():
-    with gmsh_model("holes"):
-        volumes = holes_plate()
-        walls = sorted(thin_walls(volumes, 0.002), key=lambda w: w.thickness_m)
-        radii = [face_cylinder(w.faces[0])[0].radius_m for w in walls]
-        other = [gmsh.model.getType(2, w.faces[1]) for w in walls]
-        assert thin_walls(volumes, 0.0009) == []
-        fields = thin_wall_fields(volumes, 0.004, 0.004)  # both below half the 4 mm elements
-    assert [w.thickness_m for w in walls] == pytest.approx([0.001, 0.0012], rel=1e-6)
-    assert radii == pytest.approx([0.003, 0.003]) and other == ["Cylinder", "Plane"]  # the smaller hole first
-    assert all(0 < w.area_m2 < 2 * np.pi * 0.003 * 0.005 for w in walls)
-    assert sorted(f.reach_m for f in fields) == pytest.approx([0.001, 0.0012], rel=1e-6)
-    assert [f.faces for f in sorted(fields, key=lambda f: f.reach_m)] == [w.faces[:1] for w in walls]
-
-
-def test_a_parametric_links_bore_near_its_pocket_end_is_a_refined_wall():
-    """A link with 13.5 mm bores: 2.13 mm of material between the bore and the pocket's end face,
-    below half the 4.5 mm default finest size, refined (and checked by a third level); the default
-    link's bores are 6.4 mm from it."""
-    from fem.settings import FeaSettings
-    from fem.study import planned_mesh_sizes
-    from geometry.dimensions import LinkDimensions
-
-    part = geometry.resolve_part(LinkDimensions(bore_radius_m=0.0135))
-    with gmsh_model("walls"):
-        volumes = part.load_body()
-        (wall,) = thin_walls(volumes, THIN_WALL_FRACTION * 0.0045)
-        assert gmsh.model.getType(2, wall.faces[1]) == "Plane"
-        (field,) = thin_wall_fields(volumes, 0.0045, 0.0045)
-    # the bores' axes at +-pitch/2 from the link's middle, the pocket's ends at +-recess_length/2
-    expected_m = DEFAULT_LINK.pitch_m / 2 - 0.0135 - DEFAULT_LINK.recess_length_m / 2
-    assert wall.thickness_m == pytest.approx(expected_m, rel=1e-6)
-    assert field.faces == wall.faces[:1] and field.size_m < 0.0045
-    assert len(planned_mesh_sizes(part, FeaSettings())[0]) == 3
-    assert len(planned_mesh_sizes(geometry.resolve_part(None), FeaSettings())[0]) == 2
