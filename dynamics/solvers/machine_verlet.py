@@ -987,12 +987,15 @@ def index_cycle(
     flags = None if flags_at is None else flags_at(step_s * np.arange(n_steps + 1))
     peaks = {"stations": stations, "flags_at": flags_at}
     lift = model.machine.seat_change_lift_m
-    if lift is None:
-        run = integrate(
+
+    def up_to(last: int):
+        """The cycle's steps from its start to node `last`, from (q0, v0) as given."""
+        nodes = slice(0, last + 1)
+        return integrate(
             model,
-            zr,
-            zd,
-            zdd,
+            zr[nodes],
+            zd[nodes],
+            zdd[nodes],
             step_s,
             q0,
             v0,
@@ -1000,9 +1003,11 @@ def index_cycle(
             predictor=predictor,
             track_energy=track_energy,
             stations=stations,
-            node_flags=flags,
+            node_flags=None if flags is None else flags[nodes],
         )
-        return run, None
+
+    if lift is None:
+        return up_to(n_steps), None
 
     def lift_at(time):
         return float(cam.svaj(np.array([time]))[0][0])
@@ -1018,20 +1023,7 @@ def index_cycle(
     on_node = abs(nxt * step_s - t_seat) <= 1e-9 * step_s
     pieces, rows, durations = [], [], []
     if before > 0:
-        head = integrate(
-            model,
-            zr[: before + 1],
-            zd[: before + 1],
-            zdd[: before + 1],
-            step_s,
-            q0,
-            v0,
-            out_every=out_every,
-            predictor=predictor,
-            track_energy=track_energy,
-            stations=stations,
-            node_flags=None if flags is None else flags[: before + 1],
-        )
+        head = up_to(before)
         pieces.append(head)
         durations.append(before * step_s)
         rows.append(head)
