@@ -349,12 +349,15 @@ def _record(t_el, contact, phase, stats, count_impacts, new_impacts):
 
 def _rows_times(mat, x, out):
     """out = mat x, four rows at a time (rows a multiple of 4, `_padded`): each load of x serves
-    four rows, and the compiler vectorises the inner loop (FASTMATH: the sums may be reassociated)."""
+    four rows, and the compiler vectorises the inner loop (FASTMATH: the sums may be reassociated).
+    Summed in mat's own precision: the machine's step (dynamics.solvers.machine_verlet) also passes
+    a float32 C (`DAMPING_PRODUCT_PRECISIONS`: half the cache, twice the lanes)."""
+    zero = mat[0, 0] - mat[0, 0]
     for i in range(0, mat.shape[0], 4):
-        s0 = 0.0
-        s1 = 0.0
-        s2 = 0.0
-        s3 = 0.0
+        s0 = zero
+        s1 = zero
+        s2 = zero
+        s3 = zero
         for j in range(mat.shape[1]):
             xj = x[j]
             s0 += mat[i, j] * xj

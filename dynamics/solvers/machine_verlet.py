@@ -42,6 +42,7 @@ from dynamics.solvers.clearance_verlet import (
     SPEED_CAPACITY,
     TANH_IS_ONE,
     _crossing,
+    _rows_times,
     _switch_impulse,
     _tanh,
     stable_omega_h,
@@ -180,11 +181,11 @@ def _accel_into(
             p_damp += wv[i] * cw[i]
     elif not kv and par.shape[0] > N_PAR:  # the ring's C in its mirror blocks (`_mirror_damping_into`)
         p_damp += _mirror_damping_into(cmat, par, v, work[4], work[5], f)
-    elif not kv:  # C v, four rows at a time on the padded C in its own precision (`_rows_times_into`)
+    elif not kv:  # C v, four rows at a time on the padded C in its own precision (`_rows_times`)
         vp, cv_out = work[4], work[5]
         for i in range(n):
             vp[i] = v[i]
-        _rows_times_into(cmat, vp, cv_out)
+        _rows_times(cmat, vp, cv_out)
         for i in range(n):
             f[i] -= cv_out[i]
             p_damp += v[i] * cv_out[i]
@@ -237,12 +238,12 @@ def _mirror_damping_into(cmat, par, v, wc, cw, f):
         wc[1] = v[pairs + 1]
     for p in range(pairs):
         wc[nf + p] = r * (v[1 + p] + v[n - 1 - p])
-    _rows_times_into(cmat[:rs], wc, cw[:rs])
+    _rows_times(cmat[:rs], wc, cw[:rs])
     for p in range(pairs):
         wc[p] = r * (v[1 + p] - v[n - 1 - p])
     for p in range(pairs, pairs + nf):  # the antisymmetric block's padding columns
         wc[p] = 0.0
-    _rows_times_into(cmat[rs:], wc, cw[rs:])
+    _rows_times(cmat[rs:], wc, cw[rs:])
     power = v[0] * cw[0]
     f[0] -= cw[0]
     if nf == 2:
@@ -673,28 +674,6 @@ def _span_rates(j, v, acc, z_rel, zd, zdd, q, span_int, span_float, wheel_float)
     return de, dde
 
 
-def _rows_times_into(mat, x, out):
-    """out = mat x as clearance_verlet._rows_times (four rows at a time, the padded C), summed in mat's
-    own precision: float64 gives _rows_times' sums; float32 (`DAMPING_PRODUCT_PRECISIONS`) holds C in
-    half the cache and the compiler runs twice the lanes."""
-    zero = mat[0, 0] - mat[0, 0]
-    for i in range(0, mat.shape[0], 4):
-        s0 = zero
-        s1 = zero
-        s2 = zero
-        s3 = zero
-        for j in range(mat.shape[1]):
-            xj = x[j]
-            s0 += mat[i, j] * xj
-            s1 += mat[i + 1, j] * xj
-            s2 += mat[i + 2, j] * xj
-            s3 += mat[i + 3, j] * xj
-        out[i] = s0
-        out[i + 1] = s1
-        out[i + 2] = s2
-        out[i + 3] = s3
-
-
 def _record(t_el, contact, stats):
     # summed in locals, stored once: through stats itself each span waited on the last one's store
     # (a tenth of the step at 85 links)
@@ -716,7 +695,6 @@ if numba is not None:
         "_span_impulses_into",
         "_span_rates",
         "_mirror_damping_into",
-        "_rows_times_into",
         "_station_nodes_into",
         "_switches_at_stations",
     ):
@@ -727,7 +705,7 @@ else:  # pragma: no cover
 
 
 # The global law's dense product C q' (the machine up to DENSE_LINK_LIMIT links), summed in C's
-# precision (`_rows_times_into`). On the wheels it is single: the product was 0.9 of the step's 2.4 us
+# precision (`_rows_times`). On the wheels it is single: the product was 0.9 of the step's 2.4 us
 # at 85 links (C in double does not fit the core's cache beside the step's arrays), single takes about
 # half of that, and its rounding (1e-7 of C q') moves the station metrics by about 1e-7 (bench_machine's
 # window), four orders below the step's 1e-3. The link drive keeps double: on this kernel it replicates
