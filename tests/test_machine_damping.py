@@ -57,6 +57,48 @@ def test_the_reduced_form_is_the_dense_modal_damping_to_its_tolerance(n_links, i
     np.testing.assert_allclose(reduced @ v, dense @ v, rtol=0, atol=tolerance * np.max(np.abs(dense @ v)))
 
 
+@pytest.mark.parametrize("n_links", [85, pytest.param(400, marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "idler, drive", [(True, None), (True, np.inf), (False, 2e6)], ids=["two-wheels", "held-sprocket", "no-idler"]
+)
+def test_the_reduced_form_carries_the_tooth_models_wheels(n_links, idler, drive):
+    """The tooth model (each seated link held to its wheel by k_t, each free wheel a DOF of its own)
+    borders the links' cyclic tridiagonal S with the wheels' rows: every mode of (K, M) on the links
+    and wheels (carriage held) keeps zeta to the rule's tolerance as in the rigid case, the modes stay
+    uncoupled to that level, and the products agree with the dense C, with two free wheels, one (the
+    sprocket held to the cam: its seated links grounded through k_t) and without the idler wheel.
+    Before the border the wheels were left out and the lowest mode was damped at 1.65 instead of 0.13."""
+    chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=0.13)
+    wheel = Wheel(12, PITCH_M, 6, 0.688, 0.25)
+    layout = MachineLayout("wheels", wheel, wheel if idler else None, drive, True, 9.5e8)
+    machine = layout.machine(chain, TENSIONER)
+    red = of_machine(machine)
+    assert red.border.shape[0] == len(machine.topology.wheel_dofs) == (1 if drive == np.inf or not idler else 2)
+    dense, reduced = machine.damping_matrix(), _reduced_matrix(machine)
+    dofs = red.dofs
+    assert set(dofs.tolist()) == set(np.flatnonzero(machine.topology.moves_with_cam()).tolist())
+    k, m = machine.stiffness_matrix()[np.ix_(dofs, dofs)], machine.mass_matrix()[np.ix_(dofs, dofs)]
+    lam, phi = eigh(k, m)
+    modal = phi.T @ reduced[np.ix_(dofs, dofs)] @ phi
+    ratios = np.diag(modal) / (2.0 * np.sqrt(lam))
+    tolerance = DEFAULT_MACHINE_DAMPING_TOLERANCE
+    np.testing.assert_allclose(ratios, 0.13, rtol=tolerance)
+    off = modal - np.diag(np.diag(modal))
+    assert np.max(np.abs(off)) < tolerance * np.max(np.abs(np.diag(modal)))
+    v = np.random.default_rng(3).standard_normal(dense.shape[0])
+    np.testing.assert_allclose(reduced @ v, dense @ v, rtol=0, atol=tolerance * np.max(np.abs(dense @ v)))
+
+
+def test_the_tooth_models_rayleigh_damping_is_exact_on_the_wheels():
+    """Rayleigh damping (no nodes) on the tooth model: alpha M + beta K on the links and the wheels, the
+    border's rows included, to round-off."""
+    chain = ChainModel(30, 2.03, 9.331e7, rayleigh_coefficients=(3.0, 2e-5))
+    wheel = Wheel(12, PITCH_M, 6, 0.688, 0.25)
+    machine = MachineLayout("wheels", wheel, wheel, None, True, 9.5e8).machine(chain, TENSIONER)
+    dense, reduced = machine.damping_matrix(), _reduced_matrix(machine)
+    np.testing.assert_allclose(reduced, dense, rtol=0, atol=1e-12 * np.max(np.abs(dense)))
+
+
 @pytest.mark.slow
 def test_a_2000_link_machine_steps_on_the_reduced_damping():
     """No refusal above 400 links: the clearance machine of 2,000 links (tensioned idler wheel,

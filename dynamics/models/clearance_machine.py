@@ -69,7 +69,7 @@ class MachineArrays:
     # the global law's C, padded for the four-row product (clearance_verlet._padded); zeros for Kelvin-Voigt
     cmat: np.ndarray
     # the O(N) global law above DENSE_LINK_LIMIT links: (chain DOFs, tri, scalars, factors, sm,
-    # weights, scratch (6, >= n)) of dynamics.models.machine_damping; empty DOFs: the dense cmat
+    # weights, scratch (6, >= n + nw), border) of dynamics.models.machine_damping; empty DOFs: the dense cmat
     reduced: tuple
 
 
@@ -308,12 +308,13 @@ _NO_REDUCED = (
     np.zeros((0, 2)),
     np.zeros(0),
     np.zeros((6, 0)),
+    np.zeros((0, 8)),
 )
 
 
 def _reduced_arrays(machine: MachineOnWheels) -> tuple:
     r = of_machine(machine)
-    return (r.dofs, r.tri, r.scalars, r.factors, r.sm, r.weights, r.scratch())
+    return (r.dofs, r.tri, r.scalars, r.factors, r.sm, r.weights, r.scratch(), r.border)
 
 
 def _top_frequency_sparse(machine: MachineOnWheels) -> float:

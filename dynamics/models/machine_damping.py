@@ -21,6 +21,16 @@ paid once per place, not once per place and node. Storage about 3 N p, a product
 operations. Building the form is O(N p): the range of S from its Gershgorin bound (the top) and a
 shift-invert Lanczos at 0 (the bottom), the factors' recurrences vectorised over the nodes. The carriage
 is not in the block: its c_t acts as a dashpot on its own DOF, exactly as in the dense C.
+
+The tooth model's wheels (MachineOnWheels with a finite tooth stiffness: each wheel a DOF of its own
+after the links, held to its seated links by the tooth springs) are in the block too, as the dense C
+has them (they move with the cam). They border the links' cyclic tridiagonal S: S = [[A, B], [B^T, D]],
+B's column w the tooth springs -k_t / sqrt(m_i m_w) on wheel w's seated links (a run of places), D
+diagonal (the wheels are joined to each other only through the links). Each node's solve is the
+bordered one: with A_j = A + tau_j I (its factors as above) and Z_j = A_j^-1 B (stored with the
+factors, n per wheel and node), x_w = G_j^-1 (r_w - B^T A_j^-1 r_l), G_j = D + tau_j I - B^T Z_j
+(its inverse stored, a wheel count squared per node), and x_l = A_j^-1 r_l - Z_j x_w: O(N) still,
+about 2 N p more per wheel. Rigid seating has no border and the same arithmetic as without it.
 """
 
 from __future__ import annotations
@@ -28,6 +38,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.sparse as sp
 
 from dynamics.errors import DynamicsError
 from dynamics.models.reduced_damping import zolotarev_nodes_for
@@ -54,12 +65,15 @@ FACTOR_PRECISIONS = {"single": np.float32, "double": np.float64}
 class MachineDamping:
     """The chain-DOF block of the machine's C as the compiled step takes it (module docstring).
 
-    dofs: the chain's DOFs in loop order; tri (n, 6): sqrt(m), m, S's diagonal, S's entry (i, i+1),
-    K's diagonal, K's entry (i, i+1); scalars: S's corner (0, n-1), K's corner, 2 zeta, alpha, beta
-    (alpha M + beta K: Rayleigh damping, or the modal rule's tails); factors (3, n, p): each node's
-    Thomas pivots' inverses, forward coefficients and Sherman-Morrison vector, place by place (single
-    precision on long chains, SINGLE_PRECISION_FACTORS_ABOVE_LINKS); sm
-    (p, 2): (1 / (1 + v.z), corner / gamma); weights (p,)."""
+    dofs: the chain's DOFs, the links' in loop order (n), then the tooth model's wheels' (nw, none
+    with rigid seating); tri (n, 6): sqrt(m), m, S's diagonal, S's entry (i, i+1), K's diagonal, K's
+    entry (i, i+1); scalars: S's corner (0, n-1), K's corner, 2 zeta, alpha, beta (alpha M + beta K:
+    Rayleigh damping, or the modal rule's tails); factors (3 + nw, n, p): each node's Thomas pivots'
+    inverses, forward coefficients and Sherman-Morrison vector, then Z = A^-1 B's column per wheel,
+    place by place (single precision on long chains, SINGLE_PRECISION_FACTORS_ABOVE_LINKS); sm
+    (p, 2 + nw^2): (1 / (1 + v.z), corner / gamma, G^-1 row by row); weights (p,); border (nw, 8)
+    per wheel: its first seated place, their count, sqrt(m_w), m_w, S's and K's diagonal, S's and K's
+    entry to each of its seated places."""
 
     dofs: np.ndarray
     tri: np.ndarray
@@ -67,16 +81,20 @@ class MachineDamping:
     factors: np.ndarray
     sm: np.ndarray
     weights: np.ndarray
+    border: np.ndarray
 
     def scratch(self) -> np.ndarray:
-        """The work array `chain_damping_into` takes: (6, max(n p, n)); rows 4 and 5 are the caller's."""
-        n, p = self.tri.shape[0], self.weights.shape[0]
-        return np.zeros((6, max(n * p, n)))
+        """The work array `chain_damping_into` takes: (6, max(n p, n + nw, (2 + nw) p)); rows 4 and 5
+        are the caller's."""
+        n, p, nw = self.tri.shape[0], self.weights.shape[0], self.border.shape[0]
+        return np.zeros((6, max(n * p, n + nw, (2 + nw) * p)))
 
     def times(self, w: np.ndarray) -> np.ndarray:
-        """C_chain w on the chain's DOFs (w and the result in loop order)."""
+        """C_chain w on the chain's DOFs (w and the result in `dofs` order)."""
         out = np.zeros(w.shape[0])
-        chain_damping_into(self.tri, self.scalars, self.factors, self.sm, self.weights, w, out, self.scratch())
+        chain_damping_into(
+            self.tri, self.scalars, self.factors, self.sm, self.weights, self.border, w, out, self.scratch()
+        )
         return out
 
 
@@ -95,8 +113,11 @@ def of_machine(
         raise DynamicsError(f"factor_precision: expected one of {sorted(FACTOR_PRECISIONS)}, got {factor_precision!r}")
     topo = machine.topology
     dofs = np.array([d for d, carried in enumerate(topo.links) if carried], dtype=np.int64)
-    k = topo.stiffness_matrix_sparse()[dofs][:, dofs].tocsr()
-    m = np.asarray(topo.masses_kg, dtype=float)[dofs]
+    wheels = np.asarray(topo.wheel_dofs, dtype=np.int64)
+    k_all = topo.stiffness_matrix_sparse()
+    k = k_all[dofs][:, dofs].tocsr()
+    masses = np.asarray(topo.masses_kg, dtype=float)
+    m = masses[dofs]
     n = dofs.size
     kd, koff = k.diagonal(), np.append(k.diagonal(1), 0.0)
     kcorner = float(k[0, n - 1]) if n > 2 else 0.0
@@ -107,20 +128,97 @@ def of_machine(
     sd = kd / m
     soff = koff / np.append(rm[:-1] * rm[1:], 1.0)
     scorner = kcorner / (rm[0] * rm[-1])
+    border = _border(k_all, masses, dofs, wheels)
     chain = machine.chain
     if chain.rayleigh_coefficients is not None:
         alpha, beta = chain.rayleigh_coefficients
         taus, weights, two_zeta = np.zeros(0), np.zeros(0), 0.0
     else:
         two_zeta = 2.0 * chain.damping_ratio
-        x_min, x_max = eigenvalue_bounds(sd, soff, scorner)
+        if wheels.size:
+            everything = np.concatenate([dofs, wheels])
+            scale = sp.diags(1.0 / np.sqrt(masses[everything]))
+            x_min, x_max = _bounds_of((scale @ k_all[everything][:, everything] @ scale).tocsc())
+        else:
+            x_min, x_max = eigenvalue_bounds(sd, soff, scorner)
         taus, weights, a, b = zolotarev_nodes_for(tolerance, x_min, x_max)
         alpha, beta = two_zeta * a, two_zeta * b  # the rule's tails: 2 zeta (a M + b K)
-    factors, sm = _factors(sd, soff, scorner, np.ascontiguousarray(taus, dtype=float))
+    taus = np.ascontiguousarray(taus, dtype=float)
+    factors, sm = _factors(sd, soff, scorner, taus)
+    factors, sm = _bordered(factors, sm, border, taus, soff)
     factors = np.ascontiguousarray(factors, dtype=FACTOR_PRECISIONS[precision])
     tri = np.ascontiguousarray(np.column_stack([rm, m, sd, soff, kd, koff]))
     scalars = np.array([scorner, kcorner, two_zeta, alpha, beta])
-    return MachineDamping(dofs, tri, scalars, factors, sm, np.ascontiguousarray(weights, dtype=float))
+    return MachineDamping(
+        np.concatenate([dofs, wheels]), tri, scalars, factors, sm, np.ascontiguousarray(weights, dtype=float), border
+    )
+
+
+def _border(k_all, masses, dofs, wheels) -> np.ndarray:
+    """(nw, 8) per wheel DOF (the tooth model's): its first seated place, their count, sqrt(m_w), m_w,
+    S_ww, K_ww, S and K to each seated place (the tooth springs: one value for the wheel's run of
+    places, its seated links of one mass and one k_t). Refused where the wheels do not border the
+    links so (coupled to each other, or to places not in one run of equal springs)."""
+    border = np.zeros((wheels.size, 8))
+    place = np.full(masses.size, -1, dtype=np.int64)
+    place[dofs] = np.arange(dofs.size)
+    for i, w in enumerate(wheels):
+        column = k_all[:, [w]].tocoo()
+        others = [(int(r), float(v)) for r, v in zip(column.row, column.data) if r != w and v != 0.0]
+        places = np.array([place[r] for r, _ in others], dtype=np.int64)
+        values = np.array([v for _, v in others])
+        first = int(places.min()) if places.size else 0
+        if (
+            not places.size
+            or np.any(places < 0)
+            or not np.array_equal(np.sort(places), np.arange(first, first + places.size))
+            or not np.all(values == values[0])
+            or not np.all(masses[dofs[places]] == masses[dofs[first]])
+        ):
+            raise DynamicsError(
+                "machine damping: a wheel's DOF does not border the chain's places as a run of equal tooth springs"
+            )
+        m_w, k_ww, k_lw = masses[w], float(k_all[w, w]), float(values[0])
+        s_lw = k_lw / np.sqrt(m_w * masses[dofs[first]])
+        border[i] = (first, places.size, np.sqrt(m_w), m_w, k_ww / m_w, k_ww, s_lw, k_lw)
+    return border
+
+
+def _bordered(factors, sm, border, taus, soff):
+    """The factors and Sherman-Morrison data with the wheels' border (module docstring): Z_j = A_j^-1 B
+    after the three factors, G_j^-1 after sm's two columns. No border: both as they are."""
+    nw = border.shape[0]
+    if nw == 0:
+        return factors, sm
+    n, p = factors.shape[1], factors.shape[2]
+    z_cols = np.empty((nw, n, p))
+    for w in range(nw):
+        first, count = int(border[w, 0]), int(border[w, 1])
+        rhs = np.zeros((n, p))
+        rhs[first : first + count] = border[w, 6]
+        z_cols[w] = _cyclic_solve(factors, sm, soff, rhs)
+    g = np.zeros((p, nw, nw))
+    for w in range(nw):
+        g[:, w, w] = border[w, 4] + taus
+        for v in range(nw):
+            first, count = int(border[w, 0]), int(border[w, 1])
+            g[:, w, v] -= border[w, 6] * z_cols[v, first : first + count].sum(axis=0)
+    g_inv = np.linalg.inv(g).reshape(p, nw * nw)
+    return np.concatenate([factors, z_cols]), np.ascontiguousarray(np.column_stack([sm, g_inv]))
+
+
+def _cyclic_solve(factors, sm, soff, rhs):
+    """(S_ll + tau_j I)^-1 rhs[:, j] for every node j from the factors (`_factors`): Thomas, then
+    Sherman-Morrison for the corner."""
+    inv, cp, z = factors[0], factors[1], factors[2]
+    n = rhs.shape[0]
+    y = np.empty_like(rhs)
+    y[0] = rhs[0] * inv[0]
+    for i in range(1, n):
+        y[i] = (rhs[i] - soff[i - 1] * y[i - 1]) * inv[i]
+    for i in range(n - 2, -1, -1):
+        y[i] -= cp[i] * y[i + 1]
+    return y - z * (sm[:, 0] * (y[0] + sm[:, 1] * y[-1]))[None, :]
 
 
 def eigenvalue_bounds(sd, soff, scorner) -> tuple[float, float]:
@@ -128,13 +226,19 @@ def eigenvalue_bounds(sd, soff, scorner) -> tuple[float, float]:
     N x N array for long chains. The top is Gershgorin's bound (the rule only needs the range covered:
     on a chain of equal links it is the top eigenvalue's limit 4 k / m, at most a few percent above it);
     the bottom is found by shift-invert Lanczos at 0 (S is positive definite: the drive grounds it)."""
-    import scipy.sparse as sp
-    from scipy.sparse.linalg import eigsh
-
     n = sd.size
     s = sp.diags([soff[:-1], sd, soff[:-1]], [-1, 0, 1], format="csc")
     if n > 2:
         s = (s + sp.csc_matrix(([scorner, scorner], ([0, n - 1], [n - 1, 0])), shape=(n, n))).tocsc()
+    return _bounds_of(s)
+
+
+def _bounds_of(s) -> tuple[float, float]:
+    """(smallest eigenvalue, Gershgorin's bound of the largest) of the sparse symmetric positive
+    definite S (`eigenvalue_bounds`); dense eigenvalues on small ones."""
+    from scipy.sparse.linalg import eigsh
+
+    n = s.shape[0]
     if n <= 64:
         lam = np.linalg.eigvalsh(s.toarray())
         return float(lam[0]), float(lam[-1])
@@ -185,18 +289,27 @@ def _cyclic_times_into(diag, off, corner, x, y):
     y[n - 1] += corner * x[0]
 
 
-def chain_damping_into(tri, scalars, factors, sm, weights, w, out, scratch):
-    """out = C_chain w (module docstring) on the first n = tri.shape[0] entries of w and out; scratch
-    (6, >= max(n p, n)), rows 0-3 used. Rayleigh part alpha M w + beta K w (Rayleigh damping, or the
-    modal rule's tails), then 2 zeta M^(1/2) S sum_j c_j (S + tau_j I)^-1 M^(1/2) w, the p solves'
-    recurrences run over the places with the nodes as the inner vector."""
+def chain_damping_into(tri, scalars, factors, sm, weights, border, w, out, scratch):
+    """out = C_chain w (module docstring) on the first n + nw entries of w and out (n = tri.shape[0]
+    places, then nw = border.shape[0] wheels); scratch (6, >= max(n p, n + nw, (2 + nw) p)), rows 0-3
+    used. Rayleigh part alpha M w + beta K w (Rayleigh damping, or the modal rule's tails), then
+    2 zeta M^(1/2) S sum_j c_j (S + tau_j I)^-1 M^(1/2) w, the p solves' recurrences run over the
+    places with the nodes as the inner vector, the wheels' border by its Schur complement."""
     n = tri.shape[0]
     p = weights.shape[0]
+    nw = border.shape[0]
     two_zeta, alpha, beta = scalars[2], scalars[3], scalars[4]
     ys, acc, prod, wg = scratch[0], scratch[1], scratch[2], scratch[3]
     _cyclic_times_into(tri[:, 4], tri[:, 5], scalars[1], w, prod)
     for i in range(n):
         out[i] = alpha * tri[i, 1] * w[i] + beta * prod[i]
+    for k in range(nw):  # the wheels' rows and columns of alpha M + beta K
+        first, count, ww = int(border[k, 0]), int(border[k, 1]), w[n + k]
+        s = 0.0
+        for i in range(first, first + count):
+            s += w[i]
+            out[i] += beta * border[k, 7] * ww
+        out[n + k] = alpha * border[k, 3] * ww + beta * (border[k, 5] * ww + border[k, 7] * s)
     if p == 0:
         return
     inv, cp, z = factors[0], factors[1], factors[2]
@@ -229,6 +342,8 @@ def chain_damping_into(tri, scalars, factors, sm, weights, w, out, scratch):
         acc[i] = s
     for j in range(p):
         wg[j] += weights[j] * sm[j, 0] * ys[j]
+    if nw > 0:
+        _border_solve_into(tri, factors, sm, weights, border, w, ys, acc, wg)
     for i in range(n):
         zi = z[i]
         s = 0.0
@@ -236,8 +351,57 @@ def chain_damping_into(tri, scalars, factors, sm, weights, w, out, scratch):
             s += wg[j] * zi[j]
         acc[i] -= s
     _cyclic_times_into(tri[:, 2], tri[:, 3], scalars[0], acc, prod)
+    for k in range(nw):  # S's border on acc: the wheels' rows and columns
+        first, count, aw = int(border[k, 0]), int(border[k, 1]), acc[n + k]
+        s = 0.0
+        for i in range(first, first + count):
+            s += acc[i]
+            prod[i] += border[k, 6] * aw
+        prod[n + k] = border[k, 4] * aw + border[k, 6] * s
     for i in range(n):
         out[i] += two_zeta * tri[i, 0] * prod[i]
+    for k in range(nw):
+        out[n + k] += two_zeta * border[k, 2] * prod[n + k]
+
+
+def _border_solve_into(tri, factors, sm, weights, border, w, ys, acc, wg):
+    """The wheels' part of the p bordered solves (module docstring), given ys = T_j^-1 r_l (the back
+    substitution done), acc the nodes' weighted sum of it and wg[:p] the Sherman-Morrison weights
+    c_j (v.y_j) / (1 + v.z_j): per node x_w = G_j^-1 (r_w - B^T A_j^-1 r_l); acc[n + k] = sum_j c_j
+    x_w,j[k] and acc[i] -= sum_j c_j Z_j[i] x_w,j over the places (every wheel's column of Z)."""
+    n, p, nw = tri.shape[0], weights.shape[0], border.shape[0]
+    z = factors[2]
+    # wg[p:2p] the Sherman-Morrison coefficient (v.y_j) / (1 + v.z_j) alone, wg[2p:] x_w per node
+    last = (n - 1) * p
+    for j in range(p):
+        wg[p + j] = sm[j, 0] * (ys[j] + sm[j, 1] * ys[last + j])
+    xw = wg[2 * p : (2 + nw) * p]
+    for j in range(p):
+        for k in range(nw):
+            first, count = int(border[k, 0]), int(border[k, 1])
+            s = 0.0
+            for i in range(first, first + count):
+                s += ys[i * p + j] - z[i, j] * wg[p + j]
+            xw[k * p + j] = border[k, 2] * w[n + k] - border[k, 6] * s  # r_w - B^T A^-1 r_l
+        for k in range(nw):  # G^-1 (nw x nw, row by row after sm's two columns) in place, via acc's tail
+            s = 0.0
+            for m in range(nw):
+                s += sm[j, 2 + k * nw + m] * xw[m * p + j]
+            acc[n + k] = s
+        for k in range(nw):
+            xw[k * p + j] = acc[n + k]
+    for k in range(nw):
+        s = 0.0
+        zk = factors[3 + k]
+        for j in range(p):
+            s += weights[j] * xw[k * p + j]
+        acc[n + k] = s
+        for i in range(n):
+            zi = zk[i]
+            t = 0.0
+            for j in range(p):
+                t += weights[j] * xw[k * p + j] * zi[j]
+            acc[i] -= t
 
 
 try:
@@ -248,4 +412,5 @@ except ImportError:  # pragma: no cover
 if numba is not None:
     # the nodes' sums are reassociated (SIMD over the nodes); the form's error is its tolerance, not round-off
     _cyclic_times_into = numba.njit(cache=True)(_cyclic_times_into)
+    _border_solve_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(_border_solve_into)
     chain_damping_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(chain_damping_into)

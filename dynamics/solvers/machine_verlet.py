@@ -175,7 +175,7 @@ def _accel_into(
         wv, cw = scratch[4], scratch[5]
         for i in range(dofs.shape[0]):
             wv[i] = v[dofs[i]]
-        chain_damping_into(red[1], red[2], red[3], red[4], red[5], wv, cw, scratch)
+        chain_damping_into(red[1], red[2], red[3], red[4], red[5], red[7], wv, cw, scratch)
         for i in range(dofs.shape[0]):
             f[dofs[i]] -= cw[i]
             p_damp += wv[i] * cw[i]
