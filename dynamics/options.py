@@ -23,8 +23,7 @@ SPAN_DAMPING_LAWS = ("global", "kelvin-voigt")  # dynamics.models.clearance: the
 DEFAULT_PIN_CLEARANCE_M = 94e-6
 
 # Above this many links the pipeline solves in the lowest modes (dynamics.models.reduction, where the
-# figures are) and the tooth model is not built (dynamics.models.machine): the settings refuse
-# --tooth-stiffness above it without importing the solvers
+# figures are) and the clearance chains take the O(N) damping (dynamics.models.machine_damping)
 DENSE_LINK_LIMIT = 400
 
 

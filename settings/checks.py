@@ -116,18 +116,10 @@ def _check_machine(cfg: RunConfig) -> None:
 
 def _check_tooth_stiffness(cfg: RunConfig) -> None:
     """A tooth contact stiffness asked for (a finite --tooth-stiffness) needs what its model carries
-    (dynamics.models.machine): wheels with inertia (each is a body of its own), at most DENSE_LINK_LIMIT
-    links (the dense damping law)."""
-    from dynamics.options import DENSE_LINK_LIMIT
-
+    (dynamics.models.machine): wheels with inertia (each is a body of its own)."""
     k_t = cfg.tooth_stiffness_N_per_m
     if k_t is None or k_t == float("inf"):
         return
-    _require(
-        cfg.links <= DENSE_LINK_LIMIT,
-        f"--tooth-stiffness: seating through a tooth stiffness is built up to {DENSE_LINK_LIMIT} links, got "
-        f"--links {cfg.links}; expected --tooth-stiffness rigid (or auto) above",
-    )
     for option, inertia in (
         ("--sprocket-inertia", cfg.sprocket_inertia_kg_m2),
         ("--idler-inertia", cfg.idler_inertia_kg_m2),

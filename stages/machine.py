@@ -52,13 +52,12 @@ def machine_layout(cfg: RunConfig, pitch_m: float) -> MachineLayout:
 def switches_to_tooth_model(cfg: RunConfig, scene: Scene, validity: SeatingValidity) -> bool:
     """Whether the run leaves rigid seating for the tooth contact stiffness (--tooth-stiffness auto, the
     default): where rigid seating does not hold for it and the tooth model carries the scene (wheels
-    with inertia, at most DENSE_LINK_LIMIT links; dynamics.models.machine)."""
-    from dynamics.models.reduction import DENSE_LINK_LIMIT
-
+    with inertia; dynamics.models.machine), at any length (above DENSE_LINK_LIMIT links on the O(N)
+    damping with the wheels in its block, dynamics.models.machine_damping)."""
     if cfg.tooth_stiffness_N_per_m is not None or validity.valid or not scene.layout.on_wheels:
         return False
     wheels = (scene.layout.sprocket, scene.layout.idler)
-    return cfg.links <= DENSE_LINK_LIMIT and all(w is None or w.inertia_kg_m2 > 0 for w in wheels)
+    return all(w is None or w.inertia_kg_m2 > 0 for w in wheels)
 
 
 def seating_that_runs(

@@ -68,7 +68,6 @@ from scipy.linalg import eigh
 from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import Tensioner
-from dynamics.models.reduction import DENSE_LINK_LIMIT
 from dynamics.models.system import SecondOrderSystem
 from dynamics.models.topology import ChainTopology, Span
 from dynamics.models.wheels import Wheel
@@ -136,14 +135,6 @@ class MachineOnWheels:
         k_t = self.tooth_stiffness_N_per_m
         if not (k_t > 0 and not np.isnan(k_t)):
             raise DynamicsError(f"tooth_stiffness_N_per_m: expected > 0 N/m (inf: rigid seating), got {k_t!r}")
-        if self.n_links > DENSE_LINK_LIMIT:
-            # the O(N) damping form (dynamics.models.machine_damping) leaves the wheels' DOFs out of its
-            # block; on the tooth model, where they are bodies of their own, that damps the lowest mode
-            # at 1.65 instead of zeta 0.13 (docs/physics.md, "Above 400 links"): not carried
-            raise DynamicsError(
-                f"tooth_stiffness_N_per_m: seating through a tooth stiffness is built up to {DENSE_LINK_LIMIT} links "
-                f"(the dense damping law), got {self.n_links}; expected rigid seating above (--tooth-stiffness rigid)"
-            )
         for name, wheel in (("sprocket", self.sprocket), ("idler", self.idler)):
             held = name == "sprocket" and self.drive_held
             if wheel is not None and wheel.wrap_links and not held and wheel.inertia_kg_m2 <= 0:

@@ -146,11 +146,14 @@ def slow_mode_newton(model, period_s: float, decay: float):
         blocks[j] = np.linalg.inv(one_minus) if np.linalg.cond(one_minus) < 1e8 else np.eye(2)
 
     def newton_step(res: np.ndarray) -> np.ndarray:
-        q = np.stack([to_modes @ res[:n], to_modes @ res[n:]], axis=1)  # (m, 2)
+        # res is (q, q') of the compiled step's state: the DOFs, then a tooth model's seat offsets
+        # (ClearanceMachine.n_state), which the modes leave to Anderson
+        half = res.size // 2
+        q = np.stack([to_modes @ res[:n], to_modes @ res[half : half + n]], axis=1)  # (m, 2)
         dq = np.einsum("jab,jb->ja", blocks, q) - q
         out = res.copy()
         out[:n] += from_modes @ dq[:, 0]
-        out[n:] += from_modes @ dq[:, 1]
+        out[half : half + n] += from_modes @ dq[:, 1]
         return out
 
     return newton_step
