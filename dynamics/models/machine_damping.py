@@ -391,16 +391,18 @@ def _border_solve_into(tri, factors, sm, weights, border, w, ys, acc, wg):
         for k in range(nw):
             xw[k * p + j] = acc[n + k]
     for k in range(nw):
+        coefficients = xw[k * p : (k + 1) * p]
         s = 0.0
-        zk = factors[3 + k]
         for j in range(p):
-            s += weights[j] * xw[k * p + j]
+            coefficients[j] *= weights[j]  # c_j x_w,j[k], in place
+            s += coefficients[j]
         acc[n + k] = s
+        zk = factors[3 + k]
         for i in range(n):
             zi = zk[i]
             t = 0.0
             for j in range(p):
-                t += weights[j] * xw[k * p + j] * zi[j]
+                t += coefficients[j] * zi[j]
             acc[i] -= t
 
 
