@@ -4,6 +4,7 @@ check against the dense damping.
 
     python benchmarks/run.py --only long_wheels
     BENCH_LONG_CHAIN_OLD_TREE=/tmp/old python benchmarks/run.py --only long_wheels   # old code beside
+    python benchmarks/bench_long_wheels.py --links 1000 --old-tree /tmp/old [--repeats 3]   # one N, both trees
 
 Each N: the default scene (default wheels: 12-tooth sprocket and idler wheel, 6 links seated on each,
 the report's drive stiffness, polygonal feed), the default link's figures (2.03 kg, k = 9.0092e7 N/m,
@@ -183,9 +184,40 @@ def run(quick: bool) -> list[str]:
     return lines
 
 
+def compare_trees(n: int, old_tree: Path, repeats: int = 1, scenario=_in_subprocess) -> list[str]:
+    """The scenario at `n` links with this tree's code and `old_tree`'s, each in its own process, the
+    trees alternating `repeats` times: one line per run (wall and CPU seconds), then the medians."""
+    trees = {"new": ROOT, "old": Path(old_tree)}
+    runs: dict[str, list[dict]] = {name: [] for name in trees}
+    lines = []
+    for i in range(repeats):
+        for name, tree in trees.items():
+            res = scenario(n, tree=tree)
+            runs[name].append(res)
+            lines.append(f"run {i + 1}, {name} ({tree}): wall {res['wall_s']:.2f} s, CPU {res['cpu_s']:.2f} s")
+    for name, done in runs.items():
+        wall = statistics.median(r["wall_s"] for r in done)
+        cpu = statistics.median(r["cpu_s"] for r in done)
+        lines.append(f"{name}: median of {len(done)}: wall {wall:.2f} s, CPU {cpu:.2f} s, {n} links")
+    return lines
+
+
+def _compare_main(argv: list[str]) -> None:
+    import argparse
+
+    parser = argparse.ArgumentParser(description="the scenario at one N, this tree beside an old checkout")
+    parser.add_argument("--links", type=int, required=True)
+    parser.add_argument("--old-tree", type=Path, required=True, help="a checkout of the old code")
+    parser.add_argument("--repeats", type=int, default=1)
+    args = parser.parse_args(argv)
+    print("\n".join(compare_trees(args.links, args.old_tree, args.repeats)))
+
+
 if __name__ == "__main__":
-    if len(sys.argv) == 4:
+    if len(sys.argv) == 4 and not sys.argv[1].startswith("--"):
         sys.path.insert(0, sys.argv[3])  # the tree whose code runs the scenario
         print(json.dumps(_scenario(int(sys.argv[1]), json.loads(sys.argv[2]))))
+    elif len(sys.argv) > 1:
+        _compare_main(sys.argv[1:])
     else:
         print("\n".join(run(quick=False)))

@@ -47,12 +47,17 @@ def window_s(samples: int = 721) -> np.ndarray:
     return np.arange(samples) / 4 / 1080
 
 
+def seat_change_run(phase: float, chain: ChainModel = DEFAULT_CHAIN, samples: int = 721):
+    """(the run's seat change, the window's peak cam speed, its peak cam acceleration) at `phase`:
+    what rigid seating's verdict is decided on (also tests/test_tooth_phase_validity.py's runs)."""
+    response, contact = simulate_scene(default_scene(phase), chain, CAM, window_s(samples))
+    return contact.seating, float(np.max(np.abs(response.zdot_m_s))), float(np.max(np.abs(response.zddot_m_s2)))
+
+
 def verdict(phase: float, chain: ChainModel = DEFAULT_CHAIN, samples: int = 721):
     """Rigid seating's verdict on the run at `phase`: its seat change against the window's peak cam
     speed and acceleration."""
-    response, contact = simulate_scene(default_scene(phase), chain, CAM, window_s(samples))
-    peaks = float(np.max(np.abs(response.zdot_m_s))), float(np.max(np.abs(response.zddot_m_s2)))
-    return rigid_seating_validity(contact.seating, *peaks)
+    return rigid_seating_validity(*seat_change_run(phase, chain, samples))
 
 
 if __name__ == "__main__":

@@ -13,7 +13,11 @@ a solve the machine cannot afford.
 A caller that may tighten the tolerance later (the pipeline does, once it has measured how much a
 k error moves the vibration metrics) passes the same `solved` dict to both calls: the levels are
 deterministic (same start, same ratio), so the second call reuses the first one's solutions and
-meshes and solves only the new, finer levels.
+meshes and solves only the new, finer levels. Across runs the dict is kept on disk as its
+`SolvedLevel`s (`level_records` / `solved_levels_from`, stored by stages.fea in the FEA cache): a
+later run's passes read their levels from it, and the one level whose fields the stress study and
+the images need, the finest of the pass whose k the run keeps, is solved again for them
+(`with_finest_fields`).
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import asdict, dataclass, fields, replace
 
 from .errors import FemError
 from .link import LinkSolution, analyse_link, fallback_note
@@ -37,6 +42,80 @@ START_SIZE_FRACTION = 1 / 14
 # About 20 s and 3 GB for a P2 solve with PARDISO on 2 cores (field notes: 381k DOFs, 25 s).
 DEFAULT_MAX_DOFS = 400_000
 MIN_LEVELS = 2  # the error bound needs two levels (see richardson)
+
+
+@dataclass(frozen=True)
+class SolvedLevel:
+    """What is kept of a level's LinkSolution across runs: what the estimate (estimate_from_levels) and
+    the pipeline's stiffness record (stages.fea) read of a level, not its mesh and fields (SI)."""
+
+    order: int
+    stiffness_N_per_m: float
+    dofs: int
+    whole_link_dofs: int
+    mesh_size_m: float
+    mass_kg: float
+    volume_m3: float
+    pitch_m: float
+    bore_radius_m: float
+    peak_von_mises_Pa_per_N: float
+    peak_von_mises_away_from_clamp_Pa_per_N: float
+    timing_s: dict
+    solver_fallback: str | None = None
+
+    @classmethod
+    def of(cls, solution) -> SolvedLevel:
+        """A LinkSolution's (or a SolvedLevel's own) kept values, as Python numbers (JSON)."""
+        kept = {f.name: getattr(solution, f.name) for f in fields(cls)}
+        numbers = {
+            name: (int if name in _INTEGERS else float)(value) for name, value in kept.items() if name in _NUMBERS
+        }
+        timing = {stage: float(seconds) for stage, seconds in solution.timing_s.items()}
+        return cls(**{**kept, **numbers, "timing_s": timing})
+
+
+_INTEGERS = ("order", "dofs", "whole_link_dofs")
+_NUMBERS = tuple(f.name for f in fields(SolvedLevel) if f.name not in ("timing_s", "solver_fallback"))
+
+
+def level_records(solved: dict) -> dict:
+    """A `solved` dict as JSON-able records (each level a SolvedLevel's fields, the mesh times as they are)."""
+    return {key: value if isinstance(value, float) else asdict(SolvedLevel.of(value)) for key, value in solved.items()}
+
+
+def solved_levels_from(records: dict) -> dict:
+    """`level_records`' inverse: a `solved` dict whose levels are SolvedLevels."""
+    return {key: value if isinstance(value, float) else SolvedLevel(**value) for key, value in records.items()}
+
+
+def with_finest_fields(
+    source,
+    settings: FeaSettings,
+    materials: Sequence[Material],
+    estimates: dict[str, StiffnessEstimate],
+    progress: Callable[[str], None] | None = None,
+) -> dict[str, StiffnessEstimate]:
+    """The estimates (of `materials`, by name) with a finest level that carries its fields (the stress
+    study and the images start from them): a finest level read from an earlier run (a SolvedLevel) is
+    meshed and solved again, once for all such materials; the estimate's numbers stay its own."""
+    import geometry
+
+    kept = {name: est for name, est in estimates.items() if isinstance(est.finest, SolvedLevel)}
+    if not kept:
+        return estimates
+    by_name = {m.name: m for m in materials}
+    h = next(iter(kept.values())).finest.mesh_size_m
+    part = geometry.as_part(source, symmetry=False)
+    link = geometry.mesh_part(part, mesh_size_m=h, order=settings.mesh_order, bore_refinement=settings.bore_refinement)
+    out = dict(estimates)
+    for name, estimate in kept.items():
+        solution = analyse_link(
+            link, by_name[name], order=settings.order, load_N=settings.load_N, solver=settings.solver
+        )
+        out[name] = replace(estimate, finest=solution)
+    if progress is not None:
+        progress(f"FEA level of {h * 1e3:.3g} mm solved again for its fields (an earlier run kept its k only)")
+    return out
 
 
 def bounding_diagonal_m(source) -> float:
@@ -124,7 +203,9 @@ def stiffnesses_to_tolerance(
     Refinement goes on until every material's estimate meets the tolerance (Poisson's ratio
     changes k(h) a little, so one material may need a level more than another). `solved`, if given,
     is read for level solutions already computed and receives the new ones (keyed by everything a
-    solution depends on, so a dict shared between different settings is still safe).
+    solution depends on, so a dict shared between different settings is still safe); its levels may
+    be SolvedLevels read from an earlier run, and an estimate whose finest level is one has it as its
+    `finest` (`with_finest_fields` solves it again where its fields are needed).
     """
     import geometry
 
@@ -153,7 +234,8 @@ def stiffnesses_to_tolerance(
                 )
         level_start = time.perf_counter()
         level = (*settings_key, f"{h:.12e}")
-        keys = {m.name: (*level, m) for m in materials}
+        keys = {m.name: repr((*level, m)) for m in materials}  # strings: the dict is kept on disk across runs
+        mesh_seconds = repr((*level, "mesh seconds"))
         if any(key not in known for key in keys.values()):
             try:
                 # No thin-wall fields (no wall_reference_m): the finest size is not known in advance,
@@ -168,15 +250,17 @@ def stiffnesses_to_tolerance(
                 raise _unreached(
                     rel_tolerance, sizes, solutions, f"geometry refused the next level: {exc}", False
                 ) from None
-            known[(*level, "mesh seconds")] = time.perf_counter() - level_start
-        mesh_time += known[(*level, "mesh seconds")]
-        reused = True
+            known[mesh_seconds] = time.perf_counter() - level_start
+        mesh_time += known[mesh_seconds]
+        reused = "solved in an earlier pass"
         for material in materials:
             solution = known.get(keys[material.name])
             if solution is None:
-                reused = False
+                reused = None
                 solution = analyse_link(link, material, order=order, load_N=load_N, solver=solver)
                 known[keys[material.name]] = solution
+            elif reused and isinstance(solution, SolvedLevel):
+                reused = "solved in an earlier run"
             previous = solutions[material.name]
             if previous and solution.dofs <= previous[-1].dofs:
                 raise FemError(
@@ -191,7 +275,7 @@ def stiffnesses_to_tolerance(
             progress(
                 f"FEA level {len(sizes)}: h = {h * 1e3:.3g} mm, {first[-1].dofs} DOFs, k (N/m) {ks}, "
                 f"estimated error {f'n/a (needs {MIN_LEVELS} levels)' if worst is None else f'{worst:.2e}'}, "
-                + ("solved in an earlier pass" if reused else f"{time.perf_counter() - level_start:.1f} s")
+                + (reused or f"{time.perf_counter() - level_start:.1f} s")
                 + fallback_note(first[-1])
             )
         if None not in errors.values() and max(errors.values()) <= rel_tolerance:

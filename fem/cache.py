@@ -44,6 +44,18 @@ class FeaCache:
         except (OSError, ValueError):
             return None
 
+    def load_levels(self, key: str) -> dict:
+        """The solved levels' records kept under `key` (fem.adaptive.level_records; empty: none)."""
+        try:
+            return json.loads((self._entry(key) / "levels.json").read_text())
+        except (OSError, ValueError):
+            return {}
+
+    def store_levels(self, key: str, records: dict) -> None:
+        entry = self._entry(key)
+        entry.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(entry / "levels.json", json.dumps(records, sort_keys=True))
+
     def image_path(self, key: str) -> Path:
         return self._entry(key) / "deformed.png"
 

@@ -51,7 +51,7 @@ class StiffnessEstimate:
     observed_convergence_rate: float | None  # from three levels, for information
     monotone: bool
     levels: tuple[tuple[float, int, float], ...]  # (mesh_size_m, dofs, stiffness_N_per_m), coarse to fine
-    finest: LinkSolution
+    finest: LinkSolution  # or, read from an earlier run, its fem.adaptive.SolvedLevel (no fields)
     timing_s: dict[str, float]  # summed over levels: mesh, assembly, load, solve, post, total; the study's wall
     # one line per level whose solver was not the one asked for (LinkSolution.solver_fallback)
     solver_fallbacks: tuple[str, ...] = ()

@@ -616,6 +616,8 @@ def _sweep_summary(sweep) -> dict:
 
 
 def _sweep_table(sweeps: dict) -> Table:
+    """rpm_sweep.csv: one row per material, cam law and speed; `seating_model` is the seating that point
+    ran (each speed its own: dynamics.response.sweep.machine_rpm_sweep), empty on the link drive (no seats)."""
     rows = []
     for material, sweep in sweeps.items():
         for i, cam in enumerate(sweep.cam_ids):
@@ -627,10 +629,13 @@ def _sweep_table(sweeps: dict) -> Table:
                         float(rpm),
                         float(sweep.residual_vibration_m[i, j]),
                         float(sweep.peak_acceleration_m_s2[i, j]),
+                        "" if sweep.seating_model is None else sweep.seating_model[i][j],
                     )
                 )
     return Table(
-        "Speed sweep", ("material", "cam law", "rpm", "residual_vibration_m", "peak_abs_acceleration_m_s2"), tuple(rows)
+        "Speed sweep",
+        ("material", "cam law", "rpm", "residual_vibration_m", "peak_abs_acceleration_m_s2", "seating_model"),
+        tuple(rows),
     )
 
 

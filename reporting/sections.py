@@ -285,6 +285,22 @@ def _sweep_models(report: Report) -> str:
     return " and ".join(sorted({sweep.model for sweep in report.results.sweeps.values()}))
 
 
+def _sweep_seating_paragraph(report: Report) -> str:
+    """Which seating each material's sweep ran (each speed its own; per point in rpm_sweep.csv's
+    seating_model column); nothing on the link drive, which has no seats."""
+    from dynamics.response.sweep import seating_note
+
+    notes = {m: seating_note(sweep) for m, sweep in report.results.sweeps.items()}
+    said = [f"{m}: {note}" for m, note in notes.items() if note is not None]
+    if not said:
+        return ""
+    return html.paragraph(
+        "Seating at each speed, the run's own verdict at that speed (rpm_sweep.csv's seating_model column): "
+        + "; ".join(said)
+        + "."
+    )
+
+
 def speed_sweep_section(report: Report) -> list[html.Section]:
     if not report.sweep_pngs:
         return []
@@ -296,6 +312,7 @@ def speed_sweep_section(report: Report) -> list[html.Section]:
                 f"{_sweep_models(report)} (friction left out of the sweep); dashed lines: critical speeds, where a "
                 "harmonic of the index frequency meets a natural frequency of that model."
             )
+            + _sweep_seating_paragraph(report)
             + "".join(html.image_html(p, f"{m}: speed sweep") for m, p in report.sweep_pngs.items()),
         )
     ]

@@ -349,16 +349,11 @@ def run_rpm_sweeps(cfg: RunConfig, fea: dict[str, MaterialStiffness], progress: 
 
 
 def _sweep_seating_words(sweep: SweepResult) -> str:
-    """The sweep's progress line's note on the points that left rigid seating for the tooth model."""
-    from dynamics.response.seating import TOOTH_STIFFNESS_MODEL
+    """The sweep's progress line's note on the seating its points ran (none on the link drive)."""
+    from dynamics.response.sweep import seating_note
 
-    if sweep.seating_model is None:
-        return ""
-    points = [model for row in sweep.seating_model for model in row]
-    switched = points.count(TOOTH_STIFFNESS_MODEL)
-    if switched == 0:
-        return ""
-    return f"; {TOOTH_STIFFNESS_MODEL} at {switched} of {len(points)} points (rigid seating does not hold there)"
+    note = seating_note(sweep)
+    return "" if note is None else f"; {note}"
 
 
 def _seating_at_each_speed(cfg: RunConfig, scene: Scene, model: ChainModel):

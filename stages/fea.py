@@ -165,6 +165,7 @@ def _fea_steps(
     beside the run (stages.beside), the same code either way."""
     import warnings
 
+    from fem.adaptive import with_finest_fields
     from fem.errors import FemWarning
     from fem.heap import release_free_memory
     from fem.render import Picture, render_pictures
@@ -175,9 +176,10 @@ def _fea_steps(
         studies = _solve_stiffness(part, settings, materials, stiffness_tolerance, progress, solved_levels, max_dofs)
     release_free_memory()  # the levels' threads' freed arrays
     yield {name: _stiffness_record(name, study) for name, study in studies.items()}, _messages(caught)
-    finest = {name: study.finest for name, study in studies.items()}
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
+        studies = with_finest_fields(part, settings, materials, studies, progress)  # levels of an earlier run
+        finest = {name: study.finest for name, study in studies.items()}
         stresses = stress_study(
             part,
             materials,
@@ -197,6 +199,30 @@ def _fea_steps(
     release_free_memory()  # the levels' arrays, before the dynamics and the figures
     answers = {name: StressAnswer(s.peak_Pa_per_N, s.rel_change, s.description) for name, s in stresses.items()}
     yield answers, _messages(caught)
+
+
+def stored_levels(cfg: RunConfig, part: Part) -> dict:
+    """The FEA levels earlier --tolerance runs solved on this part (fem.adaptive's `solved` dict, from
+    the FEA cache): a pass reads its levels from it instead of solving them again."""
+    from fem.adaptive import solved_levels_from
+    from fem.cache import FeaCache
+
+    return solved_levels_from(FeaCache(cfg.cache_dir).load_levels(_levels_key(part)))
+
+
+def store_levels(cfg: RunConfig, part: Part, levels: dict) -> None:
+    """Keep `levels` (stored_levels' and this run's) in the FEA cache for later runs."""
+    from fem.adaptive import level_records
+    from fem.cache import FeaCache
+
+    FeaCache(cfg.cache_dir).store_levels(_levels_key(part), level_records(levels))
+
+
+def _levels_key(part: Part) -> str:
+    """One record of solved levels per part: each level's own key names its settings (fem.adaptive)."""
+    from fem.cache import cache_key
+
+    return cache_key(part.fingerprint, {"solved levels": True})
 
 
 def _messages(caught) -> list[str]:

@@ -79,27 +79,20 @@ def rigid_seating_before_run(machine: MachineOnWheels, cam, t_s) -> SeatingValid
     """Rigid seating's verdict on `machine` from its layout and the cam alone (dynamics.response.seating):
     the cam's speed and acceleration where its lift since the dwell reaches the seat change's
     (MachineOnWheels.seat_change_lift_m, located as the compiled step locates it:
-    dynamics.solvers.machine_ivp.seat_change_time_s; 0 at the dwell) against their peaks at the
+    dynamics.solvers.machine_ivp.cam_seat_change_s; 0 at the dwell) against their peaks at the
     output times `t_s`. The run records the same two fractions; the snap needs the rigid run, which
     this verdict avoids: its snap_J is None."""
     import numpy as np
 
-    from dynamics.errors import DynamicsError
     from dynamics.response.seating import rigid_seating_verdict
-    from dynamics.solvers.machine_ivp import seat_change_time_s
+    from dynamics.solvers.machine_ivp import cam_seat_change_s
 
     _, speeds, accelerations, _ = cam.svaj(np.asarray(t_s, dtype=float))
     peaks = float(np.max(np.abs(speeds))), float(np.max(np.abs(accelerations)))
     lift = machine.seat_change_lift_m
     if lift is None:  # at the dwell, where every cam law is at rest
         return rigid_seating_verdict(0.0, 0.0, *peaks, None)
-
-    def lift_at(time):
-        return float(cam.svaj(np.array([time]))[0][0])
-
-    t_seat = seat_change_time_s(lift_at, 0.0, cam.period_s, lift_at(0.0), lift)
-    if t_seat is None:
-        raise DynamicsError("seat change: the cam's lift does not reach it within the index cycle")
+    t_seat = cam_seat_change_s(cam, cam.period_s, lift)
     _, speed, acceleration, _ = (float(x[0]) for x in cam.svaj(np.array([t_seat])))
     return rigid_seating_verdict(speed, acceleration, *peaks, None)
 

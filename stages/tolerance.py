@@ -6,7 +6,7 @@ from functools import partial
 
 from settings import RunConfig
 from stages.chain import run_dynamics, stiffness_error_allowed
-from stages.fea import FeaInProgress, start_fea
+from stages.fea import FeaInProgress, start_fea, store_levels, stored_levels
 from stages.geometry import resolve_run_part
 from stages.progress import Progress, timed
 
@@ -20,12 +20,18 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict, part=None
     Where the FEA cannot refine that far within --max-fea-dofs, the run goes on at the best k
     estimate its levels reached and says why the tolerance is not met.
     `part`: the run's geometry.Part (None: resolved here, once for both passes).
+    The solved levels are shared by both passes and kept in the FEA cache for later runs
+    (stages.fea.stored_levels): no level is solved twice, in a run or across runs (but the finest
+    level of the pass whose k is kept, solved again for its fields where an earlier run solved it).
     Returns the FEA, the chains, the scenarios and why the tolerance is not met (None: met)."""
-    fea_of_part = partial(_start_pass, part=resolve_run_part(cfg) if part is None else part)
+    part = resolve_run_part(cfg) if part is None else part
+    fea_of_part = partial(_start_pass, part=part)
     budget = cfg.tolerance / 2
-    levels: dict = {}  # the refinement pass extends the first pass's levels instead of re-solving them
+    # the refinement pass extends the first pass's levels (and earlier runs') instead of re-solving them
+    levels = stored_levels(cfg, part)
+    keep_levels = partial(_keep_new_levels, cfg, part, levels, len(levels))
     # the first pass's stress study waits until it is known that no second pass replaces it
-    first, short = _fea_pass(fea_of_part, cfg, progress, timing, budget, levels)
+    first, short = _fea_pass(fea_of_part, cfg, progress, timing, budget, levels, keep_levels)
     fea = first.stiffness
     chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, fea, progress)
     from_k = max(sc.rel_error_estimate["stiffness"] for sc in scenarios.values())
@@ -43,7 +49,7 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict, part=None
             f"{100 * stiffness_tolerance:.2g} % error by at most {100 * 0.8 * budget:.2g} % (measured): "
             f"refining the FEA to {100 * stiffness_tolerance:.2g} %"
         )
-        refined, short = _fea_pass(fea_of_part, cfg, progress, timing, stiffness_tolerance, levels, first)
+        refined, short = _fea_pass(fea_of_part, cfg, progress, timing, stiffness_tolerance, levels, keep_levels, first)
         if refined is not first:
             done = timed(timing, "fea", progress, refined.result)
             chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, done, progress)
@@ -57,19 +63,36 @@ def _start_pass(cfg: RunConfig, progress: Progress, stiffness_tolerance: float, 
     return start_fea(cfg, progress, stiffness_tolerance, levels, part=part, stress_later=True)
 
 
+def _keep_new_levels(cfg: RunConfig, part, levels: dict, stored: int) -> None:
+    """Store `levels` in the FEA cache where a pass added to the `stored` levels it started from."""
+    if len(levels) > stored:
+        store_levels(cfg, part, levels)
+
+
 def _fea_pass(
-    fea_of_part, cfg: RunConfig, progress: Progress, timing: dict, stiffness_tolerance: float, levels, last=None
+    fea_of_part,
+    cfg: RunConfig,
+    progress: Progress,
+    timing: dict,
+    stiffness_tolerance: float,
+    levels,
+    keep_levels,
+    last=None,
 ):
     """The FEA to `stiffness_tolerance` (a `FeaInProgress`, its stiffness solved), or, where its next
     level would pass --max-fea-dofs (or a size the geometry refuses), at the best k estimate its
     solved levels give (no level solved again; `last`, the previous pass's FEA, where the levels stop
-    no finer than it did): (the FEA, why k is short of the tolerance or None)."""
+    no finer than it did): (the FEA, why k is short of the tolerance or None). `keep_levels()` stores
+    the levels solved so far once the pass's levels are done, reached or not."""
     from fem.adaptive import ToleranceNotReached
     from fem.errors import FemError
 
     def solved(tolerance: float) -> FeaInProgress:
         run = fea_of_part(cfg, progress, tolerance, levels)
-        run.stiffness  # noqa: B018 (the levels solved now: a ToleranceNotReached is raised here)
+        try:
+            run.stiffness  # noqa: B018 (the levels solved now: a ToleranceNotReached is raised here)
+        finally:
+            keep_levels()
         return run
 
     try:

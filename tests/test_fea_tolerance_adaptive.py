@@ -15,6 +15,7 @@ START_M = 0.012  # the default start on the default link; fixed here so the leve
 
 
 SOLVES: list[int] = []  # DOFs of every analyse_link call made by the fixture's runs, in order
+LOOSE_LEVELS: dict = {}  # the levels the loose run and the run sharing them solved (fem.adaptive's `solved`)
 
 
 @pytest.fixture(scope="module")
@@ -29,7 +30,7 @@ def coarse_and_tighter():
         return solution
 
     lines_loose: list[str] = []
-    solved: dict = {}
+    solved = LOOSE_LEVELS
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(fem.adaptive, "analyse_link", counted)
         both = stiffnesses_to_tolerance(
@@ -73,6 +74,45 @@ def test_a_later_pass_solves_only_the_new_levels(coarse_and_tighter):
     # same meshes, so the same k up to direct-solver round-off (as between the loose and tight runs)
     assert reused.stiffness_N_per_m == pytest.approx(tighter.stiffness_N_per_m, rel=1e-9)
     assert reused.stiffness_rel_error_estimate == pytest.approx(tighter.stiffness_rel_error_estimate, rel=1e-6)
+
+
+def test_levels_kept_for_a_later_run_are_not_solved_again(coarse_and_tighter):
+    """The levels as the FEA cache keeps them (JSON records, stages.fea.store_levels): a later run's
+    pass to the same tolerance solves nothing and gives the same estimate; the one level whose fields
+    the stress study needs, its finest, is solved again only at `with_finest_fields` and equals the
+    one solved before."""
+    import json
+
+    import fem.adaptive
+    from fem.adaptive import SolvedLevel, level_records, solved_levels_from, with_finest_fields
+    from fem.settings import FeaSettings
+
+    *_, before = coarse_and_tighter  # aluminium at 2 %, on the levels in LOOSE_LEVELS
+    kept = solved_levels_from(json.loads(json.dumps(level_records(LOOSE_LEVELS))))
+    solves: list[int] = []
+
+    def counted(link, material, **kwargs):
+        solution = fem.analyse_link(link, material, **kwargs)
+        solves.append(solution.dofs)
+        return solution
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(fem.adaptive, "analyse_link", counted)
+        lines: list[str] = []
+        again = stiffnesses_to_tolerance(
+            None, [ALUMINIUM], 0.02, start_mesh_size_m=START_M, solved=kept, progress=lines.append
+        )[ALUMINIUM.name]
+        assert solves == [] and all(line.endswith("solved in an earlier run") for line in lines)
+        assert again.stiffness_N_per_m == before.stiffness_N_per_m
+        assert again.stiffness_rel_error_estimate == before.stiffness_rel_error_estimate
+        assert again.levels == before.levels
+        assert isinstance(again.finest, SolvedLevel) and again.finest == SolvedLevel.of(before.finest)
+        fields = with_finest_fields(None, FeaSettings(), [ALUMINIUM], {ALUMINIUM.name: again})[ALUMINIUM.name]
+    assert solves == [before.finest.dofs]  # the finest level, once, for its fields
+    assert fields.stiffness_N_per_m == before.stiffness_N_per_m  # the estimate's own numbers
+    solution = fields.finest
+    assert solution.stiffness_N_per_m == pytest.approx(before.finest.stiffness_N_per_m, rel=1e-9)
+    assert solution.peak_von_mises_Pa_per_N == pytest.approx(before.finest.peak_von_mises_Pa_per_N, rel=1e-9)
 
 
 def test_extrapolation_uses_the_last_two_levels(coarse_and_tighter):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import csv
 import json
 import subprocess
 import sys
@@ -340,6 +341,8 @@ def test_rpm_sweep_writes_curves_with_critical_speeds(cache_dir, tmp_path):
     assert all(len(c["residual_vibration_m"]) == 19 for c in sweep["cams"].values())
     assert all(60 <= c["rpm"] <= 240 for c in sweep["critical_speeds"])
     assert (out / "al6061-t6_rpm_sweep.png").exists() and (out / "rpm_sweep.csv").exists()
+    csv_rows = list(csv.DictReader((out / "rpm_sweep.csv").open()))
+    assert len(csv_rows) == 2 * 19 and {row["seating_model"] for row in csv_rows} == {""}  # the link drive: no seats
 
 
 def test_a_locking_prone_material_with_p1_is_warned_about_in_one_line(tmp_path):

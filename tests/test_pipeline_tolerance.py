@@ -53,6 +53,50 @@ def test_refinement_pass_shares_the_first_pass_levels(monkeypatch):
     assert set(timing) == {"fea", "dynamics"}
 
 
+def _level(k_error: float) -> SimpleNamespace:
+    """A solved level as fem.adaptive keeps it (the fields of fem.adaptive.SolvedLevel)."""
+    from dataclasses import fields
+
+    from fem.adaptive import SolvedLevel
+
+    level = {f.name: 1 for f in fields(SolvedLevel)}
+    return SimpleNamespace(
+        **{**level, "stiffness_N_per_m": 1e8 * (1 + k_error), "timing_s": {}, "solver_fallback": None}
+    )
+
+
+def test_the_levels_a_run_solved_are_kept_for_the_next_run(monkeypatch, tmp_path):
+    """The passes' solved levels go into the FEA cache (--cache-dir) and the next --tolerance run's
+    passes start from them (as fem.adaptive.SolvedLevel): a level an earlier run solved is not solved again."""
+    from fem.adaptive import SolvedLevel
+
+    seen = []
+
+    def fea(cfg, progress, stiffness_tolerance, levels, part=None):
+        seen.append(dict(levels))
+        levels.setdefault(f"level at {stiffness_tolerance:.6g}", _level(stiffness_tolerance))
+        return {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=stiffness_tolerance)}
+
+    _use_fea(monkeypatch, fea)
+    monkeypatch.setattr(
+        tolerance,
+        "run_dynamics",
+        lambda cfg, fea, progress: (
+            {},
+            {("al6061-t6", "modified-sine"): _scenario(0.001, 3 * fea["al6061-t6"].stiffness_rel_error_estimate)},
+        ),
+    )
+    monkeypatch.setattr(tolerance, "stiffness_error_allowed", lambda cfg, result, sc, budget: budget / 3)
+    cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q", "--cache-dir", str(tmp_path)])
+    tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
+    assert seen[0] == {} and set(seen[1]) == {"level at 0.01"}  # the second pass shares the first's
+    seen.clear()
+    tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
+    assert set(seen[0]) == {"level at 0.01", "level at 0.00266667"}
+    assert all(isinstance(level, SolvedLevel) for level in seen[0].values())
+    assert seen[0]["level at 0.01"].stiffness_N_per_m == 1e8 * 1.01
+
+
 def test_no_second_pass_when_k_is_good_enough(monkeypatch):
     calls = []
     _use_fea(
@@ -237,3 +281,35 @@ def test_the_first_pass_stress_study_runs_only_where_no_second_pass_replaces_it(
     done, *_ = tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
     assert [p.stress_studies for p in passes] == ([0, 1] if second_pass else [1])
     assert done is passes[-1].stiffness
+
+
+@pytest.mark.slow
+def test_a_tolerance_run_solves_each_level_once_and_its_rerun_none(tmp_path, monkeypatch):
+    """End to end on the default link (24 links on the wheels, --max-fea-dofs 60000): the first run
+    solves each FEA level once over its passes; the same command again solves none (the levels and
+    the kept pass come from the FEA cache) and reports the same k and stresses."""
+    import json
+
+    import fem.adaptive
+
+    solves: list[int] = []
+    analyse = fem.adaptive.analyse_link
+
+    def counted(link, material, **kwargs):
+        solution = analyse(link, material, **kwargs)
+        solves.append(solution.dofs)
+        return solution
+
+    monkeypatch.setattr(fem.adaptive, "analyse_link", counted)
+    args = ["--links", "24", "--cams", "modified-sine", "--materials", "al6061-t6", "--no-images", "-q"]
+    args += ["--tolerance", "0.02", "--max-fea-dofs", "60000", "--cache-dir", str(tmp_path / "cache")]
+    materials = []
+    for run in ("first", "again"):
+        assert pipeline.main([*args, "--out", str(tmp_path / run)]) == 0
+        materials.append(json.loads((tmp_path / run / "summary.json").read_text())["materials"]["al6061-t6"])
+        if run == "first":
+            assert len(solves) >= 2 and len(set(solves)) == len(solves)  # each level once
+            solves.clear()
+    assert solves == []
+    for key in ("stiffness_N_per_m", "stiffness_rel_error_estimate", "peak_von_mises_converged_Pa_per_N"):
+        assert materials[1][key] == materials[0][key]

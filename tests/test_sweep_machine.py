@@ -2,6 +2,7 @@
 speed (dynamics.response.sweep.machine_rpm_sweep), on the link drive its modal linear chain as before."""
 
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -10,11 +11,12 @@ from dynamics.errors import DynamicsError
 from dynamics.machine_scene import machine_model
 from dynamics.response.seating import RIGID, TOOTH_STIFFNESS_MODEL
 from dynamics.response.sweep import LINK_DRIVE_MODEL, MACHINE_MODEL, machine_rpm_sweep, rpm_sweep
-from reporting.outputs import _sweep_summary
+from reporting.outputs import _sweep_summary, _sweep_table
+from reporting.sections import _sweep_seating_paragraph
 from settings.run import RunConfig
 from stages import chain as chain_stage
 from stages.fea import MaterialStiffness
-from stages.machine import scene_machine
+from stages.machine import scene_machine, tooth_model_scene
 
 PITCH_M = 0.1125
 FEA = {"al": MaterialStiffness("al", 9.0092e7, 0.01, 1.2, 4.4e-4, PITCH_M, 0.01)}
@@ -57,6 +59,10 @@ def test_a_sweep_point_runs_the_seating_the_runs_verdict_gives_at_its_speed(toot
     assert sweep.seating_model == ((seating,),)
     assert (f"{TOOTH_STIFFNESS_MODEL} at 1 of 1 points" in lines[-1]) == (seating == TOOTH_STIFFNESS_MODEL)
     assert _sweep_summary(sweep)["cams"]["modified-sine"]["seating_model"] == [seating]  # summary.json
+    assert [row[-1] for row in _sweep_table({"al": sweep}).rows] == [seating]  # rpm_sweep.csv
+    assert f"al: {seating} at" in _sweep_seating_paragraph(
+        SimpleNamespace(results=SimpleNamespace(sweeps={"al": sweep}))
+    )
     run = replace(cfg, rpm=200.0, model="linear")
     model = chain_stage.chain_model(run, FEA["al"])
     scenario = chain_stage.simulate_scenario(run, model, "al", "modified-sine", PITCH_M, run.samples_per_degree)
@@ -69,6 +75,41 @@ def test_a_sweep_point_runs_the_seating_the_runs_verdict_gives_at_its_speed(toot
     if seating == TOOTH_STIFFNESS_MODEL:  # the two machines' modes differ: the check tells them apart
         rigid = scene_machine(chain_stage.chain_scene(cfg, PITCH_M), model).modes()[0]
         assert abs(sweep.natural_frequencies_Hz[0] / rigid[0] - 1.0) > 1e-3
+
+
+def test_each_speed_of_a_sweep_runs_and_reports_its_own_seating():
+    """A sweep whose seating switches between its two speeds (`model_at`: rigid at 120 rpm, the tooth
+    model at 200 rpm, tooth phase 0.25): each point is that seating's own sweep at that speed, and
+    summary.json, rpm_sweep.csv's seating_model column and the report's paragraph say which ran where.
+    (The pipeline's verdict compares the cam's state at the seat change with its peaks, the same
+    fractions at every speed, so a run's sweep switches between cam laws or tooth phases, not speeds.)"""
+    cfg = _cfg(tooth_phase=0.25, tooth_stiffness_N_per_m=np.inf)
+    scene = chain_stage.chain_scene(cfg, PITCH_M)
+    model = chain_stage.chain_model(cfg, FEA["al"])
+    rigid, tooth = machine_model(scene, model), machine_model(tooth_model_scene(scene), model)
+    sweep = machine_rpm_sweep(
+        rigid,
+        "modified-sine",
+        [120.0, 200.0],
+        pitch_m=PITCH_M,
+        model_at=lambda cam, t: rigid if cam.rpm < 150 else tooth,
+    )
+    assert sweep.seating_model == ((RIGID, TOOTH_STIFFNESS_MODEL),)
+    for j, (alone, rpm) in enumerate(((rigid, 120.0), (tooth, 200.0))):
+        point = machine_rpm_sweep(alone, "modified-sine", [rpm], pitch_m=PITCH_M)
+        assert sweep.residual_vibration_m[0, j] == point.residual_vibration_m[0, 0]
+        assert sweep.peak_acceleration_m_s2[0, j] == point.peak_acceleration_m_s2[0, 0]
+    np.testing.assert_array_equal(sweep.natural_frequencies_Hz, tooth.machine.modes()[0])  # the tooth model's
+    table = _sweep_table({"al": sweep})
+    assert table.header[-1] == "seating_model"
+    assert [(row[2], row[-1]) for row in table.rows] == [(120.0, RIGID), (200.0, TOOTH_STIFFNESS_MODEL)]
+    assert table.to_csv().splitlines()[1].endswith(f",{RIGID}")
+    assert _sweep_summary(sweep)["cams"]["modified-sine"]["seating_model"] == [RIGID, TOOTH_STIFFNESS_MODEL]
+    paragraph = _sweep_seating_paragraph(SimpleNamespace(results=SimpleNamespace(sweeps={"al": sweep})))
+    assert (
+        f"al: {TOOTH_STIFFNESS_MODEL} at 1 of 2 points (rigid seating does not hold there), {RIGID} at the others"
+        in (paragraph)
+    )
 
 
 def test_the_wheels_sweeps_critical_speeds_come_from_the_machines_frequencies_carriage_included():
@@ -94,6 +135,8 @@ def test_the_link_drives_sweep_is_the_modal_sweep_as_before():
     before = rpm_sweep(model, cfg.cams, np.arange(60.0, 301.0, 40.0), pitch_m=PITCH_M, station=cfg.focus_station)
     assert sweep.model.startswith(LINK_DRIVE_MODEL) and sweep.seating_model is None  # no seats
     assert _sweep_summary(sweep)["cams"]["modified-sine"]["seating_model"] is None
+    assert {row[-1] for row in _sweep_table({"al": sweep}).rows} == {""}  # rpm_sweep.csv: no seats, empty
+    assert _sweep_seating_paragraph(SimpleNamespace(results=SimpleNamespace(sweeps={"al": sweep}))) == ""
     assert np.array_equal(sweep.residual_vibration_m, before.residual_vibration_m)
     assert np.array_equal(sweep.peak_acceleration_m_s2, before.peak_acceleration_m_s2)
     assert sweep.critical_speeds == before.critical_speeds

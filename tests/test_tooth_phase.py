@@ -394,3 +394,27 @@ def test_the_clearance_machines_energy_balance_across_seat_changes_inside_the_in
     assert impacts > 10
     assert residuals[1] < residuals[0] / 10
     assert residuals[1] < 1e-6
+
+
+def test_the_seat_change_instant_on_the_cams_law_and_on_its_samples():
+    """The one root of the lift (machine_ivp.seat_change_time_s) through its two forms: on the cam's
+    law (the compiled step and the verdict before the run) and on the lift sampled on the steady
+    state's grid (linear between samples): the lift there is the seat change's, and the sampled
+    instant is within linear interpolation's bound of the law's: a lift error of at most
+    h^2 max|z''| / 8 over the cam's speed there."""
+    from dynamics.solvers.machine_ivp import cam_lift_m, cam_seat_change_s, sampled_seat_change_s
+
+    lift = 0.75 * P  # tooth phase 0.25
+    t_seat = cam_seat_change_s(CAM, CAM.period_s, lift)
+    assert 0.0 < t_seat < CAM.period_s
+    assert cam_lift_m(CAM, t_seat) - cam_lift_m(CAM, 0.0) == pytest.approx(lift, rel=1e-12)
+    _, speed, _, _ = CAM.svaj(np.array([t_seat]))
+    dense = CAM.svaj(np.linspace(0.0, CAM.period_s, 20001))[2]
+    for samples in (90, 180, 360):
+        t, s, _ = cycle_grid(CAM, samples)
+        h = t[1] - t[0]
+        bound = h**2 * np.max(np.abs(dense)) / 8 / abs(speed[0])
+        assert 0.0 < abs(sampled_seat_change_s(t, s, lift) - t_seat) <= bound
+    assert sampled_seat_change_s(t, s, None) is None  # tooth phase 0: at the dwell
+    with pytest.raises(DynamicsError, match="seat change"):
+        cam_seat_change_s(CAM, CAM.period_s, 1.5 * P)  # more than an index's lift

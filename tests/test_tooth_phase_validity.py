@@ -6,40 +6,20 @@ aluminium links on two 12-tooth wheels with six seated links each, modified sine
 
 import json
 
-import numpy as np
 import pytest
 
-from dynamics.cams import CamProgram
-from dynamics.models.chain import ChainModel
-from dynamics.models.layout import MachineLayout
-from dynamics.models.wheels import Wheel, default_wheel_inertia_kg_m2
+from benchmarks.seating_table import PHASES, seat_change_run
 from dynamics.response.seating import RIGID_SEATING_AT_REST, rigid_seating_validity, seat_snap_J
-from dynamics.scene import Scene, simulate_scene
 from dynamics.solvers.machine_verlet import Seating
 from stages.machine import machine_cycle
-
-P = 0.1125
-CAM = CamProgram.indexing("modified-sine", pitch_m=P, rpm=180.0)
-DEFAULT_CHAIN = ChainModel(85, 2.0296, 9.331e7)  # the default aluminium link (docs/physics.md's scene)
-
-
-def _default_scene(phase: float) -> Scene:
-    wheel = Wheel(12, P, 6, default_wheel_inertia_kg_m2(P, 12), tooth_phase=phase)
-    return Scene(94e-6, "global", None, "auto", True, "exact", MachineLayout("wheels", wheel, wheel, None, True))
-
-
-def _window_peaks(contact, response):
-    return float(np.max(np.abs(response.zdot_m_s))), float(np.max(np.abs(response.zddot_m_s2)))
 
 
 @pytest.fixture(scope="module")
 def default_scene_runs():
-    t = np.arange(721) / 4 / 1080  # one cam revolution's half: 180 degrees at 4 samples per degree
-    out = {}
-    for phase in (0.0, 0.25, 0.75):
-        response, contact = simulate_scene(_default_scene(phase), DEFAULT_CHAIN, CAM, t)
-        out[phase] = (contact.seating, *_window_peaks(contact, response))
-    return out
+    """The default scene (benchmarks/seating_table.py's, docs/physics.md's table) at phases 0, 0.25
+    and 0.75 over 180 cam degrees at 4 samples per degree: (seat change, peak cam speed, acceleration)."""
+    assert PHASES == (0.0, 0.25, 0.75)
+    return {phase: seat_change_run(phase) for phase in PHASES}
 
 
 def test_phase_zero_holds_on_the_default_scene(default_scene_runs):

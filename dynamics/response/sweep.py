@@ -489,6 +489,19 @@ def machine_rpm_sweep(
     )
 
 
+def seating_note(sweep: SweepResult) -> str | None:
+    """Which seating the sweep's points ran, in words for its progress line and the report (None: the
+    link drive, which has no seats); per point it is `seating_model`, rpm_sweep.csv's column."""
+    if sweep.seating_model is None:
+        return None
+    points = [model for row in sweep.seating_model for model in row]
+    switched = points.count(TOOTH_STIFFNESS_MODEL)
+    if switched == 0:
+        return f"{RIGID} at every point"
+    note = f"{TOOTH_STIFFNESS_MODEL} at {switched} of {len(points)} points (rigid seating does not hold there)"
+    return note if switched == len(points) else f"{note}, {RIGID} at the others"
+
+
 def seating_model_of(machine) -> str:
     """The seating model a dynamics.models.machine.MachineOnWheels runs, in the verdict's words."""
     return RIGID if np.isinf(machine.tooth_stiffness_N_per_m) else TOOTH_STIFFNESS_MODEL

@@ -57,6 +57,29 @@ def seat_change_time_s(z, t0_s: float, t1_s: float, z_dwell_m: float, lift_m: fl
     return float(brentq(f, t0_s, t1_s, xtol=1e-15, rtol=4 * np.finfo(float).eps))
 
 
+def cam_lift_m(cam, time_s: float) -> float:
+    """The cam program's lift at one instant (its law, not samples)."""
+    return float(cam.svaj(np.array([time_s]))[0][0])
+
+
+def cam_seat_change_s(cam, t1_s: float, lift_m: float) -> float:
+    """`seat_change_time_s` of an index that starts at t = 0 on `cam`'s own law (the lift since its
+    lift at 0), in (0, t1_s]; a DynamicsError where the lift does not reach `lift_m` in there."""
+    from dynamics.errors import DynamicsError
+
+    t_seat = seat_change_time_s(lambda time: cam_lift_m(cam, time), 0.0, t1_s, cam_lift_m(cam, 0.0), lift_m)
+    if t_seat is None:
+        raise DynamicsError("seat change: the cam's lift does not reach it within the index cycle")
+    return t_seat
+
+
+def sampled_seat_change_s(t_s, lift_samples_m, lift_m: float | None) -> float | None:
+    """`seat_change_time_s` on a lift sampled at `t_s` (linear between the samples), since its first
+    sample, over the samples' span."""
+    t, s = np.asarray(t_s, dtype=float), np.asarray(lift_samples_m, dtype=float)
+    return seat_change_time_s(lambda x: np.interp(x, t, s), t[0], t[-1], s[0], lift_m)
+
+
 def integrate_cycle(
     machine: MachineOnWheels,
     zddot,

@@ -52,7 +52,7 @@ from dynamics.models.machine import MachineOnWheels
 from dynamics.models.system import SampledForce
 from dynamics.solvers import solve
 from dynamics.solvers.exact import propagate
-from dynamics.solvers.machine_ivp import MachineResponse, integrate_cycle, seat_change_inside, seat_change_time_s
+from dynamics.solvers.machine_ivp import MachineResponse, integrate_cycle, sampled_seat_change_s, seat_change_inside
 from dynamics.solvers.steady_state import monodromy
 
 
@@ -224,8 +224,7 @@ def _linear_cycle_map(machine: MachineOnWheels, t, s, a, relabel: bool):
     system = machine.system()
     load = machine.inertial_load()
     n = system.n_dof
-    lift = machine.seat_change_lift_m
-    t_seat = seat_change_time_s(lambda x: np.interp(x, t, s), t[0], t[-1], s[0], lift)
+    t_seat = sampled_seat_change_s(t, s, machine.seat_change_lift_m)
     if t_seat is None:
         phi = monodromy(system, t)
         r = propagate(system, t, -np.outer(a, load), np.zeros(2 * n))[-1]
@@ -280,7 +279,7 @@ def _run_linear_split(machine, x0, t, s, a, zdot):
     (the cam's acceleration held linearly between the samples as on the whole grid), the transfer
     there, the exact solver on."""
     n = x0.size // 2
-    t_seat = seat_change_time_s(lambda x: np.interp(x, t, s), t[0], t[-1], s[0], machine.seat_change_lift_m)
+    t_seat = sampled_seat_change_s(t, s, machine.seat_change_lift_m)
     load, system = machine.inertial_load(), machine.system()
     (t1, a1), (t2, a2) = _split(t, a, t_seat)
     first = solve(system, SampledForce(t1, -np.outer(a1, load)), t1, method="exact", x0=x0[:n], v0=x0[n:])

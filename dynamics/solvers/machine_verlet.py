@@ -958,7 +958,7 @@ def index_cycle(
     are in the new labels. The statistics are merged over the pieces (the free-play fraction
     weighted by their durations). `stations` and `flags_at` (the node flags at times since the
     cycle's start): the station peaks (`integrate`)."""
-    from dynamics.solvers.machine_ivp import seat_change_time_s
+    from dynamics.solvers.machine_ivp import cam_lift_m, cam_seat_change_s
 
     zr, zd, zdd = nodes
     n_steps = zd.size - 1
@@ -987,13 +987,8 @@ def index_cycle(
     if lift is None:
         return up_to(n_steps), None
 
-    def lift_at(time):
-        return float(cam.svaj(np.array([time]))[0][0])
-
-    s0 = lift_at(0.0)
-    t_seat = seat_change_time_s(lift_at, 0.0, n_steps * step_s, s0, lift)
-    if t_seat is None:
-        raise DynamicsError("index_cycle: the cam's lift does not reach the seat change within the cycle")
+    s0 = cam_lift_m(cam, 0.0)
+    t_seat = cam_seat_change_s(cam, n_steps * step_s, lift)
     pitch = model.machine.sprocket.pitch_m
     h_out = out_every * step_s
     before = (int(math.ceil(t_seat / h_out - 1e-9)) - 1) * out_every  # last output node before the instant
@@ -1013,7 +1008,7 @@ def index_cycle(
         rows.append(_first_row(to_seat))
     _, zd_seat, zdd_seat, _ = (float(x[0]) for x in cam.svaj(np.array([t_seat])))
     q1, v1, seating = seat_change_inside(
-        model, to_seat.q[-1], to_seat.v[-1], lift_at(t_seat) - s0, zd_seat, zdd_seat, n_steps * step_s
+        model, to_seat.q[-1], to_seat.v[-1], cam_lift_m(cam, t_seat) - s0, zd_seat, zdd_seat, n_steps * step_s
     )
     if not on_node:
         to_node = _sub_steps(

@@ -1,0 +1,50 @@
+"""CPU seconds of one pipeline run, split between its own process and its children (the FEA's process
+beside it, the figure workers): docs/performance.md's CPU tables, measured under load.
+
+    python benchmarks/run_cpu.py [PIPELINE OPTIONS]      e.g. --cache-dir CACHE --out OUT -q
+
+Runs `pipeline.main(PIPELINE OPTIONS)` in this process and prints two lines from getrusage (user +
+system): the run's process from the interpreter's start (imports, dynamics, tables, report; the
+teardown not included) and the children it waited for during the run. With a warm FEA cache the
+figure workers are the only children. Run it for each tree (e.g. an old checkout beside this one,
+`cd OLD && PYTHONPATH=OLD python /path/to/benchmarks/run_cpu.py ...`), alternating, and quote medians.
+"""
+
+from __future__ import annotations
+
+import resource
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script
+    sys.path.insert(0, str(ROOT))
+
+
+def _cpu_s(who: int) -> float:
+    usage = resource.getrusage(who)
+    return usage.ru_utime + usage.ru_stime
+
+
+def cpu_seconds(run: Callable[[], object]) -> tuple[float, float]:
+    """(this process's CPU seconds from its start to the end of `run()`, the CPU seconds of the
+    children `run()` waited for)."""
+    children_before = _cpu_s(resource.RUSAGE_CHILDREN)
+    run()
+    return _cpu_s(resource.RUSAGE_SELF), _cpu_s(resource.RUSAGE_CHILDREN) - children_before
+
+
+def main(argv: list[str] | None = None) -> int:
+    import pipeline
+
+    options = sys.argv[1:] if argv is None else argv
+    status = {}
+    own, children = cpu_seconds(lambda: status.setdefault("code", pipeline.main(options)))
+    print(f"the run's process: {own:.2f} CPU s")
+    print(f"its children (FEA beside, figure workers): {children:.2f} CPU s")
+    return status["code"]
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,84 @@
+"""The small measurement scripts the docs' commands run (docs/performance.md, docs/verification.md),
+on tiny inputs: benchmarks/run_cpu.py, benchmarks/compare_summaries.py and bench_long_wheels.py's
+comparison of two trees at one N."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+import pipeline
+from benchmarks import bench_long_wheels, compare_summaries, run_cpu
+
+BURN = "import time\nt = time.process_time()\nwhile time.process_time() - t < 0.2:\n    pass"
+
+
+def _burn_here_and_in_a_child() -> None:
+    start = time.process_time()
+    while time.process_time() - start < 0.2:
+        pass
+    subprocess.run([sys.executable, "-c", BURN], check=True)
+
+
+def test_run_cpu_splits_the_run_from_its_children(monkeypatch, capsys):
+    own, children = run_cpu.cpu_seconds(_burn_here_and_in_a_child)
+    assert own >= 0.2  # this process from its start: the 0.2 s burnt here at least
+    assert 0.2 <= children < own + 5.0  # the child's burn and its interpreter's start only
+    calls = []
+    monkeypatch.setattr(pipeline, "main", lambda options: calls.append(options) or 3)
+    assert run_cpu.main(["--links", "12", "-q"]) == 3  # the run's exit status
+    assert calls == [["--links", "12", "-q"]]
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("the run's process: ") and out[0].endswith(" CPU s")
+    assert out[1].startswith("its children (FEA beside, figure workers): ")
+
+
+def _write(path: Path, tree: dict) -> Path:
+    path.write_text(json.dumps(tree))
+    return path
+
+
+def test_compare_summaries_says_which_leaves_differ_and_by_how_much(tmp_path, capsys):
+    old = {"timing_s": {"fea": 1.0}, "materials": {"al": {"k": 2.0, "cams": ["a", "b"]}}, "flag": True}
+    same = {**old, "timing_s": {"fea": 9.0}}
+    moved = {"timing_s": {}, "materials": {"al": {"k": 2.002, "cams": ["a", "c"]}}, "flag": True, "new": 1}
+    a, b, c = (_write(tmp_path / f"{n}.json", t) for n, t in (("a", old), ("b", same), ("c", moved)))
+    assert compare_summaries.main([str(a), str(b)]) == 0
+    assert capsys.readouterr().out == "identical (ignoring timing_s)\n"
+    assert compare_summaries.main([str(a), str(c)]) == 1
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == "materials.al.cams.1: 'b' -> 'c'"
+    assert out[1].startswith("materials.al.k: 2.0 -> 2.002 (relative difference 0.001")
+    assert out[2] == "new: None -> 1"
+    assert out[3] == "3 leaves differ (ignoring timing_s), largest relative difference 0.001"
+    assert compare_summaries.main([str(a), str(b), "--ignore"]) == 1  # timing_s compared too
+    assert "timing_s.fea: 1.0 -> 9.0 (relative difference 8)" in capsys.readouterr().out
+
+
+def test_bench_long_wheels_compares_two_trees_alternating():
+    ran = []
+
+    def scenario(n, tree):
+        ran.append((n, tree))
+        seconds = 1.0 + len(ran)
+        return {"wall_s": seconds, "cpu_s": seconds / 2}
+
+    lines = bench_long_wheels.compare_trees(40, Path("/tmp/old-tree"), repeats=3, scenario=scenario)
+    trees = [tree for _, tree in ran]
+    assert trees == [bench_long_wheels.ROOT, Path("/tmp/old-tree")] * 3 and {n for n, _ in ran} == {40}
+    assert lines[0].startswith("run 1, new (") and lines[0].endswith("wall 2.00 s, CPU 1.00 s")
+    assert lines[-2] == "new: median of 3: wall 4.00 s, CPU 2.00 s, 40 links"  # runs 1, 3, 5: 2, 4, 6 s
+    assert lines[-1] == "old: median of 3: wall 5.00 s, CPU 2.50 s, 40 links"
+
+
+@pytest.mark.parametrize("script", ["compare_summaries.py", "bench_long_wheels.py"])
+def test_the_scripts_options_parse_from_the_command_line(script):
+    """As the docs' commands run them (run_cpu.py's options are pipeline.py's: tested above)."""
+    path = Path(bench_long_wheels.ROOT) / "benchmarks" / script
+    out = subprocess.run([sys.executable, str(path), "--help"], capture_output=True, text=True, check=True)
+    assert "usage:" in out.stdout and ("--old-tree" in out.stdout) == (script == "bench_long_wheels.py")
