@@ -191,11 +191,11 @@ def test_a_long_chains_unfound_search_is_not_repeated_at_the_window_step(monkeyp
 def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step(monkeypatch):
     """Above DENSE_LINK_LIMIT links the default step (machine_scene.simulate_machine) decides the model
     from the linear machine's search at SEARCH_SAFETY alone (to CHOICE_TOL, no confirming cycle at the
-    default safety), searches the clearance machine's steady state there to LONG_SEARCH_TOL (the
+    default safety), searches the clearance machine's steady state there to long_search_tol (the
     tolerance its summary reports) and settles it for one cycle at the default safety; a short chain
     keeps `tol` and settles at the window's step."""
     from dynamics import machine_scene
-    from dynamics.machine_scene import CHOICE_TOL, LONG_SEARCH_TOL, SEARCH_SAFETY, WINDOW_REFINEMENT
+    from dynamics.machine_scene import CHOICE_TOL, SEARCH_SAFETY, WINDOW_REFINEMENT, long_search_tol
     from dynamics.solvers import clearance_verlet as verlet
 
     searches, settles = [], []
@@ -229,16 +229,68 @@ def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step
         assert summary.steps_per_output == fine
         if long_chain:
             lin_coarse = mv.substeps_for(linear, h_out, SEARCH_SAFETY["global"], pred)
-            expected = [(0.0, h_out / lin_coarse, CHOICE_TOL), (94e-6, h_out / coarse, LONG_SEARCH_TOL)]
+            search_tol = long_search_tol(model, cam, 1e-6)
+            assert 1e-6 < search_tol < 1e-2
+            expected = [(0.0, h_out / lin_coarse, CHOICE_TOL), (94e-6, h_out / coarse, search_tol)]
             np.testing.assert_allclose(searches, expected, rtol=1e-12)
-            assert summary.steady_state.residual <= LONG_SEARCH_TOL
-            assert f"<= {LONG_SEARCH_TOL:g}" in summary.steady_state.statement
+            assert summary.steady_state.residual <= search_tol
+            assert f"<= {search_tol:g}" in summary.steady_state.statement
             settle = mv.substeps_for(model, h_out, safety, pred)
         else:
             assert [s[2] for s in searches] == [CHOICE_TOL, 1e-6]
             settle = fine
         np.testing.assert_allclose(settles, [(94e-6, h_out / settle, 0.0)], rtol=1e-12)
         assert machine_scene.SETTLE_CYCLES == 1
+
+
+def test_the_slowest_decay_per_cycle_is_the_dense_lowest_modes():
+    """machine_shooting.slowest_decay_per_cycle (one sparse shift-invert Lanczos) is exp(-zeta omega_1 T)
+    of the lowest mode of the dense (K, M) eigensolve, with and without a tensioner's carriage, and
+    long_search_tol is LONG_SEARCH_STATE_ERROR (1 - that), never below the caller's tol."""
+    from dynamics.machine_scene import LONG_SEARCH_STATE_ERROR, long_search_tol
+
+    cam = _cam()
+    for tensioner in (None, Tensioner(2e5, 20.0, 500.0)):
+        chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
+        model = ClearanceMachine.of(chain, LAYOUT, tensioner, 94e-6)
+        topo = model.topology
+        lam = eigh(topo.stiffness_matrix_sparse().toarray(), np.diag(topo.masses_kg), eigvals_only=True)
+        omega = np.sqrt(lam[0])
+        expected = np.exp(-model.damping_ratio_at(omega) * omega * cam.cycle_s)
+        decay = machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s)
+        assert 0.0 < decay < 1.0
+        np.testing.assert_allclose(decay, expected, rtol=1e-10)
+        np.testing.assert_allclose(long_search_tol(model, cam, 1e-6), LONG_SEARCH_STATE_ERROR * (1.0 - expected))
+        assert long_search_tol(model, cam, 0.5) == 0.5
+
+
+def test_a_long_search_at_its_tolerance_is_within_the_state_error_of_the_fixed_point():
+    """The clearance machine's search above DENSE_LINK_LIMIT links stopped at long_search_tol (the
+    default run's, from the linear machine's steady state, at SEARCH_SAFETY) lands within
+    LONG_SEARCH_STATE_ERROR of the fixed point the same search finds at 1e-9, relative to the
+    cycle's largest |q| and |q'|: the bound residual / (1 - rho) that sets the tolerance."""
+    from dynamics import machine_scene
+    from dynamics.solvers import clearance_verlet as verlet
+
+    chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
+    model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    linear = ClearanceMachine(model.machine, 0.0, "global", None, model.friction_chain)
+    cam = _cam()
+    pred = verlet.default_predictor(model)
+    h_out = cam.cycle_s / 90
+    sub = mv.substeps_for(model, h_out, machine_scene.SEARCH_SAFETY["global"], pred)
+    n = 90 * sub
+    zeros = np.zeros(model.topology.n_dof)
+    options = dict(max_cycles=60, predictor=pred)
+    start = machine_shooting.relabelled_periodic_state(linear, cam, h_out / sub, n, zeros, zeros, tol=1e-3, **options)
+    tol = machine_scene.long_search_tol(model, cam, 1e-6)
+    loose = machine_shooting.relabelled_periodic_state(model, cam, h_out / sub, n, *start[:2], tol=tol, **options)
+    tight = machine_shooting.relabelled_periodic_state(model, cam, h_out / sub, n, *start[:2], tol=1e-9, **options)
+    assert loose[4] and tight[4] and loose[2] < tight[2]
+    run = tight[5]
+    assert run.impacts > 0
+    assert np.max(np.abs(loose[0] - tight[0])) < machine_scene.LONG_SEARCH_STATE_ERROR * np.max(np.abs(run.q))
+    assert np.max(np.abs(loose[1] - tight[1])) < machine_scene.LONG_SEARCH_STATE_ERROR * np.max(np.abs(run.v))
 
 
 def test_the_slow_mode_newton_step_inverts_each_slow_modes_cycle():
