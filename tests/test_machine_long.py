@@ -264,15 +264,18 @@ def test_the_slowest_decay_per_cycle_is_the_dense_lowest_modes():
         assert long_search_tol(model, cam, 0.5) == 0.5
 
 
-def test_a_long_search_at_its_tolerance_is_within_the_state_error_of_the_fixed_point():
+@pytest.mark.parametrize("links", [DENSE_LINK_LIMIT + 20, pytest.param(2000, marks=pytest.mark.slow)])
+def test_a_long_search_at_its_tolerance_is_within_the_state_error_of_the_fixed_point(links):
     """The clearance machine's search above DENSE_LINK_LIMIT links stopped at long_search_tol (the
     default run's, from the linear machine's steady state, at SEARCH_SAFETY) lands within
     LONG_SEARCH_STATE_ERROR of the fixed point the same search finds at 1e-9, relative to the
-    cycle's largest |q| and |q'|: the bound residual / (1 - rho) that sets the tolerance."""
+    cycle's largest |q| and |q'|: the bound residual / (1 - rho) that sets the tolerance (rho the
+    slowest mode's decay per cycle: about 0.6 at 420 links, 0.89 at 2,000; slow: 2,000 links, about
+    40 index cycles of 4,000 DOFs)."""
     from dynamics import machine_scene
     from dynamics.solvers import clearance_verlet as verlet
 
-    chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
+    chain = ChainModel(links, 2.03, 9.0092e7, damping_ratio=0.13, preload_N=2224.0, friction_coefficient=0.35)
     model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
     linear = ClearanceMachine(model.machine, 0.0, "global", None, model.friction_chain)
     cam = _cam()
@@ -377,3 +380,22 @@ def test_the_5000_link_clearance_machine_finds_its_steady_state():
     assert model.n_links > machine_shooting.NEWTON_FREE_PLAY_LINKS
     assert summary.model == ChainModelKind.CLEARANCE
     assert summary.steady_state.found, summary.steady_state.statement
+
+
+@pytest.mark.slow
+def test_the_10000_link_clearance_machine_finds_its_steady_state_to_the_long_search_tolerance():
+    """At 10,000 links (as above) the clearance machine's search reaches long_search_tol, about 1e-4
+    there (the slowest mode keeps 0.978 of itself per cycle), within the default cycle budget; slow:
+    about 60 index cycles of 20,000 DOFs."""
+    from dynamics.machine_scene import long_search_tol
+
+    chain = ChainModel(10000, 2.03, 9.0092e7, damping_ratio=0.13, preload_N=2224.0, friction_coefficient=0.35)
+    model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    cam = _cam()
+    t = cam.cycle_s * np.arange(91) / 90
+    _, summary = simulate_machine(model, cam, t, links=[0, 5000])
+    tol = long_search_tol(model, cam, 1e-6)
+    assert 0.5e-4 < tol < 2e-4
+    assert summary.model == ChainModelKind.CLEARANCE
+    assert summary.steady_state.found, summary.steady_state.statement
+    assert summary.steady_state.residual <= tol
