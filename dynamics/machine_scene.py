@@ -87,7 +87,10 @@ SETTLE_CYCLES = 1
 # bound on the state's error at every length, 1e-4 at 10,000 links (the tolerance all lengths had
 # before) and 9e-4 at 1,000 (8 cycles instead of 10; the station metrics moved by 2.2e-4, 6.9e-4
 # from the tight run against 7.6e-4 at 1e-4). A fixed 1e-3 at 10,000 links moved them by 5.8e-3.
+# Never below LONG_SEARCH_TOL, the fixed tolerance before: the Kelvin-Voigt law's slow modes, nearly
+# undamped, would ask for far less, and 10,000 links take 39 of the 60-cycle budget to reach it.
 LONG_SEARCH_STATE_ERROR = 4.5e-3
+LONG_SEARCH_TOL = 1e-4
 
 
 def machine_model(scene, chain) -> ClearanceMachine:
@@ -225,11 +228,12 @@ def _searched_and_settled(
 
 
 def long_search_tol(model, cam, tol: float) -> float:
-    """The tolerance of a long chain's search at SEARCH_SAFETY (never tighter than `tol`): the change per
-    cycle that leaves the state within about LONG_SEARCH_STATE_ERROR of the fixed point, given its
-    slowest mode's decay per index cycle (machine_shooting.slowest_decay_per_cycle)."""
+    """The tolerance of a long chain's search at SEARCH_SAFETY (never tighter than `tol` or
+    LONG_SEARCH_TOL): the change per cycle that leaves the state within about LONG_SEARCH_STATE_ERROR of
+    the fixed point, given its slowest mode's decay per index cycle
+    (machine_shooting.slowest_decay_per_cycle)."""
     decay = machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s)
-    return max(tol, LONG_SEARCH_STATE_ERROR * (1.0 - decay))
+    return max(tol, LONG_SEARCH_TOL, LONG_SEARCH_STATE_ERROR * (1.0 - decay))
 
 
 def _settled(model, cam, h_out, per_cycle, sub, state, predictor):

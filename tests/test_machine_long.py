@@ -246,8 +246,9 @@ def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step
 def test_the_slowest_decay_per_cycle_is_the_dense_lowest_modes():
     """machine_shooting.slowest_decay_per_cycle (one sparse shift-invert Lanczos) is exp(-zeta omega_1 T)
     of the lowest mode of the dense (K, M) eigensolve, with and without a tensioner's carriage, and
-    long_search_tol is LONG_SEARCH_STATE_ERROR (1 - that), never below the caller's tol."""
-    from dynamics.machine_scene import LONG_SEARCH_STATE_ERROR, long_search_tol
+    long_search_tol is LONG_SEARCH_STATE_ERROR (1 - that), never below the caller's tol nor
+    LONG_SEARCH_TOL (the Kelvin-Voigt law's nearly undamped slow modes)."""
+    from dynamics.machine_scene import LONG_SEARCH_STATE_ERROR, LONG_SEARCH_TOL, long_search_tol
 
     cam = _cam()
     for tensioner in (None, Tensioner(2e5, 20.0, 500.0)):
@@ -262,6 +263,12 @@ def test_the_slowest_decay_per_cycle_is_the_dense_lowest_modes():
         np.testing.assert_allclose(decay, expected, rtol=1e-10)
         np.testing.assert_allclose(long_search_tol(model, cam, 1e-6), LONG_SEARCH_STATE_ERROR * (1.0 - expected))
         assert long_search_tol(model, cam, 0.5) == 0.5
+    kelvin_voigt = ClearanceMachine.of(chain, LAYOUT, None, 94e-6, "kelvin-voigt")
+    assert (
+        LONG_SEARCH_STATE_ERROR * (1.0 - machine_shooting.slowest_decay_per_cycle(kelvin_voigt, cam.cycle_s))
+        < LONG_SEARCH_TOL
+    )
+    assert long_search_tol(kelvin_voigt, cam, 1e-6) == LONG_SEARCH_TOL
 
 
 @pytest.mark.parametrize("links", [DENSE_LINK_LIMIT + 20, pytest.param(2000, marks=pytest.mark.slow)])
