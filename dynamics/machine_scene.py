@@ -75,12 +75,21 @@ SETTLE_CYCLES = 1
 # not in it) spend fewer cycles where the window cannot see them (issue #24, measured at 1,000 links on
 # the default wheels, 0.094 mm, 180 rpm, against a run at twice the window's refinement, tol 1e-8):
 # - the search's fixed point at SEARCH_SAFETY is itself 2.8e-3 per cycle from the window step's, so
-#   it is searched to LONG_SEARCH_TOL, not tighter (station metrics moved by 1.4e-5; 2 of 12 cycles);
+#   it is searched to long_search_tol, not to `tol`;
 # - the settling cycle is stepped at the default safety (a third of the window's steps): its state
 #   is as far from the window step's fixed point as one window-step cycle leaves it (station metrics
 #   moved by 1.1e-4, 1.05e-3 from the reference against 1.04e-3);
 # - the linear machine decides the model from its search at SEARCH_SAFETY, with no confirming cycle
 #   at the default safety (its minimum tension at the two steps within 2e-6: CHOICE_TOL is 1e-3).
+# long_search_tol: a start whose cycle changes it by r is within about r / (1 - rho) of the fixed
+# point, rho the slowest mode's decay per cycle (0.80 at 1,000 links, 0.89 at 2,000, 0.956 at 5,000,
+# 0.978 at 10,000 on that scene), so the search stops at LONG_SEARCH_STATE_ERROR (1 - rho): the same
+# bound on the state's error at every length, 1e-4 at 10,000 links (the tolerance all lengths had
+# before) and 9e-4 at 1,000 (8 cycles instead of 10; the station metrics moved by 2.2e-4, 6.9e-4
+# from the tight run against 7.6e-4 at 1e-4). A fixed 1e-3 at 10,000 links moved them by 5.8e-3.
+# Never below LONG_SEARCH_TOL, the fixed tolerance before: the Kelvin-Voigt law's slow modes, nearly
+# undamped, would ask for far less, and 10,000 links take 39 of the 60-cycle budget to reach it.
+LONG_SEARCH_STATE_ERROR = 4.5e-3
 LONG_SEARCH_TOL = 1e-4
 
 
@@ -192,7 +201,7 @@ def _searched_and_settled(
     Given its step (not `default_step`): the relabelled steady state searched from `state` at
     `safety` (from rest: `state` itself). The default step: the window at safety / WINDOW_REFINEMENT,
     the steady state searched at SEARCH_SAFETY and settled at the window's step (a long chain's: to
-    LONG_SEARCH_TOL and settled at `safety`); a search that finds none is redone from `state` at the
+    long_search_tol and settled at `safety`); a search that finds none is redone from `state` at the
     window's step to `tol` (the motion after max_cycles coarse cycles is not the fine step's)."""
     if not default_step:
         sub = mv.substeps_for(model, h_out, safety, predictor)
@@ -203,7 +212,7 @@ def _searched_and_settled(
     if steady_state:
         coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], predictor)
         long_chain = model.reduced_damping
-        search_tol = max(tol, LONG_SEARCH_TOL) if long_chain else tol
+        search_tol = long_search_tol(model, cam, tol) if long_chain else tol
         found, ss, _ = _start_state(
             model, cam, h_out, per_cycle, coarse, state, True, search_tol, max_cycles, predictor
         )
@@ -216,6 +225,15 @@ def _searched_and_settled(
         model, cam, h_out, per_cycle, fine, state, steady_state, tol, max_cycles, predictor, coarse_done=done
     )
     return state, ss, fine
+
+
+def long_search_tol(model, cam, tol: float) -> float:
+    """The tolerance of a long chain's search at SEARCH_SAFETY (never tighter than `tol` or
+    LONG_SEARCH_TOL): the change per cycle that leaves the state within about LONG_SEARCH_STATE_ERROR of
+    the fixed point, given its slowest mode's decay per index cycle
+    (machine_shooting.slowest_decay_per_cycle)."""
+    decay = machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s)
+    return max(tol, LONG_SEARCH_TOL, LONG_SEARCH_STATE_ERROR * (1.0 - decay))
 
 
 def _settled(model, cam, h_out, per_cycle, sub, state, predictor):

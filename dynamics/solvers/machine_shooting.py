@@ -87,6 +87,30 @@ def relabelled_periodic_state(
     return end[:n].copy(), end[n:].copy(), search.periods, search.residual, search.converged, last["run"]
 
 
+def slowest_decay_per_cycle(model, period_s: float) -> float:
+    """exp(-zeta omega_1 T): the fraction of itself the machine's slowest mode keeps over one index
+    cycle (omega_1 the lowest natural frequency of (K, M), the polygon-free machine at rest, the
+    carriage in; zeta its damping ratio under the model's law), cached. The searches' error bound
+    (dynamics.machine_scene.long_search_tol): a map contracting by this factor per cycle is within
+    residual / (1 - decay) of its fixed point. O(N): one shift-invert Lanczos on the sparse K."""
+    return cache.cached(
+        ("machine slowest decay", model.machine, model.span_damping, model.beta_s, period_s),
+        lambda: _slowest_decay(model, period_s),
+    )
+
+
+def _slowest_decay(model, period_s: float) -> float:
+    from scipy.sparse.linalg import eigsh
+
+    topo = model.topology
+    r = 1.0 / np.sqrt(np.asarray(topo.masses_kg, dtype=float))
+    x = (sp.diags(r) @ topo.stiffness_matrix_sparse() @ sp.diags(r)).tocsc()
+    shift = -1e-9 * float(np.max(np.abs(x.diagonal())))  # below 0: a rigid mode (omega 0) keeps the solve regular
+    lam = eigsh(x, k=1, sigma=shift, which="LM", v0=np.ones(x.shape[0]), return_eigenvectors=False)
+    omega = float(np.sqrt(max(lam[0], 0.0)))
+    return float(np.exp(-model.damping_ratio_at(omega) * omega * period_s))
+
+
 def _cached_slow_mode_newton(model, period_s: float):
     return cache.cached(
         ("machine slow-mode newton", model.machine, model.span_damping, model.beta_s, period_s),
