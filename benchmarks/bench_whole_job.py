@@ -18,11 +18,12 @@ medians over `--repeats` runs of:
   line, to the last `dynamics` line) and outputs (to `done`). The whole job is the process's wall
   time; the stages add up to more where they overlap;
 - peak memory, sampled every 50 ms: the run's process, its child processes (the FEA beside, the
-  figure workers) summed, and the whole run's proportional set size (PSS: pages shared between the
+  figure workers, the images' process) summed, and the whole run's proportional set size (PSS: pages shared between the
   processes counted once, split between them), the memory the run takes from the machine; beside
   it the summed resident sets (shared pages counted in each process: an overstatement). Each run's
   line also says when its PSS peaked (after which progress line) and of what it was made: the PSS
-  of the run's process, of the FEA's process, of the figure workers and of the rest (`ROLES`).
+  of the run's process, of the FEA's process, of the run's forks (the figure workers and the
+  process that draws the deformed images) and of the rest (`ROLES`).
 
 With `--study-point`, also the FEA of one design point of `python -m study` at the default
 settings, as a study's worker runs it (`stages.fea.run_fea` with the levels one after the other, no
@@ -53,7 +54,7 @@ LINE = re.compile(r"^\[\s*([0-9.]+) s\] (.*)$")
 SAMPLE_S = 0.05
 WARM_UP_MESH_SIZE_MM = "12"  # a cheap FEA for the untimed first run of each tree
 MEMORY = ("process", "children", "sum of resident sets", "PSS")
-ROLES = ("run", "FEA", "figure workers", "other")  # the processes a PSS peak is split into
+ROLES = ("run", "FEA", "forks (figures, images)", "other")  # the processes a PSS peak is split into
 
 
 @dataclass
@@ -161,13 +162,14 @@ def _sample(pid: int, run: Run, done: threading.Event, start: float) -> None:
 
 def _role(child: psutil.Process, run_command: list[str]) -> str:
     """Which of ROLES a child of the run is: the FEA's process is a spawned interpreter
-    (stages.beside), a figure worker a fork of the run (the run's command line)."""
+    (stages.beside), a figure worker or the images' process a fork of the run (the run's command
+    line)."""
     try:
         command = child.cmdline()
     except psutil.Error:
         return "other"
     if command == run_command:
-        return "figure workers"
+        return "forks (figures, images)"
     if any("spawn_main" in part for part in command):
         return "FEA"
     return "other"  # multiprocessing's resource tracker

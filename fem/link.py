@@ -28,6 +28,7 @@ from geometry.link_mesh import Bore, LinkMesh, part_size_m
 from . import locking, problem, quality, solvers
 from .assembly import DIM, elasticity_parts, rigid_body_modes
 from .errors import FemError, FemWarning
+from .fields import NodalFields
 from .materials import Material
 from .problem import JACOBIAN_CHECK_INTORDER
 
@@ -100,16 +101,6 @@ class LinkSolution:
 def fallback_note(solution: LinkSolution) -> str:
     """ ", <why the solver changed>" for a progress line; "" when the asked-for solver solved it."""
     return "" if solution.solver_fallback is None else f", {solution.solver_fallback}"
-
-
-@dataclass(frozen=True, eq=False)
-class NodalFields:
-    """A solution's nodes, cells (VTK node order) and fields at them, for pictures and files."""
-
-    points_m: np.ndarray  # (3, n)
-    cells: np.ndarray  # (n_cells, 4 or 10)
-    displacement_m: np.ndarray  # (3, n)
-    von_mises_Pa: np.ndarray  # (n,)
 
 
 def whole_link_fields(solution: LinkSolution) -> NodalFields:

@@ -6,13 +6,17 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from geometry.atomic import atomic_target
 
 from .errors import FemError
-from .link import LinkSolution, NodalFields, whole_link_fields
+from .fields import NodalFields
+
+if TYPE_CHECKING:  # fem.link imports scikit-fem, which a process drawing `Drawing`s does not need
+    from .link import LinkSolution
 
 # Without a display VTK first tries X, warns, then falls back to EGL; asking for EGL directly
 # skips that attempt. Must be set before VTK creates its first render window.
@@ -67,6 +71,35 @@ class Picture:
     path: Path
     title: str | None = None
 
+    def drawing(self) -> Drawing:
+        from .link import whole_link_fields
+
+        s = self.solution
+        title = self.title if self.title is not None else f"{s.material.name}: k = {s.stiffness_N_per_m:.4g} N/m"
+        return Drawing(
+            whole_link_fields(s),  # a mirrored half pictured whole
+            self.path,
+            title,
+            self.title is None,
+            s.load_N,
+            s.peak_von_mises_away_from_clamp_Pa_per_N,
+        )
+
+
+@dataclass(frozen=True)
+class Drawing:
+    """What a picture takes of its solved link: the whole link's fields and the numbers its title
+    and colour scale show. Plain arrays and numbers, so a picture can be drawn in another process
+    (stages.fea hands the deformed images to a process of the run's own, forked from it) without
+    the solution, its basis or scikit-fem."""
+
+    fields: NodalFields
+    path: Path
+    title: str  # the factor is appended: ", deformation xF" if `title_is_default`, else " (deformation xF)"
+    title_is_default: bool
+    load_N: float
+    peak_away_from_clamp_Pa_per_N: float
+
 
 def render_deformed(
     solution: LinkSolution,
@@ -93,18 +126,30 @@ def render_pictures(
     the default link; about 800 of the 1.26 million pixels differ, one of them by more than 16/255). The
     default run's two images: 1.63 instead of 2.12 CPU s, pyvista's import and first window
     included (medians of 3 alternating with e143626, the same solutions, loaded machine)."""
-    if scalar not in SCALARS:
-        raise FemError(f"scalar must be one of {', '.join(SCALARS)}, got {scalar!r}")
-    for picture in pictures:
-        if picture.path.suffix.lower() != ".png":
-            raise FemError(f"image path {str(picture.path)!r}: expected a .png file")
-    fields = [whole_link_fields(picture.solution) for picture in pictures]  # a mirrored half pictured whole
+    _check(scalar, [picture.path for picture in pictures])
+    return draw_pictures([picture.drawing() for picture in pictures], scalar=scalar, window_size=window_size)
+
+
+def draw_pictures(
+    drawings: list[Drawing], *, scalar: str = "von_mises", window_size: tuple[int, int] = (1400, 900)
+) -> list[float]:
+    """`render_pictures` of the pictures' drawings (`Picture.drawing`)."""
+    _check(scalar, [drawing.path for drawing in drawings])
+    fields = [drawing.fields for drawing in drawings]
     factors: dict[int, float] = {}
     for group in _same_mesh(fields):
         undeformed, edges = _surface([fields[i] for i in group])
         for j, i in enumerate(group):
-            factors[i] = _render_one(pictures[i], fields[i], undeformed, edges, j, scalar, window_size)
-    return [factors[i] for i in range(len(pictures))]
+            factors[i] = _render_one(drawings[i], undeformed, edges, j, scalar, window_size)
+    return [factors[i] for i in range(len(drawings))]
+
+
+def _check(scalar: str, paths: list[Path]) -> None:
+    if scalar not in SCALARS:
+        raise FemError(f"scalar must be one of {', '.join(SCALARS)}, got {scalar!r}")
+    for path in paths:
+        if path.suffix.lower() != ".png":
+            raise FemError(f"image path {str(path)!r}: expected a .png file")
 
 
 def _same_mesh(fields: list[NodalFields]) -> list[list[int]]:
@@ -141,26 +186,26 @@ def _surface(fields: list[NodalFields]):
     return undeformed, undeformed.extract_feature_edges(30.0)
 
 
-def _render_one(picture: Picture, fields: NodalFields, undeformed, edges, i: int, scalar, window_size) -> float:
+def _render_one(drawing: Drawing, undeformed, edges, i: int, scalar, window_size) -> float:
     import pyvista as pv
     from PIL import Image
 
-    solution, path = picture.solution, picture.path
+    fields, path = drawing.fields, drawing.path
     factor = exaggeration_factor(fields)
-    load = solution.load_N
+    load = drawing.load_N
     deformed = undeformed.warp_by_vector(f"u{i}", factor=factor)
     if scalar == "von_mises":
         bar = f"von Mises stress [MPa] at {load:g} N"
         # The clamp rim is singular; scale the colours to the converged peak away from it.
-        upper = solution.peak_von_mises_away_from_clamp_Pa_per_N * load / 1e6
+        upper = drawing.peak_away_from_clamp_Pa_per_N * load / 1e6
         clim = (0.0, upper if np.isfinite(upper) and upper > 0 else float(np.max(fields.von_mises_Pa) / 1e6))
     else:
         bar = f"displacement [um] at {load:g} N"
         clim = (0.0, float(np.max(np.linalg.norm(fields.displacement_m, axis=0)) * 1e6))
-    if picture.title is None:
-        title = f"{solution.material.name}: k = {solution.stiffness_N_per_m:.4g} N/m, deformation x{factor:g}"
+    if drawing.title_is_default:
+        title = f"{drawing.title}, deformation x{factor:g}"
     else:
-        title = f"{picture.title} (deformation x{factor:g})"
+        title = f"{drawing.title} (deformation x{factor:g})"
 
     theme = pv.themes.Theme()
     theme.multi_samples = MULTI_SAMPLES

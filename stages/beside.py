@@ -29,11 +29,13 @@ class Beside:
     """The generator `steps()` (picklable: a module-level function or a partial of one) running in
     a child process: `next()` waits for its next step and returns it (the child's exception is
     raised again here), `close()` waits for the child to end after its last one, `cancel()` stops
-    it. `what` names the work in messages."""
+    it. `what` names the work in messages. `start_method` "fork" (where the caller knows that the
+    child uses nothing the fork leaves broken, such as gmsh, see above) starts the child without
+    importing anything again and without pickling `steps`."""
 
-    def __init__(self, steps: Callable[[], Iterator], what: str):
+    def __init__(self, steps: Callable[[], Iterator], what: str, start_method: str = "spawn"):
         self.what = what
-        context = multiprocessing.get_context("spawn")
+        context = multiprocessing.get_context(start_method)
         receive, send = context.Pipe(duplex=False)
         self._process = context.Process(target=_run_child, args=(steps, send, thread_limits()), name=what)
         self._process.start()

@@ -17,6 +17,7 @@ from stages.progress import Progress
 if TYPE_CHECKING:  # importing geometry pulls in gmsh
     from fem.settings import FeaSettings
     from geometry.part import Part
+    from stages.beside import Beside
 
 
 @dataclass(frozen=True)
@@ -158,11 +159,13 @@ def _fea_steps(
     images: dict,
     progress: Progress,
     max_dofs: int,
-) -> Iterator[tuple[dict, list[str]]]:
+    draw_here: bool = True,
+) -> Iterator[tuple[dict, list[str]] | tuple[list, list[str]]]:
     """The FEA of the materials not in the cache, in two steps, each with the FemWarnings' messages
     it raised: first each material's stiffness record (all the chain needs), then its converged
     stress (StressAnswer), the deformed images rendered where asked for. Run here or in a process
-    beside the run (stages.beside), the same code either way."""
+    beside the run (stages.beside), the same code either way. Without `draw_here`, a step between
+    the two hands over the images' `fem.render.Drawing`s (and no messages) for the caller to draw."""
     import warnings
 
     from fem.adaptive import with_finest_fields
@@ -179,7 +182,18 @@ def _fea_steps(
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FemWarning)
         studies = with_finest_fields(part, settings, materials, studies, progress)  # levels of an earlier run
-        finest = {name: study.finest for name, study in studies.items()}
+    refit_messages = _messages(caught)
+    pictures = [
+        Picture(study.finest, images[name], f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
+        for name, study in studies.items()
+        if images[name] is not None
+    ]
+    if not draw_here:
+        yield [picture.drawing() for picture in pictures], []
+        pictures = []
+    finest = {name: study.finest for name, study in studies.items()}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", FemWarning)
         stresses = stress_study(
             part,
             materials,
@@ -188,17 +202,11 @@ def _fea_steps(
             base=finest,
             progress=progress,
         )
-    render_pictures(
-        [
-            Picture(study.finest, images[name], f"{name}: k = {study.stiffness_N_per_m:.4g} N/m")
-            for name, study in studies.items()
-            if images[name] is not None
-        ]
-    )
-    del studies, finest
+    render_pictures(pictures)
+    del studies, finest, pictures
     release_free_memory()  # the levels' arrays, before the dynamics and the figures
     answers = {name: StressAnswer(s.peak_Pa_per_N, s.rel_change, s.description) for name, s in stresses.items()}
-    yield answers, _messages(caught)
+    yield answers, refit_messages + _messages(caught)
 
 
 def stored_levels(cfg: RunConfig, part: Part) -> dict:
@@ -225,6 +233,30 @@ def _levels_key(part: Part) -> str:
     return cache_key(part.fingerprint, {"solved levels": True})
 
 
+def _draw_steps(drawings: list) -> Iterator[None]:
+    """The deformed images drawn (fem.render.draw_pictures), as one step of a process beside."""
+    from fem.render import draw_pictures
+
+    draw_pictures(drawings)
+    yield None
+
+
+def _start_drawing(drawings: list) -> Beside:
+    """A process forked from this one that draws the deformed images: it has the outputs' modules
+    (matplotlib, which pyvista imports) already, and the FEA's process ends after the stress study.
+    The run's objects are frozen out of the collector's sight for the fork (as the figure workers',
+    reporting.drawing), so that the child's collections do not copy their pages."""
+    import gc
+
+    from stages.beside import Beside
+
+    gc.freeze()
+    try:
+        return Beside(partial(_draw_steps, drawings), "the deformed images", start_method="fork")
+    finally:
+        gc.unfreeze()
+
+
 def _messages(caught) -> list[str]:
     from fem.errors import FemWarning
 
@@ -247,11 +279,13 @@ class FeaInProgress:
         stiffness: Callable[[], dict[str, MaterialStiffness]],
         finish: Callable[[], dict[str, MaterialFea]],
         beside,
+        helpers: list | None = None,
     ):
         self._stiffness_of = stiffness
         self._stiffness: dict[str, MaterialStiffness] | None = None
         self._finish = finish
         self._beside = beside
+        self._helpers = helpers if helpers is not None else []  # processes started on its behalf (the images')
         self._result: dict[str, MaterialFea] | None = None
 
     @property
@@ -277,8 +311,9 @@ class FeaInProgress:
         return self._result
 
     def cancel(self) -> None:
-        if self._beside is not None:
-            self._beside.cancel()
+        for process in [self._beside, *self._helpers]:
+            if process is not None:
+                process.cancel()
 
     def __enter__(self) -> FeaInProgress:
         return self
@@ -310,6 +345,8 @@ def start_fea(
     `stress_later` (without `beside`): the stress study and the images wait for `result()`, which a
     caller that may not need them never calls (the --tolerance pass a second pass replaces); nothing
     is stored in the cache then."""
+    import multiprocessing
+
     from fem import load_materials
     from fem.cache import FeaCache, cache_key
     from processes import may_start_children
@@ -338,10 +375,26 @@ def start_fea(
     missing = [library[name] for name in cfg.materials if name not in out]
     if not missing:
         return FeaInProgress.done(out)
-    steps = partial(
-        _fea_steps, part, settings, missing, stiffness_tolerance, solved_levels, images, progress, cfg.max_fea_dofs
+    beside = beside and may_start_children()
+    # the images drawn by a process forked from this one, beside the dynamics (see _start_drawing)
+    draw_beside = (
+        beside
+        and any(images[m.name] is not None for m in missing)
+        and "fork" in multiprocessing.get_all_start_methods()
     )
-    if beside and may_start_children():
+    steps = partial(
+        _fea_steps,
+        part,
+        settings,
+        missing,
+        stiffness_tolerance,
+        solved_levels,
+        images,
+        progress,
+        cfg.max_fea_dofs,
+        draw_here=not draw_beside,
+    )
+    if beside:
         process = Beside(steps, "the FEA")
         progress(f"FEA: in process {process.pid}, beside the dynamics and the figures from the stiffness on")
         next_step = process.next
@@ -351,9 +404,13 @@ def start_fea(
         process, next_step = None, iter(list(steps())).__next__
     records: dict[str, dict] = {}
     cautions: list[str] = []
+    drawing: list[Beside] = []
 
     def stiffness() -> dict[str, MaterialStiffness]:
         step, step_cautions = next_step()
+        if draw_beside:
+            drawings, _ = next_step()
+            drawing.append(_start_drawing(drawings))
         records.update(step)
         cautions.extend(step_cautions)
         _print_cautions(cautions)
@@ -372,6 +429,8 @@ def start_fea(
         stresses, stress_cautions = next_step()
         if process is not None:
             process.close()
+        for images_drawn in drawing:
+            images_drawn.close()
         _print_cautions([c for c in stress_cautions if c not in cautions])
         every = list(dict.fromkeys(cautions + stress_cautions))
         for material in missing:
@@ -381,7 +440,7 @@ def start_fea(
             out[name] = MaterialFea(**stored, cached=False, image=images[name])
         return {name: out[name] for name in cfg.materials}
 
-    return FeaInProgress(stiffness, finish, process)
+    return FeaInProgress(stiffness, finish, process, drawing)
 
 
 def run_fea(

@@ -116,7 +116,7 @@ def test_warping_the_surface_gives_the_warped_volume_mesh_surface(solution):
 
 def test_materials_on_one_mesh_share_its_surface_and_render_as_alone(tmp_path, monkeypatch):
     from fem import render
-    from fem.link import analyse_link_materials
+    from fem.link import analyse_link_materials, whole_link_fields
 
     order = 2
     solutions = analyse_link_materials(
@@ -131,6 +131,6 @@ def test_materials_on_one_mesh_share_its_surface_and_render_as_alone(tmp_path, m
     pictures = [render.Picture(s, tmp_path / f"together-{name}.png") for name, s in solutions.items()]
     factors = render.render_pictures(pictures, window_size=(320, 200))
     assert surfaces == [2]  # one surface for both materials
-    assert factors == [render.exaggeration_factor(render.whole_link_fields(s)) for s in solutions.values()]
+    assert factors == [render.exaggeration_factor(whole_link_fields(s)) for s in solutions.values()]
     for name, picture in zip(solutions, pictures):
         assert np.array_equal(matplotlib.image.imread(picture.path), matplotlib.image.imread(alone[name]))

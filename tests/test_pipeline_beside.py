@@ -50,18 +50,21 @@ def test_the_fea_beside_gives_the_serial_runs_summary_byte_for_byte(tmp_path):
     _run(*FAST, "--serial", "--out", str(serial), "--cache-dir", str(tmp_path / "c2"))
     assert _summary_without_timing(beside) == _summary_without_timing(serial)
     assert sorted(p.name for p in beside.iterdir()) == sorted(p.name for p in serial.iterdir())
+    # the deformed image drawn by the run's image process (stages.fea._start_drawing) as in one process
+    image = "al6061-t6_deformed.png"
+    assert (beside / image).read_bytes() == (serial / image).read_bytes()
     timing = json.loads((beside / "summary.json").read_text())["timing_s"]
     assert set(timing) == {"fea", "dynamics", "outputs", "total"}
 
 
-def failing_after_the_stiffness(*args):
-    steps = REAL_STEPS(*args)
+def failing_after_the_stiffness(*args, **kwargs):
+    steps = REAL_STEPS(*args, **kwargs)
     yield next(steps)
     raise FemError("stress study: a failure made up by the test")
 
 
-def killed_after_the_stiffness(*args):
-    steps = REAL_STEPS(*args)
+def killed_after_the_stiffness(*args, **kwargs):
+    steps = REAL_STEPS(*args, **kwargs)
     yield next(steps)
     os.kill(os.getpid(), signal.SIGKILL)
 
@@ -85,6 +88,23 @@ def test_a_failure_beside_is_one_line_exit_2_and_nothing_written(steps, message,
     assert [p.name for p in out.iterdir()] == ["summary.json"]  # no staging folder left behind
     assert (out / "summary.json").read_text() == "an earlier run's"
     assert not list(cache.rglob("result.json"))  # no FEA record stored without its stress
+
+
+def test_a_failure_drawing_the_images_is_one_line_exit_2_and_nothing_written(tmp_path, monkeypatch, capsys):
+    """The deformed images are drawn by a process forked from the run (it sees this patch)."""
+    import fem.render
+
+    def failing(drawings, **kwargs):
+        raise FemError("images: a failure made up by the test")
+
+    out, cache = tmp_path / "out", tmp_path / "cache"
+    monkeypatch.setattr(fem.render, "draw_pictures", failing)
+    assert pipeline.main([*FAST, "--out", str(out), "--cache-dir", str(cache)]) == 2
+    stderr = capsys.readouterr().err
+    lines = [line for line in stderr.splitlines() if not line.startswith("pipeline.py: warning:")]
+    assert lines == ["pipeline.py: error: images: a failure made up by the test"] and "Traceback" not in stderr
+    assert not out.exists() or not list(out.iterdir())
+    assert not list(cache.rglob("result.json"))
 
 
 def test_the_fea_process_starts_before_the_outputs_modules_are_imported(tmp_path):
