@@ -42,14 +42,14 @@ def test_the_children_of_a_run_are_told_apart_by_how_they_started():
         for child, event in children.values():
             event.set()
             child.join(30)
-    assert roles == {"spawn": "FEA", "fork": "figure workers"}
+    assert roles == {"spawn": "FEA", "fork": "forks (figures, images)"}
 
 
 def test_a_runs_line_says_when_and_of_what_its_peak_was():
     bench = load_bench()
-    run = bench.Run(peak_pss_by_role={"run": 120e6, "FEA": 600e6, "figure workers": 230e6}, peak_at_s=7.25)
+    run = bench.Run(peak_pss_by_role={"run": 120e6, "FEA": 600e6, "forks (figures, images)": 230e6}, peak_at_s=7.25)
     run.peak_after = "stress level 2: local element 1.1 mm"
     assert bench.peak_line(run) == (
-        "PSS peak at 7.2 s, after 'stress level 2: local element 1.1 mm': run 120, FEA 600, figure workers 230, "
+        "PSS peak at 7.2 s, after 'stress level 2: local element 1.1 mm': run 120, FEA 600, forks (figures, images) 230, "
         "other 0 MB"
     )
