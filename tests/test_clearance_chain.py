@@ -226,7 +226,7 @@ def _blocked(cmat: np.ndarray, w: np.ndarray) -> np.ndarray:
     blocks = verlet.reflection_blocks(cmat)
     work = tuple(np.zeros(n) for n in (blocks[0].shape[1], blocks[1].shape[1], blocks[0].shape[0], blocks[1].shape[0]))
     out = np.zeros(cmat.shape[0])
-    verlet._mirror_product(blocks, work, w, out)
+    verlet._mirror_product(*blocks, cmat.shape[0], w, *work, out)
     return out
 
 

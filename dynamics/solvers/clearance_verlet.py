@@ -370,14 +370,14 @@ def _rows_times(mat, x, out):
         out[i + 3] = s3
 
 
-def _mirror_product(blocks, work, w, out):
-    """out = C w with C as `reflection_blocks` gives it: w split into its symmetric and antisymmetric
-    parts under the reflection (link 0, and link n/2 for even n, map onto themselves; link p pairs
-    with link n - p), each multiplied by its block; a C without the symmetry (no antisymmetric rows)
-    is multiplied whole. `work`: the padded coordinates and products."""
-    sym, anti = blocks[0], blocks[1]
-    ws, wa, cs, ca = work[0], work[1], work[2], work[3]
-    n = w.shape[0]
+def _mirror_product(sym, anti, n, w, ws, wa, cs, ca, out):
+    """out[:n] = C w[:n] with C as `reflection_blocks` gives it, the one form of the product both
+    compiled steps take (this module's and dynamics.solvers.machine_verlet's, where w is the
+    machine's velocities, the links first, and the blocks are row slices of its packed C): w split
+    into its symmetric and antisymmetric parts under the reflection (link 0, and link n/2 for even n,
+    map onto themselves; link p pairs with link n - p), each multiplied by its block; a C without
+    the symmetry (no antisymmetric rows) is multiplied whole. ws, wa: the blocks' padded columns
+    (wa's padding left 0), cs, ca: their rows."""
     if anti.shape[0] == 0:
         for j in range(n):
             ws[j] = w[j]
@@ -563,7 +563,7 @@ def _damping_into(w, ud, par, ipar, blocks, work, contact, cw):
         if ipar[3]:
             _sqrt_product(blocks[2], blocks[3], blocks[4], blocks[5], work[4], work[5], w, cw)
         else:
-            _mirror_product(blocks, work, w, cw)
+            _mirror_product(blocks[0], blocks[1], n, w, work[0], work[1], work[2], work[3], cw)
         return dash_s
     for i in range(n):
         cw[i] = 0.0

@@ -5,7 +5,8 @@ arrays (behind, ahead, carriage, wheel), the forces back through the transposed 
 polygonal feed d(a) of each wheel as a time-dependent offset of its two wheel-end spans evaluated at
 every step, the global damping law as the plain product C q' (the machine has no mirror symmetry; in
 single precision on the wheels, DAMPING_PRODUCT_PRECISIONS; the single-link drive's C has, and its
-machine packs it in the ring's two blocks: `mirror_packed`).
+machine packs it in the ring's two blocks, `mirror_packed`, multiplied by the ring's own
+product, clearance_verlet._mirror_product).
 The Kelvin-Voigt dashpot's force jump at a contact change is located within the step as the ring's
 (clearance_verlet._switch_impulse, `_span_impulses_into`: an impulse through the span's incidence,
 its work counted as damping), so the step stays second order through the switches.
@@ -42,6 +43,7 @@ from dynamics.solvers.clearance_verlet import (
     SPEED_CAPACITY,
     TANH_IS_ONE,
     _crossing,
+    _mirror_product,
     _rows_times,
     _switch_impulse,
     _tanh,
@@ -179,8 +181,13 @@ def _accel_into(
         for i in range(dofs.shape[0]):
             f[dofs[i]] -= cw[i]
             p_damp += wv[i] * cw[i]
-    elif not kv and par.shape[0] > N_PAR:  # the ring's C in its mirror blocks (`_mirror_damping_into`)
-        p_damp += _mirror_damping_into(cmat, par, v, work[4], work[5], f)
+    elif not kv and par.shape[0] > N_PAR:  # the ring's C in its mirror blocks (`mirror_packed`): the ring's product
+        rs, links = int(par[N_PAR]), int(par[N_PAR + 1])
+        cw = work[8]
+        _mirror_product(cmat[:rs], cmat[rs:], links, v, work[4], work[7], work[5][:rs], work[5][rs:], cw)
+        for i in range(links):
+            f[i] -= cw[i]
+            p_damp += v[i] * cw[i]
     elif not kv:  # C v, four rows at a time on the padded C in its own precision (`_rows_times`)
         vp, cv_out = work[4], work[5]
         for i in range(n):
@@ -222,48 +229,12 @@ def _accel_into(
     powers[2] = p_fric
 
 
-def _mirror_damping_into(cmat, par, v, wc, cw, f):
-    """f -= C v on the links (DOFs 0..n-1), C as clearance_verlet.reflection_blocks gives it, its two
-    blocks stacked in cmat (`mirror_packed`; par[N_PAR:] the symmetric block's padded rows and n): v
-    split into its symmetric and antisymmetric parts under the loop's reflection about link 0, each
-    multiplied by its block four rows at a time (clearance_verlet._mirror_product's arithmetic; each
-    block a C-contiguous row slice, so the product vectorises as the ring's). wc, cw: cmat's column and
-    row scratch. Returns the damping power v . C v."""
-    rs, n = int(par[N_PAR]), int(par[N_PAR + 1])
-    pairs = (n - 1) // 2
-    nf = n - 2 * pairs
-    r = math.sqrt(0.5)
-    wc[0] = v[0]
-    if nf == 2:
-        wc[1] = v[pairs + 1]
-    for p in range(pairs):
-        wc[nf + p] = r * (v[1 + p] + v[n - 1 - p])
-    _rows_times(cmat[:rs], wc, cw[:rs])
-    for p in range(pairs):
-        wc[p] = r * (v[1 + p] - v[n - 1 - p])
-    for p in range(pairs, pairs + nf):  # the antisymmetric block's padding columns
-        wc[p] = 0.0
-    _rows_times(cmat[rs:], wc, cw[rs:])
-    power = v[0] * cw[0]
-    f[0] -= cw[0]
-    if nf == 2:
-        f[pairs + 1] -= cw[1]
-        power += v[pairs + 1] * cw[1]
-    for p in range(pairs):
-        lo_p = r * (cw[nf + p] + cw[rs + p])
-        hi_p = r * (cw[nf + p] - cw[rs + p])
-        f[1 + p] -= lo_p
-        f[n - 1 - p] -= hi_p
-        power += v[1 + p] * lo_p + v[n - 1 - p] * hi_p
-    return power
-
-
 def mirror_packed(cmat: np.ndarray, par: np.ndarray, n_links: int):
-    """(cmat, par) for `_mirror_damping_into` when the links' block of the machine's C (its first
-    n_links DOFs, nothing coupling them to the rest) commutes with the loop's reflection about link 0,
-    as the single-link drive's does: its two mirror blocks (clearance_verlet.reflection_blocks, padded)
-    stacked, the symmetric on top, par extended by the symmetric block's padded rows and n_links. None
-    otherwise."""
+    """(cmat, par) for the ring's product (clearance_verlet._mirror_product on two row slices of cmat)
+    when the links' block of the machine's C (its first n_links DOFs, nothing coupling them to the
+    rest) commutes with the loop's reflection about link 0, as the single-link drive's does: its two
+    mirror blocks (clearance_verlet.reflection_blocks, padded) stacked, the symmetric on top, par
+    extended by the symmetric block's padded rows and n_links. None otherwise."""
     from dynamics.solvers.clearance_verlet import reflection_blocks
 
     c = np.asarray(cmat)
@@ -426,6 +397,8 @@ def _run_loops(
         np.zeros(cmat.shape[1], dtype=cmat.dtype),
         np.zeros(cmat.shape[0]),
         np.zeros(3),
+        np.zeros(cmat.shape[1], dtype=cmat.dtype),  # the mirror product's antisymmetric columns
+        np.zeros(n),  # and its C v
     )
     window = math.pi * math.sqrt(0.5 * par[7] / par[0])
     e_old = np.empty(ns)  # the span stretches at the step's start and end (the located switches)
@@ -694,7 +667,6 @@ if numba is not None:
         "_kinetic_abs_J",
         "_span_impulses_into",
         "_span_rates",
-        "_mirror_damping_into",
         "_station_nodes_into",
         "_switches_at_stations",
     ):
