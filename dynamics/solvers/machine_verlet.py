@@ -262,7 +262,7 @@ def _span_impulses_into(
     h,
     e_old,
     e_new,
-    was_free,
+    was_on,
     ed_old,
     ed_new,
     span_int,
@@ -275,7 +275,7 @@ def _span_impulses_into(
     v,
 ):
     """The contact changes located within the step on the topology's spans (stretches e_old, e_new at
-    the step's ends, `was_free` the start's free-play flags): the Kelvin-Voigt dashpot's switch
+    the step's ends, `was_on` the start's contact flags): the Kelvin-Voigt dashpot's switch
     (clearance_verlet `_switch_impulse`, an impulse), applied to its span's ends through the same B^T
     as its force (the carriage's share, the wheel-end span's gain dd/du at the step's end, work[1]),
     divided by the DOFs' masses."""
@@ -283,7 +283,7 @@ def _span_impulses_into(
     wsl = work[1]
     for j in range(span_int.shape[0]):
         d_old, d_new = preload + k * e_old[j], preload + k * e_new[j]
-        impulse = _switch_impulse(h, d_old, d_new, not was_free[j], ed_old[j], ed_new[j], kg, beta_k)
+        impulse = _switch_impulse(h, d_old, d_new, was_on[j], ed_old[j], ed_new[j], kg, beta_k)
         if impulse == 0.0:
             continue
         b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
@@ -381,13 +381,12 @@ def _run_loops(
     t_el = np.empty(ns)
     ed = np.empty(ns)
     contact = np.empty(ns, dtype=np.bool_)
-    free = np.empty(ns, dtype=np.bool_)
+    was = np.empty(ns, dtype=np.bool_)  # the spans' contact at the step's start
     clock = np.zeros(ns)  # time since each contact begun by an impact began (from its crossing)
     in_impact = np.zeros(ns, dtype=np.bool_)  # a contact begun by an impact, while it lasts
     dash_prev = np.zeros(ns)  # its dashpot's power at the last step
     q_s = np.empty(n)  # the step's start state where an impact needs it
     v_s = np.empty(n)
-    e_prev = np.empty(ns)  # the span stretches at the step's start
     nw = max(wheel_float.shape[0], 1)
     work = (
         np.zeros(nw),
@@ -430,8 +429,7 @@ def _run_loops(
     for j in range(n):
         a_prev[j] = a[j]
     for j in range(ns):
-        free[j] = not contact[j]
-        e_prev[j] = e_old[j]
+        was[j] = contact[j]
     out_q[0] = q
     out_v[0] = v
     out_a[0] = a
@@ -473,14 +471,14 @@ def _run_loops(
             _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switches[i + 1])
         changed = 0  # Kelvin-Voigt: spans whose contact changed within the step (`contact`: the step's end)
         for j in range(ns if kv else 0):
-            changed += contact[j] == free[j]
+            changed += contact[j] != was[j]
         if changed:
             before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy and kv else 0.0
             _span_impulses_into(
                 h,
                 e_old,
                 e_new,
-                free,
+                was,
                 ed_old,
                 ed,
                 span_int,
@@ -495,17 +493,26 @@ def _run_loops(
             if track_energy and kv:  # the impulses' work, dissipated by the dashpots
                 energy[1] += before - _kinetic_abs_J(v, zd[i + 1], dof_float)
         for j in range(ns if kv else 0):
-            e_old[j] = e_new[j]
             ed_old[j] = ed[j]
         recording = i + 1 >= record_from
         have_start = False
         # most steps have no impact and no contact begun by one: a branch-free pass (it vectorises)
-        # finds those, and the spans' loop below, with its branches, runs only in the others
+        # finds those, and the spans' loop below, with its branches, runs only in the others; the
+        # same pass takes the step's statistics (`_record`'s: summed in locals, stored once)
         events = 0
+        n_free = 0
+        peak, low = stats[3], stats[4]
         for j in range(ns):
-            events += (contact[j] & free[j]) | in_impact[j]
+            events += (contact[j] > was[j]) | in_impact[j]
+            n_free += not contact[j]
+            peak = max(peak, t_el[j])
+            low = min(low, t_el[j])
+        if recording:
+            stats[1] += n_free
+            stats[2] += ns
+            stats[3], stats[4] = peak, low
         for j in range(ns if events else 0):
-            impact = contact[j] and free[j]
+            impact = contact[j] and not was[j]
             if not (impact or in_impact[j]):
                 continue
             # the span's rate at the step's end (the final velocities): the Kelvin-Voigt dashpot's power
@@ -523,7 +530,7 @@ def _run_loops(
                     dof = int(wheel_float[wi, 3])
                     ed_new += span_float[j, 1] * work[1][wi] * (zd[i + 1] + (v[dof] if dof >= 0 else 0.0))
             p_new = par[3] * ed_new * ed_new  # (0: global law)
-            d_old = par[1] + par[0] * e_prev[j]
+            d_old = par[1] + par[0] * e_old[j]
             d_new = par[1] + par[0] * e_new[j]
             if impact:
                 if not have_start:  # the step's start state, recovered from the step's own quantities
@@ -571,11 +578,8 @@ def _run_loops(
                     stats[10] += 0.5 * frac * h * (dash_prev[j] + par[3] * ed_c * ed_c)
                 in_impact[j] = False
                 dash_prev[j] = 0.0
-        for j in range(ns):
-            free[j] = not contact[j]
-            e_prev[j] = e_new[j]
-        if recording:
-            _record(t_el, contact, stats)
+        contact, was = was, contact  # the step's end is the next one's start (`contact` is written anew)
+        e_old, e_new = e_new, e_old
         on_output = (i + 1) % out_every == 0
         if track_energy or on_output:
             _accel_into(
