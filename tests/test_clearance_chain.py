@@ -226,7 +226,7 @@ def _blocked(cmat: np.ndarray, w: np.ndarray) -> np.ndarray:
     blocks = verlet.reflection_blocks(cmat)
     work = tuple(np.zeros(n) for n in (blocks[0].shape[1], blocks[1].shape[1], blocks[0].shape[0], blocks[1].shape[0]))
     out = np.zeros(cmat.shape[0])
-    verlet._mirror_product(blocks, work, w, out)
+    verlet._mirror_product(*blocks, cmat.shape[0], w, *work, out)
     return out
 
 
@@ -479,3 +479,58 @@ def test_the_common_solver_interface_solves_the_same_clearance_chain(method, opt
     assert np.max(np.abs(fast.y - r.x)) < 1e-3 * scale
     with pytest.raises(DynamicsError, match="global damping"):
         ClearanceChain(chain, 94e-6, span_damping="kelvin-voigt").system()
+
+
+def _former_packed_parameters(model, bound):
+    """The ring's packing as it was built before it was read from the topology: straight from the
+    chain and the tensioner (the oracle for `packed_parameters`)."""
+    c, t = model.chain, model.tensioner
+    par = np.array(
+        [
+            c.link_mass_kg,
+            c.stiffness_N_per_m,
+            c.drive_stiffness,
+            c.preload_N,
+            c.stiffness_N_per_m * model.clearance_m,
+            model.beta_s,
+            c.coulomb_force_N,
+            1.0 / c.friction_velocity_scale_m_s,
+            t.mass_kg if t else 1.0,
+            t.rate_N_per_m if t else 0.0,
+            t.damping_N_s_per_m if t else 0.0,
+            2.0 * c.preload_N,
+            bound,
+        ]
+    )
+    kv = model.span_damping == "kelvin-voigt"
+    ipar = [model.idler_span, int(t is not None), int(kv), int(not kv and model.damping_is_reduced)]
+    return par, np.array(ipar, dtype=np.int64)
+
+
+@pytest.mark.parametrize("damping", ["global", "kelvin-voigt"])
+@pytest.mark.parametrize("tensioner", [None, Tensioner(2e5, 3.0, 50.0)])
+@pytest.mark.parametrize("n_links", [7, 8])
+def test_the_rings_packing_read_from_its_topology_is_the_chains_bit_for_bit(damping, tensioner, n_links):
+    """packed_parameters reads the masses, stiffnesses, preload, idler span and carriage from the
+    ring's topology (clearance_verlet.ring_packing on ChainTopology.span_arrays, the machine's
+    packing of the spans too): the same numbers, bit for bit, as read from the chain and the
+    tensioner, odd and even N, both laws, with and without the carriage (a drive stiffness of its own)."""
+    chain = _chain(n=n_links, friction_coefficient=0.35, drive_stiffness_N_per_m=3e7)
+    model = ClearanceChain(chain, 94e-6, span_damping=damping, tensioner=tensioner)
+    par, ipar, _ = verlet.packed_parameters(model, 1.0)
+    old_par, old_ipar = _former_packed_parameters(model, 1.0)
+    assert np.array_equal(par, old_par)
+    assert np.array_equal(ipar, old_ipar)
+
+
+def test_the_rings_packing_refuses_a_topology_that_is_not_a_ring():
+    """ring_packing: the ring's step takes only the ring's topology; a chain on wheels (links held on
+    a sprocket, spans to wheel DOFs) is refused with the reason."""
+    from dynamics.models.layout import MachineLayout
+    from dynamics.models.wheels import Wheel
+
+    wheels = MachineLayout("wheels", Wheel(12, 0.1125, 6, 0.1), Wheel(12, 0.1125, 6, 0.1), None, True)
+    topology = wheels.machine(_chain(n=40), None).topology
+    with pytest.raises(DynamicsError, match="expected a ring topology"):
+        verlet.ring_packing(topology)
+    assert verlet.ring_packing(_chain(n=40).topology()).idler_span is None

@@ -197,9 +197,10 @@ def test_the_impact_measurements_are_the_rings(law, tensioner):
 @pytest.mark.parametrize("n_links", [N, 24])
 def test_the_rings_mirror_product_on_the_machine_kernel_is_c_times_w(tensioner, n_links):
     """The ring's machine (ring_on_topology.RingMachine) takes the global law's C w in the two blocks
-    of the loop's mirror symmetry (machine_verlet._mirror_damping_into, odd and even N): the force
-    and power it subtracts equal -C w and w . C w of the whole C (the links' block; the carriage's
-    c_t becomes its own dashpot, bit for bit) to 1e-13 of their size."""
+    of the loop's mirror symmetry, stacked in its packed C (machine_verlet.mirror_packed), and the
+    machine's step multiplies them by the ring's own product (clearance_verlet._mirror_product, the
+    blocks as row slices, odd and even N): C w of the whole C (the links' block; the carriage's c_t
+    becomes its own dashpot, bit for bit) to 1e-13 of its size."""
     chain = ChainModel(n_links, M, K)
     machine = ring_on_topology.RingMachine.of(chain, LINK_DRIVE, tensioner, CLEARANCE_M)
     arr, c = machine.arrays, machine.damping_matrix
@@ -207,12 +208,13 @@ def test_the_rings_mirror_product_on_the_machine_kernel_is_c_times_w(tensioner, 
     if tensioner is not None:
         assert arr.dof_float[n_links, 3] == tensioner.damping_N_s_per_m
     w = np.random.default_rng(2).standard_normal(n_links)
-    f = np.zeros(n_links)
-    work = np.zeros(arr.cmat.shape[1]), np.zeros(arr.cmat.shape[0])
-    power = mv._mirror_damping_into(arr.cmat, arr.par, w, *work, f)
+    rs = int(arr.par[mv.N_PAR])
+    assert int(arr.par[mv.N_PAR + 1]) == n_links
+    cols, rows = np.zeros((2, arr.cmat.shape[1])), np.zeros(arr.cmat.shape[0])
+    out = np.zeros(n_links)
+    cv._mirror_product(arr.cmat[:rs], arr.cmat[rs:], n_links, w, *cols, rows[:rs], rows[rs:], out)
     cw = c[:n_links, :n_links] @ w
-    assert _apart(-f, cw) < 1e-13
-    assert power == pytest.approx(w @ cw, rel=1e-13)
+    assert _apart(out, cw) < 1e-13
 
 
 @pytest.mark.parametrize("law", ["global", "kelvin-voigt"])

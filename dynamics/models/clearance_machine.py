@@ -174,9 +174,7 @@ class ClearanceMachine:
         n_spans = len(topo.spans)
         span_int = np.full((n_spans, 4), -1, dtype=np.int64)
         span_float = np.zeros((n_spans, 2))
-        for j, s in enumerate(topo.spans):
-            span_int[j, :3] = [-1 if d is None else d for d in (s.behind, s.ahead, s.carriage)]
-            span_float[j, 0] = s.carriage_gain
+        span_int[:, :3], span_float[:, 0] = topo.span_arrays()
         wheels = mach.wheel_ends if mach.polygonal else ()
         wheel_float = np.zeros((len(wheels), 4))
         for i, ends in enumerate(wheels):

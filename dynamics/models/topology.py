@@ -96,6 +96,17 @@ class ChainTopology:
                     vals.append(value)
         return sp.csr_matrix((vals, (rows, cols)), shape=(len(self.spans), self.n_dof))
 
+    def span_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The spans as both compiled steps pack them: (ends, gains), ends (n_spans, 3) int64 the
+        behind, ahead and carriage DOFs (-1: none, or held to the cam), gains (n_spans,) the carriage
+        gains (dynamics.models.clearance_machine.ClearanceMachine.arrays, and the ring's scalars read
+        from them by dynamics.solvers.clearance_verlet.ring_packing)."""
+        ends = np.array(
+            [[-1 if d is None else d for d in (s.behind, s.ahead, s.carriage)] for s in self.spans], dtype=np.int64
+        ).reshape(-1, 3)
+        gains = np.array([s.carriage_gain for s in self.spans], dtype=float)
+        return ends, gains
+
     def ground_vector(self) -> np.ndarray:
         g = np.zeros(self.n_dof)
         for dof, stiffness in self.ground:

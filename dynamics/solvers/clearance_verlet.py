@@ -370,14 +370,14 @@ def _rows_times(mat, x, out):
         out[i + 3] = s3
 
 
-def _mirror_product(blocks, work, w, out):
-    """out = C w with C as `reflection_blocks` gives it: w split into its symmetric and antisymmetric
-    parts under the reflection (link 0, and link n/2 for even n, map onto themselves; link p pairs
-    with link n - p), each multiplied by its block; a C without the symmetry (no antisymmetric rows)
-    is multiplied whole. `work`: the padded coordinates and products."""
-    sym, anti = blocks[0], blocks[1]
-    ws, wa, cs, ca = work[0], work[1], work[2], work[3]
-    n = w.shape[0]
+def _mirror_product(sym, anti, n, w, ws, wa, cs, ca, out):
+    """out[:n] = C w[:n] with C as `reflection_blocks` gives it, the one form of the product both
+    compiled steps take (this module's and dynamics.solvers.machine_verlet's, where w is the
+    machine's velocities, the links first, and the blocks are row slices of its packed C): w split
+    into its symmetric and antisymmetric parts under the reflection (link 0, and link n/2 for even n,
+    map onto themselves; link p pairs with link n - p), each multiplied by its block; a C without
+    the symmetry (no antisymmetric rows) is multiplied whole. ws, wa: the blocks' padded columns
+    (wa's padding left 0), cs, ca: their rows."""
     if anti.shape[0] == 0:
         for j in range(n):
             ws[j] = w[j]
@@ -563,7 +563,7 @@ def _damping_into(w, ud, par, ipar, blocks, work, contact, cw):
         if ipar[3]:
             _sqrt_product(blocks[2], blocks[3], blocks[4], blocks[5], work[4], work[5], w, cw)
         else:
-            _mirror_product(blocks, work, w, cw)
+            _mirror_product(blocks[0], blocks[1], n, w, work[0], work[1], work[2], work[3], cw)
         return dash_s
     for i in range(n):
         cw[i] = 0.0
@@ -1203,30 +1203,92 @@ def integrate(
     )
 
 
+@dataclass(frozen=True)
+class RingPacking:
+    """The ring's topological quantities as its compiled step takes them (`packed_parameters`), read
+    from its topology by `ring_packing`; SI."""
+
+    link_mass_kg: float
+    span_stiffness_N_per_m: float
+    drive_stiffness_N_per_m: float
+    preload_N: float
+    idler_span: int | None  # the span the carriage sits in (None: no carriage)
+    carriage_mass_kg: float  # (1 without a carriage: a placeholder the step never divides by)
+    carriage_rate_N_per_m: float
+
+
+def ring_packing(topology) -> RingPacking:
+    """The ring's quantities from its topology (a dynamics.models.topology.ChainTopology, the spans
+    packed by its `span_arrays`, as the machine's step packs them), so that the ring's step and the
+    machine's read the one topology: N links of equal mass, span j from link j to link j + 1 (the
+    last closes the loop), the drive spring on link 0, and at most one carriage, the last DOF, inside
+    one span at gain 2 (moving it by u lengthens the loop by 2 u) and tied to the frame by its spring.
+    DynamicsError for any other topology (the ring's step has no other)."""
+    ends, gains = topology.span_arrays()
+    n = ends.shape[0]
+    links = np.arange(n)
+    carried = np.flatnonzero(ends[:, 2] >= 0)
+    masses = np.asarray(topology.masses_kg, dtype=float)
+    ground = dict(topology.ground)
+    expected_ground = {0, n} if carried.size else {0}
+    if (
+        n < 2
+        or np.any(ends[:, 0] != links)
+        or np.any(ends[:, 1] != (links + 1) % n)
+        or carried.size > 1
+        or np.any(ends[carried, 2] != n)
+        or np.any(gains[carried] != 2.0)
+        or topology.n_dof != n + carried.size
+        or np.any(masses[:n] != masses[0])
+        or set(ground) != expected_ground
+        or len(topology.ground) != len(ground)
+        or topology.couplings
+    ):
+        raise DynamicsError(
+            "ring_packing: expected a ring topology (span j from link j to link j + 1, the drive spring "
+            "on link 0, at most one carriage as the last DOF); the clearance chain's step takes no other"
+        )
+    span = int(carried[0]) if carried.size else None
+    return RingPacking(
+        float(masses[0]),
+        float(topology.span_stiffness_N_per_m),
+        float(ground[0]),
+        float(topology.preload_N),
+        span,
+        float(masses[n]) if carried.size else 1.0,
+        float(ground[n]) if carried.size else 0.0,
+    )
+
+
 def packed_parameters(model, bound: float = np.inf):
     """(par, ipar, cmat): the model as the kernels take it (`_accel(y, w, u, ud, zd, zdd, *packed)`);
-    `bound` is the |y| above which a run counts as diverged."""
+    `bound` is the |y| above which a run counts as diverged. The masses, stiffnesses, preload, idler
+    span and carriage from the model's topology (`ring_packing`), the damping and friction laws from
+    the model."""
     c, t = model.chain, model.tensioner
+    ring = ring_packing(model.topology)
     kv = model.span_damping == "kelvin-voigt"
     par = np.array(
         [
-            c.link_mass_kg,
-            c.stiffness_N_per_m,
-            c.drive_stiffness,
-            c.preload_N,
-            c.stiffness_N_per_m * model.clearance_m,
+            ring.link_mass_kg,
+            ring.span_stiffness_N_per_m,
+            ring.drive_stiffness_N_per_m,
+            ring.preload_N,
+            ring.span_stiffness_N_per_m * model.clearance_m,
             model.beta_s,
             c.coulomb_force_N,
             1.0 / c.friction_velocity_scale_m_s,
-            t.mass_kg if t else 1.0,
-            t.rate_N_per_m if t else 0.0,
+            ring.carriage_mass_kg,
+            ring.carriage_rate_N_per_m,
             t.damping_N_s_per_m if t else 0.0,
-            2.0 * c.preload_N,
+            2.0 * ring.preload_N,  # the preload on the carriage (at its gain, 2: `ring_packing`)
             bound,
         ]
     )
     reduced = not kv and model.damping_is_reduced
-    ipar = np.array([model.idler_span, int(t is not None), int(kv), int(reduced)], dtype=np.int64)
+    carriage = ring.idler_span is not None
+    span = ring.idler_span if carriage else model.idler_span  # (read, unused, without a carriage)
+    ipar = np.array([span, int(carriage), int(kv), int(reduced)], dtype=np.int64)
     cmat = np.zeros((1, 1)) if kv else model.damping_operator
     return par, ipar, cmat
 

@@ -5,7 +5,8 @@ arrays (behind, ahead, carriage, wheel), the forces back through the transposed 
 polygonal feed d(a) of each wheel as a time-dependent offset of its two wheel-end spans evaluated at
 every step, the global damping law as the plain product C q' (the machine has no mirror symmetry; in
 single precision on the wheels, DAMPING_PRODUCT_PRECISIONS; the single-link drive's C has, and its
-machine packs it in the ring's two blocks: `mirror_packed`).
+machine packs it in the ring's two blocks, `mirror_packed`, multiplied by the ring's own
+product, clearance_verlet._mirror_product).
 The Kelvin-Voigt dashpot's force jump at a contact change is located within the step as the ring's
 (clearance_verlet._switch_impulse, `_span_impulses_into`: an impulse through the span's incidence,
 its work counted as damping), so the step stays second order through the switches.
@@ -42,6 +43,7 @@ from dynamics.solvers.clearance_verlet import (
     SPEED_CAPACITY,
     TANH_IS_ONE,
     _crossing,
+    _mirror_product,
     _rows_times,
     _switch_impulse,
     _tanh,
@@ -179,8 +181,13 @@ def _accel_into(
         for i in range(dofs.shape[0]):
             f[dofs[i]] -= cw[i]
             p_damp += wv[i] * cw[i]
-    elif not kv and par.shape[0] > N_PAR:  # the ring's C in its mirror blocks (`_mirror_damping_into`)
-        p_damp += _mirror_damping_into(cmat, par, v, work[4], work[5], f)
+    elif not kv and par.shape[0] > N_PAR:  # the ring's C in its mirror blocks (`mirror_packed`): the ring's product
+        rs, links = int(par[N_PAR]), int(par[N_PAR + 1])
+        cw = work[8]
+        _mirror_product(cmat[:rs], cmat[rs:], links, v, work[4], work[7], work[5][:rs], work[5][rs:], cw)
+        for i in range(links):
+            f[i] -= cw[i]
+            p_damp += v[i] * cw[i]
     elif not kv:  # C v, four rows at a time on the padded C in its own precision (`_rows_times`)
         vp, cv_out = work[4], work[5]
         for i in range(n):
@@ -222,48 +229,12 @@ def _accel_into(
     powers[2] = p_fric
 
 
-def _mirror_damping_into(cmat, par, v, wc, cw, f):
-    """f -= C v on the links (DOFs 0..n-1), C as clearance_verlet.reflection_blocks gives it, its two
-    blocks stacked in cmat (`mirror_packed`; par[N_PAR:] the symmetric block's padded rows and n): v
-    split into its symmetric and antisymmetric parts under the loop's reflection about link 0, each
-    multiplied by its block four rows at a time (clearance_verlet._mirror_product's arithmetic; each
-    block a C-contiguous row slice, so the product vectorises as the ring's). wc, cw: cmat's column and
-    row scratch. Returns the damping power v . C v."""
-    rs, n = int(par[N_PAR]), int(par[N_PAR + 1])
-    pairs = (n - 1) // 2
-    nf = n - 2 * pairs
-    r = math.sqrt(0.5)
-    wc[0] = v[0]
-    if nf == 2:
-        wc[1] = v[pairs + 1]
-    for p in range(pairs):
-        wc[nf + p] = r * (v[1 + p] + v[n - 1 - p])
-    _rows_times(cmat[:rs], wc, cw[:rs])
-    for p in range(pairs):
-        wc[p] = r * (v[1 + p] - v[n - 1 - p])
-    for p in range(pairs, pairs + nf):  # the antisymmetric block's padding columns
-        wc[p] = 0.0
-    _rows_times(cmat[rs:], wc, cw[rs:])
-    power = v[0] * cw[0]
-    f[0] -= cw[0]
-    if nf == 2:
-        f[pairs + 1] -= cw[1]
-        power += v[pairs + 1] * cw[1]
-    for p in range(pairs):
-        lo_p = r * (cw[nf + p] + cw[rs + p])
-        hi_p = r * (cw[nf + p] - cw[rs + p])
-        f[1 + p] -= lo_p
-        f[n - 1 - p] -= hi_p
-        power += v[1 + p] * lo_p + v[n - 1 - p] * hi_p
-    return power
-
-
 def mirror_packed(cmat: np.ndarray, par: np.ndarray, n_links: int):
-    """(cmat, par) for `_mirror_damping_into` when the links' block of the machine's C (its first
-    n_links DOFs, nothing coupling them to the rest) commutes with the loop's reflection about link 0,
-    as the single-link drive's does: its two mirror blocks (clearance_verlet.reflection_blocks, padded)
-    stacked, the symmetric on top, par extended by the symmetric block's padded rows and n_links. None
-    otherwise."""
+    """(cmat, par) for the ring's product (clearance_verlet._mirror_product on two row slices of cmat)
+    when the links' block of the machine's C (its first n_links DOFs, nothing coupling them to the
+    rest) commutes with the loop's reflection about link 0, as the single-link drive's does: its two
+    mirror blocks (clearance_verlet.reflection_blocks, padded) stacked, the symmetric on top, par
+    extended by the symmetric block's padded rows and n_links. None otherwise."""
     from dynamics.solvers.clearance_verlet import reflection_blocks
 
     c = np.asarray(cmat)
@@ -291,7 +262,7 @@ def _span_impulses_into(
     h,
     e_old,
     e_new,
-    was_free,
+    was_on,
     ed_old,
     ed_new,
     span_int,
@@ -304,7 +275,7 @@ def _span_impulses_into(
     v,
 ):
     """The contact changes located within the step on the topology's spans (stretches e_old, e_new at
-    the step's ends, `was_free` the start's free-play flags): the Kelvin-Voigt dashpot's switch
+    the step's ends, `was_on` the start's contact flags): the Kelvin-Voigt dashpot's switch
     (clearance_verlet `_switch_impulse`, an impulse), applied to its span's ends through the same B^T
     as its force (the carriage's share, the wheel-end span's gain dd/du at the step's end, work[1]),
     divided by the DOFs' masses."""
@@ -312,7 +283,7 @@ def _span_impulses_into(
     wsl = work[1]
     for j in range(span_int.shape[0]):
         d_old, d_new = preload + k * e_old[j], preload + k * e_new[j]
-        impulse = _switch_impulse(h, d_old, d_new, not was_free[j], ed_old[j], ed_new[j], kg, beta_k)
+        impulse = _switch_impulse(h, d_old, d_new, was_on[j], ed_old[j], ed_new[j], kg, beta_k)
         if impulse == 0.0:
             continue
         b, fw, c, wi = span_int[j, 0], span_int[j, 1], span_int[j, 2], span_int[j, 3]
@@ -410,13 +381,12 @@ def _run_loops(
     t_el = np.empty(ns)
     ed = np.empty(ns)
     contact = np.empty(ns, dtype=np.bool_)
-    free = np.empty(ns, dtype=np.bool_)
+    was = np.empty(ns, dtype=np.bool_)  # the spans' contact at the step's start
     clock = np.zeros(ns)  # time since each contact begun by an impact began (from its crossing)
     in_impact = np.zeros(ns, dtype=np.bool_)  # a contact begun by an impact, while it lasts
     dash_prev = np.zeros(ns)  # its dashpot's power at the last step
     q_s = np.empty(n)  # the step's start state where an impact needs it
     v_s = np.empty(n)
-    e_prev = np.empty(ns)  # the span stretches at the step's start
     nw = max(wheel_float.shape[0], 1)
     work = (
         np.zeros(nw),
@@ -426,6 +396,8 @@ def _run_loops(
         np.zeros(cmat.shape[1], dtype=cmat.dtype),
         np.zeros(cmat.shape[0]),
         np.zeros(3),
+        np.zeros(cmat.shape[1], dtype=cmat.dtype),  # the mirror product's antisymmetric columns
+        np.zeros(n),  # and its C v
     )
     window = math.pi * math.sqrt(0.5 * par[7] / par[0])
     e_old = np.empty(ns)  # the span stretches at the step's start and end (the located switches)
@@ -457,8 +429,7 @@ def _run_loops(
     for j in range(n):
         a_prev[j] = a[j]
     for j in range(ns):
-        free[j] = not contact[j]
-        e_prev[j] = e_old[j]
+        was[j] = contact[j]
     out_q[0] = q
     out_v[0] = v
     out_a[0] = a
@@ -500,14 +471,14 @@ def _run_loops(
             _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switches[i + 1])
         changed = 0  # Kelvin-Voigt: spans whose contact changed within the step (`contact`: the step's end)
         for j in range(ns if kv else 0):
-            changed += contact[j] == free[j]
+            changed += contact[j] != was[j]
         if changed:
             before = _kinetic_abs_J(v, zd[i + 1], dof_float) if track_energy and kv else 0.0
             _span_impulses_into(
                 h,
                 e_old,
                 e_new,
-                free,
+                was,
                 ed_old,
                 ed,
                 span_int,
@@ -522,17 +493,26 @@ def _run_loops(
             if track_energy and kv:  # the impulses' work, dissipated by the dashpots
                 energy[1] += before - _kinetic_abs_J(v, zd[i + 1], dof_float)
         for j in range(ns if kv else 0):
-            e_old[j] = e_new[j]
             ed_old[j] = ed[j]
         recording = i + 1 >= record_from
         have_start = False
         # most steps have no impact and no contact begun by one: a branch-free pass (it vectorises)
-        # finds those, and the spans' loop below, with its branches, runs only in the others
+        # finds those, and the spans' loop below, with its branches, runs only in the others; the
+        # same pass takes the step's statistics (`_record`'s: summed in locals, stored once)
         events = 0
+        n_free = 0
+        peak, low = stats[3], stats[4]
         for j in range(ns):
-            events += (contact[j] & free[j]) | in_impact[j]
+            events += (contact[j] > was[j]) | in_impact[j]
+            n_free += not contact[j]
+            peak = max(peak, t_el[j])
+            low = min(low, t_el[j])
+        if recording:
+            stats[1] += n_free
+            stats[2] += ns
+            stats[3], stats[4] = peak, low
         for j in range(ns if events else 0):
-            impact = contact[j] and free[j]
+            impact = contact[j] and not was[j]
             if not (impact or in_impact[j]):
                 continue
             # the span's rate at the step's end (the final velocities): the Kelvin-Voigt dashpot's power
@@ -550,7 +530,7 @@ def _run_loops(
                     dof = int(wheel_float[wi, 3])
                     ed_new += span_float[j, 1] * work[1][wi] * (zd[i + 1] + (v[dof] if dof >= 0 else 0.0))
             p_new = par[3] * ed_new * ed_new  # (0: global law)
-            d_old = par[1] + par[0] * e_prev[j]
+            d_old = par[1] + par[0] * e_old[j]
             d_new = par[1] + par[0] * e_new[j]
             if impact:
                 if not have_start:  # the step's start state, recovered from the step's own quantities
@@ -598,11 +578,8 @@ def _run_loops(
                     stats[10] += 0.5 * frac * h * (dash_prev[j] + par[3] * ed_c * ed_c)
                 in_impact[j] = False
                 dash_prev[j] = 0.0
-        for j in range(ns):
-            free[j] = not contact[j]
-            e_prev[j] = e_new[j]
-        if recording:
-            _record(t_el, contact, stats)
+        contact, was = was, contact  # the step's end is the next one's start (`contact` is written anew)
+        e_old, e_new = e_new, e_old
         on_output = (i + 1) % out_every == 0
         if track_energy or on_output:
             _accel_into(
@@ -694,7 +671,6 @@ if numba is not None:
         "_kinetic_abs_J",
         "_span_impulses_into",
         "_span_rates",
-        "_mirror_damping_into",
         "_station_nodes_into",
         "_switches_at_stations",
     ):

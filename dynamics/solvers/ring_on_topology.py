@@ -9,7 +9,7 @@ free-play fraction, tension extremes, energy terms and impact measurements (clos
 energies, force spike and Kelvin-Voigt dissipation, all at the crossing interpolated within the step,
 and the largest force over each whole contact begun by an impact) to 1e-12; the global law's C w in
 the two blocks of the loop's mirror symmetry about link 1, as the ring's kernel takes it
-(`RingMachine`, machine_verlet._mirror_damping_into). Above DENSE_LINK_LIMIT links the global law is
+(`RingMachine`, the ring's own clearance_verlet._mirror_product). Above DENSE_LINK_LIMIT links the global law is
 the machine's O(N) form (dynamics.models.machine_damping, each mode's ratio to 1e-5), not the ring's
 (dynamics.models.reduced_damping, to 1e-4): closer to the dense C than the ring's (tested at 401
 links); the ring's `damping_tolerance`, which names the ring's form, is refused. What keeps it from
