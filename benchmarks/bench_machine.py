@@ -7,16 +7,17 @@ dynamics stage with the machine.
    from rest: the default layout (12-tooth sprocket and idler wheel, six links seated on each,
    steel-disc inertia, the drive's default compliance, polygonal feed), aluminium, modified sine,
    180 rpm, 0.094 mm free play, global damping. Station metrics (RMS x, v, a, max |a|, residual
-   vibration at the machine's four stations; the two peaks over every step, the kernel's station peaks,
-   for this tree, over the output samples for an old tree's kernel, which does not track them)
+   vibration at the machine's four stations; the two peaks over every step, the kernel's station peaks)
    at the default step (ab2 at 0.31 of its limit) and at
    every finer number of steps per sample up to twice it, against the same integrator at 1/16 of the default
-   step; the time is the median CPU (thread) time of interleaved runs; the worst metric names the metric and
+   step; the time is the median CPU (thread) time of the repeats, each repeat one process per tree
+   (machine_window_worker.py); the worst metric names the metric and
    station that set the error. The target row is the fewest steps per sample
    from which every finer one holds 1e-3 (the window runs from rest: the default run's two-level step does not apply).
    With BENCH_MACHINE_OLD_TREE=<a checkout of older code> (e.g. `git worktree add --detach /tmp/old
-   main`) that tree's compiled step (its dynamics/solvers/machine_verlet.py) runs the same windows in the
-   same process, interleaved run by run, beside this tree's.
+   main`; its benchmarks/bench_machine.py must have `_window_run`, as since 13f2a75) that tree's window
+   runs too, each tree in a process of its own with only its own tree on the path (its own helpers and
+   compiled step, whatever their signatures), the processes alternating (new, old, new, old, ...).
 2. The impact statistics (closing speeds, approach energy, force spike) of the default run on wheels
    (steady state, default step) against the same run at 16x the steps: modified sine and cycloidal,
    both materials (modified sine, aluminium and titanium with --quick).
@@ -27,11 +28,13 @@ dynamics stage with the machine.
 
 from __future__ import annotations
 
+import json
 import os
 import statistics
+import subprocess
 import sys
 import time
-import types
+from pathlib import Path
 
 import numpy as np
 
@@ -47,6 +50,8 @@ MATERIALS = {"al6061-t6": (9.0092e7, 2.03), "ti-grade2": (1.3696e8, 2.28)}  # as
 CAMS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
 PITCH_M, RPM, N_LINKS = 0.1125, 180.0, 85
 TARGET_WINDOW_S, TARGET_STAGE_S = 0.020, 3.0
+ROOT = Path(__file__).resolve().parents[1]
+WORKER = Path(__file__).resolve().parent / "machine_window_worker.py"
 
 
 def layout() -> MachineLayout:
@@ -84,57 +89,56 @@ def _station_metrics(model, cam, t, y, v, a, step_peaks=None) -> np.ndarray:
     return np.array(out)
 
 
-def _window_run(model, cam, t, sub, kernel=mv):
+def _window_run(model, cam, t, sub):
     """Two index cycles from rest at `sub` steps per output sample, the seat change between them (the
-    window ends at the second cycle's end: no seat change after it); `kernel` the compiled step's module
-    (its station peaks over every step when it tracks them: this tree's, not an old tree's).
-    Returns (CPU seconds of this thread, station metrics)."""
+    window ends at the second cycle's end: no seat change after it), with the kernel's station peaks over
+    every step. Returns (CPU seconds of this thread, station metrics)."""
     start = time.thread_time()
     h = (t[1] - t[0]) / sub
     per_cycle = (t.size - 1) // 2
-    zr, zd, zdd = kernel.cycle_nodes(cam, h, per_cycle * sub)
+    zr, zd, zdd = mv.cycle_nodes(cam, h, per_cycle * sub)
     q = v = np.zeros(model.topology.n_dof)
     ys, vs, accs = [], [], []
-    peaks = {}
-    if hasattr(kernel, "PEAK_METRICS"):  # every node of both cycles is in the window
-        since = h * np.arange(zd.size)
-        peaks = {"stations": model.topology.link_dof()[list(model.machine.stations().values())]}
-        flags = [
-            kernel.IN_WINDOW | np.where(cam.dwell_mask(c * cam.period_s + since), kernel.IN_DWELL, 0) for c in (0, 1)
-        ]
+    since = h * np.arange(zd.size)  # every node of both cycles is in the window
+    stations = model.topology.link_dof()[list(model.machine.stations().values())]
+    flags = [mv.IN_WINDOW | np.where(cam.dwell_mask(c * cam.period_s + since), mv.IN_DWELL, 0) for c in (0, 1)]
     step_peaks = []
     for cycle in range(2):
-        if peaks:
-            peaks["node_flags"] = flags[cycle]
-        run = kernel.integrate(model, zr, zd, zdd, h, q, v, out_every=sub, predictor="ab2", **peaks)
-        step_peaks.append(run.station_peaks if peaks else None)
+        run = mv.integrate(
+            model, zr, zd, zdd, h, q, v, out_every=sub, predictor="ab2", stations=stations, node_flags=flags[cycle]
+        )
+        step_peaks.append(run.station_peaks)
         take = slice(0, per_cycle + (cycle == 1))
         ys.append(run.q[take])
         vs.append(run.v[take])
         accs.append(run.a[take] + zdd[::sub][take, None] * model.arrays.dof_float[:, 1])
         if cycle == 0:
-            q, v, _ = kernel.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
+            q, v, _ = mv.seat_change(model, run.q[-1], run.v[-1], float(zr[-1]))
     seconds = time.thread_time() - start
-    stepped = np.fmax(*step_peaks) if peaks else None
     return seconds, _station_metrics(
-        model, cam, t, np.concatenate(ys), np.concatenate(vs), np.concatenate(accs), stepped
+        model, cam, t, np.concatenate(ys), np.concatenate(vs), np.concatenate(accs), np.fmax(*step_peaks)
     )
 
 
-def _old_kernel():
-    """The compiled step of the tree at BENCH_MACHINE_OLD_TREE as its own module (compiled in this
-    process, not cached), or None."""
-    tree = os.environ.get("BENCH_MACHINE_OLD_TREE")
-    if not tree:
-        return None
-    path = os.path.join(tree, "dynamics", "solvers", "machine_verlet.py")
-    with open(path) as f:
-        source = f.read().replace("cache=True", "cache=False")
-    module = types.ModuleType("old_machine_verlet")
-    module.__file__ = path
-    sys.modules[module.__name__] = module  # the dataclasses look their module up
-    exec(compile(source, path, "exec"), module.__dict__)
-    return module
+def _window_in_process(tree: Path, subs: list[int]) -> dict:
+    """One round of the window (machine_window_worker.py) in a process of its own started in `tree`
+    with only `tree` on the path: its own benchmark helpers and compiled step, whatever their
+    signatures. Returns {"seconds": {sub: s}, "metrics": {sub: array}}."""
+    env = {**os.environ, "PYTHONPATH": str(tree)}
+    done = subprocess.run(
+        [sys.executable, str(WORKER), json.dumps({"subs": subs})],
+        cwd=tree,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    if done.returncode != 0:
+        raise RuntimeError(f"the window in {tree} failed: {done.stderr.strip().splitlines()[-1:]}")
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    return {
+        "seconds": {int(k): x for k, x in out["seconds"].items()},
+        "metrics": {int(k): np.array(x) for k, x in out["metrics"].items()},
+    }
 
 
 def _ring_window_s(cam, t, sub) -> float:
@@ -150,60 +154,62 @@ def _ring_window_s(cam, t, sub) -> float:
     return time.thread_time() - start
 
 
-def _window_table(quick: bool) -> list[str]:
+def _window_table(quick: bool, old_tree: str | None = None, subs: list[int] | None = None) -> list[str]:
+    """The window's table; `old_tree` (default BENCH_MACHINE_OLD_TREE) adds that tree's columns, `subs`
+    (default: every steps-per-sample from the default to twice it) the rows."""
     from dynamics.models.clearance_machine import ClearanceMachine
 
+    old_tree = old_tree or os.environ.get("BENCH_MACHINE_OLD_TREE")
     cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=RPM)
     t = _window_times()
     model = ClearanceMachine.of(_chain("al6061-t6"), layout(), None, DEFAULT_PIN_CLEARANCE_M)
     default = mv.substeps_for(model, t[1] - t[0], 0.31, "ab2")
     _, ref = _window_run(model, cam, t, 16 * default)
     scale = np.abs(ref).reshape(4, 5).max(axis=0)  # per metric, its largest over the stations
-    kernels = {"this tree": mv}
-    old = _old_kernel()
-    if old is not None:
-        kernels["old tree"] = old
-    head = " | ".join(f"{name}: CPU time | per step | error" for name in kernels)
+    trees = {"this tree": ROOT}
+    if old_tree:
+        trees["old tree"] = Path(old_tree).resolve()
+    head = " | ".join(f"{name}: CPU time | per step | error" for name in trees)
     lines = [
         "Clearance machine, one 85-link window (2 index cycles from rest, 4 samples/degree, aluminium, "
         "modified sine, 180 rpm, 0.094 mm; wheels 12 teeth, 6 seated, polygonal feed); error = worst "
         f"station metric against {16 * default} steps/sample, relative to that metric's largest station value; "
-        "time = median CPU (thread) time of interleaved runs"
-        + (f" (old tree: {os.environ['BENCH_MACHINE_OLD_TREE']}, same process)" if old is not None else "")
+        "time = median CPU (thread) time of the repeats, each tree's window in a process of its own "
+        "(its own modules on the path), the processes alternating"
+        + (f" (old tree: {old_tree})" if old_tree else "")
         + ":",
         "",
         f"| steps/sample | {head} | worst metric (this tree) |",
-        "|---|" + "---|---|---|" * len(kernels) + "---|",
+        "|---|" + "---|---|---|" * len(trees) + "---|",
     ]
-    subs = list(range(default, 2 * default + 1))  # every one: the error is not monotone below 2x (performance.md)
+    # every one by default: the error is not monotone below 2x (performance.md)
+    subs = subs or list(range(default, 2 * default + 1))
     repeats = 3 if quick else 9
-    times = {(name, sub): [] for name in kernels for sub in subs}
+    times = {(name, sub): [] for name in trees for sub in subs}
     errors, worst = {}, {}
     stations = list(model.machine.stations())
-    for kernel in kernels.values():
-        _window_run(model, cam, t, default, kernel)  # compile
     for _ in range(repeats):
-        for sub in subs:
-            for name, kernel in kernels.items():
-                seconds, metrics = _window_run(model, cam, t, sub, kernel)
-                times[name, sub].append(seconds)
-                relative = np.abs(metrics - ref).reshape(4, 5) / scale
+        for name, tree in trees.items():  # new, old, new, old, ...: both see the same load
+            measured = _window_in_process(tree, subs)
+            for sub in subs:
+                times[name, sub].append(measured["seconds"][sub])
+                relative = np.abs(measured["metrics"][sub] - ref).reshape(4, 5) / scale
                 errors[name, sub] = float(np.max(relative))
                 station, metric = np.unravel_index(np.argmax(relative), relative.shape)
                 worst[name, sub] = f"{METRIC_NAMES[metric]}, {stations[station]}"
     steps = t.size - 1
     for sub in subs:
         cells = []
-        for name in kernels:
+        for name in trees:
             median = statistics.median(times[name, sub])
             cells.append(f"{1e3 * median:.1f} ms | {1e6 * median / (steps * sub):.2f} us | {errors[name, sub]:.1e}")
         lines.append(f"| {sub} | {' | '.join(cells)} | {worst['this tree', sub]} |")
     ring_s = [_ring_window_s(cam, t, 2 * default) for _ in range(repeats)]
     lines.append(
         f"Yardstick, same run: today's 85-link ring (single-link drive, same chain) over the same window "
-        f"at {2 * default} steps/sample: {1e3 * statistics.median(ring_s):.1f} ms"
+        f"at {2 * default} steps/sample, in this process: {1e3 * statistics.median(ring_s):.1f} ms"
     )
-    for name in kernels:
+    for name in trees:
         # the error is not monotone in the step: a step holds 1e-3 when every finer one here does too
         holding = [sub for i, sub in enumerate(subs) if all(errors[name, s] <= 1e-3 for s in subs[i:])]
         if holding:
