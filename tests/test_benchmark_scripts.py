@@ -1,6 +1,6 @@
 """The small measurement scripts the docs' commands run (docs/performance.md, docs/verification.md),
-on tiny inputs: benchmarks/run_cpu.py, benchmarks/compare_summaries.py and bench_long_wheels.py's
-comparison of two trees at one N."""
+on tiny inputs: benchmarks/run_cpu.py, benchmarks/compare_summaries.py, bench_long_wheels.py's
+comparison of two trees at one N and bench_machine.py's window, each tree in its own process."""
 
 from __future__ import annotations
 
@@ -10,10 +10,11 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import pipeline
-from benchmarks import bench_long_wheels, compare_summaries, run_cpu
+from benchmarks import bench_long_wheels, bench_machine, compare_summaries, run_cpu
 
 BURN = "import time\nt = time.process_time()\nwhile time.process_time() - t < 0.2:\n    pass"
 
@@ -82,3 +83,44 @@ def test_the_scripts_options_parse_from_the_command_line(script):
     path = Path(bench_long_wheels.ROOT) / "benchmarks" / script
     out = subprocess.run([sys.executable, str(path), "--help"], capture_output=True, text=True, check=True)
     assert "usage:" in out.stdout and ("--old-tree" in out.stdout) == (script == "bench_long_wheels.py")
+
+
+def _window_model():
+    from dynamics.cams import CamProgram
+    from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M
+    from dynamics.models.clearance_machine import ClearanceMachine
+
+    cam = CamProgram.indexing("modified-sine", pitch_m=bench_machine.PITCH_M, rpm=bench_machine.RPM)
+    chain = bench_machine._chain("al6061-t6")
+    return ClearanceMachine.of(chain, bench_machine.layout(), None, DEFAULT_PIN_CLEARANCE_M), cam
+
+
+def test_bench_machine_window_in_its_own_process_is_the_window_run_here():
+    """machine_window_worker.py, started in this tree, runs the same window as _window_run here: the
+    same station metrics (same code, same round-off), a CPU time per steps-per-sample."""
+    model, cam = _window_model()
+    t = bench_machine._window_times()
+    _, here = bench_machine._window_run(model, cam, t, 9)
+    measured = bench_machine._window_in_process(bench_machine.ROOT, [9, 10])
+    assert set(measured["seconds"]) == {9, 10} and all(s > 0 for s in measured["seconds"].values())
+    np.testing.assert_allclose(measured["metrics"][9], here, rtol=1e-12, atol=0)
+    assert not np.allclose(measured["metrics"][10], here, rtol=1e-9)  # a different step: a different window
+
+
+@pytest.mark.slow  # a fresh checkout: its compiled step compiles from scratch (about 30 s)
+def test_bench_machine_old_tree_runs_in_its_own_process(tmp_path):
+    """BENCH_MACHINE_OLD_TREE's path on a checkout of this tree's HEAD: both columns, and the same
+    errors in both (the same code), from processes alternating between the two trees."""
+    old = tmp_path / "old"
+    root = bench_machine.ROOT
+    subprocess.run(["git", "-C", str(root), "worktree", "add", "--detach", str(old), "HEAD"], check=True)
+    try:
+        lines = bench_machine._window_table(quick=True, old_tree=str(old), subs=[9])
+    finally:
+        subprocess.run(["git", "-C", str(root), "worktree", "remove", "--force", str(old)], check=True)
+    header = next(line for line in lines if line.startswith("| steps/sample"))
+    assert "this tree: CPU time" in header and "old tree: CPU time" in header
+    row = next(line for line in lines if line.startswith("| 9 |")).strip("| ").split(" | ")
+    assert len(row) == 1 + 3 + 3 + 1  # steps, this tree's three cells, the old tree's three, worst metric
+    assert row[3] == row[6]  # the error
+    assert any(line.startswith("Target, old tree") for line in lines)
