@@ -124,3 +124,35 @@ def test_bench_machine_old_tree_runs_in_its_own_process(tmp_path):
     assert len(row) == 1 + 3 + 3 + 1  # steps, this tree's three cells, the old tree's three, worst metric
     assert row[3] == row[6]  # the error
     assert any(line.startswith("Target, old tree") for line in lines)
+
+
+def test_bench_ring_on_topology_stage_runs_both_orders(monkeypatch):
+    """_stage runs every scenario ring first and topology first, the cache cleared before every run,
+    and reports each order's ratio and both together's: a kernel that gains 15 % when run second
+    biases one order's ratio, not the pair's."""
+    from types import SimpleNamespace
+
+    from benchmarks import bench_ring_on_topology as bench
+
+    clock, calls, clears = [0.0], [], []
+    cost = {"ring": 1.0, "topology": 1.2}
+
+    def simulate_chain(model, cam, t, kernel):
+        second = len(calls) % 2 == 1
+        calls.append(kernel)
+        clock[0] += cost[kernel] * (0.85 if second else 1.0)
+        impacts = SimpleNamespace(closing_speed_max_m_s=1.0, closing_speed_median_m_s=0.5, energy_per_cycle_J=2.0)
+        response = SimpleNamespace(x_m=np.ones((3, 2)), z_m=np.zeros(3))
+        return response, SimpleNamespace(impacts=impacts)
+
+    monkeypatch.setattr(bench, "simulate_chain", simulate_chain)
+    monkeypatch.setattr(bench, "time", SimpleNamespace(perf_counter=lambda: clock[0]))
+    monkeypatch.setattr(bench.cache, "clear", lambda: clears.append(len(calls)))
+    line = bench._stage(quick=True)[-1]
+    scenarios = len(bench.MATERIALS) * 2
+    assert calls == ["ring", "topology", "topology", "ring"] * scenarios
+    assert clears == list(range(len(calls)))  # before every run
+    # ring first: 1.0 and 1.2 x 0.85; topology first: 1.2 and 0.85; together 2.22 / 1.85
+    assert "ring first: ring kernel 4.00 s, topology kernel 4.08 s, ratio 1.02x" in line
+    assert "topology first: ring kernel 3.40 s, topology kernel 4.80 s, ratio 1.41x" in line
+    assert "both orders together 1.20x" in line
