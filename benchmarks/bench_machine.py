@@ -133,7 +133,8 @@ def _window_in_process(tree: Path, subs: list[int]) -> dict:
         text=True,
     )
     if done.returncode != 0:
-        raise RuntimeError(f"the window in {tree} failed: {done.stderr.strip().splitlines()[-1:]}")
+        last = (done.stderr.strip().splitlines() or ["no message"])[-1]
+        raise RuntimeError(f"the window in {tree} failed (exit {done.returncode}): {last}")
     out = json.loads(done.stdout.strip().splitlines()[-1])
     return {
         "seconds": {int(k): x for k, x in out["seconds"].items()},

@@ -107,6 +107,12 @@ def test_bench_machine_window_in_its_own_process_is_the_window_run_here():
     assert not np.allclose(measured["metrics"][10], here, rtol=1e-9)  # a different step: a different window
 
 
+def test_bench_machine_says_which_tree_failed(tmp_path):
+    """A tree without the benchmark (not a checkout): the error names the tree and the child's last line."""
+    with pytest.raises(RuntimeError, match=r"the window in .* failed \(exit 1\): .*No module named 'benchmarks'"):
+        bench_machine._window_in_process(tmp_path, [9])
+
+
 @pytest.mark.slow  # a fresh checkout: its compiled step compiles from scratch (about 30 s)
 def test_bench_machine_old_tree_runs_in_its_own_process(tmp_path):
     """BENCH_MACHINE_OLD_TREE's path on a checkout of this tree's HEAD: both columns, and the same
