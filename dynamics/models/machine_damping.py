@@ -301,15 +301,11 @@ def chain_damping_into(tri, scalars, factors, sm, weights, border, w, out, scrat
     two_zeta, alpha, beta = scalars[2], scalars[3], scalars[4]
     ys, acc, prod, wg = scratch[0], scratch[1], scratch[2], scratch[3]
     _cyclic_times_into(tri[:, 4], tri[:, 5], scalars[1], w, prod)
+    _border_times_into(border, 5, 7, n, w, prod)  # K's border
     for i in range(n):
         out[i] = alpha * tri[i, 1] * w[i] + beta * prod[i]
-    for k in range(nw):  # the wheels' rows and columns of alpha M + beta K
-        first, count, ww = int(border[k, 0]), int(border[k, 1]), w[n + k]
-        s = 0.0
-        for i in range(first, first + count):
-            s += w[i]
-            out[i] += beta * border[k, 7] * ww
-        out[n + k] = alpha * border[k, 3] * ww + beta * (border[k, 5] * ww + border[k, 7] * s)
+    for k in range(nw):
+        out[n + k] = alpha * border[k, 3] * w[n + k] + beta * prod[n + k]
     if p == 0:
         return
     inv, cp, z = factors[0], factors[1], factors[2]
@@ -344,20 +340,9 @@ def chain_damping_into(tri, scalars, factors, sm, weights, border, w, out, scrat
         wg[j] += weights[j] * sm[j, 0] * ys[j]
     if nw > 0:
         _border_solve_into(tri, factors, sm, weights, border, w, ys, acc, wg)
-    for i in range(n):
-        zi = z[i]
-        s = 0.0
-        for j in range(p):
-            s += wg[j] * zi[j]
-        acc[i] -= s
+    _minus_rows_times_into(z, wg[:p], acc)
     _cyclic_times_into(tri[:, 2], tri[:, 3], scalars[0], acc, prod)
-    for k in range(nw):  # S's border on acc: the wheels' rows and columns
-        first, count, aw = int(border[k, 0]), int(border[k, 1]), acc[n + k]
-        s = 0.0
-        for i in range(first, first + count):
-            s += acc[i]
-            prod[i] += border[k, 6] * aw
-        prod[n + k] = border[k, 4] * aw + border[k, 6] * s
+    _border_times_into(border, 4, 6, n, acc, prod)  # S's border
     for i in range(n):
         out[i] += two_zeta * tri[i, 0] * prod[i]
     for k in range(nw):
@@ -397,13 +382,31 @@ def _border_solve_into(tri, factors, sm, weights, border, w, ys, acc, wg):
             coefficients[j] *= weights[j]  # c_j x_w,j[k], in place
             s += coefficients[j]
         acc[n + k] = s
-        zk = factors[3 + k]
-        for i in range(n):
-            zi = zk[i]
-            t = 0.0
-            for j in range(p):
-                t += coefficients[j] * zi[j]
-            acc[i] -= t
+        _minus_rows_times_into(factors[3 + k], coefficients, acc)
+
+
+def _border_times_into(border, diagonal, coupling, n, x, y):
+    """The wheels' rows and columns of a bordered matrix (K's or S's: `border`'s columns `diagonal`
+    and `coupling`) times x, with y[:n] already the links' block times x[:n]: each wheel's coupling
+    added to its run of seated places, and its own row y[n + k]."""
+    for k in range(border.shape[0]):
+        first, count, xw = int(border[k, 0]), int(border[k, 1]), x[n + k]
+        s = 0.0
+        for i in range(first, first + count):
+            s += x[i]
+            y[i] += border[k, coupling] * xw
+        y[n + k] = border[k, diagonal] * xw + border[k, coupling] * s
+
+
+def _minus_rows_times_into(rows, coefficients, acc):
+    """acc[i] -= rows[i] . coefficients for every place i (a node-wise factor's rows, e.g. the
+    Sherman-Morrison vector z or a wheel's column of Z, weighted by the nodes' coefficients)."""
+    for i in range(rows.shape[0]):
+        row = rows[i]
+        s = 0.0
+        for j in range(coefficients.shape[0]):
+            s += coefficients[j] * row[j]
+        acc[i] -= s
 
 
 try:
@@ -414,5 +417,7 @@ except ImportError:  # pragma: no cover
 if numba is not None:
     # the nodes' sums are reassociated (SIMD over the nodes); the form's error is its tolerance, not round-off
     _cyclic_times_into = numba.njit(cache=True)(_cyclic_times_into)
+    _border_times_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(_border_times_into)
+    _minus_rows_times_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(_minus_rows_times_into)
     _border_solve_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(_border_solve_into)
     chain_damping_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(chain_damping_into)
