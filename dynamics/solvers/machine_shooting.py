@@ -92,7 +92,8 @@ def slowest_decay_per_cycle(model, period_s: float) -> float:
     cycle (omega_1 the lowest natural frequency of (K, M), the polygon-free machine at rest, the
     carriage in; zeta its damping ratio under the model's law), cached. The searches' error bound
     (dynamics.machine_scene.long_search_tol): a map contracting by this factor per cycle is within
-    residual / (1 - decay) of its fixed point. O(N): one shift-invert Lanczos on the sparse K."""
+    residual / (1 - decay) of its fixed point. O(N) above DENSE_LINK_LIMIT links
+    (MachineOnWheels.lowest_natural_frequencies_Hz: shift-invert Lanczos on the sparse K and M)."""
     return cache.cached(
         ("machine slowest decay", model.machine, model.span_damping, model.beta_s, period_s),
         lambda: _slowest_decay(model, period_s),
@@ -100,14 +101,7 @@ def slowest_decay_per_cycle(model, period_s: float) -> float:
 
 
 def _slowest_decay(model, period_s: float) -> float:
-    from scipy.sparse.linalg import eigsh
-
-    topo = model.topology
-    r = 1.0 / np.sqrt(np.asarray(topo.masses_kg, dtype=float))
-    x = (sp.diags(r) @ topo.stiffness_matrix_sparse() @ sp.diags(r)).tocsc()
-    shift = -1e-9 * float(np.max(np.abs(x.diagonal())))  # below 0: a rigid mode (omega 0) keeps the solve regular
-    lam = eigsh(x, k=1, sigma=shift, which="LM", v0=np.ones(x.shape[0]), return_eigenvectors=False)
-    omega = float(np.sqrt(max(lam[0], 0.0)))
+    omega = 2.0 * np.pi * float(model.machine.lowest_natural_frequencies_Hz(1)[0])
     return float(np.exp(-model.damping_ratio_at(omega) * omega * period_s))
 
 
