@@ -99,6 +99,12 @@ def machine_model(scene, chain) -> ClearanceMachine:
     return ClearanceMachine.of(chain, scene.layout, scene.tensioner, scene.pin_clearance_m, scene.span_damping)
 
 
+def linear_machine(model: ClearanceMachine) -> ClearanceMachine:
+    """The linear machine simulate_machine decides the model with: `model`'s machine at free play 0
+    with the global damping law, its friction and no tensioner."""
+    return ClearanceMachine(model.machine, 0.0, "global", None, model.friction_chain)
+
+
 def simulate_machine(
     model: ClearanceMachine,
     cam,
@@ -124,7 +130,7 @@ def simulate_machine(
         raise DynamicsError("t_eval_s: the machine needs equally spaced output times, a whole number per index cycle")
     if abs(t[0] / period - round(t[0] / period)) > 1e-9:
         raise DynamicsError("t_eval_s: the machine's output window must start at an index's start (the dwell's end)")
-    linear = ClearanceMachine(model.machine, 0.0, "global", None, model.friction_chain)
+    linear = linear_machine(model)
     lin_pred = verlet.default_predictor(linear) if predictor is None else predictor
     lin_safety = verlet.default_safety(linear, lin_pred) if safety is None else safety
     n_state = model.n_state  # the DOFs, and a tooth model's seat offsets

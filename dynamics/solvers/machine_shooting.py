@@ -52,12 +52,15 @@ FREE_PLAY_STALL = 24
 
 
 def relabelled_periodic_state(
-    model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor, depth: int | None = None
+    model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor, depth: int | None = None, on_cycle=None
 ):
     """As dynamics.solvers.machine_verlet.relabelled_periodic_state (same arguments, same return:
     (q0, v0, cycles, residual, found, the last cycle's MachineRun)), the cycling accelerated.
     `depth`: Anderson's history (0: plain cycling); None: shooting.DEFAULT_DEPTH with the slow-mode
-    Newton step, FREE_PLAY_DEPTH where the search goes without it (above NEWTON_FREE_PLAY_LINKS)."""
+    Newton step, FREE_PLAY_DEPTH where the search goes without it (above NEWTON_FREE_PLAY_LINKS).
+    `on_cycle(residual, end, run)`: called after every index cycle stepped with its change per cycle
+    (the acceptance test's measure), its end state (q, q') after the seat change and its MachineRun,
+    for measuring a search (benchmarks/bench_long_search.py); it does not change the search."""
     zr, zd, zdd = mv.cycle_nodes(cam, step_s, n_steps)
     every = max(n_steps // 90, 1)
     while n_steps % every:
@@ -72,7 +75,10 @@ def relabelled_periodic_state(
         )
         last["run"] = run
         sq, sv = max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
-        return np.concatenate([q1, v1]), np.concatenate([np.full(n, sq), np.full(n, sv)])
+        image, scale = np.concatenate([q1, v1]), np.concatenate([np.full(n, sq), np.full(n, sv)])
+        if on_cycle is not None:
+            on_cycle(float(np.max(np.abs(image - x) / scale)), (q1, v1), run)
+        return image, scale
 
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
     newton = depth != 0 and (model.clearance_m == 0.0 or model.n_links <= NEWTON_FREE_PLAY_LINKS)
