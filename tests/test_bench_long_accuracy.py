@@ -27,10 +27,12 @@ def test_the_table_compares_every_variant_with_the_reference(monkeypatch):
 
     monkeypatch.setattr(bench, "_in_subprocess", run)
     lines = bench.table(2000, ["default"], "tight-10")
-    assert lines[0].startswith("2000 links, against tight-10 (safety / 10.0")
+    assert lines[0] == "2000 links, against tight-10 (safety / 10, tol 1e-08, damping 1e-07)"
     assert lines[4].startswith("| tight-10 | 0.00e+00 ")
     cell = "3.00e-03 (rms_acceleration_m_s2, slack-side)"
     assert lines[5] == f"| default | {cell} | {cell} | 1.5 s | 13 | 21 |"
+    lines = bench.table(10000, ["default"], "settle-search-1e-4")  # where no tight run is affordable
+    assert lines[0] == "10000 links, against settle-search-1e-4 (a variant of the default run, no tight run)"
 
 
 def test_an_unknown_variant_is_named():
