@@ -70,3 +70,36 @@ def test_the_2000_link_default_run_is_within_its_documented_accuracy_of_a_tight_
     assert error[slack_rms_a] < 3.5e-3
     error[slack_rms_a] = 0.0
     assert np.max(error) < 5e-4
+
+
+def test_a_long_chains_settle_is_searched_to_its_tolerance_at_the_default_safety(monkeypatch):
+    """Above DENSE_LINK_LIMIT links (420 here: rho about 0.6) the coarse search's fixed point is carried
+    to the default safety's by the same search (machine_scene._searched_and_settled): one more index
+    cycle there moves the state returned by at most long_search_tol of the cycle's largest |q|, |q'|
+    (the test that accepts it), and the cycles reported are both searches'. Asked for 1e-5 here (the
+    default's 1.8e-3 at this rho is looser than what one settling cycle leaves at this length): one
+    settling cycle, as before, left the next cycle's change at 4.0e-5 of max |q'|."""
+    from dynamics import machine_scene
+    from dynamics.machine_scene import _searched_and_settled, long_search_tol
+    from dynamics.models.reduction import DENSE_LINK_LIMIT
+    from dynamics.solvers import machine_verlet as mv
+
+    monkeypatch.setattr(machine_scene, "LONG_SEARCH_STATE_ERROR", 1e-5)
+    monkeypatch.setattr(machine_scene, "LONG_SEARCH_TOL", 1e-5)
+    chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
+    model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180)
+    h_out = cam.cycle_s / 90
+    pred = verlet.default_predictor(model)
+    safety = verlet.default_safety(model, pred)
+    zeros = np.zeros(model.topology.n_dof)
+    (q0, v0), ss, _ = _searched_and_settled(model, cam, h_out, 90, (zeros, zeros), 1e-6, 60, pred, safety, True, True)
+    tol = long_search_tol(model, cam, 1e-6)
+    assert tol == 1e-5
+    assert ss.found and ss.residual <= tol and ss.cycles >= 3
+    settle = mv.substeps_for(model, h_out, safety, pred)
+    nodes = mv.cycle_nodes(cam, h_out / settle, 90 * settle)
+    q1, v1, run, _ = mv.next_index_start(model, cam, nodes, h_out / settle, q0, v0, out_every=settle, predictor=pred)
+    assert run.impacts > 0
+    assert np.max(np.abs(q1 - q0)) <= tol * np.max(np.abs(run.q))
+    assert np.max(np.abs(v1 - v0)) <= tol * np.max(np.abs(run.v))
