@@ -2,7 +2,7 @@
 
     python benchmarks/bench_long_accuracy.py --links 2000                       # every variant
     python benchmarks/bench_long_accuracy.py --links 1000 --variants default tight-5 tight-10
-    python benchmarks/bench_long_accuracy.py --links 10000 --reference settle-search-1e-4 --variants default
+    python benchmarks/bench_long_accuracy.py --links 10000 --reference search-tol --variants default
 
 The scenario is benchmarks/bench_long_wheels.py's (default wheels and link, 0.094 mm free play, 180 rpm
 modified sine, the pipeline's output grid, `--model auto`, steady state). Each variant runs in its own
@@ -10,7 +10,11 @@ process, one after the other (one heavy job at a time). The tight runs are given
 "converged reference" path of dynamics.machine_scene.simulate_machine: search, settle and window all
 at it): `tight-5` at the default safety / 5 (twice the window's refinement), `tight-10` at / 10, both
 searched to 1e-8 with each mode's damping ratio to 1e-7. The other variants are the default run with
-ONE ingredient at its tight value (VARIANTS). Reported per variant against the reference: the worst
+ONE ingredient at its tight value (VARIANTS): the search's tolerance (a long chain's coarse search and
+the search on at the default safety that settles it), the window's step, the damping's tolerance, the
+coarse search's step, the factors' precision; `all-three` the first three together. The settle's
+variants (one or more plain settling cycles, as long chains settled before the search took it over)
+were measured with this script at 41d9ca3. Reported per variant against the reference: the worst
 relative difference of the 20 station metrics as the pipeline has them (stages/chain.py: RMS of x, v, a
 from the output samples, max |a| and the residual vibration from the kernel's peaks over every step)
 and as bench_long_wheels.py computes them (every metric from the output samples), which metric and
@@ -46,21 +50,11 @@ TIGHT_DAMPING_TOLERANCE = 1e-7
 VARIANTS = {
     "default": {},
     "search-tol": {"search_tol": TIGHT_TOL},
-    "settle-8": {"settle_cycles": 8},
-    "settle-at-window-step": {"settle_at_window": True},
-    "settle-search-1e-4": {"settle_search_tol": 1e-4},
-    "settle-search-1e-6": {"settle_search_tol": 1e-6},
     "window-5": {"window_refinement": 5.0},
     "damping-1e-7": {"damping_tol": TIGHT_DAMPING_TOLERANCE},
     "search-at-default-safety": {"search_safety": 0.31},
     "single-factors": {"single": True},
-    "settle-search+window-5": {"settle_search_tol": 1e-6, "window_refinement": 5.0},
-    "all-four": {
-        "settle_search_tol": TIGHT_TOL,
-        "window_refinement": 5.0,
-        "damping_tol": TIGHT_DAMPING_TOLERANCE,
-        "search_tol": TIGHT_TOL,
-    },
+    "all-three": {"window_refinement": 5.0, "damping_tol": TIGHT_DAMPING_TOLERANCE, "search_tol": TIGHT_TOL},
 }
 
 
@@ -68,8 +62,6 @@ def _apply(knobs: dict) -> None:
     """Set the default run's ingredients named in `knobs` (this process only)."""
     from dynamics import machine_scene as ms
     from dynamics.models import clearance_machine, machine_damping
-    from dynamics.solvers import clearance_verlet as verlet
-    from dynamics.solvers import machine_verlet as mv
 
     if "window_refinement" in knobs:
         ms.WINDOW_REFINEMENT["global"] = knobs["window_refinement"]
@@ -77,27 +69,6 @@ def _apply(knobs: dict) -> None:
         ms.SEARCH_SAFETY["global"] = knobs["search_safety"]
     if "search_tol" in knobs:
         ms.long_search_tol = lambda model, cam, tol: knobs["search_tol"]
-    if "settle_cycles" in knobs:
-        ms.SETTLE_CYCLES = knobs["settle_cycles"]
-    if knobs.get("settle_at_window"):
-        # a long chain settles at substeps_for(..., the default safety, ...): take the window's instead
-        def substeps_for(model, h_out, safety, predictor):
-            default = verlet.default_safety(model, predictor)
-            if safety == default:
-                safety = default / ms.WINDOW_REFINEMENT[model.span_damping]
-            return mv.substeps_for(model, h_out, safety, predictor)
-
-        ms.mv = type("SettleAtWindow", (), {"__getattr__": lambda self, a: getattr(mv, a)})()
-        ms.mv.substeps_for = substeps_for
-    if "settle_search_tol" in knobs:
-        # the settling cycle replaced by the accelerated search at the settling step, from the coarse state
-        def settled_by_search(model, cam, h_out, per_cycle, sub, state, predictor):
-            found, _, _ = ms._start_state(
-                model, cam, h_out, per_cycle, sub, state, True, knobs["settle_search_tol"], 60, predictor, (state, 0)
-            )
-            return found
-
-        ms._settled = settled_by_search
     if "damping_tol" in knobs:
         clearance_machine.of_machine = functools.partial(machine_damping.of_machine, tolerance=knobs["damping_tol"])
     if knobs.get("single"):
