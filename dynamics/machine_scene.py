@@ -79,8 +79,8 @@ SETTLE_CYCLES = 1
 # - it is settled at the default safety (a third of the window's steps) by the same search to the
 #   same tolerance, not by SETTLE_CYCLES: one cycle keeps rho (below) of the slow modes' offset
 #   between the two steps' fixed points, which left 1.2e-3 of the station metrics at 2,000 links and
-#   3.2e-2 at 10,000 (benchmarks/bench_long_accuracy.py); at the default safety rather than the
-#   window's step, the metrics within 6e-5 of it at 2,000 links;
+#   3.2e-2 at 10,000 (benchmarks/bench_long_accuracy.py at 41d9ca3); the default safety, not the
+#   window's step: one settling cycle at the window's step moved the metrics by 8e-6 at 2,000 links;
 # - the linear machine decides the model from its search at SEARCH_SAFETY, with no confirming cycle
 #   at the default safety (its minimum tension at the two steps within 2e-6: CHOICE_TOL is 1e-3).
 # long_search_tol: a start whose cycle changes it by r is within about r / (1 - rho) of the fixed
