@@ -76,9 +76,11 @@ SETTLE_CYCLES = 1
 # the default wheels, 0.094 mm, 180 rpm, against a run at twice the window's refinement, tol 1e-8):
 # - the search's fixed point at SEARCH_SAFETY is itself 2.8e-3 per cycle from the window step's, so
 #   it is searched to long_search_tol, not to `tol`;
-# - the settling cycle is stepped at the default safety (a third of the window's steps): its state
-#   is as far from the window step's fixed point as one window-step cycle leaves it (station metrics
-#   moved by 1.1e-4, 1.05e-3 from the reference against 1.04e-3);
+# - it is settled at the default safety (a third of the window's steps) by the same search to the
+#   same tolerance, not by SETTLE_CYCLES: one cycle keeps rho (below) of the slow modes' offset
+#   between the two steps' fixed points, which left 1.2e-3 of the station metrics at 2,000 links and
+#   3.2e-2 at 10,000 (benchmarks/bench_long_accuracy.py at 41d9ca3); the default safety, not the
+#   window's step: one settling cycle at the window's step moved the metrics by 8e-6 at 2,000 links;
 # - the linear machine decides the model from its search at SEARCH_SAFETY, with no confirming cycle
 #   at the default safety (its minimum tension at the two steps within 2e-6: CHOICE_TOL is 1e-3).
 # long_search_tol: a start whose cycle changes it by r is within about r / (1 - rho) of the fixed
@@ -207,7 +209,7 @@ def _searched_and_settled(
     Given its step (not `default_step`): the relabelled steady state searched from `state` at
     `safety` (from rest: `state` itself). The default step: the window at safety / WINDOW_REFINEMENT,
     the steady state searched at SEARCH_SAFETY and settled at the window's step (a long chain's: to
-    long_search_tol and settled at `safety`); a search that finds none is redone from `state` at the
+    long_search_tol, then searched on at `safety` to it); a search that finds none is redone from `state` at the
     window's step to `tol` (the motion after max_cycles coarse cycles is not the fine step's)."""
     if not default_step:
         sub = mv.substeps_for(model, h_out, safety, predictor)
@@ -222,9 +224,17 @@ def _searched_and_settled(
         found, ss, _ = _start_state(
             model, cam, h_out, per_cycle, coarse, state, True, search_tol, max_cycles, predictor
         )
+        if ss.found and long_chain:
+            # carried to the default safety's fixed point by the same search, to the same tolerance: one
+            # settling cycle keeps rho of the slow modes' offset between the two steps' fixed points
+            # (0.89 at 2,000 links, 0.978 at 10,000, where it left 3.2e-2 of the station metrics)
+            settle = mv.substeps_for(model, h_out, safety, predictor)
+            state, ss, _ = _start_state(
+                model, cam, h_out, per_cycle, settle, found, True, search_tol, max_cycles, predictor, (found, ss.cycles)
+            )
+            return state, ss, fine
         if ss.found:
-            settle = mv.substeps_for(model, h_out, safety, predictor) if long_chain else fine
-            return _settled(model, cam, h_out, per_cycle, settle, found, predictor), ss, fine
+            return _settled(model, cam, h_out, per_cycle, fine, found, predictor), ss, fine
         if _coarse_substeps(model, h_out, fine, predictor) == coarse:
             done = (found, ss.cycles)  # a long chain's search at `fine` starts with this same coarse search
     state, ss, _ = _start_state(

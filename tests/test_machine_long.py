@@ -192,8 +192,9 @@ def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step
     """Above DENSE_LINK_LIMIT links the default step (machine_scene.simulate_machine) decides the model
     from the linear machine's search at SEARCH_SAFETY alone (to CHOICE_TOL, no confirming cycle at the
     default safety), searches the clearance machine's steady state there to long_search_tol (the
-    tolerance its summary reports) and settles it for one cycle at the default safety; a short chain
-    keeps `tol` and settles at the window's step."""
+    tolerance its summary reports), then searches on from there at the default safety to the same
+    tolerance (one settling cycle would keep rho of the slow modes' offset between the two steps'
+    fixed points); a short chain keeps `tol` and settles for one cycle at the window's step."""
     from dynamics import machine_scene
     from dynamics.machine_scene import CHOICE_TOL, SEARCH_SAFETY, WINDOW_REFINEMENT, long_search_tol
     from dynamics.solvers import clearance_verlet as verlet
@@ -231,15 +232,16 @@ def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step
             lin_coarse = mv.substeps_for(linear, h_out, SEARCH_SAFETY["global"], pred)
             search_tol = long_search_tol(model, cam, 1e-6)
             assert 1e-6 < search_tol < 1e-2
+            settle = mv.substeps_for(model, h_out, safety, pred)
             expected = [(0.0, h_out / lin_coarse, CHOICE_TOL), (94e-6, h_out / coarse, search_tol)]
+            expected.append((94e-6, h_out / settle, search_tol))
             np.testing.assert_allclose(searches, expected, rtol=1e-12)
             assert summary.steady_state.residual <= search_tol
             assert f"<= {search_tol:g}" in summary.steady_state.statement
-            settle = mv.substeps_for(model, h_out, safety, pred)
+            assert settles == []
         else:
             assert [s[2] for s in searches] == [CHOICE_TOL, 1e-6]
-            settle = fine
-        np.testing.assert_allclose(settles, [(94e-6, h_out / settle, 0.0)], rtol=1e-12)
+            np.testing.assert_allclose(settles, [(94e-6, h_out / fine, 0.0)], rtol=1e-12)
         assert machine_scene.SETTLE_CYCLES == 1
 
 
