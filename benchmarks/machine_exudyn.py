@@ -12,7 +12,7 @@ GUIDE_DAMPING_N_S_PER_M across the strand on every free pin).
 
     PYTHONPATH=. python benchmarks/machine_exudyn.py [--quick]
 
-About 7 minutes on a shared machine (the 1-D reference integrator is the slower of the two).
+About 5 minutes on a shared machine (the 1-D reference integrator is the slower of the two).
 """
 
 from __future__ import annotations
