@@ -77,6 +77,19 @@ def metrics(machine: MachineOnWheels, cam, relabel: bool, links: tuple[int, ...]
     return [link_residual_and_peak(machine, r, dwell, link) for link in links], r
 
 
+def readme_rows(cam) -> list[tuple[str, float, float, float]]:
+    """README.md's table "What each part changes": per configuration (machines(True)'s order) f1 (Hz,
+    of the polygon-free linearisation), the residual (m) and peak |absolute acceleration| (m/s^2) at
+    the tight strand's middle, in the relabelled steady state where the machine relabels (the
+    labelled one for `--drive link`). tests/test_machine_parts_table.py checks the README against it."""
+    rows, _ = machines(True)
+    out = []
+    for name, machine, relabel_only in rows:
+        ((res, peak),), _ = metrics(machine, cam, relabel_only is not False, (machine.stations()["tight-side"],))
+        out.append((name, float(machine.natural_frequencies_Hz()[0]), res, peak))
+    return out
+
+
 def print_tooth_phases(cam, phases) -> None:
     """The whole machine (all parts, polygonal action) at each tooth phase, relabelled steady state."""
     chain = ChainModel(85, BODY_MASS_AL_KG + DEFAULT_HARDWARE_MASS_KG + NEST_MASS_KG, K_AL_N_PER_M)

@@ -174,47 +174,64 @@ def test_a_tensioned_idler_wheel_and_friction_run_on_the_machine(law):
     assert np.all(np.isfinite(r.a_m_s2))
 
 
-@pytest.mark.parametrize("law", ["global", "kelvin-voigt"])
-def test_energy_balance_across_seat_changes(law):
-    """Cam work = damping and friction dissipation + the seat changes' change of stored energy
-    (seating impacts and the rigid seating's snap, machine_verlet.Seating) + the change of stored
-    energy, over two index cycles of a 30-link machine (tensioned idler wheel, compliant drive,
-    polygonal feed, friction 0.35, free play with impacts). The step's powers are integrated
-    trapezoidally, so the residual is the step's second-order error: it falls about 16x from 400 to
-    1600 steps per output sample (1 per cam degree), to below 1e-6 of the cam work with the global law
-    and 5.3e-6 with the Kelvin-Voigt law (8.4e-5 at 400; its dashpots' switches located within the
-    step, their impulses' work counted as damping: 1.2e-5 before that)."""
+def _energy_residual(law: str, sub: int) -> tuple[float, int]:
+    """Signed residual of cam work = damping and friction dissipation + the seat changes' change of
+    stored energy + the change of stored energy, relative to the cam work, over two index cycles of a
+    30-link machine (tensioned idler wheel, compliant drive, polygonal feed, friction 0.35, free play
+    with impacts) at `sub` steps per output sample (1 per cam degree); and the number of impacts."""
     w = Wheel(12, PITCH_M, 6, 0.688)
     cam = _cam()
     chain = ChainModel(30, M, K, friction_coefficient=0.35)
     layout = MachineLayout("wheels", w, w, None, True)
     model = ClearanceMachine.of(chain, layout, Tensioner(2e5, 20.0, 500.0), 94e-6, law)
-    residuals = []
-    for sub in (400, 1600):
-        h = cam.cycle_s / (90 * sub)
-        zr, zd, zdd = mv.cycle_nodes(cam, h, 90 * sub)
-        q = v = np.zeros(model.topology.n_dof)
-        start = model.stored_energy_J(q, v, zd[0], 0.0)
-        work = dissipated = seat_changes = 0.0
-        impacts = 0
-        for _ in range(2):
-            r = mv.integrate(model, zr, zd, zdd, h, q, v, out_every=sub, track_energy=True)
-            work += r.cam_work_J
-            dissipated += r.dissipated_damping_J + r.dissipated_friction_J
-            impacts += r.impacts
-            # the impact contacts' dashpot work is part of the damping's (none with the global law)
-            assert (
-                (0.0 < r.impact_dissipated_J < r.dissipated_damping_J)
-                if law != "global"
-                else r.impact_dissipated_J == 0
-            )
-            q, v, seating = mv.seat_change(model, r.q[-1], r.v[-1], float(zr[-1]))
-            seat_changes += seating.transfer_energy_change_J
-        end = model.stored_energy_J(q, v, zd[0], 0.0)
-        residuals.append(abs(work - dissipated + seat_changes - (end - start)) / abs(work))
+    h = cam.cycle_s / (90 * sub)
+    zr, zd, zdd = mv.cycle_nodes(cam, h, 90 * sub)
+    q = v = np.zeros(model.topology.n_dof)
+    start = model.stored_energy_J(q, v, zd[0], 0.0)
+    work = dissipated = seat_changes = 0.0
+    impacts = 0
+    for _ in range(2):
+        r = mv.integrate(model, zr, zd, zdd, h, q, v, out_every=sub, track_energy=True)
+        work += r.cam_work_J
+        dissipated += r.dissipated_damping_J + r.dissipated_friction_J
+        impacts += r.impacts
+        # the impact contacts' dashpot work is part of the damping's (none with the global law)
+        assert (0.0 < r.impact_dissipated_J < r.dissipated_damping_J) if law != "global" else r.impact_dissipated_J == 0
+        q, v, seating = mv.seat_change(model, r.q[-1], r.v[-1], float(zr[-1]))
+        seat_changes += seating.transfer_energy_change_J
+    end = model.stored_energy_J(q, v, zd[0], 0.0)
+    return (work - dissipated + seat_changes - (end - start)) / abs(work), impacts
+
+
+@pytest.mark.parametrize("law", ["global", "kelvin-voigt"])
+def test_energy_balance_across_seat_changes(law):
+    """Cam work = damping and friction dissipation + the seat changes' change of stored energy
+    (seating impacts and the rigid seating's snap, machine_verlet.Seating) + the change of stored
+    energy (`_energy_residual`). The step's powers are integrated
+    trapezoidally, so the residual is the step's second-order error: it falls about 16x from 400 to
+    1600 steps per output sample (1 per cam degree), to below 1e-6 of the cam work with the global law
+    and 5.3e-6 with the Kelvin-Voigt law (8.4e-5 at 400; its dashpots' switches located within the
+    step, their impulses' work counted as damping: 1.2e-5 before that). The Kelvin-Voigt law's
+    balance below 1e-6: test_energy_balance_with_kelvin_voigt_below_1e_6."""
+    (coarse, _), (fine, impacts) = _energy_residual(law, 400), _energy_residual(law, 1600)
     assert impacts > 50
-    assert residuals[1] < residuals[0] / 10
-    assert residuals[1] < (1e-6 if law == "global" else 2e-5)
+    assert abs(fine) < abs(coarse) / 10
+    assert abs(fine) < (1e-6 if law == "global" else 2e-5)
+
+
+@pytest.mark.slow
+def test_energy_balance_with_kelvin_voigt_below_1e_6():
+    """The Kelvin-Voigt law's energy balance (`_energy_residual`) below 1e-6 of the cam work, as the
+    issue asks: the residual is the trapezoidal power integral's second-order error, so quartering the
+    step divides it by 16; measured 5.30e-6, 1.33e-6, 3.31e-7 at 1600, 3200, 6400 steps per output
+    sample (ratios 3.99 and 4.02 per halving). At 6400 it is 3.3e-7 (bound 1e-6, a margin of 3), and
+    the Richardson extrapolation of 1600 and 6400, (16 r_6400 - r_1600) / 15, leaves -7.6e-10 (bound
+    1e-8): what remains in the limit of the step is below the step error by more than 2 orders."""
+    (coarse, _), (fine, impacts) = _energy_residual("kelvin-voigt", 1600), _energy_residual("kelvin-voigt", 6400)
+    assert impacts > 50
+    assert abs(fine) < 1e-6
+    assert 12.0 < coarse / fine < 20.0
+    assert abs((16.0 * fine - coarse) / 15.0) < 1e-8
 
 
 def test_the_machine_has_no_mirror_symmetry_for_the_damping_product():

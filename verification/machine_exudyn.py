@@ -16,7 +16,11 @@ The planar model (SI, the plane of the chain loop, no gravity):
 - the drive: a torsional spring-damper k_theta, beta k_theta from the ground to the sprocket's
   angle and the cam's angle theta_cam = z / R_m as its moving end (the load k_theta theta_cam +
   beta k_theta theta_cam' on the angle, as benchmarks/exudyn_chain.py drives link 1); the idler
-  turns freely.
+  turns freely;
+- optionally the guide (`guide_damping_N_s_per_m`, `guide_stiffness_N_per_m`): on every free pin a
+  dashpot and a spring across its strand (`CoordinateSpringDamper` on the pin's y against the
+  ground), towards the strand's straight line at the dwell; the machine's chain runs in guides
+  (field notes), which take the strands' transverse vibration. Default none: free strands.
 Layout at the dwell, tooth phase 0 (dynamics.models.wheels): two equal z-tooth wheels, sprocket at the
 origin, idler at (L, 0), both turning counter-clockwise; w = z/2 + 1 pins seated on each (a wrap of
 z/2 teeth: the 1-D model's group of w links whose end pins share gamma), the strands straight at
@@ -62,8 +66,17 @@ class PlanarMachine:
     sprocket_inertia_kg_m2: float = 0.0
     idler_inertia_kg_m2: float = 0.0
     beta_s: float = 0.0  # span and drive damping beta k
+    # the guide: on every free pin a dashpot and a spring across its strand, towards the strand's
+    # straight line at the dwell (0, 0: free strands)
+    guide_damping_N_s_per_m: float = 0.0
+    guide_stiffness_N_per_m: float = 0.0
 
     def __post_init__(self) -> None:
+        if self.guide_damping_N_s_per_m < 0 or self.guide_stiffness_N_per_m < 0:
+            raise ValueError(
+                "guide_damping_N_s_per_m, guide_stiffness_N_per_m: expected >= 0, got "
+                f"{self.guide_damping_N_s_per_m}, {self.guide_stiffness_N_per_m}"
+            )
         if self.teeth % 2:
             raise ValueError(f"teeth: expected an even number (parallel strands wrap z/2 teeth), got {self.teeth}")
         if (self.n_links - 2 * self.wrap_links) % 2 or self.n_links - 2 * self.wrap_links < 2:
@@ -214,6 +227,16 @@ def planar_response(
         mbs.AddObject(ii.MassPoint2D(nodeNumber=node, mass=m))
         pin_nodes[j] = node
         pin_markers.append(mbs.AddMarker(ii.MarkerNodePosition(nodeNumber=node)))
+        if mc.guide_damping_N_s_per_m or mc.guide_stiffness_N_per_m:
+            # the node's y coordinate is the pin's displacement across its strand from the strand's line
+            across = mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=node, coordinate=1))
+            mbs.AddObject(
+                ii.CoordinateSpringDamper(
+                    markerNumbers=[ground_coordinate, across],
+                    stiffness=mc.guide_stiffness_N_per_m,
+                    damping=mc.guide_damping_N_s_per_m,
+                )
+            )
     links = {}
     for j in range(n):
         ahead = (j + 1) % n
@@ -505,7 +528,9 @@ def seat_change(machine: PlanarMachine, state: PlanarState) -> PlanarState:
 
 def relabelled_windows(machine: PlanarMachine, cam, n_cycles: int, *, samples: int = 360, steps_per_output: int = 20):
     """Both models over n_cycles index cycles from rest with the seat change at each dwell (the 1-D
-    model's transfer, the planar model's `seat_change`): per cycle the station metrics of each."""
+    model's transfer, the planar model's `seat_change`): per cycle the station metrics of each, the
+    planar one's with "across_m_s", the free pins' largest speed across their strand at the cycle's
+    end (what its seating impact passes into the wheels' rotation and the 1-D model has not)."""
     model = one_d_machine(machine)
     n = model.topology.n_dof
     q, v = np.zeros(n), np.zeros(n)
@@ -516,7 +541,9 @@ def relabelled_windows(machine: PlanarMachine, cam, n_cycles: int, *, samples: i
         histories, tension, run = one_d_response(machine, cam, t, q, v)
         response = planar_response(machine, cam, t, steps_per_output=steps_per_output, initial=state)
         h_planar, t_planar = planar_stations(machine, response, cam)
-        out.append((station_metrics(histories, tension, cam, t), station_metrics(h_planar, t_planar, cam, t)))
+        planar = station_metrics(h_planar, t_planar, cam, t)
+        planar["across_m_s"] = float(np.nanmax(np.abs(response.pin_m_s[-1, :, 1])))
+        out.append((station_metrics(histories, tension, cam, t), planar))
         q, v, _, _ = transfer(model, run.q_m[-1], run.v_m_s[-1])
         state = seat_change(machine, end_state(machine, response))
     return out
