@@ -21,15 +21,12 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script
     sys.path.insert(0, str(ROOT))
 
+from benchmarks.defaults import DEFAULT_RUN, PITCH_M  # noqa: E402
 from dynamics.cams import CamProgram  # noqa: E402
 from dynamics.models.chain import ChainModel  # noqa: E402
 from dynamics.scene import simulate_scene  # noqa: E402
-from geometry.dimensions import LinkDimensions  # noqa: E402
-from settings import RunConfig  # noqa: E402
 from stages.chain import chain_scene, output_times_s  # noqa: E402
 
-DEFAULT_RUN = RunConfig()
-PITCH_M = LinkDimensions().pitch_m  # the default link's (what its FEA reports)
 # The default aluminium link's FEA figures (python -m fem): k, and the lumped mass with the default
 # hardware and nest; measured inputs of docs/physics.md's figures, not settings.
 LINK_STIFFNESS_N_PER_M, LINK_MASS_KG = 9.331e7, 2.0296
