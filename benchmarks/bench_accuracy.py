@@ -28,19 +28,25 @@ accuracy=1e-3 (chain_scene patched), the median of interleaved runs.
 
 from __future__ import annotations
 
+import sys
 import time
 from dataclasses import dataclass, fields
+from pathlib import Path
 
 import numpy as np
 
-from dynamics.cams import CamProgram
-from dynamics.machine_scene import _station_values, simulate_machine, simulate_machine_to_accuracy
-from dynamics.models.chain import ChainModel
-from dynamics.models.clearance_machine import ClearanceMachine
-from dynamics.response.fidelity import relative_change
-from dynamics.response.metrics import LinkMetrics
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script
+    sys.path.insert(0, str(ROOT))
 
-PITCH_M = 0.1125
+from benchmarks.defaults import DEFAULT_RUN, MATERIALS, PITCH_M  # noqa: E402
+from dynamics.cams import CamProgram  # noqa: E402
+from dynamics.machine_scene import _station_values, simulate_machine, simulate_machine_to_accuracy  # noqa: E402
+from dynamics.models.chain import ChainModel  # noqa: E402
+from dynamics.models.clearance_machine import ClearanceMachine  # noqa: E402
+from dynamics.response.fidelity import relative_change  # noqa: E402
+from dynamics.response.metrics import LinkMetrics  # noqa: E402
+
 TARGET = 1e-3
 CONVERGED = {"predictor": "euler", "safety": 0.25 / 32}
 CHECK = {"predictor": "euler", "safety": 0.25 / 16}
@@ -55,20 +61,19 @@ class Scene:
     span_damping: str
     steady_state: bool = True
     cam: str = "modified-sine"
-    stiffness_N_per_m: float = 9.0092e7  # the default link's FEA k (aluminium) and lumped mass
-    link_mass_kg: float = 2.03
+    stiffness_N_per_m: float = MATERIALS["al6061-t6"][0]  # the default link's FEA k (aluminium) and lumped mass
+    link_mass_kg: float = MATERIALS["al6061-t6"][1]
 
     def model(self) -> ClearanceMachine:
-        from settings.run import RunConfig
         from stages.machine import machine_layout
 
         chain = ChainModel(
             n_links=self.n_links,
             link_mass_kg=self.link_mass_kg,
             stiffness_N_per_m=self.stiffness_N_per_m,
-            friction_coefficient=0.35,
+            friction_coefficient=DEFAULT_RUN.friction,
         )
-        layout = machine_layout(RunConfig(), PITCH_M)
+        layout = machine_layout(DEFAULT_RUN, PITCH_M)
         return ClearanceMachine.of(chain, layout, None, self.clearance_m, self.span_damping)
 
     def window(self):
@@ -77,12 +82,18 @@ class Scene:
 
 
 SCENES = (
-    Scene("default: 85 links, 180 rpm, 0.094 mm, global damping", 85, 180.0, 94e-6, "global"),
+    Scene(
+        "default: 85 links, 180 rpm, 0.094 mm, global damping",
+        DEFAULT_RUN.links,
+        DEFAULT_RUN.rpm,
+        DEFAULT_RUN.pin_clearance_m,
+        DEFAULT_RUN.span_damping,
+    ),
     Scene(
         "41 links, 240 rpm, 0.094 mm, Kelvin-Voigt (window from rest)",
         41,
         240.0,
-        94e-6,
+        DEFAULT_RUN.pin_clearance_m,
         "kelvin-voigt",
         steady_state=False,
     ),

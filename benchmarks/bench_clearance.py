@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from benchmarks.defaults import DEFAULT_RUN, MATERIALS, PITCH_M
 from dynamics.cams import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M, ClearanceChain
@@ -31,7 +32,6 @@ from dynamics.response.metrics import link_metrics, station_metrics
 from dynamics.scene import Scene, simulate_scene
 from dynamics.solvers import clearance_verlet as verlet
 
-MATERIALS = {"al6061-t6": (9.0092e7, 2.03), "ti-grade2": (1.3696e8, 2.28)}  # FEA k (N/m), lumped mass (kg)
 CAMS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
 KEYS = (
     "rms_displacement_m",
@@ -40,7 +40,7 @@ KEYS = (
     "max_abs_acceleration_m_s2",
     "residual_vibration_m",
 )
-PITCH_M, RPM, N_LINKS = 0.1125, 180.0, 85
+RPM, N_LINKS = DEFAULT_RUN.rpm, DEFAULT_RUN.links
 # Issue #11's speed target: the window's station metrics within 1e-3 of the converged answer in 20 ms;
 # ab2 holds 1e-3 from 20 steps per output sample on (the table's rows), euler from 32.
 TARGET_S, TARGET_AB2_STEPS = 0.020, 20
@@ -54,7 +54,7 @@ def _window():
 
 def _chain(material="al6061-t6") -> ChainModel:
     k, m = MATERIALS[material]
-    return ChainModel(n_links=N_LINKS, link_mass_kg=m, stiffness_N_per_m=k, friction_coefficient=0.35)
+    return ChainModel(n_links=N_LINKS, link_mass_kg=m, stiffness_N_per_m=k, friction_coefficient=DEFAULT_RUN.friction)
 
 
 def _stations(cam, t, y, w, a) -> np.ndarray:
@@ -137,7 +137,7 @@ def _window_table(quick: bool) -> list[str]:
         "|---|---|---|---|---|---|",
     ]
     for law in ("global", "kelvin-voigt"):
-        model = ClearanceChain(_chain(), 94e-6, span_damping=law)
+        model = ClearanceChain(_chain(), DEFAULT_PIN_CLEARANCE_M, span_damping=law)
         _fast(model, cam, t, 4)  # compile / load the numba cache
         _, ref = _fast(model, cam, t, 64 if quick else 256)
         default_sub = verlet.substeps_for(model, t[1] - t[0])
@@ -151,7 +151,7 @@ def _window_table(quick: bool) -> list[str]:
         if law == "global":
             model_ref = ref
             lines += _ab2_rows(model, cam, t, ref, quick, repeats)
-    model = ClearanceChain(_chain(), 94e-6)
+    model = ClearanceChain(_chain(), DEFAULT_PIN_CLEARANCE_M)
     sub = verlet.substeps_for(model, t[1] - t[0])
     compiled_s, _ = _best(model, cam, t, sub, repeats)
     numpy_s, _ = _best(model, cam, t, sub, 1, compiled=False)

@@ -110,6 +110,8 @@ def _blas_threads_table() -> list[str]:
 
     from threadpoolctl import threadpool_limits
 
+    from benchmarks.defaults import DEFAULT_RUN
+
     t = np.arange(721) / (4 * 6.0 * RPM)
     cams = [CamProgram.indexing(c, rpm=RPM) for c in CAMS]
 
@@ -119,7 +121,7 @@ def _blas_threads_table() -> list[str]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", SlackChainWarning)
             for stiffness, mass in MATERIALS.values():
-                model = ChainModel(N_LINKS, mass, stiffness, friction_coefficient=0.35)
+                model = ChainModel(N_LINKS, mass, stiffness, friction_coefficient=DEFAULT_RUN.friction)
                 for cam in cams:
                     simulate(model, cam, t)
         return time.perf_counter() - start
@@ -133,7 +135,7 @@ def _blas_threads_table() -> list[str]:
     ):
         threaded = min(pass_s() for _ in range(REPEATS))
     return [
-        f"\nBLAS threads, pipeline's 10 scenarios (N = {N_LINKS}, friction 0.35): one thread {serial:.3f} s, "
+        f"\nBLAS threads, pipeline's 10 scenarios (N = {N_LINKS}, friction {DEFAULT_RUN.friction:g}): one thread {serial:.3f} s, "
         f"all cores {threaded:.3f} s ({threaded / serial:.2f}x)"
     ]
 

@@ -56,18 +56,24 @@ def _rss_MB() -> float:
 
 def _scenario(n: int, damping_tolerance=None, steady_state=True) -> dict:
     """One scenario in this process: times, memory, the summary and the station metrics."""
+    from benchmarks.defaults import DEFAULT_RUN, MATERIALS, PITCH_M
     from dynamics import scene
     from dynamics.cams import CamProgram
     from dynamics.models.chain import ChainModel
     from dynamics.models.clearance import ClearanceChain
     from dynamics.models.reduction import modes_to_keep
     from dynamics.response.metrics import link_metrics, station_links
+    from stages.chain import output_times_s
+
+    k, mass = MATERIALS["al6061-t6"]
 
     def run(links, tolerance, steady):
-        chain = ChainModel(n_links=links, link_mass_kg=2.03, stiffness_N_per_m=9.0092e7, friction_coefficient=0.35)
-        model = ClearanceChain(chain, 94e-6, damping_tolerance=tolerance)
-        t = np.arange(721) / 4 / (6 * 180.0)
-        cam = CamProgram.indexing("modified-sine", pitch_m=0.1125, rpm=180.0)
+        chain = ChainModel(
+            n_links=links, link_mass_kg=mass, stiffness_N_per_m=k, friction_coefficient=DEFAULT_RUN.friction
+        )
+        model = ClearanceChain(chain, DEFAULT_RUN.pin_clearance_m, damping_tolerance=tolerance)
+        t = output_times_s(DEFAULT_RUN.rpm, DEFAULT_RUN.samples_per_degree)
+        cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=DEFAULT_RUN.rpm)
         cols = [link - 1 for link in station_links(links).values()]
         clock = {"linear": 0.0}
         inner = scene.simulate

@@ -41,12 +41,12 @@ if str(ROOT) not in sys.path:  # run as a script in a subprocess
     sys.path.insert(0, str(ROOT))
 
 from benchmarks.bench_long_chain import KEYS, OLD_TREE_VARIABLE, SIZES, TARGETS_S, _rss_MB  # noqa: E402 (after sys.path)
+from benchmarks.defaults import MATERIALS, PITCH_M  # noqa: E402
 
 REPEATS = 3
 REPEATED_UP_TO = 2000
 # the old code at 10,000 links took 256 s of wall at load 10 (e143626)
 OLD_TIMEOUT_S = 600.0
-PITCH_M = 0.1125
 # the scenario's FORCE_O_N that also takes the O(N) form's factors in single precision (checked
 # against the double factors where the default keeps them)
 SINGLE_FACTORS = "single-factors"
@@ -54,8 +54,6 @@ SINGLE_FACTORS = "single-factors"
 
 def _scenario(n: int, force_o_n: bool) -> dict:
     """One scenario in this process: time, memory, the summary and the station metrics."""
-    from dataclasses import replace
-
     from dynamics.cams import CamProgram
     from dynamics.models import clearance_machine, machine_damping
     from dynamics.models.chain import ChainModel
@@ -70,14 +68,16 @@ def _scenario(n: int, force_o_n: bool) -> dict:
     if force_o_n == SINGLE_FACTORS:
         machine_damping.SINGLE_PRECISION_FACTORS_ABOVE_LINKS = 0
 
+    k, mass = MATERIALS["al6061-t6"]
+
     def run(links):
         cfg = RunConfig(links=links, drive="wheels")
         chain = ChainModel(
-            links, 2.03, 9.0092e7, damping_ratio=cfg.damping, preload_N=cfg.preload_N, friction_coefficient=cfg.friction
+            links, mass, k, damping_ratio=cfg.damping, preload_N=cfg.preload_N, friction_coefficient=cfg.friction
         )
-        scene = replace(chain_scene(cfg, PITCH_M), pin_clearance_m=94e-6)
+        scene = chain_scene(cfg, PITCH_M)
         cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=cfg.rpm)
-        t = output_times_s(cfg.rpm, 4)
+        t = output_times_s(cfg.rpm, cfg.samples_per_degree)
         cols = [link - 1 for link in machine_parts(scene, chain).stations.values()]
         start, start_cpu = time.perf_counter(), time.process_time()
         r, contact = simulate_scene(scene, chain, cam, t, links=cols)

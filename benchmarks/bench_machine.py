@@ -38,25 +38,25 @@ from pathlib import Path
 
 import numpy as np
 
+from benchmarks.defaults import DEFAULT_RUN, MATERIALS, PITCH_M
 from dynamics.cams import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import DEFAULT_PIN_CLEARANCE_M
 from dynamics.models.layout import MachineLayout
-from dynamics.models.wheels import Wheel, pitch_radius_m, steel_disc_inertia_kg_m2
 from dynamics.scene import Scene, simulate_scene
 from dynamics.solvers import machine_verlet as mv
+from stages.machine import machine_layout
 
-MATERIALS = {"al6061-t6": (9.0092e7, 2.03), "ti-grade2": (1.3696e8, 2.28)}  # as bench_clearance
 CAMS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
-PITCH_M, RPM, N_LINKS = 0.1125, 180.0, 85
+RPM, N_LINKS = DEFAULT_RUN.rpm, DEFAULT_RUN.links
 TARGET_WINDOW_S, TARGET_STAGE_S = 0.020, 3.0
 ROOT = Path(__file__).resolve().parents[1]
 WORKER = Path(__file__).resolve().parent / "machine_window_worker.py"
 
 
 def layout() -> MachineLayout:
-    wheel = Wheel(12, PITCH_M, 6, steel_disc_inertia_kg_m2(pitch_radius_m(PITCH_M, 12), 0.025))
-    return MachineLayout("wheels", wheel, wheel, None, True)
+    """The default run's machine on its wheels (stages.machine.machine_layout)."""
+    return machine_layout(DEFAULT_RUN, PITCH_M)
 
 
 def _chain(material: str) -> ChainModel:
@@ -260,7 +260,10 @@ def _stage_table(quick: bool) -> list[str]:
             runs[name].append(seconds)
             info[name] = (models, cycles)
     n = len(MATERIALS) * len(cams)
-    lines = ["", f"Pipeline dynamics stage ({len(MATERIALS)} materials x {len(cams)} cams, 85 links, steady state, "]
+    lines = [
+        "",
+        f"Pipeline dynamics stage ({len(MATERIALS)} materials x {len(cams)} cams, {N_LINKS} links, steady state, ",
+    ]
     lines[-1] += f"median of {repeats} interleaved runs, caches cleared before each):"
     for name in ("wheels", "link"):
         median = statistics.median(runs[name])

@@ -12,31 +12,40 @@ factors in single precision above machine_damping.SINGLE_PRECISION_FACTORS_ABOVE
 
 from __future__ import annotations
 
+import sys
 import time
 import tracemalloc
+from pathlib import Path
 
 import numpy as np
 
-from dynamics.cams import CamProgram
-from dynamics.models.chain import ChainModel
-from dynamics.models.clearance import Tensioner
-from dynamics.models.clearance_machine import ClearanceMachine
-from dynamics.models.layout import MachineLayout
-from dynamics.models.wheels import Wheel
-from dynamics.solvers import machine_verlet as mv
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script
+    sys.path.insert(0, str(ROOT))
 
-PITCH_M = 0.1125
+from benchmarks.defaults import DEFAULT_RUN, PITCH_M  # noqa: E402
+from dynamics.cams import CamProgram  # noqa: E402
+from dynamics.models.chain import ChainModel  # noqa: E402
+from dynamics.models.clearance import Tensioner  # noqa: E402
+from dynamics.models.clearance_machine import ClearanceMachine  # noqa: E402
+from dynamics.models.layout import MachineLayout  # noqa: E402
+from dynamics.models.wheels import Wheel  # noqa: E402
+from dynamics.solvers import machine_verlet as mv  # noqa: E402
+
 STEPS = 400
 
 
 def one(n_links: int) -> tuple[float, float, float]:
     """(peak MB, wall and CPU seconds for STEPS steps) of one machine."""
     wheel = Wheel(12, PITCH_M, 6, 0.688)
-    chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=0.13, friction_coefficient=0.1)
-    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180)
+    chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=DEFAULT_RUN.damping, friction_coefficient=0.1)
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=DEFAULT_RUN.rpm)
     tracemalloc.start()
     model = ClearanceMachine.of(
-        chain, MachineLayout("wheels", wheel, wheel, None, True), Tensioner(1e5, 5.0, 100.0), 94e-6
+        chain,
+        MachineLayout("wheels", wheel, wheel, None, True),
+        Tensioner(1e5, 5.0, 100.0),
+        DEFAULT_RUN.pin_clearance_m,
     )
     h = mv.stable_step_s(model, 0.25, "euler")
     zr, zd, zdd = mv.cycle_nodes(cam, h, STEPS)

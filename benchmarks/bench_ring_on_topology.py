@@ -35,6 +35,7 @@ import time
 
 import numpy as np
 
+from benchmarks.defaults import DEFAULT_RUN, MATERIALS, PITCH_M
 from dynamics.cams import CamProgram
 from dynamics.models import clearance_machine
 from dynamics.models.chain import ChainModel
@@ -48,10 +49,9 @@ from dynamics.solvers import clearance_verlet as cv
 from dynamics.solvers import machine_verlet as mv
 from dynamics.solvers.ring_on_topology import RingMachine
 
-K_N_PER_M, MASS_KG = 9.0092e7, 2.03  # al6061-t6: the FEA k and the lumped mass (bench_clearance)
-MATERIALS = {"al6061-t6": (9.0092e7, 2.03), "ti-grade2": (1.3696e8, 2.28)}
+K_N_PER_M, MASS_KG = MATERIALS["al6061-t6"]
 CAMS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
-PITCH_M, RPM, N_LINKS = 0.1125, 180.0, 85
+RPM, N_LINKS = DEFAULT_RUN.rpm, DEFAULT_RUN.links
 CASES = (  # (label, damping law, predictor, steps per output sample, tensioner)
     ("global, ab2, 20 steps/sample (issue #11's 1e-3 target)", "global", "ab2", 20, None),
     ("Kelvin-Voigt, euler, 32 steps/sample", "kelvin-voigt", "euler", 32, None),
@@ -60,7 +60,7 @@ CASES = (  # (label, damping law, predictor, steps per output sample, tensioner)
 
 
 def _scene(law: str, tensioner):
-    chain = ChainModel(N_LINKS, MASS_KG, K_N_PER_M, friction_coefficient=0.35)
+    chain = ChainModel(N_LINKS, MASS_KG, K_N_PER_M, friction_coefficient=DEFAULT_RUN.friction)
     ring = ClearanceChain(chain, DEFAULT_PIN_CLEARANCE_M, span_damping=law, tensioner=tensioner)
     machine = ClearanceMachine.of(chain, LINK_DRIVE, tensioner, DEFAULT_PIN_CLEARANCE_M, law)
     mirrored = RingMachine.of(chain, LINK_DRIVE, tensioner, DEFAULT_PIN_CLEARANCE_M, law)
@@ -145,7 +145,9 @@ def _stage(quick: bool) -> list[str]:
     seconds = {(order, kernel): 0.0 for order in ORDERS for kernel in order}
     impact_apart, trajectory_apart = 0.0, 0.0
     for k, m in MATERIALS.values():
-        model = ClearanceChain(ChainModel(N_LINKS, m, k, friction_coefficient=0.35), DEFAULT_PIN_CLEARANCE_M)
+        model = ClearanceChain(
+            ChainModel(N_LINKS, m, k, friction_coefficient=DEFAULT_RUN.friction), DEFAULT_PIN_CLEARANCE_M
+        )
         for law in cams:
             cam = CamProgram.indexing(law, pitch_m=PITCH_M, rpm=RPM)
             out = {}
@@ -211,7 +213,9 @@ def _long_chains(quick: bool) -> list[str]:
         "|---|---|---|---|---|",
     ]
     for n in (401,) if quick else (401, 1000):
-        model = ClearanceChain(ChainModel(n, MASS_KG, K_N_PER_M, friction_coefficient=0.35), DEFAULT_PIN_CLEARANCE_M)
+        model = ClearanceChain(
+            ChainModel(n, MASS_KG, K_N_PER_M, friction_coefficient=DEFAULT_RUN.friction), DEFAULT_PIN_CLEARANCE_M
+        )
         runs = {}
         for label, kernel in (
             ("dense C (topology kernel)", "topology"),

@@ -19,27 +19,33 @@ at the dwell (0) or inside the index, when the cam has lifted (1 - phase) of a p
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
-from dynamics.cams import CamProgram
-from dynamics.models.chain import ChainModel
-from dynamics.models.machine import MachineOnWheels
-from dynamics.models.wheels import Wheel, pitch_radius_m, steel_disc_inertia_kg_m2
-from dynamics.solvers.machine_steady import link_residual_and_peak, periodic_state
-from geometry.dimensions import DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script
+    sys.path.insert(0, str(ROOT))
 
-PITCH_M = 0.1125
+from benchmarks.defaults import DEFAULT_RUN, PITCH_M  # noqa: E402
+from dynamics.cams import CamProgram  # noqa: E402
+from dynamics.models.chain import ChainModel  # noqa: E402
+from dynamics.models.machine import MachineOnWheels  # noqa: E402
+from dynamics.models.wheels import Wheel, pitch_radius_m, steel_disc_inertia_kg_m2  # noqa: E402
+from dynamics.solvers.machine_steady import link_residual_and_peak, periodic_state  # noqa: E402
+from geometry.dimensions import DEFAULT_HARDWARE_MASS_KG, NEST_MASS_KG  # noqa: E402
+
 K_AL_N_PER_M = 93309880.76383373  # python -m fem --json: stiffness_N_per_m (al6061-t6, built-in link)
 BODY_MASS_AL_KG = 0.3729267739202092  # python -m fem --json: mass_kg
-TEETH = 12
-WRAP = 6
+TEETH = DEFAULT_RUN.sprocket_teeth
+WRAP = DEFAULT_RUN.sprocket_wrap_links
 DISC_THICKNESS_M = 0.025
 
 
 def machines(with_polygon: bool):
-    chain = ChainModel(85, BODY_MASS_AL_KG + DEFAULT_HARDWARE_MASS_KG + NEST_MASS_KG, K_AL_N_PER_M)
+    chain = ChainModel(DEFAULT_RUN.links, BODY_MASS_AL_KG + DEFAULT_HARDWARE_MASS_KG + NEST_MASS_KG, K_AL_N_PER_M)
     j = steel_disc_inertia_kg_m2(pitch_radius_m(PITCH_M, TEETH), DISC_THICKNESS_M)
     bare = Wheel(TEETH, PITCH_M, WRAP)
     heavy = Wheel(TEETH, PITCH_M, WRAP, inertia_kg_m2=j)
@@ -92,7 +98,7 @@ def readme_rows(cam) -> list[tuple[str, float, float, float]]:
 
 def print_tooth_phases(cam, phases) -> None:
     """The whole machine (all parts, polygonal action) at each tooth phase, relabelled steady state."""
-    chain = ChainModel(85, BODY_MASS_AL_KG + DEFAULT_HARDWARE_MASS_KG + NEST_MASS_KG, K_AL_N_PER_M)
+    chain = ChainModel(DEFAULT_RUN.links, BODY_MASS_AL_KG + DEFAULT_HARDWARE_MASS_KG + NEST_MASS_KG, K_AL_N_PER_M)
     j = steel_disc_inertia_kg_m2(pitch_radius_m(PITCH_M, TEETH), DISC_THICKNESS_M)
     print("all together (polygonal action), relabelled steady state; station: the tight strand's middle")
     print(
@@ -119,7 +125,7 @@ def main() -> None:
         "--tooth-phases", type=float, nargs="+", metavar="F", help="run the whole machine at these tooth phases"
     )
     args = parser.parse_args()
-    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180.0)
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=DEFAULT_RUN.rpm)
     if args.tooth_phases:
         print_tooth_phases(cam, args.tooth_phases)
         return

@@ -1,6 +1,11 @@
 """The benchmark command: runs every benchmarks/bench_*.py and prints what each measured.
 
-    python benchmarks/run.py [--quick] [--only NAME]
+    python benchmarks/run.py [--quick] [--only NAME[,NAME...]] ...
+
+NAME is a benchmark's module name without its `bench_` (`machine` is benchmarks/bench_machine.py;
+`bench_machine` is taken too) and matches that module only: `--only machine` does not run
+bench_machine_long. Several: a comma list or --only repeated (`--only machine,machine_long`, or
+`--only machine --only machine_long`). An unknown name is an error that lists the names.
 
 Each bench module offers `run(quick: bool) -> list[str]` (its table lines; ratios are measured within
 one run of that module). The machine is printed first: figures are only comparable on the same one.
@@ -20,10 +25,31 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 
 
-def modules(prefix: str, only: str | None = None) -> list[Path]:
-    """benchmarks/<prefix>*.py, sorted, optionally those whose name contains `only`."""
+class UnknownName(ValueError):
+    """An --only name that is no module's; the message lists the names there are."""
+
+
+def module_name(prefix: str, path: Path) -> str:
+    """The name --only takes for benchmarks/<prefix>NAME.py: NAME."""
+    return path.stem.removeprefix(prefix)
+
+
+def modules(prefix: str, only: list[str] | None = None) -> list[Path]:
+    """benchmarks/<prefix>*.py, sorted; with `only`, those named in it (each entry a name, or a comma
+    list of names: a module's name without `prefix`, or with it), each whole. A name that is no
+    module's: UnknownName."""
     found = sorted(HERE.glob(f"{prefix}*.py"))
-    return [p for p in found if only is None or only in p.stem]
+    if only is None:
+        return found
+    wanted = {name.strip().removeprefix(prefix) for entry in only for name in entry.split(",") if name.strip()}
+    names = [module_name(prefix, p) for p in found]
+    unknown = sorted(wanted.difference(names))
+    if unknown or not wanted:
+        raise UnknownName(
+            f"--only {','.join(unknown) or repr(','.join(only))}: not the name of a benchmarks/{prefix}*.py; "
+            f"expected one or more of {', '.join(names)}"
+        )
+    return [p for p, name in zip(found, names) if name in wanted]
 
 
 def load(path: Path):
@@ -77,7 +103,12 @@ def single_threaded_blas():
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer scenarios and repeats (a smoke run)")
-    parser.add_argument("--only", help="run only the bench modules whose name contains this")
+    parser.add_argument(
+        "--only",
+        action="append",
+        metavar="NAME[,NAME...]",
+        help="run only these benchmarks (module names without bench_; repeat or comma-separate for several)",
+    )
     args = parser.parse_args(argv)
     sys.path.insert(0, str(HERE.parent))
     with single_threaded_blas():
@@ -88,15 +119,17 @@ def _run(args) -> int:
     return run_each("bench_", args.only, lambda module: module.run(args.quick))
 
 
-def run_each(prefix: str, only: str | None, lines_of) -> int:
+def run_each(prefix: str, only: list[str] | None, lines_of, command: str = "benchmarks/run.py") -> int:
     """Print the machine, then the lines `lines_of(module)` of each benchmarks/<prefix>*.py module
-    (whose name contains `only`, if given) with its wall time; 1 when no module matches."""
+    (those named in `only`, if given: see `modules`) with its wall time; 2, with a one-line error and
+    nothing run, where `only` names a module that does not exist (the error starts with `command`)."""
+    try:
+        found = modules(prefix, only)
+    except UnknownName as exc:
+        print(f"{command}: error: {exc}", file=sys.stderr)
+        return 2
     for line in machine_lines():
         print(line)
-    found = modules(prefix, only)
-    if not found:
-        print(f"no benchmarks/{prefix}*.py module matches {only!r}")
-        return 1
     for path in found:
         start = time.perf_counter()
         print(f"\n== {path.stem} ==", flush=True)

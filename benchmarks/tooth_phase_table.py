@@ -30,7 +30,9 @@ from stages.machine import scene_machine  # noqa: E402
 TOOTH_STIFFNESSES_N_PER_M = (np.inf, DEFAULT_TOOTH_STIFFNESS_N_PER_M)
 
 
-def row(phase: float, tooth_stiffness_N_per_m: float, chain: ChainModel = DEFAULT_CHAIN, samples: int = 721) -> tuple:
+def row(
+    phase: float, tooth_stiffness_N_per_m: float, chain: ChainModel = DEFAULT_CHAIN, samples: int | None = None
+) -> tuple:
     """(phase, k_t, residual at the station in mm, peak |a| at the station, peak |a| anywhere, peak
     span force, Seating) of one run over the window's first `samples` samples."""
     scene = default_scene(phase, tooth_stiffness_N_per_m)

@@ -84,8 +84,15 @@ def level_records(solved: dict) -> dict:
 
 
 def solved_levels_from(records: dict) -> dict:
-    """`level_records`' inverse: a `solved` dict whose levels are SolvedLevels."""
-    return {key: value if isinstance(value, float) else SolvedLevel(**value) for key, value in records.items()}
+    """`level_records`' inverse: a `solved` dict whose levels are SolvedLevels. A record that is
+    neither (a file written by something else) is a FemError naming its key."""
+    solved = {}
+    for key, value in records.items():
+        try:
+            solved[key] = value if isinstance(value, float) else SolvedLevel(**value)
+        except TypeError:
+            raise FemError(f"level {key!r}: expected SolvedLevel's fields or a mesh time, got {value!r:.80}") from None
+    return solved
 
 
 def with_finest_fields(

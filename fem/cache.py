@@ -7,13 +7,18 @@ cache format version. It holds the result as JSON and, when made, the rendered i
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import json
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
 from geometry.atomic import atomic_target
+
+from .errors import FemError
 
 CACHE_FORMAT = 5  # 2: k is the Richardson-extrapolated value; 3: FEA warnings stored; 4: finest level on the mirror half; 5: small holes refined locally, curved cells kept away from the bores, memory budget
 
@@ -45,16 +50,44 @@ class FeaCache:
             return None
 
     def load_levels(self, key: str) -> dict:
-        """The solved levels' records kept under `key` (fem.adaptive.level_records; empty: none)."""
+        """The solved levels' records kept under `key` (fem.adaptive.level_records; empty: none). A
+        file there that is not a JSON object (cut short, or written by something else) is a FemError
+        naming it: the caller decides whether to go on without it."""
+        path = self._entry(key) / "levels.json"
         try:
-            return json.loads((self._entry(key) / "levels.json").read_text())
-        except (OSError, ValueError):
+            text = path.read_text()
+        except FileNotFoundError:
             return {}
+        except (OSError, UnicodeDecodeError) as exc:
+            raise FemError(f"{path}: not readable ({exc})") from None
+        try:
+            records = json.loads(text)
+        except ValueError as exc:
+            raise FemError(f"{path}: not JSON ({exc})") from None
+        if not isinstance(records, dict):
+            raise FemError(f"{path}: expected a JSON object of solved levels, got a {type(records).__name__}")
+        return records
 
     def store_levels(self, key: str, records: dict) -> None:
+        """Replace the levels kept under `key` by `records`, atomically (a reader sees the old file or
+        the new one, whole); to add to them, hold `levels_locked(key)` across the load and the store."""
         entry = self._entry(key)
         entry.mkdir(parents=True, exist_ok=True)
         write_text_atomic(entry / "levels.json", json.dumps(records, sort_keys=True))
+
+    @contextmanager
+    def levels_locked(self, key: str) -> Iterator[None]:
+        """An exclusive lock on the levels kept under `key` (fcntl.flock on a lock file beside them,
+        released when the block ends or the process dies): runs that share the cache and each load,
+        add to and store the levels under it keep each other's levels."""
+        entry = self._entry(key)
+        entry.mkdir(parents=True, exist_ok=True)
+        with open(entry / "levels.lock", "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                fcntl.flock(lock, fcntl.LOCK_UN)
 
     def image_path(self, key: str) -> Path:
         return self._entry(key) / "deformed.png"

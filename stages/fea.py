@@ -211,19 +211,36 @@ def _fea_steps(
 
 def stored_levels(cfg: RunConfig, part: Part) -> dict:
     """The FEA levels earlier --tolerance runs solved on this part (fem.adaptive's `solved` dict, from
-    the FEA cache): a pass reads its levels from it instead of solving them again."""
-    from fem.adaptive import solved_levels_from
+    the FEA cache): a pass reads its levels from it instead of solving them again. A levels file that
+    cannot be read (cut short, or not levels) is ignored with a warning: its levels are solved again."""
     from fem.cache import FeaCache
 
-    return solved_levels_from(FeaCache(cfg.cache_dir).load_levels(_levels_key(part)))
+    return _readable_levels(FeaCache(cfg.cache_dir), _levels_key(part), "its levels are solved again")
 
 
 def store_levels(cfg: RunConfig, part: Part, levels: dict) -> None:
-    """Keep `levels` (stored_levels' and this run's) in the FEA cache for later runs."""
+    """Add `levels` (stored_levels' and this run's) to the levels kept in the FEA cache for later runs:
+    under the entry's lock, so that runs sharing the cache keep each other's levels (a level's key
+    names everything it depends on, so two runs' levels under one key are the same level)."""
     from fem.adaptive import level_records
     from fem.cache import FeaCache
 
-    FeaCache(cfg.cache_dir).store_levels(_levels_key(part), level_records(levels))
+    cache, key = FeaCache(cfg.cache_dir), _levels_key(part)
+    with cache.levels_locked(key):
+        kept = _readable_levels(cache, key, "replaced by this run's levels")
+        cache.store_levels(key, level_records({**kept, **levels}))
+
+
+def _readable_levels(cache, key: str, instead: str) -> dict:
+    """The levels kept under `key`, or none (with a warning that says `instead`) where their file
+    cannot be read."""
+    from fem.adaptive import solved_levels_from
+
+    try:
+        return solved_levels_from(cache.load_levels(key))
+    except FemError as exc:
+        _print_cautions([f"FEA cache: {exc}; ignored, {instead}"])
+        return {}
 
 
 def _levels_key(part: Part) -> str:

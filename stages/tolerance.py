@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import partial
 
 from settings import RunConfig
@@ -29,7 +30,7 @@ def run_to_tolerance(cfg: RunConfig, progress: Progress, timing: dict, part=None
     budget = cfg.tolerance / 2
     # the refinement pass extends the first pass's levels (and earlier runs') instead of re-solving them
     levels = stored_levels(cfg, part)
-    keep_levels = partial(_keep_new_levels, cfg, part, levels, len(levels))
+    keep_levels = _NewLevelsKeeper(cfg, part, levels, len(levels))
     # the first pass's stress study waits until it is known that no second pass replaces it
     first, short = _fea_pass(fea_of_part, cfg, progress, timing, budget, levels, keep_levels)
     fea = first.stiffness
@@ -63,10 +64,20 @@ def _start_pass(cfg: RunConfig, progress: Progress, stiffness_tolerance: float, 
     return start_fea(cfg, progress, stiffness_tolerance, levels, part=part, stress_later=True)
 
 
-def _keep_new_levels(cfg: RunConfig, part, levels: dict, stored: int) -> None:
-    """Store `levels` in the FEA cache where a pass added to the `stored` levels it started from."""
-    if len(levels) > stored:
-        store_levels(cfg, part, levels)
+@dataclass
+class _NewLevelsKeeper:
+    """Called after each pass: stores `levels` in the FEA cache where they grew since they were last
+    stored (`stored` of them), not again after a pass that added none."""
+
+    cfg: RunConfig
+    part: object
+    levels: dict
+    stored: int
+
+    def __call__(self) -> None:
+        if len(self.levels) > self.stored:
+            store_levels(self.cfg, self.part, self.levels)
+            self.stored = len(self.levels)
 
 
 def _fea_pass(

@@ -1,6 +1,7 @@
 """The small measurement scripts the docs' commands run (docs/performance.md, docs/verification.md),
 on tiny inputs: benchmarks/run_cpu.py, benchmarks/compare_summaries.py, bench_long_wheels.py's
-comparison of two trees at one N and bench_machine.py's window, each tree in its own process."""
+comparison of two trees at one N and bench_machine.py's window, each tree in its own process; and
+which benchmarks and charts `--only` selects."""
 
 from __future__ import annotations
 
@@ -162,3 +163,32 @@ def test_bench_ring_on_topology_stage_runs_both_orders(monkeypatch):
     assert "ring first: ring kernel 4.00 s, topology kernel 4.08 s, ratio 1.02x" in line
     assert "topology first: ring kernel 3.40 s, topology kernel 4.80 s, ratio 1.41x" in line
     assert "both orders together 1.20x" in line
+
+
+def test_only_selects_whole_benchmark_names(capsys):
+    """`--only machine` is bench_machine.py, not bench_machine_long.py too; several by a comma list
+    or a repeated --only; an unknown name is a one-line error listing the names, exit 2, nothing run."""
+    from benchmarks import run
+
+    def selected(*only: str) -> list[str]:
+        return [path.stem for path in run.modules("bench_", list(only))]
+
+    assert selected("machine") == selected("bench_machine") == ["bench_machine"]
+    assert (
+        selected("machine,machine_long")
+        == selected("machine_long", "machine")
+        == ["bench_machine", "bench_machine_long"]
+    )
+    assert run.main(["--only", "machine", "--only", "machin"]) == 2
+    out = capsys.readouterr()
+    assert out.out == "" and out.err.count("\n") == 1
+    assert out.err.startswith("benchmarks/run.py: error: --only machin: ") and "machine, machine_long" in out.err
+
+
+def test_charts_only_selects_whole_chart_names(capsys, tmp_path):
+    from benchmarks import charts
+
+    assert charts.main(["--only", "dynamics", "--out", str(tmp_path)]) == 2  # there are four dynamics_* charts
+    err = capsys.readouterr().err
+    assert err.startswith("benchmarks/charts.py: error: --only dynamics: ") and "dynamics_workprecision" in err
+    assert list(tmp_path.iterdir()) == []

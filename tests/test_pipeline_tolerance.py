@@ -97,6 +97,31 @@ def test_the_levels_a_run_solved_are_kept_for_the_next_run(monkeypatch, tmp_path
     assert seen[0]["level at 0.01"].stiffness_N_per_m == 1e8 * 1.01
 
 
+def test_a_pass_that_solved_no_new_level_stores_nothing(monkeypatch, tmp_path):
+    """The refinement pass finds every level it needs among the first pass's: the levels are stored
+    once, after the first pass, not again after the second."""
+    stores = []
+
+    def fea(cfg, progress, stiffness_tolerance, levels, part=None):
+        levels.setdefault("the only level", _level(0.01))
+        return {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=stiffness_tolerance)}
+
+    _use_fea(monkeypatch, fea)
+    monkeypatch.setattr(
+        tolerance,
+        "run_dynamics",
+        lambda cfg, fea, progress: (
+            {},
+            {("al6061-t6", "modified-sine"): _scenario(0.001, 3 * fea["al6061-t6"].stiffness_rel_error_estimate)},
+        ),
+    )
+    monkeypatch.setattr(tolerance, "stiffness_error_allowed", lambda cfg, result, sc, budget: budget / 3)
+    monkeypatch.setattr(tolerance, "store_levels", lambda cfg, part, levels: stores.append(set(levels)))
+    cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q", "--cache-dir", str(tmp_path)])
+    tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
+    assert stores == [{"the only level"}]
+
+
 def test_no_second_pass_when_k_is_good_enough(monkeypatch):
     calls = []
     _use_fea(
