@@ -93,6 +93,14 @@ SETTLE_CYCLES = 1
 # undamped, would ask for far less, and 10,000 links take 39 of the 60-cycle budget to reach it.
 LONG_SEARCH_STATE_ERROR = 4.5e-3
 LONG_SEARCH_TOL = 1e-4
+# One settling cycle at the default safety keeps rho (the slowest mode's decay per cycle) of the
+# offset between the search step's fixed point and the default step's. Above this rho the settle is a
+# search to long_search_tol instead (measured on the default wheels, 0.094 mm, 180 rpm, against a run
+# at the default safety / 10, tol 1e-8, worst station metric: 2,000 links, rho 0.89: one cycle 3.05e-3,
+# the search 2.4e-3 (+2 cycles); 10,000 links, rho 0.978: one cycle left 3.2e-2 from the default
+# step's fixed point, the search 7.4e-4 (+15 cycles); 1,000 links, rho 0.80: one cycle 4.3e-4, the
+# search 5.5e-4 for 2 more cycles, so it keeps the one cycle)
+SETTLE_SEARCH_ABOVE_DECAY = 0.85
 
 
 def machine_model(scene, chain) -> ClearanceMachine:
@@ -209,7 +217,8 @@ def _searched_and_settled(
     Given its step (not `default_step`): the relabelled steady state searched from `state` at
     `safety` (from rest: `state` itself). The default step: the window at safety / WINDOW_REFINEMENT,
     the steady state searched at SEARCH_SAFETY and settled at the window's step (a long chain's: to
-    long_search_tol, then searched on at `safety` to it); a search that finds none is redone from `state` at the
+    long_search_tol, then
+    settled at `safety`: searched on to the same tolerance where `_settle_is_searched`); a search that finds none is redone from `state` at the
     window's step to `tol` (the motion after max_cycles coarse cycles is not the fine step's)."""
     if not default_step:
         sub = mv.substeps_for(model, h_out, safety, predictor)
@@ -224,23 +233,30 @@ def _searched_and_settled(
         found, ss, _ = _start_state(
             model, cam, h_out, per_cycle, coarse, state, True, search_tol, max_cycles, predictor
         )
-        if ss.found and long_chain:
+        if ss.found and long_chain and _settle_is_searched(model, cam):
             # carried to the default safety's fixed point by the same search, to the same tolerance: one
             # settling cycle keeps rho of the slow modes' offset between the two steps' fixed points
-            # (0.89 at 2,000 links, 0.978 at 10,000, where it left 3.2e-2 of the station metrics)
             settle = mv.substeps_for(model, h_out, safety, predictor)
             state, ss, _ = _start_state(
                 model, cam, h_out, per_cycle, settle, found, True, search_tol, max_cycles, predictor, (found, ss.cycles)
             )
             return state, ss, fine
         if ss.found:
-            return _settled(model, cam, h_out, per_cycle, fine, found, predictor), ss, fine
+            settle = mv.substeps_for(model, h_out, safety, predictor) if long_chain else fine
+            return _settled(model, cam, h_out, per_cycle, settle, found, predictor), ss, fine
         if _coarse_substeps(model, h_out, fine, predictor) == coarse:
             done = (found, ss.cycles)  # a long chain's search at `fine` starts with this same coarse search
     state, ss, _ = _start_state(
         model, cam, h_out, per_cycle, fine, state, steady_state, tol, max_cycles, predictor, coarse_done=done
     )
     return state, ss, fine
+
+
+def _settle_is_searched(model, cam) -> bool:
+    """Whether a long chain's coarse steady state is carried to the default safety's fixed point by a
+    search rather than SETTLE_CYCLES plain cycles: where one cycle keeps more than
+    SETTLE_SEARCH_ABOVE_DECAY of the slowest mode (machine_shooting.slowest_decay_per_cycle)."""
+    return machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s) > SETTLE_SEARCH_ABOVE_DECAY
 
 
 def long_search_tol(model, cam, tol: float) -> float:

@@ -83,6 +83,7 @@ def test_a_long_chains_settle_is_searched_to_its_tolerance_at_the_default_safety
     from dynamics.models.reduction import DENSE_LINK_LIMIT
     from dynamics.solvers import machine_verlet as mv
 
+    monkeypatch.setattr(machine_scene, "SETTLE_SEARCH_ABOVE_DECAY", 0.0)  # the search at any rho
     monkeypatch.setattr(machine_scene, "LONG_SEARCH_STATE_ERROR", 1e-5)
     monkeypatch.setattr(machine_scene, "LONG_SEARCH_TOL", 1e-5)
     chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
