@@ -65,6 +65,20 @@ def _level(k_error: float) -> SimpleNamespace:
     )
 
 
+def _dynamics_at_three_times_the_stiffness_error(monkeypatch) -> None:
+    """The chain's estimated error 3x the FEA's k estimate and a third of the budget allowed to k: a
+    run at --tolerance 0.02 refines k once (two passes)."""
+    monkeypatch.setattr(
+        tolerance,
+        "run_dynamics",
+        lambda cfg, fea, progress: (
+            {},
+            {("al6061-t6", "modified-sine"): _scenario(0.001, 3 * fea["al6061-t6"].stiffness_rel_error_estimate)},
+        ),
+    )
+    monkeypatch.setattr(tolerance, "stiffness_error_allowed", lambda cfg, result, sc, budget: budget / 3)
+
+
 def test_the_levels_a_run_solved_are_kept_for_the_next_run(monkeypatch, tmp_path):
     """The passes' solved levels go into the FEA cache (--cache-dir) and the next --tolerance run's
     passes start from them (as fem.adaptive.SolvedLevel): a level an earlier run solved is not solved again."""
@@ -78,15 +92,7 @@ def test_the_levels_a_run_solved_are_kept_for_the_next_run(monkeypatch, tmp_path
         return {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=stiffness_tolerance)}
 
     _use_fea(monkeypatch, fea)
-    monkeypatch.setattr(
-        tolerance,
-        "run_dynamics",
-        lambda cfg, fea, progress: (
-            {},
-            {("al6061-t6", "modified-sine"): _scenario(0.001, 3 * fea["al6061-t6"].stiffness_rel_error_estimate)},
-        ),
-    )
-    monkeypatch.setattr(tolerance, "stiffness_error_allowed", lambda cfg, result, sc, budget: budget / 3)
+    _dynamics_at_three_times_the_stiffness_error(monkeypatch)
     cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q", "--cache-dir", str(tmp_path)])
     tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
     assert seen[0] == {} and set(seen[1]) == {"level at 0.01"}  # the second pass shares the first's
@@ -107,15 +113,7 @@ def test_a_pass_that_solved_no_new_level_stores_nothing(monkeypatch, tmp_path):
         return {"al6061-t6": SimpleNamespace(stiffness_rel_error_estimate=stiffness_tolerance)}
 
     _use_fea(monkeypatch, fea)
-    monkeypatch.setattr(
-        tolerance,
-        "run_dynamics",
-        lambda cfg, fea, progress: (
-            {},
-            {("al6061-t6", "modified-sine"): _scenario(0.001, 3 * fea["al6061-t6"].stiffness_rel_error_estimate)},
-        ),
-    )
-    monkeypatch.setattr(tolerance, "stiffness_error_allowed", lambda cfg, result, sc, budget: budget / 3)
+    _dynamics_at_three_times_the_stiffness_error(monkeypatch)
     monkeypatch.setattr(tolerance, "store_levels", lambda cfg, part, levels: stores.append(set(levels)))
     cfg = pipeline.parse_cli(["--tolerance", "0.02", "--materials", "al6061-t6", "-q", "--cache-dir", str(tmp_path)])
     tolerance.run_to_tolerance(cfg, Progress(quiet=True), {})
