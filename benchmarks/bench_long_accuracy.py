@@ -30,7 +30,6 @@ import json
 import subprocess
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -39,7 +38,6 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script in a subprocess
     sys.path.insert(0, str(ROOT))
 
-PITCH_M = 0.1125
 KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2")
 KEYS += ("residual_vibration_m",)
 # a tight run: its safety as a fraction of the default safety, the search's tolerance, the damping's
@@ -77,25 +75,16 @@ def _apply(knobs: dict) -> None:
 
 def _scenario(n: int, variant: str) -> dict:
     """One variant in this process: the 20 station metrics both ways, CPU seconds, index cycles."""
+    from benchmarks.bench_long_wheels import long_scene
     from dynamics import machine_scene as ms
-    from dynamics.cams import CamProgram
-    from dynamics.models.chain import ChainModel
     from dynamics.response.metrics import link_metrics
     from dynamics.solvers import clearance_verlet as verlet
-    from settings import RunConfig
-    from stages.chain import chain_scene, output_times_s
     from stages.machine import machine_parts
 
     _apply(VARIANTS.get(variant, {}))
     if variant in TIGHT:
         _apply({"damping_tol": TIGHT_DAMPING_TOLERANCE})
-    cfg = RunConfig(links=n, drive="wheels")
-    chain = ChainModel(
-        n, 2.03, 9.0092e7, damping_ratio=cfg.damping, preload_N=cfg.preload_N, friction_coefficient=cfg.friction
-    )
-    scene = replace(chain_scene(cfg, PITCH_M), pin_clearance_m=94e-6)
-    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=cfg.rpm)
-    t = output_times_s(cfg.rpm, 4)
+    chain, scene, cam, t = long_scene(n)
     cols = [link - 1 for link in machine_parts(scene, chain).stations.values()]
     model = ms.machine_model(scene, chain)
     options = {}

@@ -23,7 +23,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script
     sys.path.insert(0, str(ROOT))
 
-from benchmarks.bench_long_wheels import PITCH_M  # noqa: E402 (after sys.path)
+from benchmarks.bench_long_wheels import long_scene  # noqa: E402 (after sys.path)
 
 QUICK_SIZES = (1000,)
 SIZES = (1000, 2000)
@@ -61,19 +61,10 @@ class SearchLog:
 
 def scenario(links: int):
     """(clearance machine, cam, output times) of bench_long_wheels' scenario at `links` links."""
-    from dynamics.cams import CamProgram
     from dynamics.machine_scene import machine_model
-    from dynamics.models.chain import ChainModel
-    from settings import RunConfig
-    from stages.chain import chain_scene, output_times_s
 
-    cfg = RunConfig(links=links, drive="wheels")
-    chain = ChainModel(
-        links, 2.03, 9.0092e7, damping_ratio=cfg.damping, preload_N=cfg.preload_N, friction_coefficient=cfg.friction
-    )
-    scene = replace(chain_scene(cfg, PITCH_M), pin_clearance_m=94e-6)
-    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=cfg.rpm)
-    return machine_model(scene, chain), cam, output_times_s(cfg.rpm, 4)
+    chain, scene, cam, t = long_scene(links)
+    return machine_model(scene, chain), cam, t
 
 
 def search(model, cam, t, state, tol: float, max_cycles: int = MAX_CYCLES) -> SearchLog:

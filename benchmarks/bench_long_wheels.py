@@ -52,15 +52,29 @@ OLD_TIMEOUT_S = 600.0
 SINGLE_FACTORS = "single-factors"
 
 
+def long_scene(links: int):
+    """(chain, scene, cam, output times) of the scenario at `links` links: the default run on its
+    wheels with the default link's FEA figures (aluminium), 180 rpm modified sine."""
+    from dynamics.cams import CamProgram
+    from dynamics.models.chain import ChainModel
+    from settings import RunConfig
+    from stages.chain import chain_scene, output_times_s
+
+    k, mass = MATERIALS["al6061-t6"]
+    cfg = RunConfig(links=links, drive="wheels")
+    chain = ChainModel(
+        links, mass, k, damping_ratio=cfg.damping, preload_N=cfg.preload_N, friction_coefficient=cfg.friction
+    )
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=cfg.rpm)
+    return chain, chain_scene(cfg, PITCH_M), cam, output_times_s(cfg.rpm, cfg.samples_per_degree)
+
+
 def _scenario(n: int, force_o_n: bool) -> dict:
     """One scenario in this process: time, memory, the summary and the station metrics."""
-    from dynamics.cams import CamProgram
     from dynamics.models import clearance_machine, machine_damping
-    from dynamics.models.chain import ChainModel
     from dynamics.response.metrics import link_metrics
     from dynamics.scene import simulate_scene
-    from settings import RunConfig
-    from stages.chain import chain_scene, natural_frequencies_Hz, output_times_s
+    from stages.chain import natural_frequencies_Hz
     from stages.machine import machine_parts
 
     if force_o_n:
@@ -68,16 +82,8 @@ def _scenario(n: int, force_o_n: bool) -> dict:
     if force_o_n == SINGLE_FACTORS:
         machine_damping.SINGLE_PRECISION_FACTORS_ABOVE_LINKS = 0
 
-    k, mass = MATERIALS["al6061-t6"]
-
     def run(links):
-        cfg = RunConfig(links=links, drive="wheels")
-        chain = ChainModel(
-            links, mass, k, damping_ratio=cfg.damping, preload_N=cfg.preload_N, friction_coefficient=cfg.friction
-        )
-        scene = chain_scene(cfg, PITCH_M)
-        cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=cfg.rpm)
-        t = output_times_s(cfg.rpm, cfg.samples_per_degree)
+        chain, scene, cam, t = long_scene(links)
         cols = [link - 1 for link in machine_parts(scene, chain).stations.values()]
         start, start_cpu = time.perf_counter(), time.process_time()
         r, contact = simulate_scene(scene, chain, cam, t, links=cols)
