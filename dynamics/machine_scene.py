@@ -76,11 +76,10 @@ SETTLE_CYCLES = 1
 # the default wheels, 0.094 mm, 180 rpm, against a run at twice the window's refinement, tol 1e-8):
 # - the search's fixed point at SEARCH_SAFETY is itself 2.8e-3 per cycle from the window step's, so
 #   it is searched to long_search_tol, not to `tol`;
-# - it is settled at the default safety (a third of the window's steps) by the same search to the
-#   same tolerance, not by SETTLE_CYCLES: one cycle keeps rho (below) of the slow modes' offset
-#   between the two steps' fixed points, which left 1.2e-3 of the station metrics at 2,000 links and
-#   3.2e-2 at 10,000 (benchmarks/bench_long_accuracy.py at 41d9ca3); the default safety, not the
-#   window's step: one settling cycle at the window's step moved the metrics by 8e-6 at 2,000 links;
+# - it is settled at the default safety (a third of the window's steps), not the window's step (one
+#   settling cycle at the window's step moved the metrics by 8e-6 at 2,000 links): by SETTLE_CYCLES
+#   plain cycles, or where they would keep too much of the slow modes' offset between the two steps'
+#   fixed points by the same search to the same tolerance (SETTLE_SEARCH_ABOVE_DECAY, below);
 # - the linear machine decides the model from its search at SEARCH_SAFETY, with no confirming cycle
 #   at the default safety (its minimum tension at the two steps within 2e-6: CHOICE_TOL is 1e-3).
 # long_search_tol: a start whose cycle changes it by r is within about r / (1 - rho) of the fixed
@@ -217,9 +216,9 @@ def _searched_and_settled(
     Given its step (not `default_step`): the relabelled steady state searched from `state` at
     `safety` (from rest: `state` itself). The default step: the window at safety / WINDOW_REFINEMENT,
     the steady state searched at SEARCH_SAFETY and settled at the window's step (a long chain's: to
-    long_search_tol, then
-    settled at `safety`: searched on to the same tolerance where `_settle_is_searched`); a search that finds none is redone from `state` at the
-    window's step to `tol` (the motion after max_cycles coarse cycles is not the fine step's)."""
+    long_search_tol, then settled at `safety`, searched on to the same tolerance where
+    `_settle_is_searched`); a search that finds none is redone from `state` at the window's step to
+    `tol` (the motion after max_cycles coarse cycles is not the fine step's)."""
     if not default_step:
         sub = mv.substeps_for(model, h_out, safety, predictor)
         state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor)
@@ -233,16 +232,15 @@ def _searched_and_settled(
         found, ss, _ = _start_state(
             model, cam, h_out, per_cycle, coarse, state, True, search_tol, max_cycles, predictor
         )
-        if ss.found and long_chain and _settle_is_searched(model, cam):
-            # carried to the default safety's fixed point by the same search, to the same tolerance: one
-            # settling cycle keeps rho of the slow modes' offset between the two steps' fixed points
-            settle = mv.substeps_for(model, h_out, safety, predictor)
-            state, ss, _ = _start_state(
-                model, cam, h_out, per_cycle, settle, found, True, search_tol, max_cycles, predictor, (found, ss.cycles)
-            )
-            return state, ss, fine
         if ss.found:
             settle = mv.substeps_for(model, h_out, safety, predictor) if long_chain else fine
+            if long_chain and _settle_is_searched(model, cam):
+                # carried to the default safety's fixed point by the same search, to the same tolerance
+                coarse_done = (found, ss.cycles)
+                state, ss, _ = _start_state(
+                    model, cam, h_out, per_cycle, settle, found, True, search_tol, max_cycles, predictor, coarse_done
+                )
+                return state, ss, fine
             return _settled(model, cam, h_out, per_cycle, settle, found, predictor), ss, fine
         if _coarse_substeps(model, h_out, fine, predictor) == coarse:
             done = (found, ss.cycles)  # a long chain's search at `fine` starts with this same coarse search
