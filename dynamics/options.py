@@ -22,6 +22,13 @@ SPAN_DAMPING_LAWS = ("global", "kelvin-voigt")  # dynamics.models.clearance: the
 # per joint. A span has two pin joints: 2 x 47 um of axial free play.
 DEFAULT_PIN_CLEARANCE_M = 94e-6
 
+# The chain's defaults, read by dynamics.models.chain.ChainModel and by settings.RunConfig (each
+# written once here): the sponsor's modal damping ratio of every chain mode, and the idler
+# tensioner's static tension, uniform around the loop (also the load at which
+# dynamics.models.wheels takes the default tooth contact stiffness)
+DEFAULT_DAMPING_RATIO = 0.13
+DEFAULT_PRELOAD_N = 2224.0
+
 # Above this many links the pipeline solves in the lowest modes (dynamics.models.reduction, where the
 # figures are) and the clearance chains take the O(N) damping (dynamics.models.machine_damping)
 DENSE_LINK_LIMIT = 400

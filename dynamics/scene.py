@@ -52,8 +52,9 @@ DEFAULT_TOL = 1e-6
 DEFAULT_MAX_CYCLES = 60
 # simulate_chain(accuracy=...): the clearance chain's step is halved until the station metrics'
 # estimated relative error is within it, at most MAX_STEP_DOUBLINGS times (16x the stability-set
-# steps). Not by default: 1e-3 costs 2-5x the default dynamics stage (docs/physics.md, "Default
-# accuracy"); --tolerance asks for it.
+# steps). Not by default: 1e-3 costs the default dynamics stage about 13x on the wheels (13.2 s
+# against 0.98 s) and 2-5x on the single-link drive (docs/physics.md, "Default accuracy";
+# docs/performance.md, "Default accuracy of the clearance chain"); --tolerance asks for it.
 MAX_STEP_DOUBLINGS = 4
 
 

@@ -16,7 +16,7 @@ built-in link was 0.005-0.065 above the whole's at 3-9 mm, with it within 0.022 
 
 The two coefficients are fitted to the built-in link's meshes (whole at 3, 4.5, 6, 9 and 15 mm;
 its mirror half at 2.25-11.25 mm) and checked, not fitted, on the corpus parts' default levels
-(docs/performance.md, "FEA: unknowns before meshing"): real / estimate 0.85-1.21 there.
+(docs/performance.md, "FEA: unknowns before meshing"): real / estimate 0.85-1.04 there.
 """
 
 from __future__ import annotations

@@ -3,8 +3,8 @@
 `RunConfig()` is the default run; `pipeline.py` maps its flags onto these fields, `python -m study`
 starts each design point from `RunConfig()`, and both check values against `LIMITS` (one table of
 allowed ranges, SI). Fields are SI; the command line takes some lengths in mm (`mm_to_m`).
-Defaults that belong to a physical model stay with it and are read from there (the pin clearance
-from dynamics.options, the hardware and nest masses from geometry.dimensions), through
+Defaults that belong to a physical model stay with it and are read from there (the pin clearance,
+the damping ratio and the preload from dynamics.options, the hardware and nest masses from geometry.dimensions), through
 `default_factory`, so that reading the settings does not import numpy or gmsh.
 """
 
@@ -43,6 +43,18 @@ def _default_pin_clearance_m() -> float:
     return DEFAULT_PIN_CLEARANCE_M
 
 
+def _default_damping_ratio() -> float:
+    from dynamics.options import DEFAULT_DAMPING_RATIO
+
+    return DEFAULT_DAMPING_RATIO
+
+
+def _default_preload_N() -> float:
+    from dynamics.options import DEFAULT_PRELOAD_N
+
+    return DEFAULT_PRELOAD_N
+
+
 def _default_hardware_mass_kg() -> float:
     from geometry.dimensions import DEFAULT_HARDWARE_MASS_KG
 
@@ -78,8 +90,8 @@ class RunConfig:
     rpm: float = 180.0
     cams: tuple[str, ...] = field(default_factory=cam_ids)  # every registered law without a dwell jump
     friction: float = 0.35  # Coulomb coefficient between links and guide
-    damping: float = 0.13  # modal damping ratio of every chain mode (the sponsor's figure)
-    preload_N: float = 2224.0
+    damping: float = field(default_factory=_default_damping_ratio)  # modal ratio of every chain mode
+    preload_N: float = field(default_factory=_default_preload_N)  # the idler tensioner's static tension
     solver: str = "exact"
     preset: str | None = None
     out: Path = Path("results")

@@ -46,6 +46,22 @@ def test_the_defaults_are_read_from_the_models_that_own_them():
     )
 
 
+def test_the_chain_defaults_have_one_home():
+    """The damping ratio and the preload are written once (dynamics.options): the run's defaults,
+    ChainModel's and the tooth contact's load are that very object, so a literal repeated anywhere,
+    even with the same value, fails here."""
+    from dataclasses import fields
+
+    from dynamics.models.chain import ChainModel
+    from dynamics.models.wheels import DEFAULT_TOOTH_LOAD_N
+    from dynamics.options import DEFAULT_DAMPING_RATIO, DEFAULT_PRELOAD_N
+
+    chain = {f.name: f.default for f in fields(ChainModel)}
+    d = RunConfig()
+    assert d.damping is chain["damping_ratio"] is DEFAULT_DAMPING_RATIO
+    assert d.preload_N is chain["preload_N"] is DEFAULT_TOOTH_LOAD_N is DEFAULT_PRELOAD_N
+
+
 def test_the_memory_budget_reaches_the_fea_settings_and_its_cache_key():
     from fem.budget import DEFAULT_MAX_MEMORY_GB
     from fem.materials import get_material

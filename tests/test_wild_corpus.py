@@ -71,7 +71,7 @@ _WRAPPER = (
 )
 BUDGET_BYTES = DEFAULT_MAX_MEMORY_GB * 1e9
 # The unknowns estimated before meshing (geometry.mesh_estimate) against the real ones of every
-# level that runs: the budget trusts the estimate's low end (ESTIMATE_LOW_RATIO); 0.85-1.21 measured.
+# level that runs: the budget trusts the estimate's low end (ESTIMATE_LOW_RATIO); 0.85-1.04 measured.
 ESTIMATE_HIGH_RATIO = 1.25
 REFUSAL_SECONDS = 60  # a refusal is decided before any meshing (a few seconds on a quiet machine)
 

@@ -16,7 +16,7 @@ with g the friction. This is exact, keeps modal truncation convergent, and makes
 steady state of continuous indexing a plain periodic problem in y.
 
 Damping. Either a modal damping ratio zeta on every mode of (K, M), C = M Phi diag(2 zeta w) Phi^T M
-(default zeta = 0.13, the sponsor's figure), or Rayleigh C = alpha M + beta K. Damping acts on y,
+(default zeta = dynamics.options.DEFAULT_DAMPING_RATIO, the sponsor's figure), or Rayleigh C = alpha M + beta K. Damping acts on y,
 the motion relative to the cam: rigid translation with the cam is not damped, so the drive's damper
 is the part of C that couples link 1 to the cam (consistent with the modal damping, not a separate
 dashpot).
@@ -44,6 +44,7 @@ from dynamics.errors import DynamicsError
 from dynamics.models.friction import regularised_coulomb_N
 from dynamics.models.system import SampledForce, SecondOrderSystem
 from dynamics.models.topology import ChainTopology, ring_topology
+from dynamics.options import DEFAULT_DAMPING_RATIO, DEFAULT_PRELOAD_N
 
 
 @dataclass(frozen=True)
@@ -52,9 +53,9 @@ class ChainModel:
     link_mass_kg: float  # lumped: link body + hardware + nest
     stiffness_N_per_m: float  # one link's axial stiffness (FEA)
     drive_stiffness_N_per_m: float | None = None  # None: the link stiffness
-    damping_ratio: float = 0.13  # modal, on every mode; ignored when rayleigh_coefficients is set
+    damping_ratio: float = DEFAULT_DAMPING_RATIO  # modal, on every mode; ignored when rayleigh_coefficients is set
     rayleigh_coefficients: tuple[float, float] | None = None  # (alpha 1/s, beta s): C = alpha M + beta K
-    preload_N: float = 2224.0
+    preload_N: float = DEFAULT_PRELOAD_N
     friction_coefficient: float = 0.0
     friction_velocity_scale_m_s: float = 5e-3
     gravity_m_s2: float = 9.80665

@@ -44,6 +44,7 @@ import numpy as np
 
 from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
+from dynamics.models.lanczos import lanczos_start
 from dynamics.models.reduction import DENSE_LINK_LIMIT
 from dynamics.models.system import SecondOrderSystem
 from dynamics.models.tensioner import Tensioner
@@ -206,16 +207,21 @@ class ClearanceChain:
 
 def _sparse_top_frequency(model: ClearanceChain) -> float:
     """`max_frequency_rad_s` from the topology's sparse K (long chains: no N x N array), carriage
-    included. (ARPACK's start vector moves between calls, so the result moves by about 1e-15
-    relative from call to call, as it did on the former hand-built sparse K; it only sets a whole
-    number of steps per output sample, `substeps_for`.)"""
+    included, from ARPACK's fixed start (`lanczos_start`): the same in every call and process."""
     import scipy.sparse as sp
     from scipy.sparse.linalg import eigsh
 
     topo = model.topology
     scale = sp.diags(1.0 / np.sqrt(np.asarray(topo.masses_kg, dtype=float)))
     kk = topo.stiffness_matrix_sparse()
-    lam = eigsh((scale @ kk @ scale).tocsc(), k=1, which="LA", return_eigenvectors=False, tol=1e-12)
+    lam = eigsh(
+        (scale @ kk @ scale).tocsc(),
+        k=1,
+        which="LA",
+        v0=lanczos_start(kk.shape[0]),
+        return_eigenvectors=False,
+        tol=1e-12,
+    )
     return float(np.sqrt(max(lam[0], 0.0)))
 
 

@@ -45,6 +45,7 @@ from dynamics.models.clearance import (
     span_energy_J,
     span_force_N,
 )
+from dynamics.models.lanczos import lanczos_start
 from dynamics.models.machine import MachineOnWheels
 from dynamics.models.machine_damping import of_machine
 from dynamics.models.reduction import DENSE_LINK_LIMIT
@@ -326,7 +327,9 @@ def _top_frequency_sparse(machine: MachineOnWheels) -> float:
     r = sp.diags(1.0 / np.sqrt(np.asarray(topo.masses_kg, dtype=float)))
     s = (r @ topo.stiffness_matrix_sparse() @ r).tocsc()
     bound = float(np.max(np.asarray(abs(s).sum(axis=1)).reshape(-1)))
-    lam = eigsh(s, k=1, sigma=1.001 * bound, which="LM", return_eigenvectors=False, tol=1e-10)[0]
+    lam = eigsh(
+        s, k=1, sigma=1.001 * bound, which="LM", v0=lanczos_start(s.shape[0]), return_eigenvectors=False, tol=1e-10
+    )[0]
     return float(np.sqrt(max(lam, 0.0)))
 
 

@@ -68,6 +68,7 @@ from scipy.linalg import eigh
 from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import Tensioner
+from dynamics.models.lanczos import lanczos_start
 from dynamics.models.system import SecondOrderSystem
 from dynamics.models.topology import ChainTopology, Span
 from dynamics.models.wheels import Wheel
@@ -459,7 +460,15 @@ class MachineOnWheels:
         masses = np.asarray(topo.masses_kg, dtype=float)
         shift = -1e-9 * float(np.max(k.diagonal() / masses))
         count = min(count, topo.n_dof - 1)
-        lam = eigsh(k, k=count, M=sp.diags(masses).tocsc(), sigma=shift, which="LM", return_eigenvectors=False)
+        lam = eigsh(
+            k,
+            k=count,
+            M=sp.diags(masses).tocsc(),
+            sigma=shift,
+            which="LM",
+            v0=lanczos_start(topo.n_dof),
+            return_eigenvectors=False,
+        )
         return np.sqrt(np.clip(np.sort(lam), 0.0, None)) / (2 * np.pi)
 
     def link_displacements(self, q: np.ndarray) -> np.ndarray:

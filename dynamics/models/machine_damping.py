@@ -41,6 +41,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dynamics.errors import DynamicsError
+from dynamics.models.lanczos import lanczos_start
 from dynamics.models.reduced_damping import zolotarev_nodes_for
 
 # Each mode's damping ratio to this relative error. The station metrics are about ten times as
@@ -243,7 +244,7 @@ def _bounds_of(s) -> tuple[float, float]:
         lam = np.linalg.eigvalsh(s.toarray())
         return float(lam[0]), float(lam[-1])
     top = float(np.max(np.asarray(abs(s).sum(axis=1)).reshape(-1)))
-    bottom = eigsh(s, k=1, sigma=0.0, which="LM", return_eigenvectors=False, tol=1e-10)[0]
+    bottom = eigsh(s, k=1, sigma=0.0, which="LM", v0=lanczos_start(n), return_eigenvectors=False, tol=1e-10)[0]
     return float(bottom), top
 
 

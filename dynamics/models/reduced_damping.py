@@ -35,6 +35,7 @@ from functools import lru_cache
 import numpy as np
 
 from dynamics.models.chain import ChainModel
+from dynamics.models.lanczos import lanczos_start
 
 # Relative error of every mode's damping ratio in the default reduced form (the dense form's own
 # eigensolve is exact to ~1e-13; 1e-4 is far below what the 1e-3 station metrics can see).
@@ -255,8 +256,9 @@ def eigenvalue_bounds(chain: ChainModel) -> tuple[float, float]:
     if chain.n_links <= 64:
         lam = np.linalg.eigvalsh(x.toarray())
         return float(lam[0]), float(lam[-1])
-    top = eigsh(x, k=1, which="LA", return_eigenvectors=False, tol=1e-10)[0]
-    bottom = eigsh(x, k=1, sigma=0.0, which="LM", return_eigenvectors=False, tol=1e-10)[0]
+    start = lanczos_start(chain.n_links)
+    top = eigsh(x, k=1, which="LA", v0=start, return_eigenvectors=False, tol=1e-10)[0]
+    bottom = eigsh(x, k=1, sigma=0.0, which="LM", v0=start, return_eigenvectors=False, tol=1e-10)[0]
     return float(bottom), float(top)
 
 

@@ -36,6 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from dynamics.errors import DynamicsError
+from dynamics.options import DEFAULT_PRELOAD_N
 
 STEEL_DENSITY_KG_PER_M3 = 7850.0
 
@@ -148,7 +149,7 @@ def default_wheel_inertia_kg_m2(pitch_m: float, teeth: int) -> float:
 # (the flank's pressure angle, the tooth's and the pin's bending, all in series, would soften it: an
 # upper bound of the seat's stiffness).
 PALMGREN_MM = 3.84e-5
-DEFAULT_TOOTH_LOAD_N = 2224.0  # settings.RunConfig.preload_N's default
+DEFAULT_TOOTH_LOAD_N = DEFAULT_PRELOAD_N  # the run's default preload (settings.RunConfig.preload_N's default)
 DEFAULT_TOOTH_CONTACT_LENGTH_M = 0.030  # geometry.dimensions.LinkDimensions.body_height_m's default
 
 

@@ -49,6 +49,7 @@ from dynamics.cams.laws import get_law
 from dynamics.cams.program import CamProgram
 from dynamics.errors import DynamicsError
 from dynamics.models.chain import ChainModel
+from dynamics.models.lanczos import lanczos_start
 from dynamics.response.metrics import STATIONS, station_links
 from dynamics.response.seating import RIGID, TOOTH_STIFFNESS_MODEL
 
@@ -119,7 +120,7 @@ def chain_modes(model: ChainModel, n_modes: int | None = None) -> ChainModes:
     if n <= _DENSE_LIMIT or n_modes > n // 10:
         lam, vec = eigh(k_sparse.toarray() / m, subset_by_index=[0, n_modes - 1])
     else:
-        lam, vec = eigsh((k_sparse / m).tocsc(), k=n_modes, sigma=0.0, which="LM")
+        lam, vec = eigsh((k_sparse / m).tocsc(), k=n_modes, sigma=0.0, which="LM", v0=lanczos_start(n))
         order = np.argsort(lam)
         lam, vec = lam[order], vec[:, order]
     omega = np.sqrt(np.clip(lam, 0.0, None))
