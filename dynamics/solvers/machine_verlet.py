@@ -212,7 +212,18 @@ def _accel_into(
         f[i] -= dof_float[i, 2] * q[i] + dof_float[i, 3] * v[i]
         p_damp += dof_float[i, 3] * v[i] * v[i]
         cam += dof_float[i, 1] * f[i]
-    p_fric = _friction_into(v, zd, inv_vs, fc, dof_float, f) if fc > 0.0 else 0.0
+    p_fric = 0.0
+    if fc > 0.0:  # the friction law: the sign alone where every DOF is saturated (the cam in motion)
+        unsaturated = 0
+        for i in range(n):
+            unsaturated += abs((zd + v[i]) * inv_vs) < TANH_IS_ONE
+        if unsaturated:
+            p_fric = _friction_into(v, zd, inv_vs, fc, dof_float, f)
+        else:
+            for i in range(n):
+                fr = fc * dof_float[i, 4] * math.copysign(1.0, zd + v[i])
+                f[i] -= fr
+                p_fric += fr * (v[i] + dof_float[i, 1] * zd)
     for i in range(n):
         a[i] = f[i] * dof_float[i, 0] - dof_float[i, 1] * zdd
     powers[0] = zd * (cam + p_poly)
@@ -253,26 +264,16 @@ def _tanh_branch_free(x):
 
 def _friction_into(v, zd, inv_vs, fc, dof_float, f):
     """f -= the friction law fc w tanh((z' + q') / v_s) on the DOFs with friction (w = dof_float[:, 4],
-    0 elsewhere); returns its power. A vectorised pass counts the DOFs off the law's saturation; with
-    none (the cam in motion) the law is fc w sign(x), else it is evaluated at every DOF by
-    `_tanh_branch_free`, vectorised (its loop was a third of the step's own work in a dwell, where
-    most DOFs are off saturation, at 10,000 links: one exp call and branches per DOF). Compiled with
-    numpy's error model (a division by zero not checked): the check kept the division out of vectors."""
-    n = v.shape[0]
-    unsaturated = 0
-    for i in range(n):
-        unsaturated += abs((zd + v[i]) * inv_vs) < TANH_IS_ONE
+    0 elsewhere) where some DOF is off the law's saturation (in a dwell most are); returns its power.
+    Every DOF's tanh by `_tanh_branch_free`, vectorised (one exp call and its branches per DOF cost
+    100-180 us of a dwell step at 10,000 links: more than the span forces; the force evaluation is
+    now 1.16x faster there, docs/performance.md). Compiled on its own, with numpy's error model (a
+    division by zero not checked): numba's check kept the division out of vectors."""
     p_fric = 0.0
-    if unsaturated:
-        for i in range(n):
-            fr = fc * dof_float[i, 4] * _tanh_branch_free((zd + v[i]) * inv_vs)
-            f[i] -= fr
-            p_fric += fr * (v[i] + dof_float[i, 1] * zd)
-    else:
-        for i in range(n):
-            fr = fc * dof_float[i, 4] * math.copysign(1.0, zd + v[i])
-            f[i] -= fr
-            p_fric += fr * (v[i] + dof_float[i, 1] * zd)
+    for i in range(v.shape[0]):
+        fr = fc * dof_float[i, 4] * _tanh_branch_free((zd + v[i]) * inv_vs)
+        f[i] -= fr
+        p_fric += fr * (v[i] + dof_float[i, 1] * zd)
     return p_fric
 
 
