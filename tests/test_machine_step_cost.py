@@ -83,3 +83,68 @@ def test_one_sine_per_wheel_gives_the_feed_of_both_calls(gamma0):
         four = np.zeros(1), np.zeros(1), np.zeros(1)  # MachineArrays' own four columns: the same feed
         mv._wheels_into(np.zeros(1), np.zeros(1), z_rel, 1.5, wheels[:, :4].copy(), *four)
         assert (four[0][0], four[1][0], four[2][0]) == (wd[0], wsl[0], wdt[0])
+
+
+def test_the_steps_branch_free_tanh_is_the_librarys_to_the_last_bit_of_one_and_saturates_exactly():
+    """`_tanh_branch_free` (the exponential written out so that the friction's loop vectorises) within
+    2.3e-16 of the library's tanh (one ulp of 1, as clearance_verlet._tanh), exactly +-1 from
+    |x| = TANH_IS_ONE on, compiled and as Python."""
+    x = np.concatenate(
+        [
+            np.linspace(-40, 40, 80001),
+            np.geomspace(1e-300, 1e-3, 50),
+            -np.geomspace(1e-300, 1e-3, 50),
+            [0.0, mv.TANH_IS_ONE, np.nextafter(mv.TANH_IS_ONE, 0), 800.0, np.inf, -np.inf],
+        ]
+    )
+    kernels = [mv._tanh_branch_free] + ([mv._tanh_branch_free.py_func] if mv.numba is not None else [])
+    for tanh in kernels:
+        got = np.array([tanh(float(v)) for v in x])
+        assert np.max(np.abs(got - np.tanh(x))) <= 2.3e-16
+        saturated = np.abs(x) >= mv.TANH_IS_ONE
+        assert np.all(got[saturated] == np.sign(x[saturated]))
+
+
+@pytest.mark.parametrize("law", ["global", "kelvin-voigt"])
+def test_the_steps_friction_is_the_tanh_law_in_and_out_of_saturation(law):
+    """The step's friction on a 40-link machine with free play, wheels with tooth springs and friction
+    0.1 (`_accel_into`'s accelerations with friction minus those without) against the law
+    -F_c w tanh((z' + q') / v_s) / m with the library's tanh, to 1e-14 of the largest acceleration
+    (the other forces' rounding in the difference), its power to 1e-14: in a dwell (every link off saturation), in motion (every link on it,
+    the sign alone) and between (some of each)."""
+    wheel = Wheel(12, PITCH_M, 6, 0.688, 0.25)
+    chain = ChainModel(40, 2.03, 9.331e7, damping_ratio=0.13, friction_coefficient=0.1)
+    layout = MachineLayout("wheels", wheel, wheel, None, True, 9.5e8)
+    model = ClearanceMachine.of(chain, layout, None, DEFAULT_PIN_CLEARANCE_M, span_damping=law)
+    arr = model.arrays
+    assert arr.par[8] > 0.0 and np.count_nonzero(arr.dof_float[:, 4]) > 20  # tooth springs, friction
+    n, ns = arr.dof_float.shape[0], arr.span_int.shape[0]
+    dof_float, wheels = np.asfortranarray(arr.dof_float), mv._step_wheels(arr.wheel_float)
+    cmat = np.ascontiguousarray(arr.cmat, dtype=np.float32)
+    rng = np.random.default_rng(5)
+    q, v = 1e-5 * rng.standard_normal(n), 1e-3 * rng.standard_normal(n)
+    fc, inv_vs = arr.par[5], arr.par[6]
+
+    def accelerations(par, zd):
+        nw = wheels.shape[0]
+        work = [np.zeros(nw), np.zeros(nw), np.zeros(nw), np.zeros(n), np.zeros(cmat.shape[1], np.float32)]
+        work += [np.zeros(cmat.shape[0]), np.zeros(3), np.zeros(cmat.shape[1], np.float32), np.zeros(n)]
+        spans = [np.zeros(ns), np.zeros(ns), np.zeros(ns, dtype=np.bool_), np.zeros(ns)]
+        a = np.zeros(n)
+        args = (q, v, 0.01, zd, 3.0, arr.span_int, arr.span_float, dof_float, wheels, par, cmat, arr.reduced)
+        mv._accel_into(*args, tuple(work), *spans, a)
+        return a, work[6][2]
+
+    frictionless = arr.par.copy()
+    frictionless[5] = 0.0
+    rubbing = arr.dof_float[:, 4] > 0.0
+    for zd, off_saturation in ((0.0, "all"), (2.0, "none"), (0.0955, "some")):
+        x = (zd + v) * inv_vs
+        unsaturated = np.count_nonzero(rubbing & (np.abs(x) < mv.TANH_IS_ONE))
+        assert {"all": np.count_nonzero(rubbing), "none": 0}.get(off_saturation, unsaturated) == unsaturated
+        assert 0 < unsaturated < np.count_nonzero(rubbing) or off_saturation != "some"
+        law = -fc * arr.dof_float[:, 4] * np.tanh(x)
+        (with_friction, power), (without, _) = accelerations(arr.par, zd), accelerations(frictionless, zd)
+        scale = np.max(np.abs(without))  # the other forces' rounding in the difference
+        np.testing.assert_allclose(with_friction - without, law * arr.dof_float[:, 0], rtol=0, atol=1e-14 * scale)
+        assert power == pytest.approx(-np.sum(law * (v + arr.dof_float[:, 1] * zd)), rel=1e-14)
