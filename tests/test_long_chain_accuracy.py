@@ -7,13 +7,12 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
-from dynamics.machine_scene import simulate_machine
+from dynamics.machine_scene import every_step_metrics, simulate_machine
 from dynamics.models import clearance_machine, machine_damping
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance_machine import ClearanceMachine
 from dynamics.models.layout import MachineLayout
 from dynamics.models.wheels import Wheel
-from dynamics.response.metrics import link_metrics
 from dynamics.solvers import clearance_verlet as verlet
 
 PITCH_M = 0.1125
@@ -25,22 +24,15 @@ TIGHT_TOL = 1e-8
 TIGHT_DAMPING_TOLERANCE = 1e-7
 METRICS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2")
 METRICS += ("residual_vibration_m",)
-PEAKS = ("max_abs_acceleration_m_s2", "residual_vibration_m")
 
 
 def _station_metrics(model, cam, t, **options) -> np.ndarray:
-    """(4 stations, METRICS) as the pipeline has them (stages/chain.py): the RMS values from the output
-    samples, max |a| and the residual vibration from the kernel's peaks over every step."""
+    """(4 stations, METRICS) as the pipeline has them (stages/chain.py): the kernel's over every step
+    (the RMS over time, max |a| and the residual vibration its peaks)."""
     cols = list(model.machine.stations().values())
     r, _ = simulate_machine(model, cam, t, links=cols, **options)
-    lm = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, cam.dwell_mask(t))
-    peaks = r.diagnostics["station_peaks"]
-    return np.array(
-        [
-            [peaks[name][k] if k in PEAKS else float(getattr(lm, k)[i]) for k in METRICS]
-            for i, name in enumerate(model.machine.stations())
-        ]
-    )
+    every_step = every_step_metrics(r)
+    return np.array([[every_step[name][k] for k in METRICS] for name in model.machine.stations()])
 
 
 @pytest.mark.slow
