@@ -70,7 +70,9 @@ def _impact(steps_per_impact: int):
     w0[2], w0[3] = 0.5 * V, -0.5 * V
     zero = np.zeros(n_steps + 1)
     q0, v0 = np.r_[y0, -0.25 * N * GAP], np.r_[w0, 0.0]
-    run = mv.integrate(ring_on_topology.machine_of(model), zero, zero, zero, h, q0, v0, out_every=OUT_EVERY, stations=[2])
+    run = mv.integrate(
+        ring_on_topology.machine_of(model), zero, zero, zero, h, q0, v0, out_every=OUT_EVERY, stations=[2]
+    )
     moments = run.station_moments
     assert moments.shape == (n_steps // OUT_EVERY, 1, len(mv.RMS_METRICS), 3)
     rms = mv.station_rms(moments.sum(axis=0))[0]
