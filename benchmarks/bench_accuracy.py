@@ -15,10 +15,10 @@ controlled run is `simulate_machine_to_accuracy(accuracy=1e-3)` (the step halved
 metrics change by at most that, at most 4 times). The converged run is the same model, euler at a
 fixed 1/32 of its quarter-limit step, checked by its own refinement: the table gives its change from
 1/16. Error = the largest relative difference over the four stations' link metrics
-(dynamics.machine_scene._station_values, what the step control compares: the rms metrics over the
-output samples, the peaks - max |a|, the three deviations, the residual vibration - over every step
-of each run, machine_verlet.PEAK_METRICS, so the converged run's peaks are its fine step's, not its
-output samples'). Time: the median of interleaved runs of both. Below the table: the default run's
+(dynamics.machine_scene._station_values, what the step control compares: the rms metrics - the RMS
+over time, machine_verlet.RMS_METRICS - and the peaks - max |a|, the three deviations, the residual
+vibration, machine_verlet.PEAK_METRICS - over every step of each run, so the converged run's are its
+fine step's, not its output samples'). Time: the median of interleaved runs of both. Below the table: the default run's
 worst error per metric over the scenes, and over all.
 
 Second table: the pipeline's default dynamics stage (stages.chain.run_dynamics: 2 materials x 5 cam

@@ -15,10 +15,10 @@ the search on at the default safety that settles it), the window's step, the dam
 coarse search's step, the factors' precision; `all-three` the first three together. The settle's
 variants (one or more plain settling cycles, as long chains settled before the search took it over)
 were measured with this script at 41d9ca3. Reported per variant against the reference: the worst
-relative difference of the 20 station metrics as the pipeline has them (stages/chain.py: RMS of x, v, a
-from the output samples, max |a| and the residual vibration from the kernel's peaks over every step)
-and as bench_long_wheels.py computes them (every metric from the output samples), which metric and
-station, the CPU seconds and the search's index cycles. `--reference` may also be a variant: where a
+relative difference of the 20 station metrics as the pipeline has them (stages/chain.py: the kernel's
+over every step, the RMS of x, v, a over time, max |a| and the residual vibration its peaks) and as
+bench_long_wheels.py computes them (every metric from the output samples), which metric and
+station, the CPU seconds and the search's index cycles; then per metric the worst over the stations. `--reference` may also be a variant: where a
 tight run takes hours (10,000 links), how far one tight ingredient moves the default run.
 """
 
@@ -96,7 +96,7 @@ def _scenario(n: int, variant: str) -> dict:
     cpu = time.process_time() - start
     lm = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, cam.dwell_mask(t))
     sampled = [[float(getattr(lm, k)[i]) for k in KEYS] for i in range(len(cols))]
-    peaks = r.diagnostics["station_peaks"]
+    peaks = ms.every_step_metrics(r)
     pipeline = [[peaks[name].get(k, sampled[i][j]) for j, k in enumerate(KEYS)] for i, name in enumerate(peaks)]
     return {
         "variant": variant,
@@ -144,6 +144,11 @@ def table(n: int, variants: list[str], reference: str) -> list[str]:
         lines.append(
             f"| {v} | {cells[0]} | {cells[1]} | {res['cpu_s']:.1f} s | {res['cycles']} | {res['steps_per_output']} |"
         )
+    lines += ["", "pipeline's station metrics, worst over the stations per metric:", ""]
+    lines += ["| variant | " + " | ".join(KEYS) + " |", "|---|" + "---|" * len(KEYS)]
+    for v, res in runs.items():
+        rel = np.abs(np.subtract(res["pipeline"], ref["pipeline"])) / np.abs(ref["pipeline"])
+        lines.append(f"| {v} | " + " | ".join(f"{x:.2e}" for x in rel.max(axis=0)) + " |")
     return lines
 
 

@@ -189,9 +189,10 @@ def simulate_machine(
 
 class _Window:
     """The outputs of consecutive index cycles at the output times, with their statistics and the
-    station peaks over every step (machine_verlet.MachineRun.station_peaks)."""
+    station peaks and RMS over every step (machine_verlet.MachineRun.station_peaks, `station_rms`:
+    stations x machine_verlet.RMS_METRICS)."""
 
-    def __init__(self, q, v, a, tension, runs, seating, step_s, station_peaks=None):
+    def __init__(self, q, v, a, tension, runs, seating, step_s, station_peaks=None, station_rms=None):
         self.q, self.v, self.a, self.tension_N = q, v, a, tension
         self.seating = seating
         self.step_s = step_s
@@ -207,6 +208,7 @@ class _Window:
         self.impact_max_speed_m_s = max(r.impact_max_speed_m_s for r in runs)
         self.impact_speeds_m_s = np.concatenate([r.impact_speeds_m_s for r in runs])
         self.station_peaks = station_peaks
+        self.station_rms = station_rms
 
 
 def _searched_and_settled(
@@ -350,6 +352,8 @@ def _window(model, cam, t, per_cycle, sub, state, predictor, periodic=False) -> 
     stations = station_dofs(model)
     q0, v0 = state
     rows_q, rows_v, rows_a, rows_t, runs, peaks = [], [], [], [], [], []
+    moments = 0.0  # the window's (machine_verlet.step_moments), the displacement absolute
+    lift_at_start = float(cam.svaj(np.array([0.0]))[0][0])  # the cycle's nodes count the lift from it
     seating = None
     remaining = t.size
     while remaining > 0:
@@ -391,11 +395,14 @@ def _window(model, cam, t, per_cycle, sub, state, predictor, periodic=False) -> 
         take = min(per_cycle, remaining)
         for rows, out in ((rows_q, run.q), (rows_v, run.v), (rows_a, run.a), (rows_t, run.tension_N)):
             rows.append(out[:take])
+        # the output intervals in the window: to the next cycle's first sample, or to the window's last
+        intervals = take if remaining > take else take - 1
+        lift = float(cam.svaj(np.array([cycle_start_s]))[0][0]) - lift_at_start
+        moments = moments + mv.shifted_moments(run.station_moments[:intervals].sum(axis=0), lift)
         remaining -= take
         q0, v0 = q_next, v_next
-    return _Window(
-        *(np.concatenate(r) for r in (rows_q, rows_v, rows_a, rows_t)), runs, seating, h, mv.merged_peaks(peaks)
-    )
+    rows = (np.concatenate(r) for r in (rows_q, rows_v, rows_a, rows_t))
+    return _Window(*rows, runs, seating, h, mv.merged_peaks(peaks), mv.station_rms(moments))
 
 
 def station_dofs(model: ClearanceMachine) -> np.ndarray:
@@ -492,6 +499,10 @@ def _response(model, cam, t, run: _Window, links, sub, ss) -> ChainResponse:
             "carriage_m": run.q[:, -1] if model.tensioner is not None else None,
             "frame": "places (relabelled: each index moves every link one place ahead)",
             "station_peaks": _station_peaks(model, run),
+            "station_rms": {
+                name: dict(zip(mv.RMS_METRICS, (float(x) for x in row)))
+                for name, row in zip(model.machine.stations(), run.station_rms)
+            },
         },
     )
 
@@ -578,15 +589,21 @@ def simulate_machine_to_accuracy(
 
 def _station_values(model: ClearanceMachine, cam, t_eval_s, response: ChainResponse) -> np.ndarray:
     """dynamics.scene.station_values of a machine's response at its four stations (places), its peaks
-    those over every step (the response's diagnostics "station_peaks") where it has them."""
+    and RMS those over every step (the response's diagnostics "station_peaks", "station_rms")."""
     cols = list(model.machine.stations().values())
     values = station_values(cam, np.asarray(t_eval_s, dtype=float), response.x_m, response.v_m_s, response.a_m_s2, cols)
-    peaks = response.diagnostics.get("station_peaks")
-    if peaks is None:
-        return values
+    every_step = every_step_metrics(response)
     names = [f.name for f in fields(LinkMetrics)]
     blocks = values.reshape(len(names), len(cols))
     for i, name in enumerate(names):
-        if name in mv.PEAK_METRICS:
-            blocks[i] = [peaks[station][name] for station in model.machine.stations()]
+        if name in mv.PEAK_METRICS or name in mv.RMS_METRICS:
+            blocks[i] = [every_step[station][name] for station in model.machine.stations()]
     return blocks.ravel()
+
+
+def every_step_metrics(response: ChainResponse) -> dict[str, dict[str, float]]:
+    """Per station (place) the metrics the machine's kernel took over every step (ContactSummary.
+    peak_sampling): its peaks and RMS (the response's diagnostics "station_peaks", "station_rms")."""
+    peaks = response.diagnostics.get("station_peaks") or {}
+    rms = response.diagnostics.get("station_rms") or {}
+    return {name: {**peaks.get(name, {}), **rms.get(name, {})} for name in {**peaks, **rms}}

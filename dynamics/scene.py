@@ -177,9 +177,10 @@ class ContactSummary:
     # the clearance chain's station metrics' estimated relative error from its step (the last step
     # doubling's change, `_controlled`); None: the linear chain, or the step was not controlled
     step_error_estimate: float | None = None
-    # how the stations' max/min metrics were taken: "every step" (the machine kernel tracks them at
-    # its stations at every integrator step, dynamics.solvers.machine_verlet.PEAK_METRICS) or
-    # "output samples" (the largest output sample: the single-link drive, the linear chain)
+    # how the stations' max/min and RMS metrics were taken: "every step" (the machine kernel tracks
+    # them at its stations at every integrator step, dynamics.solvers.machine_verlet.PEAK_METRICS,
+    # and the RMS over time by the trapezoid rule on the steps, RMS_METRICS) or "output samples"
+    # (the largest output sample, the RMS over the samples: the single-link drive, the linear chain)
     peak_sampling: str = "output samples"
 
 

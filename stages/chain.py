@@ -139,6 +139,7 @@ def simulate_scenario(
     import numpy as np
 
     from dynamics.cams import CamProgram
+    from dynamics.machine_scene import every_step_metrics
     from dynamics.models.reduction import modes_to_keep
     from dynamics.response.metrics import link_metrics, settling_times, tension_extremes
     from dynamics.scene import simulate_scene
@@ -182,9 +183,9 @@ def simulate_scenario(
         stations = {name: metrics.at_link(link) for name, link in places.items()}
     else:
         stations = {cfg.station: replace(metrics.at_link(1), link=kept[0])}
-    # the machine kernel's peaks over every step (ContactSummary.peak_sampling), where it tracked them
-    step_peaks = r.diagnostics.get("station_peaks") or {}
-    stations = {name: replace(s, **step_peaks.get(name, {})) for name, s in stations.items()}
+    # the machine kernel's peaks and RMS over every step (ContactSummary.peak_sampling), where it took them
+    every_step = every_step_metrics(r)
+    stations = {name: replace(s, **every_step.get(name, {})) for name, s in stations.items()}
     settling = settling_times(t, r.x_m, r.z_m, history.dwell_mask, cfg.settling_band_m).settling_time_s
     # a link that stays outside the band in any dwell has not settled: NaN wins over the maximum
     worst = np.where(np.isnan(settling).any(axis=0), np.nan, np.nanmax(settling, axis=0, initial=0.0))

@@ -7,13 +7,12 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram
-from dynamics.machine_scene import simulate_machine
+from dynamics.machine_scene import every_step_metrics, simulate_machine
 from dynamics.models import clearance_machine, machine_damping
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance_machine import ClearanceMachine
 from dynamics.models.layout import MachineLayout
 from dynamics.models.wheels import Wheel
-from dynamics.response.metrics import link_metrics
 from dynamics.solvers import clearance_verlet as verlet
 
 PITCH_M = 0.1125
@@ -25,35 +24,27 @@ TIGHT_TOL = 1e-8
 TIGHT_DAMPING_TOLERANCE = 1e-7
 METRICS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2")
 METRICS += ("residual_vibration_m",)
-PEAKS = ("max_abs_acceleration_m_s2", "residual_vibration_m")
 
 
 def _station_metrics(model, cam, t, **options) -> np.ndarray:
-    """(4 stations, METRICS) as the pipeline has them (stages/chain.py): the RMS values from the output
-    samples, max |a| and the residual vibration from the kernel's peaks over every step."""
+    """(4 stations, METRICS) as the pipeline has them (stages/chain.py): the kernel's over every step
+    (the RMS over time, max |a| and the residual vibration its peaks)."""
     cols = list(model.machine.stations().values())
     r, _ = simulate_machine(model, cam, t, links=cols, **options)
-    lm = link_metrics(r.x_m, r.v_m_s, r.a_m_s2, r.z_m, r.zdot_m_s, r.zddot_m_s2, cam.dwell_mask(t))
-    peaks = r.diagnostics["station_peaks"]
-    return np.array(
-        [
-            [peaks[name][k] if k in PEAKS else float(getattr(lm, k)[i]) for k in METRICS]
-            for i, name in enumerate(model.machine.stations())
-        ]
-    )
+    every_step = every_step_metrics(r)
+    return np.array([[every_step[name][k] for k in METRICS] for name in model.machine.stations()])
 
 
 @pytest.mark.slow
 def test_the_2000_link_default_run_is_within_its_documented_accuracy_of_a_tight_run(monkeypatch):
     """2,000 links (default wheels and link, 0.094 mm, 180 rpm modified sine, the pipeline's output
-    grid, steady state): the default run's 20 station metrics against the tight run (TIGHT_*).
-    Measured (bench_long_accuracy.py, against the run at safety / 10, which the one at / 5 is within
-    5e-4 of): one metric, the slack-side station's RMS acceleration, is 2.4e-3 off (3.05e-3 before a
-    long chain's settle was searched; its output samples in the ringing after two impacts; made tight
-    one at a time, the window's step moved it by about 1.1e-3, the damping's and the search's
-    tolerances by 5e-4 and 4e-4), the other 19 were within 2.4e-4. Bounds: 3.0e-3 plus the tight
-    run's own 5e-4 for that one, 5e-4 for the others. Slow: the tight run is about 2 x 10^5 steps of 4,000
-    DOFs (about 30 s of CPU)."""
+    grid, steady state): the default run's 20 station metrics against the tight run (TIGHT_*), as the
+    pipeline reports them (every step: the RMS over time, the peaks). Measured (bench_long_accuracy.py,
+    against the run at safety / 10, which the one at / 5 is within 1.6e-4 of): worst 3.9e-4, the
+    slack-side station's RMS acceleration (2.4e-3 when its RMS was taken over the output samples,
+    which alias the ringing after two impacts there); against the run at / 5 here 2.3e-4. Bound: the
+    measured 3.9e-4 plus the tight run's own 1.6e-4, rounded up to 6e-4 (issue #24's target is 1e-3).
+    Slow: the tight run is about 2 x 10^5 steps of 4,000 DOFs (about 30 s of CPU)."""
     links = 2000
     chain = ChainModel(links, 2.03, 9.0092e7, damping_ratio=0.13, preload_N=2224.0, friction_coefficient=0.35)
     cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180)
@@ -65,10 +56,7 @@ def test_the_2000_link_default_run_is_within_its_documented_accuracy_of_a_tight_
     safety = verlet.default_safety(model, verlet.default_predictor(model)) / TIGHT_SAFETY_DIVISOR
     tight = _station_metrics(model, cam, t, safety=safety, tol=TIGHT_TOL)
     error = np.abs(default - tight) / np.abs(tight)
-    slack_rms_a = list(model.machine.stations()).index("slack-side"), METRICS.index("rms_acceleration_m_s2")
-    assert error[slack_rms_a] < 3.5e-3
-    error[slack_rms_a] = 0.0
-    assert np.max(error) < 5e-4
+    assert np.max(error) < 6e-4
 
 
 def test_a_long_chains_settle_is_searched_to_its_tolerance_at_the_default_safety(monkeypatch):

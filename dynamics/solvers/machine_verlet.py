@@ -30,7 +30,7 @@ end was first order.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
@@ -69,6 +69,11 @@ PEAK_METRICS = (
     "residual_vibration_m",
 )
 N_PEAKS = len(PEAK_METRICS)
+# the station RMS metrics over every step (`step_moments` after the step, from the same node values as
+# the peaks): the displacement, velocity and acceleration that dynamics.response.metrics.link_metrics
+# squares (absolute: x = z + q, x' = z' + q', x'' = z'' + q''), the RMS over time the square root of
+# their integral over the window (the trapezoid rule on the step's nodes) over the window's length
+RMS_METRICS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2")
 # node flags (`integrate(node_flags=)`): the node is in the output window / in a dwell of the cam
 IN_WINDOW, IN_DWELL = 1, 2
 # entries of MachineArrays.par (ClearanceMachine.arrays: the last, par[8], whether links seat on tooth
@@ -771,6 +776,10 @@ class MachineRun:
     # (stations, N_PEAKS) the station peaks (PEAK_METRICS) over every node of the window
     # (integrate(stations=)); NaN where no node counted; None: not tracked
     station_peaks: np.ndarray | None = None
+    # (output intervals, stations, RMS_METRICS, 3) per output interval the trapezoid rule's integrals
+    # of 1, y and y^2 over its steps (`step_moments`), y the station's displacement in the run's lift
+    # frame (q + z_rel), its absolute velocity and acceleration; None: not tracked
+    station_moments: np.ndarray | None = None
 
 
 def integrate(
@@ -798,7 +807,8 @@ def integrate(
     over the nodes `node_flags` (IN_WINDOW | IN_DWELL per node; None: every node in the window, none
     in a dwell), by the largest node or, `interpolate_peaks`, the parabola through the three nodes
     around it (`step_peaks`; under the Kelvin-Voigt law not across a station's contact change, where
-    the dashpot's force jumps: there the one-sided values)."""
+    the dashpot's force jumps: there the one-sided values), and their motion's integrals for the RMS
+    over every step per output interval (`step_moments`, over every node whatever its flags)."""
     theta = PREDICTORS[predictor]
     precision = default_damping_precision(model) if damping_precision is None else damping_precision
     if precision not in DAMPING_PRODUCT_PRECISIONS:
@@ -881,6 +891,7 @@ def integrate(
         dissipated_damping_J=float(energy[1]),
         dissipated_friction_J=float(energy[2]),
         station_peaks=None if stations is None else step_peaks(station_values, zdd, flags, switches, interpolate_peaks),
+        station_moments=None if stations is None else step_moments(station_values, (zr, zd, zdd), step_s, out_every),
     )
 
 
@@ -1023,15 +1034,18 @@ def index_cycle(
     nxt = before + out_every
     on_node = abs(nxt * step_s - t_seat) <= 1e-9 * step_s
     pieces, rows, durations = [], [], []
+    moments = []  # per output interval, in the cycle's lift frame (the pieces after the seat change one pitch on)
     if before > 0:
         head = up_to(before)
         pieces.append(head)
         durations.append(before * step_s)
         rows.append(head)
+        moments.append(head.station_moments)
         q0, v0 = head.q[-1], head.v[-1]
     to_seat = _sub_steps(model, cam, (before * step_s, t_seat), step_s, s0, q0, v0, predictor, track_energy, **peaks)
     pieces.append(to_seat)
     durations.append(t_seat - before * step_s)
+    seat_interval = to_seat.station_moments  # the output interval around the seat change
     if before == 0:
         rows.append(_first_row(to_seat))
     _, zd_seat, zdd_seat, _ = (float(x[0]) for x in cam.svaj(np.array([t_seat])))
@@ -1045,6 +1059,8 @@ def index_cycle(
         pieces.append(to_node)
         durations.append(nxt * step_s - t_seat)
         rows.append(_last_row(to_node))
+        if seat_interval is not None:
+            seat_interval = seat_interval + shifted_moments(to_node.station_moments, pitch)
         q1, v1 = to_node.q[-1], to_node.v[-1]
     if nxt < n_steps:
         tail = integrate(
@@ -1064,7 +1080,13 @@ def index_cycle(
         pieces.append(tail)
         durations.append((n_steps - nxt) * step_s)
         rows.append(tail if on_node else _rows_from(tail, 1))
-    return _merged(pieces, rows, durations, step_s), seating
+    merged = _merged(pieces, rows, durations, step_s)
+    if stations is None:
+        return merged, seating
+    moments.append(seat_interval)
+    if nxt < n_steps:
+        moments.append(shifted_moments(tail.station_moments, pitch))
+    return replace(merged, station_moments=np.concatenate(moments)), seating
 
 
 def _sub_steps(
@@ -1198,6 +1220,36 @@ def merged_peaks(peaks):
     run counted a node; None when none tracked them."""
     tracked = [p for p in peaks if p is not None]
     return np.fmax.reduce(tracked) if tracked else None
+
+
+def step_moments(values, nodes, step_s: float, out_every: int) -> np.ndarray:
+    """Per output interval (out_every steps) and station the trapezoid rule's integrals of 1, y and y^2
+    over its steps (output intervals x stations x RMS_METRICS x 3), y the motion the RMS metrics
+    square: values (nodes x stations x (q, q', q''), relative to the cam) plus the cam's nodes
+    (z_rel, z', z''); the displacement in the run's lift frame (`shifted_moments` moves it)."""
+    y = values + np.stack([np.asarray(z, dtype=float) for z in nodes], axis=1)[:, None, :]
+    powers = np.stack([np.ones_like(y), y, y * y], axis=-1)
+    steps = 0.5 * step_s * (powers[1:] + powers[:-1])
+    return steps.reshape(-1, out_every, *steps.shape[1:]).sum(axis=1)
+
+
+def shifted_moments(moments, lift_m: float):
+    """`step_moments` with the displacement counted from `lift_m` lower (y -> y + lift_m): exact, as
+    the trapezoid rule is linear in its nodes' values; None stays None."""
+    if moments is None:
+        return None
+    out = np.array(moments, dtype=float)
+    zeroth, first, second = (moments[..., 0, k] for k in range(3))
+    out[..., 0, 1] = first + lift_m * zeroth
+    out[..., 0, 2] = second + 2.0 * lift_m * first + lift_m * lift_m * zeroth
+    return out
+
+
+def station_rms(moments) -> np.ndarray:
+    """The RMS over time (stations x RMS_METRICS) of summed `step_moments` (stations x RMS_METRICS x 3):
+    sqrt(integral of y^2 / the window's length)."""
+    m = np.asarray(moments, dtype=float)
+    return np.sqrt(m[..., 2] / m[..., 0])
 
 
 def next_index_start(
