@@ -1,6 +1,6 @@
 """Today's clearance chain (the single-link drive) keeps its numbers while the chain's topology and
 the wheels are built around it (issue #22): station metrics of five scenes against the figures main
-computed before the wheels were wired in, to 1e-12 (1e-10 for the long chain, see the test).
+computed before the wheels were wired in, to 1e-11 (1e-10 for the long chain, see the test).
 
 The stored figures are `_metrics(**SCENES[name])` below, first made on main at d46096f; rewritten
 when three deliberate changes merged beside the wheels moved them: the accelerated steady-state
@@ -57,5 +57,8 @@ def _metrics(n=85, friction=0.0, law="global", tensioner=None):
 def test_the_single_link_drives_clearance_chain_keeps_mains_numbers(name):
     # the long chain's O(N) damping takes its eigenvalue range from ARPACK (eigsh), whose random
     # start vector moves main's own figures by up to 2.4e-12 from run to run (measured): 1e-10 there
-    rtol = 1e-10 if name == "long" else 1e-12
+    # numba compiles the kernel for the host CPU (its vector width and fused multiply-adds), and the
+    # impacts amplify the last bit: main's own code on AMD EPYC is up to 1.9e-12 from these figures,
+    # made on Intel Xeon (measured), so 1e-11; the deliberate changes above moved them by >= 2.7e-7
+    rtol = 1e-10 if name == "long" else 1e-11
     np.testing.assert_allclose(_metrics(**SCENES[name]), MAIN[name], rtol=rtol, atol=0)
