@@ -24,6 +24,8 @@ import pytest
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain, Tensioner, contact_state
 from dynamics.solvers import clearance_verlet as verlet
+from dynamics.solvers import machine_verlet as mv
+from dynamics.solvers import ring_on_topology
 
 N, M, K, GAP, V = 8, 2.0, 9.0e7, 4e-3, 0.6
 M_EFF = M / 2
@@ -37,6 +39,26 @@ def _ring(span_damping="global", beta=None):
         n_links=N, link_mass_kg=M, stiffness_N_per_m=K, damping_ratio=0.0, preload_N=0.0, friction_coefficient=0.0
     )
     return ClearanceChain(chain, GAP, span_damping=span_damping, kv_beta_s=beta, tensioner=Tensioner(0.0, 1.0))
+
+
+def impact_on_the_machine_kernel(steps_per_impact: int, out_every: int, **options):
+    """(the machine kernel's MachineRun, its step, its steps) of _ring's impact stepped on its topology
+    (ring_on_topology.machine_of) with station link 2, `steps_per_impact` steps over the contact's pi /
+    omega, outputs every `out_every` steps, from the gap's closing until three contact lengths on;
+    `options` to machine_verlet.integrate (tests/test_station_peaks.py, tests/test_station_rms.py)."""
+    model = _ring()
+    h = math.pi / OMEGA / steps_per_impact
+    n_steps = int((GAP / (2 * V) + 3 * math.pi / OMEGA) / h)
+    n_steps -= n_steps % out_every
+    j = np.arange(N)
+    y0 = np.where(j <= model.idler_span, -0.5 * GAP * j, 0.5 * GAP * (N - j))
+    w0 = np.zeros(N)
+    w0[2], w0[3] = 0.5 * V, -0.5 * V
+    zero = np.zeros(n_steps + 1)
+    q0, v0 = np.r_[y0, -0.25 * N * GAP], np.r_[w0, 0.0]
+    machine = ring_on_topology.machine_of(model)
+    run = mv.integrate(machine, zero, zero, zero, h, q0, v0, out_every=out_every, stations=[2], **options)
+    return run, h, n_steps
 
 
 def _impact(model, compiled=None, steps_per_impact=STEPS_PER_IMPACT):

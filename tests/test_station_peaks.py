@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 import pytest
-from test_clearance_impacts import GAP, OMEGA, N, V, _ring
+from test_clearance_impacts import GAP, OMEGA, N, V, _ring, impact_on_the_machine_kernel
 
 from dynamics.cams import CamProgram
 from dynamics.machine_scene import _station_values, machine_model, simulate_machine, station_dofs
@@ -36,20 +36,7 @@ PITCH_M = 0.1125
 def _impact_peaks(steps_per_impact: int, interpolate: bool):
     """(the station peaks of link 2, the largest output sample of its |a|) of the two-mass impact on
     the ring's topology, outputs every OUT_EVERY steps."""
-    model = _ring()
-    h = math.pi / OMEGA / steps_per_impact
-    n_steps = int((GAP / (2 * V) + 3 * math.pi / OMEGA) / h)
-    n_steps -= n_steps % OUT_EVERY
-    j = np.arange(N)
-    y0 = np.where(j <= model.idler_span, -0.5 * GAP * j, 0.5 * GAP * (N - j))
-    w0 = np.zeros(N)
-    w0[2], w0[3] = 0.5 * V, -0.5 * V
-    zero = np.zeros(n_steps + 1)
-    machine = ring_on_topology.machine_of(model)
-    q0, v0 = np.r_[y0, -0.25 * N * GAP], np.r_[w0, 0.0]
-    run = mv.integrate(
-        machine, zero, zero, zero, h, q0, v0, out_every=OUT_EVERY, stations=[2], interpolate_peaks=interpolate
-    )
+    run, _, _ = impact_on_the_machine_kernel(steps_per_impact, OUT_EVERY, interpolate_peaks=interpolate)
     return run.station_peaks[0], float(np.max(np.abs(run.a[:, 2])))
 
 

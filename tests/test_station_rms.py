@@ -15,10 +15,9 @@ import math
 
 import numpy as np
 import pytest
-from test_clearance_impacts import GAP, OMEGA, N, V, _ring
+from test_clearance_impacts import OMEGA, V, impact_on_the_machine_kernel
 
 from dynamics.solvers import machine_verlet as mv
-from dynamics.solvers import ring_on_topology
 
 PEAK_A = V * OMEGA / 2
 OUT_EVERY = 4
@@ -60,19 +59,7 @@ def test_shifting_the_displacements_frame_is_the_moments_of_the_shifted_displace
 def _impact(steps_per_impact: int):
     """(the every-step RMS of link 2's RMS_METRICS, its sampled RMS of |a|, the window's length) of
     the two-mass impact on the ring's topology, outputs every OUT_EVERY steps."""
-    model = _ring()
-    h = math.pi / OMEGA / steps_per_impact
-    n_steps = int((GAP / (2 * V) + 3 * math.pi / OMEGA) / h)
-    n_steps -= n_steps % OUT_EVERY
-    j = np.arange(N)
-    y0 = np.where(j <= model.idler_span, -0.5 * GAP * j, 0.5 * GAP * (N - j))
-    w0 = np.zeros(N)
-    w0[2], w0[3] = 0.5 * V, -0.5 * V
-    zero = np.zeros(n_steps + 1)
-    q0, v0 = np.r_[y0, -0.25 * N * GAP], np.r_[w0, 0.0]
-    run = mv.integrate(
-        ring_on_topology.machine_of(model), zero, zero, zero, h, q0, v0, out_every=OUT_EVERY, stations=[2]
-    )
+    run, h, n_steps = impact_on_the_machine_kernel(steps_per_impact, OUT_EVERY)
     moments = run.station_moments
     assert moments.shape == (n_steps // OUT_EVERY, 1, len(mv.RMS_METRICS), 3)
     rms = mv.station_rms(moments.sum(axis=0))[0]
