@@ -10,6 +10,7 @@ the damping ratio and the preload from dynamics.options, the hardware and nest m
 
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,40 +38,15 @@ def m_to_mm(value_m: float) -> float:
     return value_m * MM_PER_M
 
 
-def _default_pin_clearance_m() -> float:
-    from dynamics.options import DEFAULT_PIN_CLEARANCE_M
+def _model_default(module: str, name: str):
+    """A default_factory reading the constant `name` from `module` when a RunConfig is made, not when
+    the settings are imported (so that reading them does not import numpy or gmsh): the default
+    stays written once, with its model."""
 
-    return DEFAULT_PIN_CLEARANCE_M
+    def read():
+        return getattr(importlib.import_module(module), name)
 
-
-def _default_damping_ratio() -> float:
-    from dynamics.options import DEFAULT_DAMPING_RATIO
-
-    return DEFAULT_DAMPING_RATIO
-
-
-def _default_preload_N() -> float:
-    from dynamics.options import DEFAULT_PRELOAD_N
-
-    return DEFAULT_PRELOAD_N
-
-
-def _default_hardware_mass_kg() -> float:
-    from geometry.dimensions import DEFAULT_HARDWARE_MASS_KG
-
-    return DEFAULT_HARDWARE_MASS_KG
-
-
-def _default_nest_mass_kg() -> float:
-    from geometry.dimensions import NEST_MASS_KG
-
-    return NEST_MASS_KG
-
-
-def _default_max_memory_gb() -> float:
-    from fem.budget import DEFAULT_MAX_MEMORY_GB
-
-    return DEFAULT_MAX_MEMORY_GB
+    return read
 
 
 def _default_cache_dir() -> Path:
@@ -90,8 +66,12 @@ class RunConfig:
     rpm: float = 180.0
     cams: tuple[str, ...] = field(default_factory=cam_ids)  # every registered law without a dwell jump
     friction: float = 0.35  # Coulomb coefficient between links and guide
-    damping: float = field(default_factory=_default_damping_ratio)  # modal ratio of every chain mode
-    preload_N: float = field(default_factory=_default_preload_N)  # the idler tensioner's static tension
+    damping: float = field(
+        default_factory=_model_default("dynamics.options", "DEFAULT_DAMPING_RATIO")
+    )  # modal ratio of every chain mode
+    preload_N: float = field(
+        default_factory=_model_default("dynamics.options", "DEFAULT_PRELOAD_N")
+    )  # the idler tensioner's static tension
     solver: str = "exact"
     preset: str | None = None
     out: Path = Path("results")
@@ -100,11 +80,13 @@ class RunConfig:
     quiet: bool = False
     mesh_size_m: float | None = None  # finest FEA level; None: chosen for < 1 % error in k
     order: int = 2
-    max_memory_gb: float = field(default_factory=_default_max_memory_gb)  # the FEA solves' memory budget
+    max_memory_gb: float = field(
+        default_factory=_model_default("fem.budget", "DEFAULT_MAX_MEMORY_GB")
+    )  # the FEA solves' memory budget
     # --tolerance: the finest FEA level's size (fem.adaptive.DEFAULT_MAX_DOFS, which imports the solvers)
     max_fea_dofs: int = 400_000
-    hardware_mass_kg: float = field(default_factory=_default_hardware_mass_kg)
-    nest_mass_kg: float = field(default_factory=_default_nest_mass_kg)
+    hardware_mass_kg: float = field(default_factory=_model_default("geometry.dimensions", "DEFAULT_HARDWARE_MASS_KG"))
+    nest_mass_kg: float = field(default_factory=_model_default("geometry.dimensions", "NEST_MASS_KG"))
     cache_dir: Path = field(default_factory=_default_cache_dir)
     steady_state: bool = True  # periodic steady state of continuous indexing (False: from rest)
     samples_per_degree: int = 4
@@ -117,7 +99,9 @@ class RunConfig:
     hardware_from_step: bool = False  # --hardware-from-step: hardware mass from those solids
     # the chain model (issue #11): see dynamics.scene
     model: str = "auto"
-    pin_clearance_m: float = field(default_factory=_default_pin_clearance_m)  # inf: a chain that only pulls
+    pin_clearance_m: float = field(
+        default_factory=_model_default("dynamics.options", "DEFAULT_PIN_CLEARANCE_M")
+    )  # inf: a chain that only pulls
     span_damping: str = "global"
     rayleigh: tuple[float, float] | None = None  # (alpha 1/s, beta s) instead of the modal damping
     tensioner_rate_N_per_m: float | None = None
