@@ -15,6 +15,8 @@ until the state changes by at most TOL per cycle or MAX_CYCLES. Sections (all by
 - speeds: aluminium, modified sine, the clearance machine's periodic state from 150 to 190 rpm;
 - linear: the linear machine at free play 0 under Rayleigh (0, beta) (the law in full contact),
   polygon-free, its exact relabelled periodic state (machine_steady) against the speed, both materials;
+  at 5 f_1 rpm (the third harmonic on f_1) relabelled against labelled; machine_verlet's periodic
+  state of that machine under the Kelvin-Voigt law at 180 rpm against the exact one;
 - frames: aluminium at 180 rpm cycled in the labelled frame (no seat change), and with the tooth model;
 - energy: aluminium, per cycle of the periodic state: the cam's work, the dashpots' and friction's
   dissipation, the seat change's change of stored energy, the imbalance (at 0.25 and 0.0625).
