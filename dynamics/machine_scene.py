@@ -45,14 +45,16 @@ from dynamics.scene import (
     DEFAULT_TOL,
     ChainModelKind,
     ContactSummary,
+    LowestMode,
     SteadyState,
     _select,
     choose_model,
     impact_statistics,
+    lowest_mode,
     station_values,
 )
+from dynamics.solvers import cache, machine_shooting
 from dynamics.solvers import clearance_verlet as verlet
-from dynamics.solvers import machine_shooting
 from dynamics.solvers import machine_verlet as mv
 from dynamics.solvers.simulate import ChainResponse
 
@@ -183,7 +185,8 @@ def simulate_machine(
             model, cam, h_out, per_cycle, lin_state, tol, max_cycles, pred, saf, default_step, steady_state
         )
         run = _window(model, cam, t, per_cycle, sub, state, pred, _found(ss))
-    summary = _summary(model, chosen, run, lin_min, needed, ss, sub)
+    ran = model if chosen.model == ChainModelKind.CLEARANCE else linear
+    summary = _summary(model, chosen, run, lin_min, needed, ss, sub, machine_lowest_mode(ran, cam.cycle_s))
     return _response(model, cam, t, run, links, sub, ss), summary
 
 
@@ -531,7 +534,16 @@ def _free_play_fraction(model, chosen, run: _Window) -> float:
     return run.free_play_fraction
 
 
-def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, sub) -> ContactSummary:
+def machine_lowest_mode(model: ClearanceMachine, cycle_s: float) -> LowestMode:
+    """The machine's lowest natural mode under `model`'s damping law against the harmonics of an index
+    cycle of cycle_s (dynamics.scene.LowestMode), cached (one eigensolve per machine)."""
+    frequency = cache.cached(
+        ("machine lowest frequency", model.machine), lambda: float(model.machine.lowest_natural_frequencies_Hz(1)[0])
+    )
+    return lowest_mode(frequency, model.damping_ratio_at(2.0 * np.pi * frequency), cycle_s)
+
+
+def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, sub, mode=None) -> ContactSummary:
     cycles = run.cycles
     impacts = impact_statistics(run, cycles)
     return ContactSummary(
@@ -550,6 +562,7 @@ def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, 
         impacts=impacts,
         seating=run.seating,
         peak_sampling="output samples" if run.station_peaks is None else "every step",
+        lowest_mode=mode,
     )
 
 

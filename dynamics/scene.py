@@ -152,6 +152,34 @@ def impact_statistics(run, cycles: float) -> ImpactStatistics:
 
 
 @dataclass(frozen=True)
+class LowestMode:
+    """The chain's lowest natural mode (full contact, the model as it ran) under the run's damping law,
+    against the harmonics of the cam's cycle rate (SI). The cam drives every harmonic n / cycle_s; the
+    mode nearest one of them takes its share of that harmonic amplified by `amplification`, the linear
+    dynamic amplification 1 / sqrt((1 - r^2)^2 + (2 zeta r)^2), r = n f_cycle / f_1 (1: the force as
+    if applied slowly). Under the Kelvin-Voigt law zeta_1 = beta omega_1 / 2 is tiny (0.0032 on the
+    default chain) and a harmonic near f_1 builds a resonance that the free play can move onto it (a
+    softening law); `decay_per_cycle` = exp(-zeta omega_1 T) is also how slowly a search for the
+    periodic state converges (docs/physics.md, "Damping laws")."""
+
+    frequency_Hz: float
+    damping_ratio: float
+    harmonic: int  # n: the harmonic of the cycle rate nearest frequency_Hz (at least 1)
+    detuning: float  # frequency_Hz / (n / cycle_s) - 1
+    amplification: float
+    decay_per_cycle: float
+
+
+def lowest_mode(frequency_Hz: float, damping_ratio: float, cycle_s: float) -> LowestMode:
+    """LowestMode of a mode at frequency_Hz with damping_ratio, driven by a cam of period cycle_s."""
+    n = max(1, round(frequency_Hz * cycle_s))
+    r = n / (cycle_s * frequency_Hz)
+    amplification = 1.0 / float(np.hypot(1.0 - r * r, 2.0 * damping_ratio * r))
+    decay = float(np.exp(-damping_ratio * 2.0 * np.pi * frequency_Hz * cycle_s))
+    return LowestMode(float(frequency_Hz), float(damping_ratio), int(n), 1.0 / r - 1.0, amplification, decay)
+
+
+@dataclass(frozen=True)
 class ContactSummary:
     """What the designer reads about contact, per scenario (SI)."""
 
@@ -182,6 +210,9 @@ class ContactSummary:
     # and the RMS over time by the trapezoid rule on the steps, RMS_METRICS) or "output samples"
     # (the largest output sample, the RMS over the samples: the single-link drive, the linear chain)
     peak_sampling: str = "output samples"
+    # the machine on its wheels: its lowest mode under the run's damping law against the cam's harmonics
+    # (LowestMode); None for the single-link drive
+    lowest_mode: LowestMode | None = None
 
 
 def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float) -> ModelChoice:

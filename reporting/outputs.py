@@ -155,6 +155,7 @@ def _contact_summary(contact) -> dict:
         },
         "steps_per_output_sample": contact.steps_per_output,
         "peak_sampling": contact.peak_sampling,
+        "lowest_mode": None if contact.lowest_mode is None else vars(contact.lowest_mode),
     }
 
 
