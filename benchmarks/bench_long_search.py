@@ -21,7 +21,7 @@ quality, from any cheaper model, would leave to search). CPU seconds are the pro
 The minimum tension is the linear machine's elastic span force P + k e in N (printed in kN), the least
 over every span and step of the cycle: the figure the model choice takes (and the preload for full
 contact, P - T). It is only a tension while the stretch e is small against the pitch. At 1,000 links
-it is about -50 kN (e about -0.6 mm); at 10,000 links about -6,770 kN, one span (the middle one, the
+it is about -50 kN (e about -0.58 mm); at 10,000 links about -6,770 kN, one span (the middle one, the
 idler's side) at the cycle's first output, right after the seat change, compressed by 75 mm, two
 thirds of a pitch, while the strands lag the cam by up to 0.34 m (their stretch under the preload
 alone is 0.12 m): no physical force, the linear model outside its small-stretch assumption there.
