@@ -83,14 +83,14 @@ class Scene:
 
 SCENES = (
     Scene(
-        "default: 85 links, 180 rpm, 0.094 mm, global damping",
+        f"default: 85 links, 180 rpm, {DEFAULT_RUN.pin_clearance_m * 1e3:g} mm, global damping",
         DEFAULT_RUN.links,
         DEFAULT_RUN.rpm,
         DEFAULT_RUN.pin_clearance_m,
         DEFAULT_RUN.span_damping,
     ),
     Scene(
-        "41 links, 240 rpm, 0.094 mm, Kelvin-Voigt (window from rest)",
+        f"41 links, 240 rpm, {DEFAULT_RUN.pin_clearance_m * 1e3:g} mm, Kelvin-Voigt (window from rest)",
         41,
         240.0,
         DEFAULT_RUN.pin_clearance_m,

@@ -129,7 +129,7 @@ def _window_table(quick: bool) -> list[str]:
     cam, t = _window()
     repeats = 3 if quick else 7
     lines = [
-        "One 85-link 180-degree window from rest, clearance 0.094 mm (aluminium, modified sine); error = "
+        f"One 85-link 180-degree window from rest, clearance {DEFAULT_PIN_CLEARANCE_M * 1e3:g} mm (aluminium, modified sine); error = "
         "largest relative difference of the 20 station metrics from the converged answer (256 steps per "
         "output sample)",
         "",

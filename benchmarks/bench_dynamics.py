@@ -37,6 +37,7 @@ from dynamics.cams.program import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.mqp2012 import CAMS, MATERIALS, dynacam_table, preload_vector, replica_system
 from dynamics.models.system import SampledForce
+from dynamics.options import DEFAULT_DAMPING_RATIO
 from dynamics.response.sweep import cam_cycle_samples, chain_modes, modal_periodic_response
 from dynamics.solvers import cache as solver_cache
 from dynamics.solvers import exact as exact_solver
@@ -288,7 +289,7 @@ def _default_model_table(scenarios, n_slow: int) -> list[str]:
     cases = {}
     for material, cam in scenarios:
         stiffness, mass = MATERIALS[material]
-        model = ChainModel(N_LINKS, mass, stiffness, damping_ratio=0.13, preload_N=0.0)
+        model = ChainModel(N_LINKS, mass, stiffness, damping_ratio=DEFAULT_DAMPING_RATIO, preload_N=0.0)
         zddot = mqp2012_program(cam, RPM).svaj(t)[2]
         cases[material, cam] = (model.system(), SampledForce(t, model.base_excitation_force(zddot)), t)
     refs = {key: _solve(case, "exact", substeps=4) for key, case in cases.items()}
@@ -333,7 +334,7 @@ def _stepping_table() -> list[str]:
     from dynamics.solvers._common import force_at
 
     stiffness, mass = MATERIALS["al6061-t6"]
-    model = ChainModel(N_LINKS, mass, stiffness, damping_ratio=0.13, preload_N=0.0)
+    model = ChainModel(N_LINKS, mass, stiffness, damping_ratio=DEFAULT_DAMPING_RATIO, preload_N=0.0)
     t = np.arange(181) * ((60.0 / RPM) / 360.0)
     case = (model.system(), SampledForce(t, model.base_excitation_force(mqp2012_program(CAMS[0], RPM).svaj(t)[2])), t)
     system, force, _ = case

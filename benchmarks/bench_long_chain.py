@@ -141,9 +141,12 @@ def _row(n, res, form, check, steady, label="") -> str:
 
 
 def run(quick: bool) -> list[str]:
+    from dynamics.options import DEFAULT_PIN_CLEARANCE_M
+
     sizes = SIZES[:3] if quick else SIZES
     lines = [
-        "Long clearance chains, one scenario each in its own process (default link, 0.094 mm, 180 rpm); the "
+        "Long clearance chains, one scenario each in its own process (default link, "
+        f"{DEFAULT_PIN_CLEARANCE_M * 1e3:g} mm, 180 rpm); the "
         "global damping law in its O(N) form above 400 links (dynamics/models/reduced_damping.py)",
         "",
         "| N | model | damping form | time (whole scenario) | of which linear chain | clearance chain per cam "

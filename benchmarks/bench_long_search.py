@@ -11,11 +11,21 @@ the linear machine from rest to CHOICE_TOL, the clearance machine to long_search
 linear machine's search cycle by cycle (its change per cycle, the cycle's minimum tension, and the
 bound 2 k max|q| r / (1 - rho) on that minimum tension's distance from the steady state's: a span's
 stretch error is at most twice the largest displacement error, a start whose cycle changes it by r is
-within about r / (1 - rho) of the fixed point, rho the slowest mode's decay per cycle); then the
+within about r / (1 - rho) of the fixed point, rho the slowest mode's decay per cycle), and that
+minimum's span stretch (T - P) / k with where it is (span, output); then the
 clearance machine's search from rest, from the linear machine's end state after k of its cycles
 (`--linear-starts`, 0: rest), from its converged state (today's start), and afresh from the
 clearance search's own end state after j of its cycles (`--own-starts`: what a start of that
 quality, from any cheaper model, would leave to search). CPU seconds are the process's.
+
+The minimum tension is the linear machine's elastic span force P + k e in N (printed in kN), the least
+over every span and step of the cycle: the figure the model choice takes (and the preload for full
+contact, P - T). It is only a tension while the stretch e is small against the pitch. At 1,000 links
+it is about -50 kN (e about -0.58 mm); at 10,000 links about -6,770 kN, one span (the middle one, the
+idler's side) at the cycle's first output, right after the seat change, compressed by 75 mm, two
+thirds of a pitch, while the strands lag the cam by up to 0.34 m (their stretch under the preload
+alone is 0.12 m): no physical force, the linear model outside its small-stretch assumption there.
+The stretch column shows it.
 """
 
 from __future__ import annotations
@@ -46,6 +56,7 @@ class SearchLog:
 
     residuals: list = field(default_factory=list)  # change per cycle (the acceptance test's measure)
     min_tensions_N: list = field(default_factory=list)
+    min_tension_where: list = field(default_factory=list)  # (span, output) of the outputs' least span force
     largest_q_m: list = field(default_factory=list)  # the cycle's largest |q| (the residual's scale)
     ends: list = field(default_factory=list)  # (q, q') after each cycle's seat change
     cycles: int = 0
@@ -55,6 +66,8 @@ class SearchLog:
     def record(self, residual, end, run) -> None:
         self.residuals.append(residual)
         self.min_tensions_N.append(float(run.min_tension_N))
+        output, span = np.unravel_index(np.argmin(run.tension_N), run.tension_N.shape)
+        self.min_tension_where.append((int(span), int(output)))
         self.largest_q_m.append(float(np.max(np.abs(run.q))))
         self.ends.append((end[0].copy(), end[1].copy()))
 
@@ -121,11 +134,18 @@ def measure(links: int, linear_starts=LINEAR_STARTS, own_starts=()) -> list[str]
         f"{links} links: the linear machine's search from rest to {CHOICE_TOL:g}: {lin.cycles} cycles "
         f"({'found' if lin.found else 'NOT found'}), {lin.cpu_s:.1f} s of CPU",
         "",
-        "| cycle | change per cycle | minimum tension | its bound 2 k max|q| r / (1 - rho) |",
-        "|---|---|---|---|",
+        "| cycle | change per cycle | minimum tension | its bound 2 k max|q| r / (1 - rho) | its stretch (T - P) / k "
+        "| where (span, output) |",
+        "|---|---|---|---|---|---|",
     ]
-    for i, (r, tension, bound) in enumerate(zip(lin.residuals, lin.min_tensions_N, bounds), 1):
-        lines.append(f"| {i} | {r:.2g} | {tension / 1e3:.1f} kN | {bound / 1e3:.3g} kN |")
+    chain, pitch_m = linear.chain, linear.machine.sprocket.pitch_m
+    logged = zip(lin.residuals, lin.min_tensions_N, bounds, lin.min_tension_where)
+    for i, (r, tension, bound, (span, output)) in enumerate(logged, 1):
+        stretch_m = (tension - chain.preload_N) / chain.stiffness_N_per_m
+        lines.append(
+            f"| {i} | {r:.2g} | {tension / 1e3:.1f} kN | {bound / 1e3:.3g} kN | {stretch_m * 1e3:.3g} mm "
+            f"({stretch_m / pitch_m:.2g} pitch) | {span}, {output} |"
+        )
     tol = long_search_tol(model, cam, 1e-6)
     starts = [
         (f"the linear machine after {k} cycles" if k else "rest", lin.ends[k - 1] if k else rest)

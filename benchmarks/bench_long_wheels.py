@@ -153,10 +153,12 @@ def _row(n, res, form, check, label="") -> str:
 def run(quick: bool) -> list[str]:
     # imported here: the scenario's subprocess puts its tree first on sys.path before importing dynamics
     from dynamics.models.machine_damping import SINGLE_PRECISION_FACTORS_ABOVE_LINKS
+    from dynamics.options import DEFAULT_PIN_CLEARANCE_M
 
     sizes = SIZES[:3] if quick else SIZES
     lines = [
-        "Long clearance chains on wheels, the pipeline's scenario (default wheels and link, 0.094 mm, 180 rpm, "
+        "Long clearance chains on wheels, the pipeline's scenario (default wheels and link, "
+        f"{DEFAULT_PIN_CLEARANCE_M * 1e3:g} mm, 180 rpm, "
         "steady state) plus the lowest natural frequencies; the global damping dense up to 400 links, its O(N) "
         "form above (dynamics/models/machine_damping.py; its factors in single precision above "
         f"{SINGLE_PRECISION_FACTORS_ABOVE_LINKS} links)",

@@ -173,7 +173,7 @@ def _window_table(quick: bool, old_tree: str | None = None, subs: list[int] | No
     head = " | ".join(f"{name}: CPU time | per step | error" for name in trees)
     lines = [
         "Clearance machine, one 85-link window (2 index cycles from rest, 4 samples/degree, aluminium, "
-        "modified sine, 180 rpm, 0.094 mm; wheels 12 teeth, 6 seated, polygonal feed); error = worst "
+        f"modified sine, 180 rpm, {DEFAULT_PIN_CLEARANCE_M * 1e3:g} mm; wheels 12 teeth, 6 seated, polygonal feed); error = worst "
         f"station metric against {16 * default} steps/sample, relative to that metric's largest station value; "
         "time = median CPU (thread) time of the repeats, each tree's window in a process of its own "
         "(its own modules on the path), the processes alternating"

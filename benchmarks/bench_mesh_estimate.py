@@ -1,6 +1,7 @@
 """The unknowns estimated before meshing (geometry.mesh_estimate) against the real count of every
-default mesh level: the built-in link and example STEP, and with the wild corpus beside the clone
-(../shared/wild/) its parts that run, the two --bores runs with their bores.
+default mesh level: the built-in link and example STEP, and where the wild corpus is found
+(benchmarks/wild_corpus.py: ../shared/wild/, /work/shared/wild or $LINK_CONVEYOR_WILD) its parts
+that run, the two --bores runs with their bores.
 
     python benchmarks/run.py --only mesh_estimate [--quick]     (--quick: the repository's links only)
 
@@ -11,9 +12,9 @@ where the part is symmetric) and its P2 unknowns counted.
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 import geometry
+from benchmarks.wild_corpus import WILD
 from fem.budget import mesh_dofs
 from fem.cli import build_parser
 from fem.settings import DEFAULT_BORE_REFINEMENT
@@ -21,7 +22,6 @@ from fem.study import default_mesh_sizes
 from geometry.mesh_estimate import estimated_dofs
 from geometry.options import link_source
 
-WILD = Path(__file__).resolve().parents[1].parent / "shared" / "wild"
 CORPUS = [
     ("gripper_connector_2holes_inventor.stp", []),
     ("gripper_connector_3holes_inventor.stp", []),
@@ -35,7 +35,7 @@ CORPUS = [
 def _parts(quick: bool):
     yield "built-in link", geometry.resolve_part(None)
     yield "example STEP", geometry.resolve_part(geometry.EXAMPLE_STEP)
-    if quick or not WILD.is_dir():
+    if quick or WILD is None:
         return
     for name, options in CORPUS:
         path = str(WILD / name)

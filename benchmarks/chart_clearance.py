@@ -9,6 +9,7 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 
+from dynamics.options import DEFAULT_PIN_CLEARANCE_M
 from verification.clearance_stability import (
     CLEARANCES_M,
     EVENT_BUDGET,
@@ -166,7 +167,7 @@ def _method_chart(out_dir: Path, quick: bool):
     _legend(axes[-1])
     fig.suptitle(
         "Clearance chain on the common interface (ClearanceChain.system(), dynamics.solvers.solve): "
-        "10 links, 0.094 mm, friction 0, 30° from rest;\naccurate = within 1 % of the fast integrator "
+        f"10 links, {DEFAULT_PIN_CLEARANCE_M * 1e3:g} mm, friction 0, 30° from rest;\naccurate = within 1 % of the fast integrator "
         "at h_max/64 (Newmark and HHT take no nonlinear force)",
         fontsize=9,
     )
@@ -196,7 +197,7 @@ def _methods_work_precision_chart(out_dir: Path, quick: bool):
     ax.plot([], [], "ks-", label="acceleration")
     ax.plot([], [], "ko:", label="displacement")
     ax.set_title(
-        f"Every method on the clearance chain: 10 links, 0.094 mm, friction 0, {30 if quick else 90}° "
+        f"Every method on the clearance chain: 10 links, {DEFAULT_PIN_CLEARANCE_M * 1e3:g} mm, friction 0, {30 if quick else 90}° "
         "from rest, step or "
         "tolerance swept;\nagainst the event-located reference at rtol 1e-10",
         fontsize=9,

@@ -10,6 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from dynamics.models.chain import ChainModel
+from dynamics.options import DEFAULT_DAMPING_RATIO
 from verification.stability import MAP_METHODS, STIFFNESSES_N_PER_M, central_difference_limit_s, stability_map
 
 COLORS = {"accurate": "tab:green", "inaccurate": "tab:orange", "diverged": "tab:red", "failed": "tab:purple"}
@@ -74,7 +75,7 @@ def make(out_dir: Path, quick: bool) -> list[str]:
         "accurate: max |y − y_ref| ≤ 1 % of max |y_ref|\n"
         "reference: exact first-order hold\n"
         "one index cycle from rest, 180 rpm, modified sine,\n"
-        "one-degree outputs, m = 2 kg, ζ = 0.13, friction 0\n"
+        f"one-degree outputs, m = 2 kg, ζ = {DEFAULT_DAMPING_RATIO:g}, friction 0\n"
         "central difference above 2/ω_max: refused\n(SolverDivergedError)",
         fontsize=8,
         va="center",

@@ -24,6 +24,7 @@ import time
 import numpy as np
 
 from dynamics.cams import CamProgram
+from dynamics.options import DEFAULT_PRELOAD_N
 from verification.machine_exudyn import (
     STATIONS,
     PlanarMachine,
@@ -108,9 +109,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="z = 6 only, quasi-static and default scenes")
     args = parser.parse_args()
-    cases = [(6, 1e5, 45.0), (6, 2224.0, 180.0)]
+    cases = [(6, 1e5, 45.0), (6, DEFAULT_PRELOAD_N, 180.0)]
     if not args.quick:
-        cases = [(6, 1e5, 45.0), (12, 1e5, 45.0), (24, 1e5, 45.0), (6, 2224.0, 180.0), (12, 2224.0, 180.0)]
+        cases = [
+            (6, 1e5, 45.0),
+            (12, 1e5, 45.0),
+            (24, 1e5, 45.0),
+            (6, DEFAULT_PRELOAD_N, 180.0),
+            (12, DEFAULT_PRELOAD_N, 180.0),
+        ]
     for teeth, preload, rpm in cases:
         print_comparison(
             f"z = {teeth}, N = {teeth + 18}, preload {preload:g} N, {rpm:g} rpm", compare(teeth, preload, rpm)

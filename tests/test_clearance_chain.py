@@ -258,9 +258,10 @@ def test_a_damping_matrix_without_the_mirror_symmetry_is_multiplied_whole():
 
 
 def test_the_friction_law_of_both_paths_is_tanh_to_the_last_bit_of_one_and_saturates_exactly():
-    """The steps evaluate tanh from one exp (`_tanh`), not the library's tanh: within 2.3e-16 (one
-    ulp of 1, so within 2.3e-16 F_c of the law), and exactly +-1 where the compiled step takes it
-    without computing it (|x| >= TANH_IS_ONE)."""
+    """The steps evaluate tanh from one exp (`_tanh_array`, numpy) or in arithmetic
+    (`_tanh_branch_free`, compiled), not the library's tanh: within 2.3e-16 (one ulp of 1, so within
+    2.3e-16 F_c of the law), and exactly +-1 where the compiled step takes it without computing it
+    (|x| >= TANH_IS_ONE)."""
     import math
 
     x = np.concatenate(
@@ -278,7 +279,7 @@ def test_the_friction_law_of_both_paths_is_tanh_to_the_last_bit_of_one_and_satur
     assert math.tanh(verlet.TANH_IS_ONE) == 1.0
     if verlet.numba is None:
         return
-    scalar = np.array([verlet._tanh(float(v)) for v in x[::17]])
+    scalar = np.array([verlet._tanh_branch_free(float(v)) for v in x[::17]])
     assert np.max(np.abs(scalar - exact[::17])) <= 2.3e-16
     fc, inv_vs = 7.0, 200.0
     par = np.zeros(13)

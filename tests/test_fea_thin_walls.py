@@ -11,9 +11,9 @@ from dataclasses import replace
 import gmsh
 import numpy as np
 import pytest
-from test_wild_corpus import WILD
 
 import geometry
+from benchmarks.wild_corpus import ABSENT, WILD
 from fem.budget import mesh_dofs
 from fem.quality import boundary_facets, thin_wall_warning, thinnest_wall_m
 from fem.settings import DEFAULT_BORE_REFINEMENT
@@ -145,7 +145,7 @@ def test_the_plates_wall_is_in_the_unknowns_estimate(plate):
     assert real / without > 2
 
 
-@pytest.mark.skipif(WILD is None, reason="the wild STEP corpus (../shared/wild/) is absent")
+@pytest.mark.skipif(WILD is None, reason=ABSENT)
 @pytest.mark.parametrize(("size_m", "reference_m"), [(0.008, 0.008), (0.010667, 0.008), (0.012, 0.012)])
 def test_the_400mm_arm_bars_unknowns_with_its_3_2mm_walls_refined_are_as_estimated(size_m, reference_m):
     # its channel's 3.2 mm walls are refined where its finest level is over 6.4 mm (the default

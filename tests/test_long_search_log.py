@@ -65,3 +65,12 @@ def test_the_search_benchmark_logs_each_search(monkeypatch):
     assert names[0] == "rest" and names[1] == "the linear machine after 1 cycles"
     assert names[2].startswith("the linear machine's steady state") and names[3].startswith("afresh from")
     assert all("NOT found" not in r for r in clearance_rows)
+    # the minimum tension's stretch column is (T - P) / k of the printed T, to the printed digits
+    chain = linear_machine(bench_long_search.scenario(40)[0]).chain
+    for row in linear_rows:
+        cells = row.split(" | ")
+        tension_N, stretch_m = float(cells[2].split()[0]) * 1e3, float(cells[4].split()[0]) * 1e-3
+        printed = 0.05e3 + 5e-3 * chain.stiffness_N_per_m * abs(stretch_m)
+        assert abs(chain.preload_N + chain.stiffness_N_per_m * stretch_m - tension_N) <= printed
+        span, output = (int(x) for x in cells[5].split(" |")[0].split(", "))
+        assert span >= 0 and output >= 0

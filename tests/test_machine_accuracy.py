@@ -13,6 +13,7 @@ from dynamics.models.chain import ChainModel
 from dynamics.models.clearance_machine import ClearanceMachine
 from dynamics.models.layout import MachineLayout
 from dynamics.models.wheels import Wheel
+from dynamics.options import DEFAULT_PIN_CLEARANCE_M
 from dynamics.response.fidelity import relative_change
 from dynamics.scene import Scene, simulate_scene
 from dynamics.solvers import clearance_verlet as verlet
@@ -103,7 +104,9 @@ def test_the_default_run_from_rest_of_a_kelvin_voigt_machine_is_within_1e3_of_co
     from stages.machine import machine_layout
 
     chain = ChainModel(24, 2.03, 9.0092e7, friction_coefficient=0.35)
-    model = ClearanceMachine.of(chain, machine_layout(RunConfig(), PITCH_M), None, 94e-6, "kelvin-voigt")
+    model = ClearanceMachine.of(
+        chain, machine_layout(RunConfig(), PITCH_M), None, DEFAULT_PIN_CLEARANCE_M, "kelvin-voigt"
+    )
     cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=240)
     t = np.arange(721) / 4 / (6 * 240)
 

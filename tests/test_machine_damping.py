@@ -13,6 +13,7 @@ from dynamics.models.clearance_machine import ClearanceMachine
 from dynamics.models.layout import MachineLayout
 from dynamics.models.machine_damping import DEFAULT_MACHINE_DAMPING_TOLERANCE, of_machine
 from dynamics.models.wheels import Wheel
+from dynamics.options import DEFAULT_DAMPING_RATIO, DEFAULT_PIN_CLEARANCE_M
 from dynamics.solvers import machine_verlet as mv
 
 PITCH_M = 0.1125
@@ -39,7 +40,7 @@ def test_the_reduced_form_is_the_dense_modal_damping_to_its_tolerance(n_links, i
     same bound for every mode), the modes stay uncoupled to that level, the carriage's c_t is kept
     exactly, and the products agree with the dense C; with the factors in either precision (single:
     what chains above SINGLE_PRECISION_FACTORS_ABOVE_LINKS take)."""
-    chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=0.13)
+    chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=DEFAULT_DAMPING_RATIO)
     layout = MachineLayout("wheels", WHEEL, WHEEL if idler else None, None if idler else 2e6, True)
     machine = layout.machine(chain, TENSIONER)
     dense, reduced = machine.damping_matrix(), _reduced_matrix(machine, factor_precision)
@@ -59,7 +60,7 @@ def test_the_reduced_form_carries_the_tooth_models_wheels(n_links, idler, drive)
     uncoupled to that level, and the products agree with the dense C, with two free wheels, one (the
     sprocket held to the cam: its seated links grounded through k_t) and without the idler wheel.
     Before the border the wheels were left out and the lowest mode was damped at 1.65 instead of 0.13."""
-    chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=0.13)
+    chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=DEFAULT_DAMPING_RATIO)
     wheel = Wheel(12, PITCH_M, 6, 0.688, 0.25)
     layout = MachineLayout("wheels", wheel, wheel if idler else None, drive, True, 9.5e8)
     machine = layout.machine(chain, TENSIONER)
@@ -86,8 +87,10 @@ def test_a_2000_link_machine_steps_on_the_reduced_damping():
     """No refusal above 400 links: the clearance machine of 2,000 links (tensioned idler wheel,
     polygonal feed) takes the O(N) form (no dense C, the sparse incidence) and steps 200 steps of an
     index cycle from a disturbed state, finite, the damping's dissipation positive."""
-    chain = ChainModel(2000, 2.03, 9.331e7, damping_ratio=0.13, friction_coefficient=0.1)
-    model = ClearanceMachine.of(chain, MachineLayout("wheels", WHEEL, WHEEL, None, True), TENSIONER, 94e-6)
+    chain = ChainModel(2000, 2.03, 9.331e7, damping_ratio=DEFAULT_DAMPING_RATIO, friction_coefficient=0.1)
+    model = ClearanceMachine.of(
+        chain, MachineLayout("wheels", WHEEL, WHEEL, None, True), TENSIONER, DEFAULT_PIN_CLEARANCE_M
+    )
     assert model.reduced_damping and model.arrays.cmat.size < 100
     cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180)
     h = mv.stable_step_s(model, 0.25, "euler")
@@ -142,7 +145,7 @@ def test_long_chains_take_single_precision_factors_with_the_same_products():
     from dynamics.models.machine_damping import SINGLE_PRECISION_FACTORS_ABOVE_LINKS
 
     def machine(n_links):
-        chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=0.13)
+        chain = ChainModel(n_links, 2.03, 9.331e7, damping_ratio=DEFAULT_DAMPING_RATIO)
         return MachineLayout("wheels", WHEEL, WHEEL, None, True).machine(chain, TENSIONER)
 
     assert of_machine(machine(SINGLE_PRECISION_FACTORS_ABOVE_LINKS)).factors.dtype == np.float64
@@ -168,7 +171,7 @@ def test_a_10000_link_machine_steps_the_same_on_single_precision_factors(monkeyp
     steps, 1.6e-4 after a cycle); their effect on the station metrics is bench_long_wheels' check."""
     from dynamics.models import machine_damping
 
-    chain = ChainModel(10_000, 2.03, 9.331e7, damping_ratio=0.13)
+    chain = ChainModel(10_000, 2.03, 9.331e7, damping_ratio=DEFAULT_DAMPING_RATIO)
     layout = MachineLayout("wheels", WHEEL, WHEEL, None, True)
     single = ClearanceMachine.of(chain, layout, TENSIONER, 0.0)
     assert single.arrays.reduced[3].dtype == np.float32
@@ -188,14 +191,14 @@ def test_a_10000_link_machine_steps_the_same_on_single_precision_factors(monkeyp
 
 
 def _assert_keeps_zeta(machine, dense, reduced, dofs):
-    """Every mode of (K, M) on `dofs` damped at zeta 0.13 by `reduced` to the rule's tolerance, the
-    modes uncoupled to that level, and reduced's products those of the dense C."""
+    """Every mode of (K, M) on `dofs` damped at DEFAULT_DAMPING_RATIO by `reduced` to the rule's
+    tolerance, the modes uncoupled to that level, and reduced's products those of the dense C."""
     k, m = machine.stiffness_matrix()[np.ix_(dofs, dofs)], machine.mass_matrix()[np.ix_(dofs, dofs)]
     lam, phi = eigh(k, m)
     modal = phi.T @ reduced[np.ix_(dofs, dofs)] @ phi
     ratios = np.diag(modal) / (2.0 * np.sqrt(lam))
     tolerance = DEFAULT_MACHINE_DAMPING_TOLERANCE
-    np.testing.assert_allclose(ratios, 0.13, rtol=tolerance)
+    np.testing.assert_allclose(ratios, DEFAULT_DAMPING_RATIO, rtol=tolerance)
     off = modal - np.diag(np.diag(modal))
     assert np.max(np.abs(off)) < tolerance * np.max(np.abs(np.diag(modal)))
     v = np.random.default_rng(3).standard_normal(dense.shape[0])

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from dynamics.cams import CamProgram, Segment
+from dynamics.options import DEFAULT_PRELOAD_N
 from verification.machine_exudyn import (
     STATIONS,
     PlanarMachine,
@@ -55,7 +56,7 @@ def _planar(teeth: int, preload: float) -> PlanarMachine:
 
 @pytest.mark.parametrize("teeth", [6, 12])
 def test_the_planar_layout_seats_the_pins_and_straightens_the_strands(teeth):
-    machine = _planar(teeth, 2224.0)
+    machine = _planar(teeth, DEFAULT_PRELOAD_N)
     pins = machine.pin_positions_m()
     links = np.linalg.norm(np.roll(pins, -1, axis=0) - pins, axis=1)
     np.testing.assert_allclose(links, P, rtol=1e-12)  # every link at its pitch, seated ones as chords
@@ -74,7 +75,7 @@ def test_the_planar_seat_change_maps_a_chain_advanced_by_one_pitch_onto_its_layo
     """The chain moved rigidly one pitch on (wheels one tooth on, every free pin where the place ahead
     of it was) is, after the seat change, the dwell layout again: no snap, nothing moving. And the
     arriving pin's impact keeps the angular momentum about its wheel's axle."""
-    machine = _planar(teeth, 2224.0)
+    machine = _planar(teeth, DEFAULT_PRELOAD_N)
     layout = machine.pin_positions_m()
     tooth = 2 * np.pi / teeth
     advanced = PlanarState(np.roll(layout, -1, axis=0), np.zeros_like(layout), np.full(2, tooth), np.zeros(2))

@@ -87,7 +87,7 @@ def test_one_sine_per_wheel_gives_the_feed_of_both_calls(gamma0):
 
 def test_the_steps_branch_free_tanh_is_the_librarys_to_the_last_bit_of_one_and_saturates_exactly():
     """`_tanh_branch_free` (the exponential written out so that the friction's loop vectorises) within
-    2.3e-16 of the library's tanh (one ulp of 1, as clearance_verlet._tanh), exactly +-1 from
+    2.3e-16 of the library's tanh (one ulp of 1), exactly +-1 from
     |x| = TANH_IS_ONE on, compiled and as Python."""
     x = np.concatenate(
         [

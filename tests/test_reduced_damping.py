@@ -18,6 +18,7 @@ from dynamics.cams import CamProgram
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain
 from dynamics.models.reduced_damping import DEFAULT_DAMPING_TOLERANCE, reduced_damping
+from dynamics.options import DEFAULT_PIN_CLEARANCE_M
 from dynamics.response.metrics import station_links
 from dynamics.solvers import clearance_verlet as verlet
 
@@ -69,8 +70,8 @@ def _window(model, sub=8, compiled=None):
 @pytest.mark.parametrize("compiled", [None, False])
 def test_integrator_with_the_tight_form_equals_the_dense_run(compiled):
     chain = _chain(40)
-    dense = _window(ClearanceChain(chain, 94e-6), compiled=compiled)
-    reduced = _window(ClearanceChain(chain, 94e-6, damping_tolerance=1e-13), compiled=compiled)
+    dense = _window(ClearanceChain(chain, DEFAULT_PIN_CLEARANCE_M), compiled=compiled)
+    reduced = _window(ClearanceChain(chain, DEFAULT_PIN_CLEARANCE_M, damping_tolerance=1e-13), compiled=compiled)
     assert dense.impacts > 0 and reduced.impacts == dense.impacts
     np.testing.assert_allclose(reduced.y, dense.y, rtol=0, atol=1e-10 * np.abs(dense.y).max())
 
@@ -78,8 +79,8 @@ def test_integrator_with_the_tight_form_equals_the_dense_run(compiled):
 @pytest.mark.parametrize("n", [85, 400])
 def test_default_form_within_its_tolerance_of_the_dense_run(n):
     chain = _chain(n)
-    dense = _window(ClearanceChain(chain, 94e-6))
-    reduced = _window(ClearanceChain(chain, 94e-6, damping_tolerance=DEFAULT_DAMPING_TOLERANCE))
+    dense = _window(ClearanceChain(chain, DEFAULT_PIN_CLEARANCE_M))
+    reduced = _window(ClearanceChain(chain, DEFAULT_PIN_CLEARANCE_M, damping_tolerance=DEFAULT_DAMPING_TOLERANCE))
     cols = [link - 1 for link in station_links(n).values()]
     # accelerations through impacts: a small change moves an impact's instant, and the sampled
     # acceleration near it by up to ten times as much (measured 7.4e-4 of the peak at N = 85)
@@ -89,7 +90,7 @@ def test_default_form_within_its_tolerance_of_the_dense_run(n):
 
 
 def test_long_chain_memory_is_linear_no_dense_damping():
-    model = ClearanceChain(_chain(2000), 94e-6)
+    model = ClearanceChain(_chain(2000), DEFAULT_PIN_CLEARANCE_M)
     assert model.damping_is_reduced
     op = model.damping_operator
     _, weights, factors, _ = op.packed()

@@ -23,6 +23,7 @@ from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.clearance_machine import ClearanceMachine
 from dynamics.models.layout import LINK_DRIVE
 from dynamics.models.machine import MachineOnWheels, modal_damping_matrix
+from dynamics.options import DEFAULT_PIN_CLEARANCE_M
 from dynamics.scene import simulate_chain
 from dynamics.solvers import clearance_verlet as cv
 from dynamics.solvers import machine_verlet as mv
@@ -31,7 +32,7 @@ from dynamics.solvers.machine_steady import periodic_state
 from dynamics.solvers.simulate import SlackChainWarning, simulate
 
 PITCH_M, K, M, N = 0.1125, 9.331e7, 2.03, 85
-CLEARANCE_M = 94e-6
+CLEARANCE_M = DEFAULT_PIN_CLEARANCE_M
 TENSIONER = Tensioner(1e5, 5.0, 100.0)
 
 

@@ -47,6 +47,7 @@ from pathlib import Path
 
 import pytest
 
+from benchmarks.wild_corpus import ABSENT, WILD
 from fem.budget import DEFAULT_MAX_MEMORY_GB, ESTIMATE_LOW_RATIO
 from fem.cli import build_parser
 from fem.settings import DEFAULT_BORE_REFINEMENT
@@ -55,14 +56,7 @@ from geometry.options import link_source
 from geometry.part import resolve_part
 
 ROOT = Path(__file__).resolve().parents[1]
-_CANDIDATES = [Path(os.environ["LINK_CONVEYOR_WILD"])] if os.environ.get("LINK_CONVEYOR_WILD") else []
-_CANDIDATES += [ROOT.parent / "shared" / "wild", Path("/work/shared/wild")]
-WILD = next((p for p in _CANDIDATES if p.is_dir()), None)
-pytestmark = pytest.mark.skipif(
-    WILD is None,
-    reason="the wild STEP corpus (../shared/wild/) is absent; these tests "
-    "read it in place (or set LINK_CONVEYOR_WILD to its folder)",
-)
+pytestmark = pytest.mark.skipif(WILD is None, reason=ABSENT)
 
 # The wrapper runs the command and reports its children's peak resident memory (KB on Linux).
 _WRAPPER = (

@@ -7,22 +7,16 @@ Meshing only, no solve; the parts that take half a minute or more are marked slo
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import pytest
 
 import geometry
+from benchmarks.wild_corpus import ABSENT, WILD
 from fem.cli import build_parser
 from fem.link import _curved_volume_m3, skfem_mesh
 from fem.settings import DEFAULT_BORE_REFINEMENT
 from fem.study import default_mesh_sizes
 from geometry.options import link_source
 
-ROOT = Path(__file__).resolve().parents[1]
-_CANDIDATES = [Path(os.environ["LINK_CONVEYOR_WILD"])] if os.environ.get("LINK_CONVEYOR_WILD") else []
-_CANDIDATES += [ROOT.parent / "shared" / "wild", Path("/work/shared/wild")]
-WILD = next((p for p in _CANDIDATES if p.is_dir()), None)
 VOLUME_TOLERANCE = 1e-3  # issue 23: the curved mesh's volume within 0.1 % of the CAD volume
 
 
@@ -51,7 +45,7 @@ def curved_volume_error(part) -> float:
     return (2 if half else 1) * _curved_volume_m3(mesh) / part.volume_m3 - 1
 
 
-@pytest.mark.skipif(WILD is None, reason="the wild STEP corpus (../shared/wild/) is absent; set LINK_CONVEYOR_WILD")
+@pytest.mark.skipif(WILD is None, reason=ABSENT)
 @pytest.mark.parametrize(("name", "options"), CORPUS)
 def test_the_curved_mesh_of_a_corpus_part_has_its_cad_volume(name, options):
     path = str(WILD / name)

@@ -47,13 +47,14 @@ from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedErro
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain
 from dynamics.models.system import SampledForce
+from dynamics.options import DEFAULT_PIN_CLEARANCE_M
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import solve
 
 OUTCOMES = ("accurate", "inaccurate", "diverged", "failed")
 STEP_FACTORS = (0.5, 0.9, 0.99, 1.01, 1.1, 1.5, 2.0)
 STIFFNESSES_N_PER_M = (1e7, 1e8, 1e9)
-CLEARANCES_M = (0.0, 94e-6, 376e-6)
+CLEARANCES_M = (0.0, DEFAULT_PIN_CLEARANCE_M, 4 * DEFAULT_PIN_CLEARANCE_M)  # none, the default, four times it
 
 
 @dataclass(frozen=True)
@@ -135,7 +136,7 @@ def work_precision(n_links: int = 20, substeps=(4, 8, 16, 32, 64), rtols=(1e-6, 
     from verification.clearance_reference import reference_response
 
     chain = ChainModel(n_links=n_links, link_mass_kg=2.03, stiffness_N_per_m=9.0092e7, friction_coefficient=0.35)
-    model = ClearanceChain(chain, 94e-6)
+    model = ClearanceChain(chain, DEFAULT_PIN_CLEARANCE_M)
     t = np.arange(721) / 4 / (6 * 180.0)
     cam = _cam()
     _, v, a, _ = cam.svaj(t)
@@ -380,7 +381,7 @@ def method_case(
     stiffness_N_per_m: float,
     setting: float,
     *,
-    clearance_m: float = 94e-6,
+    clearance_m: float = DEFAULT_PIN_CLEARANCE_M,
     accuracy: float = 1e-2,
     degrees: float = EVENT_DEGREES,
 ) -> MethodCase:
@@ -407,7 +408,7 @@ def method_map(stiffnesses=METHOD_STIFFNESSES_N_PER_M, settings=METHOD_SETTINGS)
         for k in stiffnesses:
             for value in values:
                 if method in FIXED_STEP:
-                    case = small_case(k, 94e-6, friction_coefficient=0.0)
+                    case = small_case(k, DEFAULT_PIN_CLEARANCE_M, friction_coefficient=0.0)
                     key = (method, k, _steps_per_output(case, value)[0])
                     if key in done:
                         continue
@@ -417,7 +418,7 @@ def method_map(stiffnesses=METHOD_STIFFNESSES_N_PER_M, settings=METHOD_SETTINGS)
 
 
 def method_work_precision(
-    stiffness_N_per_m: float = 9.0092e7, clearance_m: float = 94e-6, degrees: float = 90.0
+    stiffness_N_per_m: float = 9.0092e7, clearance_m: float = DEFAULT_PIN_CLEARANCE_M, degrees: float = 90.0
 ) -> list[WorkPoint]:
     """Every method that solves the nonlinear chain, step or tolerance swept, against the reference at
     rtol 1e-10 (10 links, friction 0, `degrees` of an index from rest)."""

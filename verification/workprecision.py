@@ -1,7 +1,8 @@
 """Work-precision measurement for the dynamics solvers: what each answer costs and how far it is off.
 
 The test problem is the default chain, linear (friction 0) so that the reference is exact: N links of
-mass m joined by springs k (plus the drive spring), modal damping 0.13, written relative to the cam
+mass m joined by springs k (plus the drive spring), the default modal damping ratio
+(dynamics.options.DEFAULT_DAMPING_RATIO), written relative to the cam
 (dynamics.models.chain), driven from rest by a continuous-indexing cam (default modified sine, 180 rpm,
 45 deg index + 45 deg dwell, pitch 112.5 mm) over `cycles` index cycles, force and outputs sampled
 every cam degree (first-order hold in between, as every solver sees it).
@@ -29,6 +30,7 @@ from dynamics.cams.program import CamProgram
 from dynamics.errors import DynamicsError, SolverDivergedError, SolverFailedError
 from dynamics.models.chain import ChainModel
 from dynamics.models.system import SampledForce, SecondOrderSystem
+from dynamics.options import DEFAULT_DAMPING_RATIO
 from dynamics.solvers import METHODS, solve
 from dynamics.solvers import cache as solver_cache
 from dynamics.solvers._common import max_frequency
@@ -72,7 +74,7 @@ def chain_problem(
     rpm: float = 180.0,
     cycles: float = 2.0,
     samples_per_degree: int = 1,
-    damping_ratio: float = 0.13,
+    damping_ratio: float = DEFAULT_DAMPING_RATIO,
 ) -> LinearChainProblem:
     """The default chain (friction 0) started from rest under an indexing cam; see the module doc."""
     if not (np.isfinite(cycles) and cycles > 0):

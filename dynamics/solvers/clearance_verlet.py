@@ -32,8 +32,9 @@ half of a step, is taken in the two blocks of the chain's mirror symmetry (`refl
 padded multiply-adds instead of 7225, four rows per pass over w, the blocks computed once per chain);
 the helpers are inlined into the loop under FASTMATH; the span law, the friction law's saturated
 branch and the contact statistics are written without branches, so that they vectorise; tanh is
-computed from one exp (`_tanh`) and only where it is not exactly +-1 (`TANH_IS_ONE`); the steps
-leave out the powers, which only output steps need. Above DENSE_LINK_LIMIT links (or when the model
+computed in arithmetic (`_tanh_branch_free`, dynamics.solvers.friction_tanh, the machine's too), over
+every link in one vectorised pass, and only when some link is off saturation (`TANH_IS_ONE`); the
+steps leave out the powers, which only output steps need. Above DENSE_LINK_LIMIT links (or when the model
 asks for it) the global law's product is the O(N) form of dynamics.models.reduced_damping (`_sqrt_product`:
 one cyclic tridiagonal solve per quadrature node, the nodes as the vectorised inner loop).
 
@@ -51,6 +52,8 @@ import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.solvers import cache
+from dynamics.solvers.friction_tanh import TANH_IS_ONE
+from dynamics.solvers.friction_tanh import tanh_branch_free as _tanh_branch_free
 
 try:  # optional: the compiled loop (README, "Dependencies and why")
     import numba
@@ -90,10 +93,6 @@ DEFAULT_SAFETIES = {
     ("global", "ab2"): 0.31,
     ("kelvin-voigt", "euler"): DEFAULT_SAFETY,
 }
-# Above this argument tanh rounds to 1 in double precision (1 - tanh x ~ 2 exp(-2x) falls below half an
-# ulp of 1, 2^-54, from x = 55 ln 2 / 2 = 19.06), so the friction law takes +-F_c there without computing
-# it: the links sliding faster than 19 velocity scales (95 mm/s by default) through the indexing motion.
-TANH_IS_ONE = 19.1
 # Rows of a damping block are padded to a multiple of 4 (`_rows_times` takes four at a time) and its
 # columns to a multiple of 16 (whole vector iterations of the inner loop: no scalar remainder).
 ROW_MULTIPLE, COLUMN_MULTIPLE = 4, 16
@@ -171,7 +170,8 @@ def _accel(y, w, u, ud, zd, zdd, par, ipar, cmat):
 
 
 def _tanh_array(x):
-    """tanh, element-wise, in the compiled path's form (`_tanh`)."""
+    """tanh, element-wise, from numpy's exp: the compiled path's `_tanh_branch_free` to 2.3e-16 (both
+    are within that of the library's tanh, tested), exactly +-1 where it is too."""
     q = np.exp(-2.0 * np.abs(x))
     return np.copysign((1.0 - q) / (1.0 + q), x)
 
@@ -584,7 +584,10 @@ def _damping_into(w, ud, par, ipar, blocks, work, contact, cw):
 
 def _friction_into(zd, w, par, fr):
     """fr = the friction law at the links' absolute velocities zd + w; returns its power (dissipated
-    when positive). The saturated law first (a vectorised pass), `_tanh` only where it is not."""
+    when positive). The saturated law first (a vectorised pass); where some link is off saturation,
+    every link's tanh in a second vectorised pass (`_tanh_branch_free` is exactly +-1 on the saturated
+    ones, so their force is the first pass's). Compiled on its own with numpy's error model, as the
+    machine's: numba's check of a division by zero would keep the division out of vectors."""
     fc, inv_vs = par[6], par[7]
     n = w.shape[0]
     unsaturated = 0
@@ -594,20 +597,11 @@ def _friction_into(zd, w, par, fr):
         unsaturated += abs(x) < TANH_IS_ONE
     if unsaturated:
         for i in range(n):
-            x = (zd + w[i]) * inv_vs
-            if abs(x) < TANH_IS_ONE:
-                fr[i] = -fc * _tanh(x)
+            fr[i] = -fc * _tanh_branch_free((zd + w[i]) * inv_vs)
     p_fric = 0.0
     for i in range(n):
         p_fric -= fr[i] * (zd + w[i])
     return p_fric
-
-
-def _tanh(x):
-    """tanh x = (1 - q) / (1 + q), q = exp(-2|x|), with the sign of x: within 2.3e-16 of the library's
-    tanh (tested), about a third of its cost, and exactly +-1 from |x| = TANH_IS_ONE on."""
-    q = math.exp(-2.0 * abs(x))
-    return math.copysign((1.0 - q) / (1.0 + q), x)
 
 
 def _carriage(u, ud, t_s, par, ipar):
@@ -1023,8 +1017,7 @@ if numba is not None:
         "_span_law_into",
         "_span",
         "_damping_into",
-        "_friction_into",
-        "_tanh",
+        "_tanh_branch_free",  # the machine kernel inlines this one too
         "_carriage",
         "_accel_into",
         "_net_acceleration",
@@ -1038,6 +1031,7 @@ if numba is not None:
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _keep = numba.njit(cache=True)(_keep)
+    _friction_into = numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy")(_friction_into)
     _run_compiled = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
 else:  # pragma: no cover
     _run_compiled = None
