@@ -23,11 +23,14 @@ browser:
 		  $$( [ "$$(id -u)" = 0 ] || echo sudo ) apt-get update -qq && \
 		  DEBIAN_FRONTEND=noninteractive $$( [ "$$(id -u)" = 0 ] || echo sudo ) apt-get install -y -qq chromium >/dev/null; }
 
+# One pytest worker per core (pytest-xdist), each test file whole on one worker.
+XDIST := -n auto --dist loadfile
+
 test: $(VENV)/.installed browser
-	$(PY) -m pytest $(PYTEST_ARGS)
+	$(PY) -m pytest $(XDIST) $(PYTEST_ARGS)
 
 test-all: $(VENV)/.installed browser
-	$(PY) -m pytest -m '' $(PYTEST_ARGS)
+	$(PY) -m pytest -m '' $(XDIST) $(PYTEST_ARGS)
 
 bench: $(VENV)/.installed
 	$(PY) -m pip install --quiet -e '.[test,bench]'
