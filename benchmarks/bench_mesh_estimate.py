@@ -1,6 +1,6 @@
 """The unknowns estimated before meshing (geometry.mesh_estimate) against the real count of every
 default mesh level: the built-in link and example STEP, and where the wild corpus is found
-(benchmarks/wild_corpus.py: ../shared/wild/, /work/shared/wild or $LINK_CONVEYOR_WILD) its parts
+(benchmarks/wild_corpus.py: ../shared/wild/ beside the checkout or its main checkout, or $LINK_CONVEYOR_WILD) its parts
 that run, the two --bores runs with their bores.
 
     python benchmarks/run.py --only mesh_estimate [--quick]     (--quick: the repository's links only)
