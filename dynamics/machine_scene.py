@@ -231,19 +231,30 @@ def _searched_and_settled(
         coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], predictor)
         long_chain = model.reduced_damping
         search_tol = long_search_tol(model, cam, tol) if long_chain else tol
-        found, ss, _ = _start_state(
-            model, cam, h_out, per_cycle, coarse, state, True, search_tol, max_cycles, predictor
-        )
-        if ss.found:
-            settle = mv.substeps_for(model, h_out, safety, predictor) if long_chain else fine
-            if long_chain and _settle_is_searched(model, cam):
-                # carried to the default safety's fixed point by the same search, to the same tolerance
-                coarse_done = (found, ss.cycles)
-                state, ss, _ = _start_state(
-                    model, cam, h_out, per_cycle, settle, found, True, search_tol, max_cycles, predictor, coarse_done
-                )
-                return state, ss, fine
-            return _settled(model, cam, h_out, per_cycle, settle, found, predictor), ss, fine
+        settle = mv.substeps_for(model, h_out, safety, predictor) if long_chain else fine
+        if long_chain and _settle_is_searched(model, cam):
+            # carried to the default safety's fixed point, to the same tolerance, by defect correction
+            # with coarse cycles (machine_shooting.defect_corrected_periodic_state)
+            two = machine_shooting.defect_corrected_periodic_state(
+                model,
+                cam,
+                (h_out / coarse, per_cycle * coarse),
+                (h_out / settle, per_cycle * settle),
+                *state,
+                tol=search_tol,
+                max_cycles=max_cycles,
+                predictor=predictor,
+            )
+            ss = _steady_state(two.found, two.cycles, two.residual, search_tol)
+            if two.settled is not None:
+                return (two.q0, two.v0), ss, fine
+            found = (two.q0, two.v0)
+        else:
+            found, ss, _ = _start_state(
+                model, cam, h_out, per_cycle, coarse, state, True, search_tol, max_cycles, predictor
+            )
+            if ss.found:
+                return _settled(model, cam, h_out, per_cycle, settle, found, predictor), ss, fine
         if _coarse_substeps(model, h_out, fine, predictor) == coarse:
             done = (found, ss.cycles)  # a long chain's search at `fine` starts with this same coarse search
     state, ss, _ = _start_state(
@@ -315,18 +326,21 @@ def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, ma
         max_cycles=max(max_cycles - coarse_cycles, 1),
         predictor=predictor,
     )
-    cycles += coarse_cycles
+    return (q0, v0), _steady_state(found, cycles + coarse_cycles, residual, tol), last
+
+
+def _steady_state(found: bool, cycles: int, residual: float, tol: float) -> SteadyState:
     if found:
         text = (
             f"relabelled periodic steady state found after {cycles} index cycles "
             f"(change per cycle {residual:.2g} <= {tol:g})"
         )
-        return (q0, v0), SteadyState(True, 1, cycles, residual, text), last
+        return SteadyState(True, 1, cycles, residual, text)
     text = (
         f"NO relabelled periodic steady state found: after {cycles} index cycles the state still changes by "
         f"{residual:.2g} per cycle; the results are the motion after {cycles} cycles, not a steady state"
     )
-    return (q0, v0), SteadyState(False, None, cycles, residual, text), last
+    return SteadyState(False, None, cycles, residual, text)
 
 
 def _coarse_substeps(model, h_out, sub, predictor) -> int | None:

@@ -61,7 +61,8 @@ def test_the_2000_link_default_run_is_within_its_documented_accuracy_of_a_tight_
 
 def test_a_long_chains_settle_is_searched_to_its_tolerance_at_the_default_safety(monkeypatch):
     """Above DENSE_LINK_LIMIT links (420 here: rho about 0.6) the coarse search's fixed point is carried
-    to the default safety's by the same search (machine_scene._searched_and_settled): one more index
+    to the default safety's by defect correction with coarse cycles (machine_scene._searched_and_settled,
+    machine_shooting.defect_corrected_periodic_state): one more index
     cycle there moves the state returned by at most long_search_tol of the cycle's largest |q|, |q'|
     (the test that accepts it), and the cycles reported are both searches'. Asked for 1e-5 here (the
     default's 1.8e-3 at this rho is looser than what one settling cycle leaves at this length): one
