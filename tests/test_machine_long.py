@@ -194,9 +194,10 @@ def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step
     default safety), searches the clearance machine's steady state there to long_search_tol (the
     tolerance its summary reports), then settles it at the default safety: one cycle where the slowest
     mode keeps at most SETTLE_SEARCH_ABOVE_DECAY of itself per cycle (420 links: rho about 0.6), else
-    the default safety's fixed point to the same tolerance by defect correction from the same coarse
-    search (forced here by a threshold of 0); a short chain keeps `tol` and settles for one cycle at
-    the window's step."""
+    the search on to the same tolerance at the default safety, and above
+    SETTLE_DEFECT_CORRECTED_ABOVE_DECAY that fixed point by defect correction from the same coarse
+    search (each forced here by a threshold of 0); a short chain keeps `tol` and settles for one cycle
+    at the window's step."""
     from dynamics import machine_scene
     from dynamics.machine_scene import CHOICE_TOL, SEARCH_SAFETY, WINDOW_REFINEMENT, long_search_tol
     from dynamics.solvers import clearance_verlet as verlet
@@ -225,15 +226,17 @@ def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step
     t = cam.cycle_s * np.arange(91) / 90
     h_out = t[1]
     default_threshold = machine_scene.SETTLE_SEARCH_ABOVE_DECAY
-    for links, long_chain, settle_searched in (
-        (DENSE_LINK_LIMIT + 20, True, True),
-        (DENSE_LINK_LIMIT + 20, True, False),
-        (40, False, False),
+    for links, long_chain, settle_searched, corrected in (
+        (DENSE_LINK_LIMIT + 20, True, True, True),
+        (DENSE_LINK_LIMIT + 20, True, True, False),
+        (DENSE_LINK_LIMIT + 20, True, False, False),
+        (40, False, False, False),
     ):
         searches.clear()
         settles.clear()
         threshold = 0.0 if settle_searched else default_threshold
         monkeypatch.setattr(machine_scene, "SETTLE_SEARCH_ABOVE_DECAY", threshold)
+        monkeypatch.setattr(machine_scene, "SETTLE_DEFECT_CORRECTED_ABOVE_DECAY", 0.0 if corrected else 1.0)
         chain = ChainModel(links, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
         model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
         linear = ClearanceMachine.of(chain, LAYOUT, None, 0.0)
@@ -250,11 +253,15 @@ def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step
             assert 1e-6 < search_tol < 1e-2
             settle = mv.substeps_for(model, h_out, safety, pred)
             expected = [(0.0, h_out / lin_coarse, CHOICE_TOL), (94e-6, h_out / coarse, search_tol)]
+            if settle_searched and not corrected:
+                expected.append((94e-6, h_out / settle, search_tol))
             np.testing.assert_allclose(searches, expected, rtol=1e-12)
             assert summary.steady_state.residual <= search_tol
             assert f"<= {search_tol:g}" in summary.steady_state.statement
-            if settle_searched:
+            if corrected:
                 np.testing.assert_allclose(settles, [(94e-6, h_out / settle, search_tol)], rtol=1e-12)
+            elif settle_searched:
+                assert settles == []
             else:
                 assert machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s) < threshold
                 np.testing.assert_allclose(settles, [(94e-6, h_out / settle, 0.0)], rtol=1e-12)
