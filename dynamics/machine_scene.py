@@ -109,7 +109,10 @@ SETTLE_SEARCH_ABOVE_DECAY = 0.85
 # at the default safety and some coarse ones whenever the first is not accepted, so it pays only where
 # the fine search takes more. Measured (benchmarks/bench_long_settle.py, the scene above, the same
 # coarse state): 2,000 links, rho 0.893: 3 coarse + 2 fine cycles, 1.6 s of CPU, against the fine
-# search's 2 cycles, 0.9 s; 5,000 links, rho 0.956: 12 coarse + 4 fine, 10.1 s, against 16 cycles, 19.6 s.
+# search's 2 cycles, 0.9 s; 5,000 links, rho 0.956: 12 coarse + 4 fine, 10.1 s, against 16 cycles,
+# 19.6 s, and the station metrics 2.0e-4 from the default safety's fixed point searched to 1e-7
+# against the fine search's 3.4e-3; 10,000 links, rho 0.978: 24 coarse + 3 fine, 29.6 s, against 15
+# cycles, 35.5 s (the two 7.3e-4 apart).
 SETTLE_DEFECT_CORRECTED_ABOVE_DECAY = 0.92
 
 
