@@ -79,8 +79,8 @@ SETTLE_CYCLES = 1
 # - it is settled at the default safety (a third of the window's steps), not the window's step (one
 #   settling cycle at the window's step moved the metrics by 8e-6 at 2,000 links): by SETTLE_CYCLES
 #   plain cycles, or where they would keep too much of the slow modes' offset between the two steps'
-#   fixed points by the same search to the same tolerance (SETTLE_SEARCH_ABOVE_DECAY, below), where
-#   that search would take many cycles by defect correction with coarse cycles
+#   fixed points by the same search to the same tolerance (SETTLE_SEARCH_ABOVE_DECAY, below), and
+#   where that search would take many cycles to it by defect correction with coarse cycles
 #   (SETTLE_DEFECT_CORRECTED_ABOVE_DECAY);
 # - the linear machine decides the model from its search at SEARCH_SAFETY, with no confirming cycle
 #   at the default safety (its minimum tension at the two steps within 2e-6: CHOICE_TOL is 1e-3).
@@ -233,8 +233,9 @@ def _searched_and_settled(
     `safety` (from rest: `state` itself). The default step: the window at safety / WINDOW_REFINEMENT,
     the steady state searched at SEARCH_SAFETY and settled at the window's step (a long chain's: to
     long_search_tol, then settled at `safety` as `_settle_kind` says: one cycle, the search on to the
-    same tolerance, or that tolerance by defect correction with coarse cycles); a search that finds none is redone from `state` at the window's step to
-    `tol` (the motion after max_cycles coarse cycles is not the fine step's)."""
+    same tolerance, or that tolerance by defect correction with coarse cycles); a search that finds
+    none is redone from `state` at the window's step to `tol` (the motion after max_cycles coarse
+    cycles is not the fine step's)."""
     if not default_step:
         sub = mv.substeps_for(model, h_out, safety, predictor)
         state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor)
