@@ -81,7 +81,9 @@ SETTLE_CYCLES = 1
 # - it is settled at the default safety (a third of the window's steps), not the window's step (one
 #   settling cycle at the window's step moved the metrics by 8e-6 at 2,000 links): by SETTLE_CYCLES
 #   plain cycles, or where they would keep too much of the slow modes' offset between the two steps'
-#   fixed points by the same search to the same tolerance (SETTLE_SEARCH_ABOVE_DECAY, below);
+#   fixed points by the same search to the same tolerance (SETTLE_SEARCH_ABOVE_DECAY, below), and
+#   where that search would take many cycles to it by defect correction with coarse cycles
+#   (SETTLE_DEFECT_CORRECTED_ABOVE_DECAY);
 # - the linear machine decides the model from its search at SEARCH_SAFETY, with no confirming cycle
 #   at the default safety (its minimum tension at the two steps within 2e-6: CHOICE_TOL is 1e-3).
 # long_search_tol: a start whose cycle changes it by r is within about r / (1 - rho) of the fixed
@@ -102,6 +104,18 @@ LONG_SEARCH_TOL = 1e-4
 # step's fixed point, the search 7.4e-4 (+15 cycles); 1,000 links, rho 0.80: one cycle 4.3e-4, the
 # search 5.5e-4 for 2 more cycles, so it keeps the one cycle)
 SETTLE_SEARCH_ABOVE_DECAY = 0.85
+# Above this rho the settle's search is a defect correction with coarse cycles
+# (machine_shooting.defect_corrected_periodic_state: one cycle at the default safety gives the two
+# steps' difference, the coarse map plus it is searched with the coarse search's history, a cycle at
+# the default safety accepts the result by the same test to the same tolerance). It needs two cycles
+# at the default safety and some coarse ones whenever the first is not accepted, so it pays only where
+# the fine search takes more. Measured (benchmarks/bench_long_settle.py, the scene above, the same
+# coarse state): 2,000 links, rho 0.893: 3 coarse + 2 fine cycles, 1.6 s of CPU, against the fine
+# search's 2 cycles, 0.9 s; 5,000 links, rho 0.956: 12 coarse + 4 fine, 10.1 s, against 16 cycles,
+# 19.6 s, and the station metrics 2.0e-4 from the default safety's fixed point searched to 1e-7
+# against the fine search's 3.4e-3; 10,000 links, rho 0.978: 24 coarse + 3 fine, 29.6 s, against 15
+# cycles, 35.5 s (the two 7.3e-4 apart).
+SETTLE_DEFECT_CORRECTED_ABOVE_DECAY = 0.92
 
 
 def machine_model(scene, chain) -> ClearanceMachine:
@@ -221,9 +235,10 @@ def _searched_and_settled(
     Given its step (not `default_step`): the relabelled steady state searched from `state` at
     `safety` (from rest: `state` itself). The default step: the window at safety / WINDOW_REFINEMENT,
     the steady state searched at SEARCH_SAFETY and settled at the window's step (a long chain's: to
-    long_search_tol, then settled at `safety`, searched on to the same tolerance where
-    `_settle_is_searched`); a search that finds none is redone from `state` at the window's step to
-    `tol` (the motion after max_cycles coarse cycles is not the fine step's)."""
+    long_search_tol, then settled at `safety` as `_settle_kind` says: one cycle, the search on to the
+    same tolerance, or that tolerance by defect correction with coarse cycles); a search that finds
+    none is redone from `state` at the window's step to `tol` (the motion after max_cycles coarse
+    cycles is not the fine step's)."""
     if not default_step:
         sub = mv.substeps_for(model, h_out, safety, predictor)
         state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor)
@@ -234,19 +249,47 @@ def _searched_and_settled(
         coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], predictor)
         long_chain = model.reduced_damping
         search_tol = long_search_tol(model, cam, tol) if long_chain else tol
-        found, ss, _ = _start_state(
-            model, cam, h_out, per_cycle, coarse, state, True, search_tol, max_cycles, predictor
-        )
-        if ss.found:
-            settle = mv.substeps_for(model, h_out, safety, predictor) if long_chain else fine
-            if long_chain and _settle_is_searched(model, cam):
+        settle = mv.substeps_for(model, h_out, safety, predictor) if long_chain else fine
+        kind = _settle_kind(model, cam) if long_chain else "cycle"
+        if kind == "defect correction":
+            # the coarse search, then the default safety's fixed point to the same tolerance with coarse
+            # cycles (machine_shooting.defect_corrected_periodic_state)
+            two = machine_shooting.defect_corrected_periodic_state(
+                model,
+                cam,
+                (h_out / coarse, per_cycle * coarse),
+                (h_out / settle, per_cycle * settle),
+                *state,
+                tol=search_tol,
+                max_cycles=max_cycles,
+                predictor=predictor,
+            )
+            ss = _steady_state(two.found, two.cycles, two.residual, search_tol)
+            if two.settled is not None:
+                return (two.q0, two.v0), ss, fine
+            found = (two.q0, two.v0)
+        else:
+            found, ss, _ = _start_state(
+                model, cam, h_out, per_cycle, coarse, state, True, search_tol, max_cycles, predictor
+            )
+            if ss.found and kind == "search":
                 # carried to the default safety's fixed point by the same search, to the same tolerance
-                coarse_done = (found, ss.cycles)
                 state, ss, _ = _start_state(
-                    model, cam, h_out, per_cycle, settle, found, True, search_tol, max_cycles, predictor, coarse_done
+                    model,
+                    cam,
+                    h_out,
+                    per_cycle,
+                    settle,
+                    found,
+                    True,
+                    search_tol,
+                    max_cycles,
+                    predictor,
+                    (found, ss.cycles),
                 )
                 return state, ss, fine
-            return _settled(model, cam, h_out, per_cycle, settle, found, predictor), ss, fine
+            if ss.found:
+                return _settled(model, cam, h_out, per_cycle, settle, found, predictor), ss, fine
         if _coarse_substeps(model, h_out, fine, predictor) == coarse:
             done = (found, ss.cycles)  # a long chain's search at `fine` starts with this same coarse search
     state, ss, _ = _start_state(
@@ -255,11 +298,15 @@ def _searched_and_settled(
     return state, ss, fine
 
 
-def _settle_is_searched(model, cam) -> bool:
-    """Whether a long chain's coarse steady state is carried to the default safety's fixed point by a
-    search rather than SETTLE_CYCLES plain cycles: where one cycle keeps more than
-    SETTLE_SEARCH_ABOVE_DECAY of the slowest mode (machine_shooting.slowest_decay_per_cycle)."""
-    return machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s) > SETTLE_SEARCH_ABOVE_DECAY
+def _settle_kind(model, cam) -> str:
+    """How a long chain's coarse steady state is carried to the default safety's fixed point, by its
+    slowest mode's decay per cycle (machine_shooting.slowest_decay_per_cycle): "cycle" (SETTLE_CYCLES
+    plain cycles) up to SETTLE_SEARCH_ABOVE_DECAY, "search" (the accelerated search at the default
+    safety) up to SETTLE_DEFECT_CORRECTED_ABOVE_DECAY, "defect correction" above."""
+    decay = machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s)
+    if decay > SETTLE_DEFECT_CORRECTED_ABOVE_DECAY:
+        return "defect correction"
+    return "search" if decay > SETTLE_SEARCH_ABOVE_DECAY else "cycle"
 
 
 def long_search_tol(model, cam, tol: float) -> float:
@@ -318,18 +365,21 @@ def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, ma
         max_cycles=max(max_cycles - coarse_cycles, 1),
         predictor=predictor,
     )
-    cycles += coarse_cycles
+    return (q0, v0), _steady_state(found, cycles + coarse_cycles, residual, tol), last
+
+
+def _steady_state(found: bool, cycles: int, residual: float, tol: float) -> SteadyState:
     if found:
         text = (
             f"relabelled periodic steady state found after {cycles} index cycles "
             f"(change per cycle {residual:.2g} <= {tol:g})"
         )
-        return (q0, v0), SteadyState(True, 1, cycles, residual, text), last
+        return SteadyState(True, 1, cycles, residual, text)
     text = (
         f"NO relabelled periodic steady state found: after {cycles} index cycles the state still changes by "
         f"{residual:.2g} per cycle; the results are the motion after {cycles} cycles, not a steady state"
     )
-    return (q0, v0), SteadyState(False, None, cycles, residual, text), last
+    return SteadyState(False, None, cycles, residual, text)
 
 
 def _coarse_substeps(model, h_out, sub, predictor) -> int | None:

@@ -59,9 +59,11 @@ def test_the_2000_link_default_run_is_within_its_documented_accuracy_of_a_tight_
     assert np.max(error) < 6e-4
 
 
-def test_a_long_chains_settle_is_searched_to_its_tolerance_at_the_default_safety(monkeypatch):
+@pytest.mark.parametrize("corrected", [False, True])
+def test_a_long_chains_settle_is_searched_to_its_tolerance_at_the_default_safety(monkeypatch, corrected):
     """Above DENSE_LINK_LIMIT links (420 here: rho about 0.6) the coarse search's fixed point is carried
-    to the default safety's by the same search (machine_scene._searched_and_settled): one more index
+    to the default safety's by the same search or by defect correction with coarse cycles
+    (machine_scene._searched_and_settled, machine_shooting.defect_corrected_periodic_state): one more index
     cycle there moves the state returned by at most long_search_tol of the cycle's largest |q|, |q'|
     (the test that accepts it), and the cycles reported are both searches'. Asked for 1e-5 here (the
     default's 1.8e-3 at this rho is looser than what one settling cycle leaves at this length): one
@@ -72,6 +74,7 @@ def test_a_long_chains_settle_is_searched_to_its_tolerance_at_the_default_safety
     from dynamics.solvers import machine_verlet as mv
 
     monkeypatch.setattr(machine_scene, "SETTLE_SEARCH_ABOVE_DECAY", 0.0)  # the search at any rho
+    monkeypatch.setattr(machine_scene, "SETTLE_DEFECT_CORRECTED_ABOVE_DECAY", 0.0 if corrected else 1.0)
     monkeypatch.setattr(machine_scene, "LONG_SEARCH_STATE_ERROR", 1e-5)
     monkeypatch.setattr(machine_scene, "LONG_SEARCH_TOL", 1e-5)
     chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)

@@ -14,9 +14,19 @@ over that cycle, and the state returned is that cycle's end, so the fixed point 
 tolerance. An extrapolated start the step cannot take (outside the motion seen) restarts the
 history from the last cycle's end; where the extrapolation stops helping (no steady state), the
 search goes on with plain cycles.
+
+A long chain's default run searches at a coarse step and settles at the default safety, whose fixed
+point differs from the coarse one along the slow modes. defect_corrected_periodic_state finds the
+default safety's fixed point with coarse cycles (dynamics.solvers.shooting.defect_corrected_fixed_point):
+one cycle at the default safety gives the two steps' difference d at the current start, the coarse map
+plus d is searched with the coarse search's Anderson history (its secant pairs are the coarse map's),
+and a cycle at the default safety accepts the result by the same test; d is renewed there until it
+does.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -61,12 +71,82 @@ def relabelled_periodic_state(
     `on_cycle(residual, end, run)`: called after every index cycle stepped with its change per cycle
     (the acceptance test's measure), its end state (q, q') after the seat change and its MachineRun,
     for measuring a search (benchmarks/bench_long_search.py); it does not change the search."""
+    n = np.asarray(q0).size
+    last = {}
+    one_cycle = _cycle_map(model, cam, step_s, n_steps, n, predictor, last, on_cycle)
+    x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
+    search = shooting.accelerated_fixed_point(
+        one_cycle, x0, tol=tol, max_periods=max_cycles, **_search_options(model, cam, depth)
+    )
+    end = search.state
+    return end[:n].copy(), end[n:].copy(), search.periods, search.residual, search.converged, last["run"]
+
+
+def defect_corrected_periodic_state(
+    model, cam, coarse, fine, q0, v0, *, tol, max_cycles, predictor, on_cycle=None
+) -> DefectCorrectedState:
+    """The relabelled steady state at the fine step searched mostly at the coarse one: the accelerated
+    search (relabelled_periodic_state's) at `coarse` (step_s, steps per index cycle) from (q0, v0) to
+    `tol`, then, where it is found, the fixed point at `fine` by defect correction with coarse cycles
+    (shooting.defect_corrected_fixed_point: the coarse search's history carried on), accepted by the
+    fine step's test to the same `tol`. `max_cycles` bounds the coarse search's cycles and, apart,
+    the settle's (coarse and fine together), as a settle's cycles are apart from the search's
+    budget elsewhere (dynamics.machine_scene): at 10,000 links the coarse search takes 39 of the
+    default 60 and the settle about 23. `on_cycle(residual,
+    end, run, step_s)`: as relabelled_periodic_state's, with the cycle's step."""
+    n = np.asarray(q0).size
+    last = {}
+
+    def cycle_map(step):
+        observe = None if on_cycle is None else (lambda r, end, run: on_cycle(r, end, run, step[0]))
+        return _cycle_map(model, cam, *step, n, predictor, last, observe)
+
+    options = _search_options(model, cam, None)
+    coarse_cycle = cycle_map(coarse)
+    x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
+    found = shooting.accelerated_fixed_point(coarse_cycle, x0, tol=tol, max_periods=max_cycles, **options)
+    if not found.converged:
+        return DefectCorrectedState(found.state[:n].copy(), found.state[n:].copy(), found, None, last["run"])
+    settled = shooting.defect_corrected_fixed_point(
+        coarse_cycle, cycle_map(fine), found, tol=tol, max_periods=max_cycles, **options
+    )
+    end = settled.search.state
+    return DefectCorrectedState(end[:n].copy(), end[n:].copy(), found, settled, last["run"])
+
+
+@dataclass(frozen=True)
+class DefectCorrectedState:
+    """defect_corrected_periodic_state's result: the start state (q, q') (the fine step's fixed point
+    where `settled` converged; the coarse search's end where it did not), the coarse search, the
+    defect-corrected search from it (None where the coarse search found no steady state) and the
+    last cycle's MachineRun."""
+
+    q0: np.ndarray
+    v0: np.ndarray
+    coarse: shooting.FixedPointSearch
+    settled: shooting.DefectCorrectedSearch | None
+    last_run: object
+
+    @property
+    def found(self) -> bool:
+        return self.settled is not None and self.settled.search.converged
+
+    @property
+    def cycles(self) -> int:
+        return self.coarse.periods + (0 if self.settled is None else self.settled.search.periods)
+
+    @property
+    def residual(self) -> float:
+        return (self.coarse if self.settled is None else self.settled.search).residual
+
+
+def _cycle_map(model, cam, step_s, n_steps, n, predictor, last, on_cycle):
+    """x = (q, q') -> (its index cycle's end after the seat change, the acceptance test's scale: the
+    cycle's largest |q| and |q'|), the cycle's MachineRun kept in last["run"]."""
     zr, zd, zdd = mv.cycle_nodes(cam, step_s, n_steps)
     every = max(n_steps // 90, 1)
     while n_steps % every:
         every -= 1
-    n = np.asarray(q0).size
-    last = {}
     tiny = np.finfo(float).tiny
 
     def one_cycle(x):
@@ -80,17 +160,17 @@ def relabelled_periodic_state(
             on_cycle(float(np.max(np.abs(image - x) / scale)), (q1, v1), run)
         return image, scale
 
-    x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
+    return one_cycle
+
+
+def _search_options(model, cam, depth: int | None) -> dict:
+    """The accelerated search's depth, stall and preconditioner (relabelled_periodic_state's `depth`)."""
     newton = depth != 0 and (model.clearance_m == 0.0 or model.n_links <= NEWTON_FREE_PLAY_LINKS)
     precondition = _cached_slow_mode_newton(model, cam.cycle_s) if newton else None
     stall = shooting.DEFAULT_STALL if newton else FREE_PLAY_STALL
     if depth is None:
         depth = shooting.DEFAULT_DEPTH if newton else FREE_PLAY_DEPTH
-    search = shooting.accelerated_fixed_point(
-        one_cycle, x0, tol=tol, max_periods=max_cycles, depth=depth, stall=stall, precondition=precondition
-    )
-    end = search.state
-    return end[:n].copy(), end[n:].copy(), search.periods, search.residual, search.converged, last["run"]
+    return {"depth": depth, "stall": stall, "precondition": precondition}
 
 
 def slowest_decay_per_cycle(model, period_s: float) -> float:

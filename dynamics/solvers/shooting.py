@@ -49,6 +49,9 @@ DENSE_EIGENSOLVE_UP_TO = 400
 # about its square, the shapes to about it: the Newton step is a preconditioner, Anderson does the rest)
 SLOW_MODES_RTOL = 1e-7
 SLOW_MODES_MAX_ITERATIONS = 60
+# defect_corrected_fixed_point searches each corrected coarse map's fixed point to this fraction of
+# the fine map's tolerance, so that the fine period's test there fails only by the defect's own change
+DEFECT_INNER_TOL_FRACTION = 0.5
 # Least-squares columns below this fraction of the largest singular value are dropped (a
 # near-dependent history would only amplify noise in the extrapolation).
 RCOND = 1e-10
@@ -64,6 +67,10 @@ class FixedPointSearch:
     residual: float  # the last period's change, relative to its scale
     plain_ends: list  # period ends of the final plain stretch (for a subharmonic search); [x0, P(x0), ...]
     plain_scale: np.ndarray | None  # the scale of the last period
+    start: np.ndarray | None = None  # the last period's start (state = P(start))
+    # the secant pairs (differences of scaled residuals, of images) the extrapolation held at the end,
+    # the last period's among them; empty once the search went on with plain periods
+    history: tuple = ((), ())
 
 
 def accelerated_fixed_point(
@@ -75,23 +82,28 @@ def accelerated_fixed_point(
     depth: int = DEFAULT_DEPTH,
     stall: int = DEFAULT_STALL,
     precondition=None,
+    history: tuple = ((), ()),
+    first=None,
 ) -> FixedPointSearch:
     """Fixed point of `one_period(x) -> (P(x), scale)` (scale: per-component positive scale of the
     residual, from that period's motion), by Anderson acceleration with plain periods as the
-    fallback (module docstring)."""
+    fallback (module docstring). `history`: secant pairs to start from (a FixedPointSearch's, of a map
+    with the same differences); `first`: (P(x0), scale) already stepped, not stepped again nor counted."""
     x = np.array(x0, dtype=float)
-    d_f: deque = deque(maxlen=depth)  # differences of scaled residuals
-    d_g: deque = deque(maxlen=depth)  # differences of images
+    d_f: deque = deque(history[0], maxlen=depth)  # differences of scaled residuals
+    d_g: deque = deque(history[1], maxlen=depth)  # differences of images
     f_prev = g_prev = None
     best = math.inf
     since_best = 0
     accelerating = depth > 0
     plain_ends = [x.copy()]
-    residual, scale, image = math.inf, None, x
+    residual, scale, image, start = math.inf, None, x, x
     last_image = None  # the last period end the chain reached: a state the extrapolation may fall back to
-    for period in range(1, max_periods + 1):
+    stepped = 0 if first is None else -1
+    while stepped < max_periods:
+        stepped += 1
         try:
-            image, scale = one_period(x)
+            image, scale = one_period(x) if stepped else first
         except SolverDivergedError:
             if last_image is None or x is last_image:
                 raise
@@ -101,12 +113,18 @@ def accelerated_fixed_point(
             d_f.clear()
             d_g.clear()
             continue
-        last_image = image
+        last_image, start = image, x
         f = (image - x) / scale
         residual = float(np.max(np.abs(f)))
         if residual <= tol:
             plain_ends.append(image)
-            return FixedPointSearch(image, True, period, residual, plain_ends, scale)
+            if accelerating and f_prev is not None:
+                # the accepted period's secant pair too: a search on from here (defect_corrected_fixed_point) takes it
+                g = image if precondition is None else x + precondition(image - x)
+                d_f.append((g - x) / scale - f_prev)
+                d_g.append(g - g_prev)
+            pairs = (tuple(d_f), tuple(d_g)) if accelerating else ((), ())
+            return FixedPointSearch(image, True, stepped, residual, plain_ends, scale, start, pairs)
         if residual < 0.5 * best:
             best, since_best = residual, 0
         else:
@@ -125,7 +143,75 @@ def accelerated_fixed_point(
             d_g.append(g - g_prev)
         f_prev, g_prev = f, g
         x = g - _extrapolation(d_f, d_g, f) if d_f else g
-    return FixedPointSearch(image, False, max_periods, residual, plain_ends, scale)
+    pairs = (tuple(d_f), tuple(d_g)) if accelerating else ((), ())
+    return FixedPointSearch(image, False, stepped, residual, plain_ends, scale, start, pairs)
+
+
+@dataclass(frozen=True)
+class DefectCorrectedSearch:
+    """What defect_corrected_fixed_point returns: the fine map's search (its state, acceptance and
+    residual as accelerated_fixed_point's; `periods` both maps' periods) and the periods of each map."""
+
+    search: FixedPointSearch
+    coarse_periods: int
+    fine_periods: int
+
+
+def defect_corrected_fixed_point(
+    coarse_period,
+    fine_period,
+    found: FixedPointSearch,
+    *,
+    tol: float,
+    max_periods: int,
+    depth: int = DEFAULT_DEPTH,
+    stall: int = DEFAULT_STALL,
+    precondition=None,
+) -> DefectCorrectedSearch:
+    """Fixed point of the fine map `fine_period(x) -> (F_d(x), scale)` searched with the coarse map
+    `coarse_period` (the same period at a coarser step, whose accelerated search `found` converged),
+    by defect correction: at the current start x one fine period gives the defect d = F_d(x) - F_c(x)
+    (F_c(x) already known), then the fixed point of G(y) = F_c(y) + d is searched with coarse periods.
+    G's secant pairs are F_c's (d is constant), so the coarse search's history carries over and its
+    first step already applies about (I - J_c)^-1 to the defect along the slow directions. A start is
+    accepted by the fine map's own test: one fine period from it changes it by at most `tol`, and the
+    state returned is that period's end. The defect is renewed at each G fixed point (searched to
+    DEFECT_INNER_TOL_FRACTION of `tol`); the outer iteration contracts by about
+    |(I - J_c)^-1 (J_d - J_c)|, small where both maps remove the fast directions in a period.
+    `max_periods` bounds both maps' periods together."""
+    x, coarse_image, history = found.start, found.state, found.history
+    coarse_periods = fine_periods = 0
+    while True:
+        image, scale = fine_period(x)
+        fine_periods += 1
+        residual = float(np.max(np.abs((image - x) / scale)))
+        converged = residual <= tol
+        # the corrected search keeps one period of the budget for the fine test at its fixed point
+        left = max_periods - coarse_periods - fine_periods - 1
+        if converged or left <= 0:
+            fine = FixedPointSearch(
+                image, converged, coarse_periods + fine_periods, residual, [x, image], scale, x, history
+            )
+            return DefectCorrectedSearch(fine, coarse_periods, fine_periods)
+        defect = image - coarse_image
+
+        def corrected(y, defect=defect):
+            coarse, coarse_scale = coarse_period(y)
+            return coarse + defect, coarse_scale
+
+        inner = accelerated_fixed_point(
+            corrected,
+            x,
+            tol=DEFECT_INNER_TOL_FRACTION * tol,
+            max_periods=left,
+            depth=depth,
+            stall=stall,
+            precondition=precondition,
+            history=history,
+            first=(image, scale),
+        )
+        coarse_periods += inner.periods
+        x, coarse_image, history = inner.start, inner.state - defect, inner.history
 
 
 def _extrapolation(d_f, d_g, f) -> np.ndarray:
