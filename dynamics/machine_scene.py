@@ -53,8 +53,8 @@ from dynamics.scene import (
     lowest_mode,
     station_values,
 )
-from dynamics.solvers import cache, machine_shooting
 from dynamics.solvers import clearance_verlet as verlet
+from dynamics.solvers import machine_shooting
 from dynamics.solvers import machine_verlet as mv
 from dynamics.solvers.simulate import ChainResponse
 
@@ -587,9 +587,7 @@ def _free_play_fraction(model, chosen, run: _Window) -> float:
 def machine_lowest_mode(model: ClearanceMachine, cycle_s: float) -> LowestMode:
     """The machine's lowest natural mode under `model`'s damping law against the harmonics of an index
     cycle of cycle_s (dynamics.scene.LowestMode), cached (one eigensolve per machine)."""
-    frequency = cache.cached(
-        ("machine lowest frequency", model.machine), lambda: float(model.machine.lowest_natural_frequencies_Hz(1)[0])
-    )
+    frequency = machine_shooting.lowest_frequency_Hz(model.machine)
     return lowest_mode(frequency, model.damping_ratio_at(2.0 * np.pi * frequency), cycle_s)
 
 

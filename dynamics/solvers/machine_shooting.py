@@ -186,8 +186,16 @@ def slowest_decay_per_cycle(model, period_s: float) -> float:
     )
 
 
+def lowest_frequency_Hz(machine) -> float:
+    """The machine's lowest natural frequency (MachineOnWheels.lowest_natural_frequencies_Hz), cached:
+    the searches' decay and the summary's lowest mode share one eigensolve."""
+    return cache.cached(
+        ("machine lowest frequency", machine), lambda: float(machine.lowest_natural_frequencies_Hz(1)[0])
+    )
+
+
 def _slowest_decay(model, period_s: float) -> float:
-    omega = 2.0 * np.pi * float(model.machine.lowest_natural_frequencies_Hz(1)[0])
+    omega = 2.0 * np.pi * lowest_frequency_Hz(model.machine)
     return float(np.exp(-model.damping_ratio_at(omega) * omega * period_s))
 
 
