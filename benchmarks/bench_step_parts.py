@@ -130,8 +130,25 @@ def _parts(model, mvm, mdm, state, nodes, h):
             model, zr[: STEPS + 1], zd[: STEPS + 1], zdd[: STEPS + 1], h, q, v, out_every=STEPS
         ),
         "force evaluation": lambda: accel_loop(
-            STEPS, q, v, zr[1], zd[1], zdd[1], arr.span_int, arr.span_float, dof_float, wheel_float, arr.par,
-            cmat, red, work, t_el, ed, contact, e_out, a,
+            STEPS,
+            q,
+            v,
+            zr[1],
+            zd[1],
+            zdd[1],
+            arr.span_int,
+            arr.span_float,
+            dof_float,
+            wheel_float,
+            arr.par,
+            cmat,
+            red,
+            work,
+            t_el,
+            ed,
+            contact,
+            e_out,
+            a,
         ),
         "damping product": lambda: damping_loop(STEPS, red[1], red[2], red[3], red[4], red[5], red[7], wv, cw, scratch),
     }, cw
@@ -165,8 +182,10 @@ def main() -> None:
                 f()
                 times[label, part].append((time.process_time() - start) / STEPS)
     load = open("/proc/loadavg").read().split()[:3]
-    print(f"{args.links} links, {n} DOFs, {model.arrays.span_int.shape[0]} spans; CPU per step, median of "
-          f"{args.samples} samples of {STEPS}; load {' '.join(load)}")
+    print(
+        f"{args.links} links, {n} DOFs, {model.arrays.span_int.shape[0]} spans; CPU per step, median of "
+        f"{args.samples} samples of {STEPS}; load {' '.join(load)}"
+    )
     for part in parts["new"]:
         cells = [
             f"{label} {1e6 * statistics.median(times[label, part]):.1f} us"
@@ -176,8 +195,10 @@ def main() -> None:
         print(f"  {part}: " + ", ".join(cells))
     if "old" in products:
         ref = products["old"]
-        print(f"  damping product: new against old, max |diff| / max |old| = "
-              f"{np.max(np.abs(products['new'] - ref)) / np.max(np.abs(ref)):.2e}")
+        print(
+            f"  damping product: new against old, max |diff| / max |old| = "
+            f"{np.max(np.abs(products['new'] - ref)) / np.max(np.abs(ref)):.2e}"
+        )
 
 
 if __name__ == "__main__":

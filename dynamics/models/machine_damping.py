@@ -490,8 +490,6 @@ if numba is not None:
     _border_times_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(_border_times_into)
     _minus_rows_times_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(_minus_rows_times_into)
     _row_dot = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"}, inline="always")(_row_dot)
-    _unbordered_damping_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(
-        _unbordered_damping_into
-    )
+    _unbordered_damping_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(_unbordered_damping_into)
     _border_solve_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(_border_solve_into)
     chain_damping_into = numba.njit(cache=True, fastmath={"reassoc", "contract", "nsz"})(chain_damping_into)
