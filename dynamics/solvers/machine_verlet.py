@@ -467,7 +467,7 @@ def _run_loops(
             wh[j] = v[j] + hh * a[j]
             q[j] += h * wh[j]
             wp[j] = v[j] + h * (a[j] + theta * (a[j] - a_prev[j]))
-            a_prev[j] = a[j]
+        a, a_prev = a_prev, a  # the step's start acceleration kept by name, not copied: a is written anew
         _accel_into(
             q,
             wp,
