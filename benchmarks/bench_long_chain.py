@@ -118,7 +118,9 @@ def _scenario(n: int, damping_tolerance=None, steady_state=True) -> dict:
 
 def _in_subprocess(n: int, damping_tolerance=None, steady_state=True, tree: Path = ROOT) -> dict:
     """The scenario in a fresh process, with the code of `tree` (a checkout of the project)."""
-    args = [sys.executable, __file__, str(n), json.dumps(damping_tolerance), json.dumps(steady_state), str(tree)]
+    # the tree's own script, so that nothing of this tree is imported in the old tree's process
+    script = Path(tree) / "benchmarks" / Path(__file__).name
+    args = [sys.executable, str(script), str(n), json.dumps(damping_tolerance), json.dumps(steady_state), str(tree)]
     out = subprocess.run(args, capture_output=True, text=True, check=True, cwd=tree)
     return json.loads(out.stdout.strip().splitlines()[-1])
 

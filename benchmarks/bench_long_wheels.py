@@ -113,7 +113,14 @@ def _scenario(n: int, force_o_n: bool) -> dict:
 
 def _in_subprocess(n: int, force_o_n: bool = False, tree: Path = ROOT, timeout=None) -> dict | None:
     """The scenario in a fresh process with the code of `tree`; None when stopped at `timeout`."""
-    args = [sys.executable, __file__, str(n), json.dumps(force_o_n), str(tree)]
+    # the tree's own script: this one imports this tree's code before it could put `tree` first
+    args = [
+        sys.executable,
+        str(Path(tree) / "benchmarks" / Path(__file__).name),
+        str(n),
+        json.dumps(force_o_n),
+        str(tree),
+    ]
     env = dict(os.environ, PYTHONPATH=str(tree))
     try:
         out = subprocess.run(args, capture_output=True, text=True, check=True, cwd=tree, env=env, timeout=timeout)

@@ -78,6 +78,20 @@ def test_bench_long_wheels_compares_two_trees_alternating():
     assert lines[-1] == "old: median of 3: wall 5.00 s, CPU 2.50 s, 40 links"
 
 
+@pytest.mark.parametrize("module", ["bench_long_wheels", "bench_long_chain"])
+def test_the_old_trees_scenario_runs_the_old_trees_own_script(tmp_path, module):
+    """Another tree's scenario runs that tree's script, which imports that tree's code (this tree's
+    script imports this tree's before it could put the other first on sys.path)."""
+    import importlib
+
+    bench = importlib.import_module(f"benchmarks.{module}")
+    (tmp_path / "benchmarks").mkdir()
+    (tmp_path / "benchmarks" / f"{module}.py").write_text('import json, sys; print(json.dumps({"argv": sys.argv}))\n')
+    result = bench._in_subprocess(40, tree=tmp_path)
+    assert result["argv"][0] == str(tmp_path / "benchmarks" / f"{module}.py")
+    assert result["argv"][1] == "40" and result["argv"][-1] == str(tmp_path)
+
+
 @pytest.mark.parametrize("script", ["compare_summaries.py", "bench_long_wheels.py"])
 def test_the_scripts_options_parse_from_the_command_line(script):
     """As the docs' commands run them (run_cpu.py's options are pipeline.py's: tested above)."""
