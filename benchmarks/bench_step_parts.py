@@ -95,18 +95,7 @@ def _parts(model, mvm, mdm, state, nodes, h):
     dof_float = np.asfortranarray(arr.dof_float)
     wheel_float = mvm._step_wheels(arr.wheel_float)
     cmat = np.ascontiguousarray(arr.cmat, dtype=np.float32)
-    nw = max(wheel_float.shape[0], 1)
-    work = (
-        np.zeros(nw),
-        np.zeros(nw),
-        np.zeros(nw),
-        np.zeros(n),
-        np.zeros(cmat.shape[1], dtype=cmat.dtype),
-        np.zeros(cmat.shape[0]),
-        np.zeros(3),
-        np.zeros(cmat.shape[1], dtype=cmat.dtype),
-        np.zeros(n),
-    )
+    work = mvm._accel_work(n, wheel_float, cmat)
     t_el, ed, e_out, a = np.zeros(ns), np.zeros(ns), np.zeros(ns), np.zeros(n)
     contact = np.zeros(ns, dtype=np.bool_)
     accel = mvm._accel_into

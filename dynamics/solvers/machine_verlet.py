@@ -355,6 +355,23 @@ def _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, sw
                 switch[s] = frac
 
 
+def _accel_work(n, wheel_float, cmat):
+    """The scratch arrays `_accel_into` takes as `work`, for n DOFs, the wheels' rows and the damping's
+    `cmat` (its dtype: the single-precision factors above their limit)."""
+    nw = max(wheel_float.shape[0], 1)
+    return (
+        np.zeros(nw),
+        np.zeros(nw),
+        np.zeros(nw),
+        np.zeros(n),
+        np.zeros(cmat.shape[1], dtype=cmat.dtype),
+        np.zeros(cmat.shape[0]),
+        np.zeros(3),
+        np.zeros(cmat.shape[1], dtype=cmat.dtype),  # the mirror product's antisymmetric columns
+        np.zeros(n),  # and its C v
+    )
+
+
 def _run_loops(
     q,
     v,
@@ -410,18 +427,7 @@ def _run_loops(
     dash_prev = np.zeros(ns)  # its dashpot's power at the last step
     q_s = np.empty(n)  # the step's start state where an impact needs it
     v_s = np.empty(n)
-    nw = max(wheel_float.shape[0], 1)
-    work = (
-        np.zeros(nw),
-        np.zeros(nw),
-        np.zeros(nw),
-        np.zeros(n),
-        np.zeros(cmat.shape[1], dtype=cmat.dtype),
-        np.zeros(cmat.shape[0]),
-        np.zeros(3),
-        np.zeros(cmat.shape[1], dtype=cmat.dtype),  # the mirror product's antisymmetric columns
-        np.zeros(n),  # and its C v
-    )
+    work = _accel_work(n, wheel_float, cmat)
     window = math.pi * math.sqrt(0.5 * par[7] / par[0])
     e_old = np.empty(ns)  # the span stretches at the step's start and end (the located switches)
     e_new = np.empty(ns)
@@ -696,6 +702,7 @@ if numba is not None:
         "_span_rates",
         "_station_nodes_into",
         "_switches_at_stations",
+        "_accel_work",
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _friction_into = numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy")(_friction_into)
