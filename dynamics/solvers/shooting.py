@@ -99,6 +99,17 @@ def accelerated_fixed_point(
     plain_ends = [x.copy()]
     residual, scale, image, start = math.inf, None, x, x
     last_image = None  # the last period end the chain reached: a state the extrapolation may fall back to
+
+    def secant_step(image, x, scale):
+        """The preconditioned image g and its scaled residual, their secant pair with the last period's
+        taken into the history."""
+        g = image if precondition is None else x + precondition(image - x)
+        f = (g - x) / scale
+        if f_prev is not None:
+            d_f.append(f - f_prev)
+            d_g.append(g - g_prev)
+        return g, f
+
     stepped = 0 if first is None else -1
     while stepped < max_periods:
         stepped += 1
@@ -118,11 +129,9 @@ def accelerated_fixed_point(
         residual = float(np.max(np.abs(f)))
         if residual <= tol:
             plain_ends.append(image)
-            if accelerating and f_prev is not None:
+            if accelerating:
                 # the accepted period's secant pair too: a search on from here (defect_corrected_fixed_point) takes it
-                g = image if precondition is None else x + precondition(image - x)
-                d_f.append((g - x) / scale - f_prev)
-                d_g.append(g - g_prev)
+                secant_step(image, x, scale)
             pairs = (tuple(d_f), tuple(d_g)) if accelerating else ((), ())
             return FixedPointSearch(image, True, stepped, residual, plain_ends, scale, start, pairs)
         if residual < 0.5 * best:
@@ -136,11 +145,7 @@ def accelerated_fixed_point(
             plain_ends.append(image)
             x = image
             continue
-        g = image if precondition is None else x + precondition(image - x)
-        f = (g - x) / scale
-        if f_prev is not None:
-            d_f.append(f - f_prev)
-            d_g.append(g - g_prev)
+        g, f = secant_step(image, x, scale)
         f_prev, g_prev = f, g
         x = g - _extrapolation(d_f, d_g, f) if d_f else g
     pairs = (tuple(d_f), tuple(d_g)) if accelerating else ((), ())
