@@ -41,6 +41,7 @@ from dynamics.models.chain import ChainModel  # noqa: E402
 from dynamics.models.clearance import kelvin_voigt_beta_s  # noqa: E402
 from dynamics.models.wheels import DEFAULT_TOOTH_STIFFNESS_N_PER_M  # noqa: E402
 from dynamics.solvers import machine_verlet as mv  # noqa: E402
+from dynamics.solvers.clearance_verlet import DEFAULT_SAFETIES  # noqa: E402
 from dynamics.solvers.machine_steady import periodic_state  # noqa: E402
 from stages.chain import chain_scene, output_times_s  # noqa: E402
 
@@ -51,7 +52,7 @@ from stages.chain import chain_scene, output_times_s  # noqa: E402
 FEA = {"al6061-t6": (9.3249560e7, 2.0299986), "ti-grade2": (1.4155947e8, 2.2799977)}
 CAMS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
 TOL, MAX_CYCLES = 1e-7, 400
-SAFETY = 0.25  # the Kelvin-Voigt law's default safety (clearance_verlet.DEFAULT_SAFETIES)
+SAFETY = DEFAULT_SAFETIES[("kelvin-voigt", "euler")]  # the Kelvin-Voigt law's default safety
 
 
 def chain(material: str, **changes) -> ChainModel:
