@@ -17,7 +17,10 @@ medians over `--repeats` runs of:
   and imports, before the run's clock starts), dynamics (from the stiffness, the last `FEA ...: k =`
   line, to the last `dynamics` line) and outputs (to `done`). The whole job is the process's wall
   time; the stages add up to more where they overlap;
-- peak memory, sampled every 50 ms: the run's process, its child processes (the FEA beside, the
+- peak memory, sampled every 50 ms in runs of their own (each timed run is followed by a sampled
+  run of the same tree, whose wall time is printed but not used: reading every process's PSS from
+  /proc every 50 ms takes CPU from the run and holds its memory map's lock, and made the whole job
+  about 4 s slower on a 2-core host): the run's process, its child processes (the FEA beside, the
   figure workers, the images' process) summed, and the whole run's proportional set size (PSS: pages shared between the
   processes counted once, split between them), the memory the run takes from the machine; beside
   it the summed resident sets (shared pages counted in each process: an overstatement). Each run's
@@ -103,7 +106,8 @@ def stage_walls(ends: dict[str, float], start_up_s: float) -> dict[str, float]:
     }
 
 
-def run_once(tree: Path, extra: list[str]) -> Run:
+def run_once(tree: Path, extra: list[str], sample_memory: bool = False) -> Run:
+    """One run of `tree`'s pipeline.py; with sample_memory its peak memory, else its time only."""
     with tempfile.TemporaryDirectory(prefix="whole-job-") as tmp:
         command = [sys.executable, "pipeline.py", "--cache-dir", f"{tmp}/cache", "--out", f"{tmp}/out", *extra]
         env = {**os.environ, "PYTHONPATH": str(tree)}
@@ -112,7 +116,8 @@ def run_once(tree: Path, extra: list[str]) -> Run:
         run = Run()
         done = threading.Event()
         sampler = threading.Thread(target=_sample, args=(proc.pid, run, done, start), daemon=True)
-        sampler.start()
+        if sample_memory:
+            sampler.start()
         lines, start_up_s, seen = [], None, []
         for line in proc.stdout:
             match = LINE.match(line)
@@ -126,7 +131,8 @@ def run_once(tree: Path, extra: list[str]) -> Run:
         status = proc.wait()
         run.total_s = time.perf_counter() - start
         done.set()
-        sampler.join()
+        if sample_memory:
+            sampler.join()
         if status != 0:
             raise SystemExit(f"{tree}: pipeline.py failed (status {status})")
         run.wall_s = stage_walls(stage_ends(lines), start_up_s or 0.0)
@@ -240,7 +246,8 @@ def _median(runs: list[Run], get) -> float:
     return statistics.median(get(r) for r in runs)
 
 
-def report(results: dict[str, list[Run]]) -> list[str]:
+def report(results: dict[str, list[Run]], sampled: dict[str, list[Run]]) -> list[str]:
+    """The stages' and the whole job's walls from the timed runs, the memory from the sampled ones."""
     names = list(results)
     lines = ["| stage | " + " | ".join(f"{n}: wall (s)" for n in names) + " |", "|" + "---|" * (1 + len(names))]
     for stage in STAGES:
@@ -251,10 +258,12 @@ def report(results: dict[str, list[Run]]) -> list[str]:
         walls = ", ".join(f"{r.total_s:.1f}" for r in runs)
         cells.append(f"**{_median(runs, lambda r: r.total_s):.2f}** ({walls})")
     lines.append("| whole job | " + " | ".join(cells) + " |")
-    lines += ["", "| peak memory (MB) | " + " | ".join(names) + " |", "|" + "---|" * (1 + len(names))]
+    lines += ["", "| peak memory (MB), sampled runs | " + " | ".join(names) + " |", "|" + "---|" * (1 + len(names))]
     for key in MEMORY:
-        cells = [f"{statistics.median(r.memory.get(key, 0) for r in runs) / 1e6:.0f}" for runs in results.values()]
+        cells = [f"{statistics.median(r.memory.get(key, 0) for r in runs) / 1e6:.0f}" for runs in sampled.values()]
         lines.append(f"| {key} | " + " | ".join(cells) + " |")
+    cells = [f"{_median(runs, lambda r: r.total_s):.2f}" for runs in sampled.values()]
+    lines.append("| (the sampled runs' whole job, s) | " + " | ".join(cells) + " |")
     return lines
 
 
@@ -269,20 +278,23 @@ def main(argv=None) -> int:
     results: dict[str, list[Run]] = {name: [] for name in trees}
     for tree in trees.values():  # compile and cache each tree's numba kernels first (not timed)
         run_once(tree, [*args.pipeline_options, "--mesh-size", WARM_UP_MESH_SIZE_MM])
+    sampled: dict[str, list[Run]] = {name: [] for name in trees}
     for repeat in range(args.repeats):
         for name, tree in trees.items() if repeat % 2 == 0 else reversed(trees.items()):
             run = run_once(tree, args.pipeline_options)
             results[name].append(run)
+            memory = run_once(tree, args.pipeline_options, sample_memory=True)
+            sampled[name].append(memory)
             print(
-                f"run {repeat + 1} {name}: {run.total_s:.1f} s, PSS {run.memory.get('PSS', 0) / 1e6:.0f} MB; "
-                + peak_line(run),
+                f"run {repeat + 1} {name}: {run.total_s:.1f} s; sampled run {memory.total_s:.1f} s, "
+                f"PSS {memory.memory.get('PSS', 0) / 1e6:.0f} MB; " + peak_line(memory),
                 flush=True,
             )
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     print(
         f"medians of {args.repeats} runs from an empty FEA cache, trees alternating; cores: {os.cpu_count()}; load average now {load}"
     )
-    print("\n".join(report(results)))
+    print("\n".join(report(results, sampled)))
     if args.study_point:
         points: dict[str, list[dict]] = {name: [] for name in trees}
         for repeat in range(args.repeats):
