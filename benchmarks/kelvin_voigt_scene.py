@@ -40,8 +40,6 @@ from dynamics.cams import CamProgram  # noqa: E402
 from dynamics.models.chain import ChainModel  # noqa: E402
 from dynamics.models.clearance import kelvin_voigt_beta_s  # noqa: E402
 from dynamics.models.wheels import DEFAULT_TOOTH_STIFFNESS_N_PER_M  # noqa: E402
-from dynamics.scene import DEFAULT_MAX_CYCLES  # noqa: E402
-from dynamics.solvers import clearance_verlet as verlet  # noqa: E402
 from dynamics.solvers import machine_verlet as mv  # noqa: E402
 from dynamics.solvers.clearance_verlet import DEFAULT_SAFETIES  # noqa: E402
 from dynamics.solvers.machine_steady import periodic_state  # noqa: E402
@@ -87,12 +85,10 @@ def linear_start(model, c, rpm: float):
     h_out = t[1] - t[0]
     per = int(round(c.period_s / h_out))
     linear = ms.linear_machine(model)
-    predictor = verlet.default_predictor(linear)
-    sub = mv.substeps_for(linear, h_out, verlet.default_safety(linear, predictor), predictor)
+    search = ms.SearchSettings.of(linear, tol=ms.CHOICE_TOL)
+    sub = mv.substeps_for(linear, h_out, search.safety, search.predictor)
     zeros = np.zeros(model.n_state)
-    state, _, _ = ms._start_state(
-        linear, c, h_out, per, sub, (zeros, zeros), True, ms.CHOICE_TOL, DEFAULT_MAX_CYCLES, predictor
-    )
+    state, _, _ = ms.start_state(linear, c, h_out, per, sub, (zeros, zeros), search)
     return state, h_out, per
 
 
