@@ -6,7 +6,7 @@ aluminium machine's span forces reach 412-849 kN, measured:
 The pipeline's default machine (settings.RunConfig() through stages.chain.chain_scene, 85 links, 180
 rpm, 0.094 mm free play, friction 0.35) with `--span-damping kelvin-voigt`, on the default link's
 FEA figures (k and lumped mass per material, as `python pipeline.py` computes them). Every periodic
-state is searched by plain cycling of the relabelled map (machine_verlet.next_index_start) from the
+state is searched by plain cycling of the relabelled map (machine_verlet.index_cycles) from the
 linear machine's state (as simulate_machine starts it), euler at a fraction of its stability limit,
 until the state changes by at most TOL per cycle or MAX_CYCLES. Sections (all by default):
 
@@ -94,26 +94,20 @@ def linear_start(model, c, rpm: float):
 
 def cycled(model, c, rpm: float = DEFAULT_RUN.rpm, safety: float = SAFETY, relabel: bool = True, energy=False):
     """Plain cycling from the linear machine's state: (cycles, change over the last cycle, over the last
-    two, peak span force N, min span force N, the last cycle's run, its Seating)."""
-    (q0, v0), h_out, per = linear_start(model, c, rpm)
+    two, peak span force N, min span force N, the last cycle's run, its Seating, the state it ends at)."""
+    start, h_out, per = linear_start(model, c, rpm)
     sub = mv.substeps_for(model, h_out, safety, "euler")
-    step = h_out / sub
-    nodes = mv.cycle_nodes(c, step, per * sub)
-    starts, change = [], np.inf
+    cycles = mv.index_cycles(
+        model, c, h_out / sub, per * sub, *start, out_every=sub, predictor="euler", relabel=relabel, track_energy=energy
+    )
+    previous = start  # the previous cycle's start: the change over two cycles
     for cycle in range(1, MAX_CYCLES + 1):
-        run = mv.integrate(model, *nodes, step, q0, v0, out_every=sub, predictor="euler", track_energy=energy)
-        seating = None
-        q1, v1 = run.q[-1], run.v[-1]
-        if relabel:
-            q1, v1, seating = mv.seat_change(model, q1, v1, float(nodes[0][-1]), (nodes[1].size - 1) * step)
-        scale = np.concatenate([np.full(q0.size, np.max(np.abs(run.q))), np.full(v0.size, np.max(np.abs(run.v)))])
-        starts.append(np.concatenate([q0, v0]))
-        change = float(np.max(np.abs(np.concatenate([q1, v1]) - starts[-1]) / scale))
-        two = float(np.max(np.abs(np.concatenate([q1, v1]) - starts[-2]) / scale)) if cycle > 1 else np.inf
-        q0, v0 = q1, v1
+        q1, v1, run, seating, change = next(cycles)
+        two = mv.cycle_change(run, previous, (q1, v1)) if cycle > 1 else np.inf
+        previous, start = start, (q1, v1)
         if change <= TOL:
             break
-    return cycle, change, two, run.peak_tension_N, run.min_tension_N, run, seating, (q0, v0)
+    return cycle, change, two, run.peak_tension_N, run.min_tension_N, run, seating, start
 
 
 def step_section() -> list[str]:
