@@ -37,6 +37,7 @@ import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.models.machine_damping import chain_damping_into
+from dynamics.solvers import kernel_cache
 from dynamics.solvers.clearance_verlet import (
     FASTMATH,
     PREDICTORS,
@@ -176,8 +177,6 @@ def _accel_into(
             if dof >= 0:
                 f[dof] -= span_float[j, 1] * wsl[wi] * t
     if not kv and red[0].shape[0] > 0:  # the O(N) form (dynamics.models.machine_damping) on the chain's DOFs
-        # (numba's cache of this file holds chain_damping_into compiled in: a change of its layout
-        # needs this file changed too, or the cache keeps the old one)
         dofs, scratch = red[0], red[6]
         wv, cw = scratch[4], scratch[5]
         for i in range(dofs.shape[0]):
@@ -1187,6 +1186,9 @@ def _step_peaks_into(values, zdd, flags, switches, interpolate, out):
 
 if numba is not None:  # a pass over every node of the window: in Python it cost a sixth of the step
     _step_peaks_into = numba.njit(cache=True)(_step_peaks_into)
+    # the kernels' cache entries are stale when a file they compile in changes (clearance_verlet.py's
+    # helpers, friction_tanh.py, machine_damping.py), not only this one
+    kernel_cache.key_on_dependencies(globals(), __name__)
 
 
 def merged_peaks(peaks):
