@@ -5,10 +5,11 @@ aluminium machine's span forces reach 412-849 kN, measured:
 
 The pipeline's default machine (settings.RunConfig() through stages.chain.chain_scene, 85 links, 180
 rpm, 0.094 mm free play, friction 0.35) with `--span-damping kelvin-voigt`, on the default link's
-FEA figures (k and lumped mass per material, as `python pipeline.py` computes them). Every periodic
-state is searched by plain cycling of the relabelled map (machine_verlet.index_cycles) from the
-linear machine's state (as simulate_machine starts it), euler at a fraction of its stability limit,
-until the state changes by at most TOL per cycle or MAX_CYCLES. Sections (all by default):
+FEA figures (benchmarks.defaults.MATERIALS: k and lumped mass per material as `python pipeline.py`
+computes them). Every periodic state is searched by plain cycling of the relabelled map
+(machine_verlet.index_cycles) from the linear machine's state (as simulate_machine starts it), euler
+at a fraction of its stability limit, until the state changes by at most TOL per cycle or MAX_CYCLES.
+Sections (all by default):
 
 - step: aluminium, modified sine, the periodic state at 0.5, 0.25, 0.125, 0.0625 of the limit;
 - cams: the five cam laws, both materials, at 0.25: cycles, the change over 1 and 2 cycles, peaks;
@@ -34,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script
     sys.path.insert(0, str(ROOT))
 
-from benchmarks.defaults import DEFAULT_RUN, PITCH_M  # noqa: E402
+from benchmarks.defaults import DEFAULT_RUN, MATERIALS, PITCH_M  # noqa: E402
 from dynamics import machine_scene as ms  # noqa: E402
 from dynamics.cams import CamProgram  # noqa: E402
 from dynamics.models.chain import ChainModel  # noqa: E402
@@ -45,18 +46,13 @@ from dynamics.solvers.clearance_verlet import DEFAULT_SAFETIES  # noqa: E402
 from dynamics.solvers.machine_steady import periodic_state  # noqa: E402
 from stages.chain import chain_scene, output_times_s  # noqa: E402
 
-# the default link's FEA k (N/m) and lumped mass (kg) per material, as the pipeline computes them today
-# (python pipeline.py --span-damping kelvin-voigt, 2026-11-26: the table's row): measured inputs, not
-# settings. Not benchmarks.defaults.MATERIALS' figures, which the timing benchmarks keep fixed: its
-# aluminium k is 3.4 % lower, which moves mode 1 off the resonance (123 kN instead of 412 kN)
-FEA = {"al6061-t6": (9.3249560e7, 2.0299986), "ti-grade2": (1.4155947e8, 2.2799977)}
 CAMS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
 TOL, MAX_CYCLES = 1e-7, 400
 SAFETY = DEFAULT_SAFETIES[("kelvin-voigt", "euler")]  # the Kelvin-Voigt law's default safety
 
 
 def chain(material: str, **changes) -> ChainModel:
-    k, m = FEA[material]
+    k, m = MATERIALS[material]
     return replace(
         ChainModel(
             DEFAULT_RUN.links,
@@ -123,7 +119,7 @@ def step_section() -> list[str]:
 
 def cams_section() -> list[str]:
     rows = []
-    for material in FEA:
+    for material in MATERIALS:
         model = machine(material)
         for law in CAMS:
             n, one, two, peak, low, *_ = cycled(model, cam(law))
