@@ -18,7 +18,7 @@ def test_the_benchmarks_fea_figures_are_the_pipelines_to_its_estimated_error():
     from stages.fea import start_fea
 
     cfg = RunConfig()
-    stiffness = start_fea(cfg, lambda message: None, stress_later=True).stiffness()
+    stiffness = start_fea(cfg, lambda message: None, stress_later=True).stiffness
     assert set(MATERIALS) <= set(stiffness)
     for material, (k, mass) in MATERIALS.items():
         fea = stiffness[material]
