@@ -171,7 +171,7 @@ def simulate_machine(
     lin_state, lin_ss, lin_last = start_state(linear, cam, h_out, per_cycle, choice_sub, start, choosing)
     lin = None
     if lin_last is not None and lin_ss.found:
-        # in the steady state every index cycle is the last one stepped (to lin_tol): its minimum
+        # in the steady state every index cycle is the last one stepped (to choosing.tol): its minimum
         # tension is the window's
         lin_min = lin_last.min_tension_N
     else:
