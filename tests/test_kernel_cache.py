@@ -23,11 +23,11 @@ DEPENDENCY = """
 def scale(x):
     return {factor} * x
 """
-# the kernel's module; STAMPED: with kernel_cache.key_on_dependencies
+# a kernel's module inlining the dependency; {stamped}: with kernel_cache.key_on_dependencies
 KERNEL = """
 import numba
-from dependency import scale as _scale
 import kernel_cache
+from dependency import scale as _scale
 
 _scale = numba.njit(cache=True, inline="always")(_scale)
 
@@ -40,41 +40,32 @@ kernel = numba.njit(cache=True)(_kernel)
 if {stamped}:
     kernel_cache.key_on_dependencies(globals(), __name__)
 """
+# each kernel's result at 1.0 and its cache misses (compilations)
+RUN = "import plain, stamped; print(*(f'{k.kernel(1.0)}/{sum(k.kernel.stats.cache_misses.values())}' for k in (stamped, plain)))"
 
 
-def _kernel_of(tree: Path) -> str:
-    """kernel(1.0) and its cache misses in a fresh process importing the temp tree's modules (numba's
-    cache beside them; kernel_cache copied there, so that the process imports numba alone)."""
+def _kernels_of(tree: Path) -> list[str]:
+    """The stamped and the plain kernel's 'result/misses' in a fresh process importing the temp tree's
+    modules (numba's cache beside them; kernel_cache copied there, so that it imports numba alone)."""
     env = dict(os.environ, PYTHONPATH=str(tree))
     env.pop("NUMBA_CACHE_DIR", None)  # the cache beside the files, in the temp tree
     env.pop("NUMBA_DISABLE_JIT", None)
-    done = subprocess.run(
-        [
-            sys.executable,
-            "-c",
-            "import kernel; print(kernel.kernel(1.0), sum(kernel.kernel.stats.cache_misses.values()))",
-        ],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=True,
-    )
+    done = subprocess.run([sys.executable, "-c", RUN], env=env, capture_output=True, text=True, timeout=120, check=True)
     return done.stdout.split()
 
 
-@pytest.mark.parametrize("stamped", [True, False])
-def test_an_edit_of_an_inlined_file_alone_recompiles_a_stamped_kernel(tmp_path, stamped):
-    """The kernel compiled and cached with the dependency's factor 2, loaded from the cache on the next
+def test_an_edit_of_an_inlined_file_alone_recompiles_a_stamped_kernel(tmp_path):
+    """Both kernels compiled and cached with the dependency's factor 2, loaded from the cache on the next
     run (no miss), then the dependency alone edited to 3: the stamped kernel recompiles and returns the
-    new result; numba's own stamp (the kernel's file unchanged) keeps the old copy and its old result."""
+    new result; numba's own stamp (the kernel's file unchanged) keeps the plain kernel's old copy."""
     (tmp_path / "dependency.py").write_text(DEPENDENCY.format(factor=2.0))
     (tmp_path / "kernel_cache.py").write_text(Path(kernel_cache.__file__).read_text())
-    (tmp_path / "kernel.py").write_text(textwrap.dedent(KERNEL.format(stamped=stamped)))
-    assert _kernel_of(tmp_path) == ["3.0", "1"]  # compiled
-    assert _kernel_of(tmp_path) == ["3.0", "0"]  # loaded from the cache
+    for name, stamped in (("stamped", True), ("plain", False)):
+        (tmp_path / f"{name}.py").write_text(textwrap.dedent(KERNEL.format(stamped=stamped)))
+    assert _kernels_of(tmp_path) == ["3.0/1", "3.0/1"]  # compiled
+    assert _kernels_of(tmp_path) == ["3.0/0", "3.0/0"]  # loaded from the cache
     (tmp_path / "dependency.py").write_text(DEPENDENCY.format(factor=3.0))
-    assert _kernel_of(tmp_path) == (["4.0", "1"] if stamped else ["3.0", "0"])
+    assert _kernels_of(tmp_path) == ["4.0/1", "3.0/0"]
 
 
 def test_the_machines_kernels_are_keyed_on_the_files_they_compile_in():
