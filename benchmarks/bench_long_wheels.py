@@ -7,7 +7,7 @@ check against the dense damping.
     python benchmarks/bench_long_wheels.py --links 1000 --old-tree /tmp/old [--repeats 3]   # one N, both trees
 
 Each N: the default scene (default wheels: 12-tooth sprocket and idler wheel, 6 links seated on each,
-the report's drive stiffness, polygonal feed), the default link's figures (2.03 kg, k = 9.0092e7 N/m,
+the report's drive stiffness, polygonal feed), the default link's figures (benchmarks.defaults.MATERIALS,
 friction 0.35, preload 2224 N, zeta 0.13), 0.094 mm free play, 180 rpm modified sine, the pipeline's
 output grid (180 degrees at 4 per degree), `dynamics.scene.simulate_scene` with `--model auto` and
 steady state, plus the machine's lowest natural frequencies (both are what the pipeline's dynamics

@@ -5,10 +5,11 @@ aluminium machine's span forces reach 412-849 kN, measured:
 
 The pipeline's default machine (settings.RunConfig() through stages.chain.chain_scene, 85 links, 180
 rpm, 0.094 mm free play, friction 0.35) with `--span-damping kelvin-voigt`, on the default link's
-FEA figures (k and lumped mass per material, as `python pipeline.py` computes them). Every periodic
-state is searched by plain cycling of the relabelled map (machine_verlet.next_index_start) from the
-linear machine's state (as simulate_machine starts it), euler at a fraction of its stability limit,
-until the state changes by at most TOL per cycle or MAX_CYCLES. Sections (all by default):
+FEA figures (benchmarks.defaults.MATERIALS: k and lumped mass per material as `python pipeline.py`
+computes them). Every periodic state is searched by plain cycling of the relabelled map
+(machine_verlet.index_cycles) from the linear machine's state (as simulate_machine starts it), euler
+at a fraction of its stability limit, until the state changes by at most TOL per cycle or MAX_CYCLES.
+Sections (all by default):
 
 - step: aluminium, modified sine, the periodic state at 0.5, 0.25, 0.125, 0.0625 of the limit;
 - cams: the five cam laws, both materials, at 0.25: cycles, the change over 1 and 2 cycles, peaks;
@@ -34,31 +35,24 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script
     sys.path.insert(0, str(ROOT))
 
-from benchmarks.defaults import DEFAULT_RUN, PITCH_M  # noqa: E402
+from benchmarks.defaults import DEFAULT_RUN, MATERIALS, PITCH_M  # noqa: E402
 from dynamics import machine_scene as ms  # noqa: E402
 from dynamics.cams import CamProgram  # noqa: E402
 from dynamics.models.chain import ChainModel  # noqa: E402
 from dynamics.models.clearance import kelvin_voigt_beta_s  # noqa: E402
 from dynamics.models.wheels import DEFAULT_TOOTH_STIFFNESS_N_PER_M  # noqa: E402
-from dynamics.scene import DEFAULT_MAX_CYCLES  # noqa: E402
-from dynamics.solvers import clearance_verlet as verlet  # noqa: E402
 from dynamics.solvers import machine_verlet as mv  # noqa: E402
 from dynamics.solvers.clearance_verlet import DEFAULT_SAFETIES  # noqa: E402
 from dynamics.solvers.machine_steady import periodic_state  # noqa: E402
 from stages.chain import chain_scene, output_times_s  # noqa: E402
 
-# the default link's FEA k (N/m) and lumped mass (kg) per material, as the pipeline computes them today
-# (python pipeline.py --span-damping kelvin-voigt, 2026-11-26: the table's row): measured inputs, not
-# settings. Not benchmarks.defaults.MATERIALS' figures, which the timing benchmarks keep fixed: its
-# aluminium k is 3.4 % lower, which moves mode 1 off the resonance (123 kN instead of 412 kN)
-FEA = {"al6061-t6": (9.3249560e7, 2.0299986), "ti-grade2": (1.4155947e8, 2.2799977)}
 CAMS = ("modified-sine", "modified-trapezoid", "cycloidal", "poly-345", "poly-4567")
 TOL, MAX_CYCLES = 1e-7, 400
 SAFETY = DEFAULT_SAFETIES[("kelvin-voigt", "euler")]  # the Kelvin-Voigt law's default safety
 
 
 def chain(material: str, **changes) -> ChainModel:
-    k, m = FEA[material]
+    k, m = MATERIALS[material]
     return replace(
         ChainModel(
             DEFAULT_RUN.links,
@@ -87,37 +81,29 @@ def linear_start(model, c, rpm: float):
     h_out = t[1] - t[0]
     per = int(round(c.period_s / h_out))
     linear = ms.linear_machine(model)
-    predictor = verlet.default_predictor(linear)
-    sub = mv.substeps_for(linear, h_out, verlet.default_safety(linear, predictor), predictor)
+    search = ms.SearchSettings.of(linear, tol=ms.CHOICE_TOL)
+    sub = mv.substeps_for(linear, h_out, search.safety, search.predictor)
     zeros = np.zeros(model.n_state)
-    state, _, _ = ms._start_state(
-        linear, c, h_out, per, sub, (zeros, zeros), True, ms.CHOICE_TOL, DEFAULT_MAX_CYCLES, predictor
-    )
+    state, _, _ = ms.start_state(linear, c, h_out, per, sub, (zeros, zeros), search)
     return state, h_out, per
 
 
 def cycled(model, c, rpm: float = DEFAULT_RUN.rpm, safety: float = SAFETY, relabel: bool = True, energy=False):
     """Plain cycling from the linear machine's state: (cycles, change over the last cycle, over the last
-    two, peak span force N, min span force N, the last cycle's run, its Seating)."""
-    (q0, v0), h_out, per = linear_start(model, c, rpm)
+    two, peak span force N, min span force N, the last cycle's run, its Seating, the state it ends at)."""
+    start, h_out, per = linear_start(model, c, rpm)
     sub = mv.substeps_for(model, h_out, safety, "euler")
-    step = h_out / sub
-    nodes = mv.cycle_nodes(c, step, per * sub)
-    starts, change = [], np.inf
+    cycles = mv.index_cycles(
+        model, c, h_out / sub, per * sub, *start, out_every=sub, predictor="euler", relabel=relabel, track_energy=energy
+    )
+    previous = start  # the previous cycle's start: the change over two cycles
     for cycle in range(1, MAX_CYCLES + 1):
-        run = mv.integrate(model, *nodes, step, q0, v0, out_every=sub, predictor="euler", track_energy=energy)
-        seating = None
-        q1, v1 = run.q[-1], run.v[-1]
-        if relabel:
-            q1, v1, seating = mv.seat_change(model, q1, v1, float(nodes[0][-1]), (nodes[1].size - 1) * step)
-        scale = np.concatenate([np.full(q0.size, np.max(np.abs(run.q))), np.full(v0.size, np.max(np.abs(run.v)))])
-        starts.append(np.concatenate([q0, v0]))
-        change = float(np.max(np.abs(np.concatenate([q1, v1]) - starts[-1]) / scale))
-        two = float(np.max(np.abs(np.concatenate([q1, v1]) - starts[-2]) / scale)) if cycle > 1 else np.inf
-        q0, v0 = q1, v1
+        q1, v1, run, seating, change = next(cycles)
+        two = mv.cycle_change(run, previous, (q1, v1)) if cycle > 1 else np.inf
+        previous, start = start, (q1, v1)
         if change <= TOL:
             break
-    return cycle, change, two, run.peak_tension_N, run.min_tension_N, run, seating, (q0, v0)
+    return cycle, change, two, run.peak_tension_N, run.min_tension_N, run, seating, start
 
 
 def step_section() -> list[str]:
@@ -133,7 +119,7 @@ def step_section() -> list[str]:
 
 def cams_section() -> list[str]:
     rows = []
-    for material in FEA:
+    for material in MATERIALS:
         model = machine(material)
         for law in CAMS:
             n, one, two, peak, low, *_ = cycled(model, cam(law))

@@ -33,7 +33,7 @@ a sprocket held to the cam, the strand-end tensions' difference plus the seated 
 
 from __future__ import annotations
 
-from dataclasses import fields
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -156,36 +156,32 @@ def simulate_machine(
     if abs(t[0] / period - round(t[0] / period)) > 1e-9:
         raise DynamicsError("t_eval_s: the machine's output window must start at an index's start (the dwell's end)")
     linear = linear_machine(model)
-    lin_pred = verlet.default_predictor(linear) if predictor is None else predictor
-    lin_safety = verlet.default_safety(linear, lin_pred) if safety is None else safety
+    options = dict(tol=tol, max_cycles=max_cycles, steady_state=steady_state)
+    lin_search = SearchSettings.of(linear, predictor, safety, **options)
+    lin_pred = lin_search.predictor
     n_state = model.n_state  # the DOFs, and a tooth model's seat offsets
     start = (np.zeros(n_state), np.zeros(n_state))
-    lin_sub = mv.substeps_for(linear, h_out, lin_safety, lin_pred)
+    lin_sub = mv.substeps_for(linear, h_out, lin_search.safety, lin_pred)
     # the linear machine first to CHOICE_TOL: its minimum tension decides the model (and gives the
     # preload for full contact) and its state starts the clearance machine's steady state, which
     # is then iterated to `tol`; only when the linear machine is the answer is it iterated on to `tol`
     # and its window stepped
-    lin_tol = max(tol, CHOICE_TOL)
+    choosing = replace(lin_search, tol=max(tol, CHOICE_TOL))
     choice_sub = _coarse_substeps(linear, h_out, lin_sub, lin_pred) or lin_sub
-    lin_state, lin_ss, lin_last = _start_state(
-        linear, cam, h_out, per_cycle, choice_sub, start, steady_state, lin_tol, max_cycles, lin_pred
-    )
+    lin_state, lin_ss, lin_last = start_state(linear, cam, h_out, per_cycle, choice_sub, start, choosing)
     lin = None
     if lin_last is not None and lin_ss.found:
-        # in the steady state every index cycle is the last one stepped (to lin_tol): its minimum
+        # in the steady state every index cycle is the last one stepped (to choosing.tol): its minimum
         # tension is the window's
         lin_min = lin_last.min_tension_N
     else:
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred)
         lin_min = lin.min_tension_N
     chosen = choose_model(model, choice, lin_min)
-    default_step = safety is None
-    if chosen.model == ChainModelKind.LINEAR and (lin is None or default_step):
+    if chosen.model == ChainModelKind.LINEAR and (lin is None or lin_search.default_step):
         # the linear machine is the answer: its steady state to `tol` (or its window from rest) at the
         # window's step
-        lin_state, lin_ss, lin_sub = _searched_and_settled(
-            linear, cam, h_out, per_cycle, lin_state, tol, max_cycles, lin_pred, lin_safety, default_step, steady_state
-        )
+        lin_state, lin_ss, lin_sub = _searched_and_settled(linear, cam, h_out, per_cycle, lin_state, lin_search)
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred, _found(lin_ss))
         lin_min = lin.min_tension_N
         chosen = choose_model(model, choice, lin_min)
@@ -193,12 +189,9 @@ def simulate_machine(
     if chosen.model == ChainModelKind.LINEAR:
         run, sub, ss = lin, lin_sub, lin_ss
     else:
-        pred = verlet.default_predictor(model) if predictor is None else predictor
-        saf = verlet.default_safety(model, pred) if safety is None else safety
-        state, ss, sub = _searched_and_settled(
-            model, cam, h_out, per_cycle, lin_state, tol, max_cycles, pred, saf, default_step, steady_state
-        )
-        run = _window(model, cam, t, per_cycle, sub, state, pred, _found(ss))
+        search = SearchSettings.of(model, predictor, safety, **options)
+        state, ss, sub = _searched_and_settled(model, cam, h_out, per_cycle, lin_state, search)
+        run = _window(model, cam, t, per_cycle, sub, state, search.predictor, _found(ss))
     ran = model if chosen.model == ChainModelKind.CLEARANCE else linear
     summary = _summary(model, chosen, run, lin_min, needed, ss, sub, machine_lowest_mode(ran, cam.cycle_s))
     return _response(model, cam, t, run, links, sub, ss), summary
@@ -228,74 +221,110 @@ class _Window:
         self.station_rms = station_rms
 
 
-def _searched_and_settled(
-    model, cam, h_out, per_cycle, state, tol, max_cycles, predictor, safety, default_step, steady_state
-):
+@dataclass(frozen=True)
+class SearchSettings:
+    """How a machine's relabelled steady state is searched and its window stepped: the step's
+    predictor and `safety` (its fraction of the stability limit), the change per index cycle the
+    search accepts (`tol`, relative to the largest |q| and |q'| over the cycle) and its cycles
+    (`max_cycles`); `steady_state` False: no search, the window from the state given (from rest).
+    `default_step`: the safety is the default one, so the search runs at SEARCH_SAFETY and the window
+    at safety / WINDOW_REFINEMENT (a safety given steps everything at it). `of` takes each default
+    from its home."""
+
+    predictor: str
+    safety: float
+    tol: float = DEFAULT_TOL
+    max_cycles: int = DEFAULT_MAX_CYCLES
+    steady_state: bool = True
+    default_step: bool = True
+
+    @classmethod
+    def of(cls, model, predictor: str | None = None, safety: float | None = None, **settings) -> SearchSettings:
+        """`model`'s settings: its default predictor and safety (clearance_verlet.default_predictor,
+        default_safety) where none is given; `settings` the other fields."""
+        pred = verlet.default_predictor(model) if predictor is None else predictor
+        saf = verlet.default_safety(model, pred) if safety is None else safety
+        return cls(pred, saf, default_step=safety is None, **settings)
+
+
+def _searched_and_settled(model, cam, h_out, per_cycle, state, search: SearchSettings):
     """(state, SteadyState or None, steps per output sample of the window): where the window starts.
-    Given its step (not `default_step`): the relabelled steady state searched from `state` at
-    `safety` (from rest: `state` itself). The default step: the window at safety / WINDOW_REFINEMENT,
-    the steady state searched at SEARCH_SAFETY and settled at the window's step (a long chain's: to
-    long_search_tol, then settled at `safety` as `_settle_kind` says: one cycle, the search on to the
-    same tolerance, or that tolerance by defect correction with coarse cycles); a search that finds
-    none is redone from `state` at the window's step to `tol` (the motion after max_cycles coarse
-    cycles is not the fine step's)."""
-    if not default_step:
-        sub = mv.substeps_for(model, h_out, safety, predictor)
-        state, ss, _ = _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor)
+    Given its step (not `search.default_step`): the relabelled steady state searched from `state` at
+    `search.safety` (from rest: `state` itself). The default step: the window at safety /
+    WINDOW_REFINEMENT, the steady state searched at SEARCH_SAFETY and settled at the window's step (a
+    long chain's: to long_search_tol, then settled at `safety` as `_settle_kind` says: one cycle, the
+    search on to the same tolerance, or that tolerance by defect correction with coarse cycles); a
+    search that finds none is redone from `state` at the window's step to `tol` (the motion after
+    max_cycles coarse cycles is not the fine step's)."""
+    pred = search.predictor
+    if not search.default_step:
+        sub = mv.substeps_for(model, h_out, search.safety, pred)
+        state, ss, _ = start_state(model, cam, h_out, per_cycle, sub, state, search)
         return state, ss, sub
-    fine = mv.substeps_for(model, h_out, safety / WINDOW_REFINEMENT[model.span_damping], predictor)
+    fine = mv.substeps_for(model, h_out, search.safety / WINDOW_REFINEMENT[model.span_damping], pred)
     done = None
-    if steady_state:
-        coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], predictor)
+    if search.steady_state:
+        coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], pred)
         long_chain = model.reduced_damping
-        search_tol = long_search_tol(model, cam, tol) if long_chain else tol
-        settle = mv.substeps_for(model, h_out, safety, predictor) if long_chain else fine
+        to = replace(search, tol=long_search_tol(model, cam, search.tol)) if long_chain else search
+        settle = mv.substeps_for(model, h_out, search.safety, pred) if long_chain else fine
         kind = _settle_kind(model, cam) if long_chain else "cycle"
-        if kind == "defect correction":
-            # the coarse search, then the default safety's fixed point to the same tolerance with coarse
-            # cycles (machine_shooting.defect_corrected_periodic_state)
-            two = machine_shooting.defect_corrected_periodic_state(
-                model,
-                cam,
-                (h_out / coarse, per_cycle * coarse),
-                (h_out / settle, per_cycle * settle),
-                *state,
-                tol=search_tol,
-                max_cycles=max_cycles,
-                predictor=predictor,
-            )
-            ss = _steady_state(two.found, two.cycles, two.residual, search_tol)
-            if two.settled is not None:
-                return (two.q0, two.v0), ss, fine
-            found = (two.q0, two.v0)
-        else:
-            found, ss, _ = _start_state(
-                model, cam, h_out, per_cycle, coarse, state, True, search_tol, max_cycles, predictor
-            )
-            if ss.found and kind == "search":
-                # carried to the default safety's fixed point by the same search, to the same tolerance
-                state, ss, _ = _start_state(
-                    model,
-                    cam,
-                    h_out,
-                    per_cycle,
-                    settle,
-                    found,
-                    True,
-                    search_tol,
-                    max_cycles,
-                    predictor,
-                    (found, ss.cycles),
-                )
-                return state, ss, fine
-            if ss.found:
-                return _settled(model, cam, h_out, per_cycle, settle, found, predictor), ss, fine
-        if _coarse_substeps(model, h_out, fine, predictor) == coarse:
+        settled, found, ss = _SETTLES[kind](model, cam, h_out, per_cycle, (coarse, settle), state, to)
+        if settled is not None:
+            return settled, ss, fine
+        if _coarse_substeps(model, h_out, fine, pred) == coarse:
             done = (found, ss.cycles)  # a long chain's search at `fine` starts with this same coarse search
-    state, ss, _ = _start_state(
-        model, cam, h_out, per_cycle, fine, state, steady_state, tol, max_cycles, predictor, coarse_done=done
-    )
+    state, ss, _ = start_state(model, cam, h_out, per_cycle, fine, state, search, coarse_done=done)
     return state, ss, fine
+
+
+def _settle_by_cycles(model, cam, h_out, per_cycle, steps, state, search):
+    """The search at the coarse step of `steps` (coarse, settle substeps), then SETTLE_CYCLES plain
+    cycles at the settle step: (the settled state or None when the search found none, the search's
+    state, its SteadyState); `_SETTLES`' signature."""
+    coarse, settle = steps
+    found, ss, _ = start_state(model, cam, h_out, per_cycle, coarse, state, search)
+    if not ss.found:
+        return None, found, ss
+    return _settled(model, cam, h_out, per_cycle, settle, found, search.predictor), found, ss
+
+
+def _settle_by_search(model, cam, h_out, per_cycle, steps, state, search):
+    """The search at the coarse step, carried to the settle step's fixed point by the same search to the
+    same tolerance (its coarse part the one done)."""
+    coarse, settle = steps
+    found, ss, _ = start_state(model, cam, h_out, per_cycle, coarse, state, search)
+    if not ss.found:
+        return None, found, ss
+    settled, ss, _ = start_state(model, cam, h_out, per_cycle, settle, found, search, (found, ss.cycles))
+    return settled, found, ss
+
+
+def _settle_by_defect_correction(model, cam, h_out, per_cycle, steps, state, search):
+    """The coarse search, then the settle step's fixed point to the same tolerance with coarse cycles
+    (machine_shooting.defect_corrected_periodic_state)."""
+    coarse, settle = steps
+    two = machine_shooting.defect_corrected_periodic_state(
+        model,
+        cam,
+        (h_out / coarse, per_cycle * coarse),
+        (h_out / settle, per_cycle * settle),
+        *state,
+        tol=search.tol,
+        max_cycles=search.max_cycles,
+        predictor=search.predictor,
+    )
+    ss = _steady_state(two.found, two.cycles, two.residual, search.tol)
+    found = (two.q0, two.v0)
+    return (found if two.settled is not None else None), found, ss
+
+
+# how a coarse steady state is carried to the settle step's fixed point, by `_settle_kind`
+_SETTLES = {
+    "cycle": _settle_by_cycles,
+    "search": _settle_by_search,
+    "defect correction": _settle_by_defect_correction,
+}
 
 
 def _settle_kind(model, cam) -> str:
@@ -304,9 +333,9 @@ def _settle_kind(model, cam) -> str:
     plain cycles) up to SETTLE_SEARCH_ABOVE_DECAY, "search" (the accelerated search at the default
     safety) up to SETTLE_DEFECT_CORRECTED_ABOVE_DECAY, "defect correction" above."""
     decay = machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s)
-    if decay > SETTLE_DEFECT_CORRECTED_ABOVE_DECAY:
-        return "defect correction"
-    return "search" if decay > SETTLE_SEARCH_ABOVE_DECAY else "cycle"
+    # (the decay above which, the settle): the first row the decay exceeds; the bounds read when called
+    by_decay = ((SETTLE_DEFECT_CORRECTED_ABOVE_DECAY, "defect correction"), (SETTLE_SEARCH_ABOVE_DECAY, "search"))
+    return next((kind for above, kind in by_decay if decay > above), "cycle")
 
 
 def long_search_tol(model, cam, tol: float) -> float:
@@ -332,11 +361,14 @@ def _found(ss) -> bool:
     return ss is not None and ss.found
 
 
-def _start_state(model, cam, h_out, per_cycle, sub, state, steady_state, tol, max_cycles, predictor, coarse_done=None):
+def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings, coarse_done=None):
     """(state, SteadyState or None, last cycle's run) of the relabelled steady state searched from
-    `state` at `sub` steps per output sample. `coarse_done`: (state, cycles) of this search's coarse
-    part (`_coarse_substeps`) already run from `state`, not run again."""
-    if not steady_state:
+    `state` at `sub` steps per output sample to `search.tol` in `search.max_cycles` (with its
+    predictor; its safety is `sub`'s); `state` itself when not `search.steady_state`. `coarse_done`:
+    (state, cycles) of this search's coarse part (`_coarse_substeps`) already run from `state`, not
+    run again."""
+    tol, max_cycles, predictor = search.tol, search.max_cycles, search.predictor
+    if not search.steady_state:
         return state, None, None
     # long chains (the O(N) damping's range) cycle with Anderson acceleration: their slow low modes take
     # plain cycling dozens of cycles. Up to DENSE_LINK_LIMIT links plain cycling, as the default run's

@@ -69,7 +69,7 @@ def test_a_long_chains_settle_is_searched_to_its_tolerance_at_the_default_safety
     default's 1.8e-3 at this rho is looser than what one settling cycle leaves at this length): one
     settling cycle, as before, left the next cycle's change at 4.0e-5 of max |q'|."""
     from dynamics import machine_scene
-    from dynamics.machine_scene import _searched_and_settled, long_search_tol
+    from dynamics.machine_scene import SearchSettings, _searched_and_settled, long_search_tol
     from dynamics.models.reduction import DENSE_LINK_LIMIT
     from dynamics.solvers import machine_verlet as mv
 
@@ -84,7 +84,9 @@ def test_a_long_chains_settle_is_searched_to_its_tolerance_at_the_default_safety
     pred = verlet.default_predictor(model)
     safety = verlet.default_safety(model, pred)
     zeros = np.zeros(model.topology.n_dof)
-    (q0, v0), ss, _ = _searched_and_settled(model, cam, h_out, 90, (zeros, zeros), 1e-6, 60, pred, safety, True, True)
+    (q0, v0), ss, _ = _searched_and_settled(
+        model, cam, h_out, 90, (zeros, zeros), SearchSettings(pred, safety, 1e-6, 60)
+    )
     tol = long_search_tol(model, cam, 1e-6)
     assert tol == 1e-5
     assert ss.found and ss.residual <= tol and ss.cycles >= 3

@@ -126,21 +126,23 @@ def test_the_sparse_slow_modes_are_the_dense_ones(tensioner):
 
 def test_a_long_chains_search_starts_coarse_and_is_accepted_at_its_own_step():
     """Above DENSE_LINK_LIMIT links the search runs at SEARCH_SAFETY's coarser step first and
-    finishes at the step asked for (machine_scene._start_state): the state returned passes the
+    finishes at the step asked for (machine_scene.start_state): the state returned passes the
     test at that step (one more index cycle there moves it by <= tol), the cycles counted are both
     searches', and up to DENSE_LINK_LIMIT links there is no coarse search."""
-    from dynamics.machine_scene import SEARCH_SAFETY, _coarse_substeps, _start_state
+    from dynamics.machine_scene import SEARCH_SAFETY, SearchSettings, _coarse_substeps, start_state
 
     chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
     linear = ClearanceMachine.of(chain, LAYOUT, None, 0.0)
     cam = _cam()
     h_out = cam.cycle_s / 90
-    sub = mv.substeps_for(linear, h_out, SEARCH_SAFETY["global"] / 3, "ab2")
+    safety = SEARCH_SAFETY["global"] / 3
+    sub = mv.substeps_for(linear, h_out, safety, "ab2")
     coarse = _coarse_substeps(linear, h_out, sub, "ab2")
     assert coarse is not None and coarse < sub
     zeros = np.zeros(linear.topology.n_dof)
     tol = 1e-4
-    (q0, v0), ss, last = _start_state(linear, cam, h_out, 90, sub, (zeros, zeros), True, tol, 30, "ab2")
+    search = SearchSettings("ab2", safety, tol, 30, default_step=False)
+    (q0, v0), ss, last = start_state(linear, cam, h_out, 90, sub, (zeros, zeros), search)
     assert ss.found and ss.cycles >= 2
     q1, v1, run, _ = mv.next_index_start(
         linear, cam, mv.cycle_nodes(cam, h_out / sub, 90 * sub), h_out / sub, q0, v0, out_every=sub, predictor="ab2"
@@ -158,7 +160,7 @@ def test_a_long_chains_unfound_search_is_not_repeated_at_the_window_step(monkeyp
     same coarse search from the same state (`_coarse_substeps`), which is handed over, not run again:
     each step's search runs once, and the redo's result is the one the repeated search gives."""
     from dynamics import machine_scene
-    from dynamics.machine_scene import SEARCH_SAFETY, _searched_and_settled
+    from dynamics.machine_scene import SEARCH_SAFETY, SearchSettings, _searched_and_settled
 
     chain = ChainModel(DENSE_LINK_LIMIT + 20, 2.03, 9.0092e7, damping_ratio=0.13, friction_coefficient=0.35)
     model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
@@ -174,15 +176,14 @@ def test_a_long_chains_unfound_search_is_not_repeated_at_the_window_step(monkeyp
 
     monkeypatch.setattr(machine_shooting, "relabelled_periodic_state", counted)
     safety = 0.31
-    state, ss, fine = _searched_and_settled(model, cam, h_out, 90, (zeros, zeros), 1e-12, 2, "ab2", safety, True, True)
+    settings = SearchSettings("ab2", safety, 1e-12, 2)
+    state, ss, fine = _searched_and_settled(model, cam, h_out, 90, (zeros, zeros), settings)
     assert not ss.found and ss.cycles == 3  # two coarse cycles, one at the window's step
     coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY["global"], "ab2")
     assert steps == pytest.approx([h_out / coarse, h_out / fine])
     # the search at the window's step run whole (its coarse part again) gives the same state; the O(N)
     # damping's sums vary at round-off between runs (docs/performance.md)
-    (q_whole, v_whole), whole, _ = machine_scene._start_state(
-        model, cam, h_out, 90, fine, (zeros, zeros), True, 1e-12, 2, "ab2"
-    )
+    (q_whole, v_whole), whole, _ = machine_scene.start_state(model, cam, h_out, 90, fine, (zeros, zeros), settings)
     assert whole.cycles == ss.cycles and len(steps) == 4
     np.testing.assert_allclose(state[0], q_whole, rtol=0, atol=1e-9 * np.max(np.abs(q_whole)))
     np.testing.assert_allclose(state[1], v_whole, rtol=0, atol=1e-9 * np.max(np.abs(v_whole)))

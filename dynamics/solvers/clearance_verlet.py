@@ -51,7 +51,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError
-from dynamics.solvers import cache
+from dynamics.solvers import cache, kernel_cache
 from dynamics.solvers.friction_tanh import TANH_IS_ONE
 from dynamics.solvers.friction_tanh import tanh_branch_free as _tanh_branch_free
 
@@ -1033,6 +1033,8 @@ if numba is not None:
     _keep = numba.njit(cache=True)(_keep)
     _friction_into = numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy")(_friction_into)
     _run_compiled = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
+    # their cache entries are stale when friction_tanh.py (inlined) changes too, not only this file
+    kernel_cache.key_on_dependencies(globals(), __name__)
 else:  # pragma: no cover
     _run_compiled = None
 

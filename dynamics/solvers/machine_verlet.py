@@ -37,6 +37,7 @@ import numpy as np
 
 from dynamics.errors import DynamicsError, SolverDivergedError
 from dynamics.models.machine_damping import chain_damping_into
+from dynamics.solvers import kernel_cache
 from dynamics.solvers.clearance_verlet import (
     FASTMATH,
     PREDICTORS,
@@ -176,8 +177,6 @@ def _accel_into(
             if dof >= 0:
                 f[dof] -= span_float[j, 1] * wsl[wi] * t
     if not kv and red[0].shape[0] > 0:  # the O(N) form (dynamics.models.machine_damping) on the chain's DOFs
-        # (numba's cache of this file holds chain_damping_into compiled in: a change of its layout
-        # needs this file changed too, or the cache keeps the old one)
         dofs, scratch = red[0], red[6]
         wv, cw = scratch[4], scratch[5]
         for i in range(dofs.shape[0]):
@@ -1187,6 +1186,9 @@ def _step_peaks_into(values, zdd, flags, switches, interpolate, out):
 
 if numba is not None:  # a pass over every node of the window: in Python it cost a sixth of the step
     _step_peaks_into = numba.njit(cache=True)(_step_peaks_into)
+    # the kernels' cache entries are stale when a file they compile in changes (clearance_verlet.py's
+    # helpers, friction_tanh.py, machine_damping.py), not only this one
+    kernel_cache.key_on_dependencies(globals(), __name__)
 
 
 def merged_peaks(peaks):
@@ -1227,12 +1229,23 @@ def station_rms(moments) -> np.ndarray:
 
 
 def next_index_start(
-    model, cam, nodes, step_s: float, q0, v0, *, out_every: int, predictor: str, stations=None, flags_at=None
+    model,
+    cam,
+    nodes,
+    step_s: float,
+    q0,
+    v0,
+    *,
+    out_every: int,
+    predictor: str,
+    track_energy: bool = False,
+    stations=None,
+    flags_at=None,
 ):
     """The relabelled map x0 -> T(P(x0)): the state at the start of the next index in the next
     index's labels, with the seats changed inside the cycle (a tooth phase other than 0) or after it.
-    Returns (q1, v1, the cycle's MachineRun, the seat change's Seating); the station peaks as
-    index_cycle's."""
+    Returns (q1, v1, the cycle's MachineRun, the seat change's Seating); the energy terms and station
+    peaks as index_cycle's."""
     run, inside = index_cycle(
         model,
         cam,
@@ -1242,6 +1255,7 @@ def next_index_start(
         v0,
         out_every=out_every,
         predictor=predictor,
+        track_energy=track_energy,
         stations=stations,
         flags_at=flags_at,
     )
@@ -1256,19 +1270,40 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
     stepping cycle after cycle with the seat change between them until the start state changes by
     less than `tol` (relative to the largest |q| and |q'| over the cycle). Returns (q0, v0, cycles,
     residual, found, the last cycle's MachineRun)."""
-    zr, zd, zdd = cycle_nodes(cam, step_s, n_steps)
     every = max(n_steps // 90, 1)
     while n_steps % every:
         every -= 1
     residual = math.inf
+    cycles = index_cycles(model, cam, step_s, n_steps, q0, v0, out_every=every, predictor=predictor)
     for cycle in range(1, max_cycles + 1):
-        q1, v1, run, _ = next_index_start(
-            model, cam, (zr, zd, zdd), step_s, q0, v0, out_every=every, predictor=predictor
-        )
-        tiny = np.finfo(float).tiny
-        sq, sv = max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
-        residual = max(float(np.max(np.abs(q1 - q0))) / sq, float(np.max(np.abs(v1 - v0))) / sv)
-        q0, v0 = q1, v1
+        q0, v0, run, _, residual = next(cycles)
         if residual <= tol:
             return q0, v0, cycle, residual, True, run
     return q0, v0, max_cycles, residual, False, run
+
+
+def index_cycles(
+    model, cam, step_s, n_steps, q0, v0, *, out_every: int, predictor: str, relabel=True, track_energy=False
+):
+    """Index cycle after index cycle from (q0, v0), without end: per cycle (q1, v1, its MachineRun, its
+    Seating or None, its change): the next cycle's start and `cycle_change` to it. `relabel`: the
+    relabelled map (next_index_start); False: the labelled frame, the cycle stepped with no seat change
+    (the same links on the same seats every cycle). `track_energy`: the runs' energy terms."""
+    nodes = cycle_nodes(cam, step_s, n_steps)
+    steps = dict(out_every=out_every, predictor=predictor, track_energy=track_energy)
+    while True:
+        if relabel:
+            q1, v1, run, seating = next_index_start(model, cam, nodes, step_s, q0, v0, **steps)
+        else:
+            run, seating = integrate(model, *nodes, step_s, q0, v0, **steps), None
+            q1, v1 = run.q[-1], run.v[-1]
+        yield q1, v1, run, seating, cycle_change(run, (q0, v0), (q1, v1))
+        q0, v0 = q1, v1
+
+
+def cycle_change(run, start, end) -> float:
+    """The change from a cycle's start state to `end` (each (q, v)), relative to the largest |q| and
+    |q'| over the cycle's `run` (the test relabelled_periodic_state accepts a state by)."""
+    tiny = np.finfo(float).tiny
+    sq, sv = max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
+    return max(float(np.max(np.abs(end[0] - start[0]))) / sq, float(np.max(np.abs(end[1] - start[1]))) / sv)
