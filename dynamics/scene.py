@@ -276,6 +276,9 @@ class Resonance:
 
     mode_number: int  # 1: the lowest
     harmonic_share: float  # |A_n| / max |A_m| of the cam's acceleration harmonics, n the mode's harmonic
+    # the highest of the modes searched: a harmonic far above it may meet a higher mode unsearched (a
+    # long chain's 12 lowest modes end at 4.0 Hz at 10,000 links, below the 12 Hz index rate)
+    searched_up_to_Hz: float
     mode: LowestMode
 
 
@@ -306,7 +309,7 @@ def nearest_resonance(frequencies_Hz, damping_ratios, cam, lowest: LowestMode) -
     ]
     shares = harmonic_shares(cam, [m.harmonic for m in modes])
     best = int(np.argmax([m.amplification * share for m, share in zip(modes, shares)]))
-    return Resonance(best + 1, float(shares[best]), modes[best])
+    return Resonance(best + 1, float(shares[best]), float(max(frequencies_Hz)), modes[best])
 
 
 @dataclass(frozen=True)

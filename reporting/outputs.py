@@ -165,11 +165,16 @@ def _contact_summary(contact, linear_validity=None) -> dict:
 
 
 def _resonance_summary(resonance) -> dict | None:
-    """dynamics.scene.Resonance as one flat record: the mode's number and harmonic share beside its
-    LowestMode fields."""
+    """dynamics.scene.Resonance as one flat record: the mode's number, harmonic share and the highest
+    mode searched beside its LowestMode fields."""
     if resonance is None:
         return None
-    return {"mode_number": resonance.mode_number, "harmonic_share": resonance.harmonic_share, **vars(resonance.mode)}
+    return {
+        "mode_number": resonance.mode_number,
+        "harmonic_share": resonance.harmonic_share,
+        "searched_up_to_Hz": resonance.searched_up_to_Hz,
+        **vars(resonance.mode),
+    }
 
 
 def _scenario_summary(scenario, fea, band_m: float) -> dict:

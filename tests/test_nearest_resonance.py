@@ -44,6 +44,7 @@ def test_the_mode_driven_hardest_is_amplification_times_its_harmonics_share():
     # mode 3 on the third harmonic nearly undamped: 1 / (2 zeta) x 0.25 = 12.5 against mode 2's 3.8 x 1
     picked = nearest_resonance([0.5 * f, 1.02 * f, 3.0 * f], [0.13, 0.13, 0.01], cam, lowest)
     assert (picked.mode_number, picked.harmonic_share) == (3, pytest.approx(0.25, abs=1e-13))
+    assert picked.searched_up_to_Hz == 3.0 * f
     assert picked.mode == lowest_mode(3.0 * f, 0.01, CYCLE_S) and picked.mode.amplification == pytest.approx(50.0)
     # damped as mode 2, mode 3's weaker harmonic loses
     assert nearest_resonance([0.5 * f, 1.02 * f, 3.0 * f], [0.13, 0.13, 0.13], cam, lowest).mode_number == 2
@@ -108,10 +109,11 @@ def test_summary_json_gives_the_nearest_resonance():
     mode = lowest_mode(37.1, 0.0032, 1 / 12)
     contact = ContactSummary(
         ChainModelKind.CLEARANCE, "asked for", Validity.VALID, 1e-4, True, 0.1, 2.0, 900.0, 5e3, -10.0, 20.0, -10.0,
-        nearest_resonance=Resonance(11, 0.28, mode),
+        nearest_resonance=Resonance(11, 0.28, 40.4, mode),
     )  # fmt: skip
     summary = json.loads(json.dumps(_contact_summary(contact), allow_nan=False))
-    assert summary["nearest_resonance"] == {"mode_number": 11, "harmonic_share": 0.28, **vars(mode)}
+    expected = {"mode_number": 11, "harmonic_share": 0.28, "searched_up_to_Hz": 40.4, **vars(mode)}
+    assert summary["nearest_resonance"] == expected
     assert (
         json.loads(json.dumps(_contact_summary(replace(contact, nearest_resonance=None))))["nearest_resonance"] is None
     )
