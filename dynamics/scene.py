@@ -282,8 +282,10 @@ class Resonance:
     mode: LowestMode
 
 
-# the modes searched for the nearest resonance: on a 1,000-link chain mode 11 is the one nearest an
-# index harmonic (3 % above the third, docs/performance.md); one shift-invert solve for all of them
+# the modes searched for the nearest resonance, one shift-invert solve for all of them (cached per
+# machine): at 1,000 links they reach 40 Hz, past the third index harmonic (on the default scene mode
+# 7, 3.5 % below the second, is driven hardest); at 10,000 links only 4.0 Hz, and reaching the third harmonic there
+# would take about 130 modes, 6.5 s of CPU against the scenario's 80 s (docs/performance.md)
 NEAREST_RESONANCE_MODES = 12
 # samples of one cam cycle for its harmonics (at least 16 per period of the highest one asked for)
 HARMONIC_SAMPLES = 1024
@@ -346,8 +348,8 @@ class ContactSummary:
     # the machine on its wheels: its lowest mode under the run's damping law against the cam's harmonics
     # (LowestMode); None for the single-link drive
     lowest_mode: LowestMode | None = None
-    # the machine on its wheels: of its lowest NEAREST_RESONANCE_MODES modes the one a cam harmonic
-    # amplifies most (Resonance); None for the single-link drive
+    # the machine on its wheels: of its lowest NEAREST_RESONANCE_MODES modes the one its nearest cam
+    # harmonic drives hardest (Resonance); None for the single-link drive
     nearest_resonance: Resonance | None = None
     # whether linear_min_tension_N and preload_for_full_contact_N hold (LinearModelValidity); on the
     # wheels (the pitch is the sprocket's), None for the single-link drive

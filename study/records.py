@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import math
 
-from dynamics.scene import linear_validity_at_yield
-
 #: Metric columns, in table order, with what each one is.
 METRICS = {
     "stiffness_N_per_m": "link axial stiffness k (FEA, Richardson-extrapolated)",
@@ -65,6 +63,8 @@ def chain_metrics(scenario, fea, station: str, lumped_mass_kg: float, f1_Hz: flo
     """The chain's share, from a stages.chain.Scenario at `station`."""
     at = scenario.stations[station]
     settling = float(scenario.settling_time_s[scenario.history.column(at.link)])
+    from dynamics.scene import linear_validity_at_yield
+
     peak_stress = scenario.contact.peak_tension_N * fea.peak_von_mises_converged_Pa_per_N
     linear = linear_validity_at_yield(scenario.contact, fea.yield_strength_Pa, fea.peak_von_mises_converged_Pa_per_N)
     return {
