@@ -43,18 +43,23 @@ from dynamics.response.metrics import LinkMetrics
 from dynamics.scene import (
     DEFAULT_MAX_CYCLES,
     DEFAULT_TOL,
+    NEAREST_RESONANCE_MODES,
     ChainModelKind,
     ContactSummary,
+    LinearModelValidity,
     LowestMode,
+    Resonance,
     SteadyState,
     _select,
     choose_model,
     impact_statistics,
+    linear_model_validity,
     lowest_mode,
+    nearest_resonance,
     station_values,
 )
+from dynamics.solvers import cache, machine_shooting
 from dynamics.solvers import clearance_verlet as verlet
-from dynamics.solvers import machine_shooting
 from dynamics.solvers import machine_verlet as mv
 from dynamics.solvers.simulate import ChainResponse
 
@@ -173,17 +178,17 @@ def simulate_machine(
     if lin_last is not None and lin_ss.found:
         # in the steady state every index cycle is the last one stepped (to choosing.tol): its minimum
         # tension is the window's
-        lin_min = lin_last.min_tension_N
+        lin_min, lin_peak = lin_last.min_tension_N, lin_last.peak_tension_N
     else:
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred)
-        lin_min = lin.min_tension_N
+        lin_min, lin_peak = lin.min_tension_N, lin.peak_tension_N
     chosen = choose_model(model, choice, lin_min)
     if chosen.model == ChainModelKind.LINEAR and (lin is None or lin_search.default_step):
         # the linear machine is the answer: its steady state to `tol` (or its window from rest) at the
         # window's step
         lin_state, lin_ss, lin_sub = _searched_and_settled(linear, cam, h_out, per_cycle, lin_state, lin_search)
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred, _found(lin_ss))
-        lin_min = lin.min_tension_N
+        lin_min, lin_peak = lin.min_tension_N, lin.peak_tension_N
         chosen = choose_model(model, choice, lin_min)
     needed = max(model.chain.preload_N - lin_min, 0.0)
     if chosen.model == ChainModelKind.LINEAR:
@@ -193,7 +198,13 @@ def simulate_machine(
         state, ss, sub = _searched_and_settled(model, cam, h_out, per_cycle, lin_state, search)
         run = _window(model, cam, t, per_cycle, sub, state, search.predictor, _found(ss))
     ran = model if chosen.model == ChainModelKind.CLEARANCE else linear
-    summary = _summary(model, chosen, run, lin_min, needed, ss, sub, machine_lowest_mode(ran, cam.cycle_s))
+    mode = machine_lowest_mode(ran, cam.cycle_s)
+    summary = _summary(model, chosen, run, lin_min, needed, ss, sub, mode)
+    summary = replace(
+        summary,
+        nearest_resonance=machine_nearest_resonance(ran, cam, mode),
+        linear_model_validity=machine_linear_validity(model, lin_min, lin_peak),
+    )
     return _response(model, cam, t, run, links, sub, ss), summary
 
 
@@ -623,6 +634,30 @@ def machine_lowest_mode(model: ClearanceMachine, cycle_s: float) -> LowestMode:
     return lowest_mode(frequency, model.damping_ratio_at(2.0 * np.pi * frequency), cycle_s)
 
 
+def machine_nearest_resonance(model: ClearanceMachine, cam, lowest: LowestMode) -> Resonance:
+    """Of the machine's lowest NEAREST_RESONANCE_MODES modes under `model`'s damping law, the one an
+    index harmonic of `cam` drives hardest (dynamics.scene.nearest_resonance); `lowest` is mode 1's LowestMode
+    (machine_lowest_mode), kept as it is."""
+    machine = model.machine
+    frequencies = cache.cached(
+        ("machine lowest frequencies", machine, NEAREST_RESONANCE_MODES),
+        lambda: machine.lowest_natural_frequencies_Hz(NEAREST_RESONANCE_MODES),
+    )
+    ratios = [model.damping_ratio_at(2.0 * np.pi * f) for f in frequencies]
+    return nearest_resonance(frequencies, ratios, cam, lowest)
+
+
+def machine_linear_validity(
+    model: ClearanceMachine, min_tension_N: float, peak_tension_N: float
+) -> LinearModelValidity | None:
+    """LinearModelValidity of the linear machine's span forces over [min_tension_N, peak_tension_N], on
+    the chain's links and the sprocket's pitch (None without a sprocket: the machine's link drive)."""
+    sprocket = model.machine.sprocket
+    if sprocket is None:
+        return None
+    return linear_model_validity(min_tension_N, peak_tension_N, model.chain.stiffness_N_per_m, sprocket.pitch_m)
+
+
 def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, sub, mode=None) -> ContactSummary:
     cycles = run.cycles
     impacts = impact_statistics(run, cycles)
@@ -654,8 +689,6 @@ def simulate_machine_to_accuracy(
     dynamics.scene.simulate_chain(accuracy=) does for the single-link drive: the last change is the
     error estimate (ContactSummary.step_error_estimate; the scheme is second order, so it is about 3x
     the error left at the finer step once in the asymptotic range)."""
-    from dataclasses import replace
-
     from dynamics.response.fidelity import relative_change
     from dynamics.scene import MAX_STEP_DOUBLINGS
 

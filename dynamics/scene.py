@@ -73,6 +73,9 @@ class Validity(StrEnum):
     # span's tension goes below 0. No model choice gives it since the clearance chain runs at any
     # length (issue 24); kept as the reports' vocabulary (reporting.sections)
     NOT_VALID_WHERE_TENSION_NEGATIVE = "not valid where tension < 0"
+    # the linear model's own numbers (its minimum tension, the preload for full contact) where it
+    # deforms a span beyond any metal link's elastic range (LinearModelValidity)
+    OUTSIDE_LINEAR_MODEL = "outside the linear model"
 
 
 class ModelChoice(NamedTuple):
@@ -179,6 +182,138 @@ def lowest_mode(frequency_Hz: float, damping_ratio: float, cycle_s: float) -> Lo
     return LowestMode(float(frequency_Hz), float(damping_ratio), int(n), 1.0 / r - 1.0, amplification, decay)
 
 
+# The linear span law T = P + k e holds while a span stays in its link's elastic range. No structural
+# metal stays elastic beyond about 1 % strain (sigma_y / E: 0.4 % for 6061-T6, 0.3 % for titanium grade
+# 2, 0.7 % for 7075-T6, 1 % for maraging steel), and a link's stress concentrations only lower that
+# limit: a span deformed from its unloaded length by more than this fraction of the pitch has yielded
+# whatever the link, so the linear model's numbers there describe no chain (docs/physics.md)
+LINEAR_ELASTIC_STRAIN_LIMIT = 0.01
+
+
+@dataclass(frozen=True)
+class LinearModelValidity:
+    """Whether the linear model's own numbers (its minimum tension, the preload for full contact) hold
+    (SI): its largest |span force| over its window (or its steady cycle) deforms a span by
+    largest |T| / k from its unloaded length, against LINEAR_ELASTIC_STRAIN_LIMIT x the pitch. Where the
+    link's yield load is known (the FEA's yield strength / peak stress per newton: `with_yield_load`),
+    whether the preload for full contact is above it: such a preload yields the link at rest, so no
+    designer can apply it (said in `reason`, the numbers' validity unchanged)."""
+
+    validity: Validity  # VALID or OUTSIDE_LINEAR_MODEL
+    reason: str  # in words; the numbers are the fields beside it
+    largest_span_force_N: float
+    span_deformation_m: float  # largest_span_force_N / k
+    deformation_bound_m: float  # LINEAR_ELASTIC_STRAIN_LIMIT x pitch
+    yield_load_N: float | None = None  # None: not known to the dynamics (with_yield_load adds it)
+    preload_above_yield_load: bool | None = None
+
+    @property
+    def valid(self) -> bool:
+        return self.validity == Validity.VALID
+
+
+def linear_model_validity(
+    min_tension_N: float, peak_tension_N: float, stiffness_N_per_m: float, pitch_m: float
+) -> LinearModelValidity:
+    """LinearModelValidity of a linear model whose span forces range over [min_tension_N, peak_tension_N]
+    on spans of stiffness k and a chain of pitch pitch_m. Valid up to the bound itself."""
+    force = max(abs(min_tension_N), abs(peak_tension_N))
+    deformation = force / stiffness_N_per_m
+    bound = LINEAR_ELASTIC_STRAIN_LIMIT * pitch_m
+    if deformation <= bound:
+        return LinearModelValidity(
+            Validity.VALID,
+            f"the linear model deforms no span by more than {LINEAR_ELASTIC_STRAIN_LIMIT:.0%} of the pitch "
+            "(the elastic strain of the strongest structural metals)",
+            force,
+            deformation,
+            bound,
+        )
+    return LinearModelValidity(
+        Validity.OUTSIDE_LINEAR_MODEL,
+        f"the linear model deforms a span by more than {LINEAR_ELASTIC_STRAIN_LIMIT:.0%} of the pitch, beyond "
+        "the elastic range of any metal link: its minimum tension and the preload for full contact "
+        "describe no chain",
+        force,
+        deformation,
+        bound,
+    )
+
+
+def with_yield_load(
+    validity: LinearModelValidity, preload_for_full_contact_N: float, yield_load_N: float
+) -> LinearModelValidity:
+    """`validity` with the link's yield load and whether the preload for full contact is above it."""
+    above = bool(preload_for_full_contact_N > yield_load_N)
+    reason = validity.reason
+    if above:
+        reason += (
+            "; the preload for full contact is above the link's yield load: it would yield the link "
+            "at rest, not a preload a designer can apply"
+        )
+    return replace(validity, reason=reason, yield_load_N=float(yield_load_N), preload_above_yield_load=above)
+
+
+def linear_validity_at_yield(contact, yield_strength_Pa: float | None, stress_Pa_per_N: float):
+    """A ContactSummary's linear_model_validity with the link's yield load, yield_strength_Pa /
+    stress_Pa_per_N (the FEA's peak stress per newton of pin load), where both are known; as it is
+    otherwise (None for the single-link drive)."""
+    validity = contact.linear_model_validity
+    if validity is None or yield_strength_Pa is None or not stress_Pa_per_N > 0:
+        return validity
+    return with_yield_load(validity, contact.preload_for_full_contact_N, yield_strength_Pa / stress_Pa_per_N)
+
+
+@dataclass(frozen=True)
+class Resonance:
+    """Of the machine's lowest NEAREST_RESONANCE_MODES modes, the one its nearest cam harmonic drives
+    hardest: the largest amplification x harmonic_share, the linear response the harmonic builds on the
+    mode relative to the cam's strongest harmonic applied slowly. The amplification alone does not
+    rank them under the global law (zeta 0.13 on every mode caps it at 3.9, so the mode nearest some
+    harmonic, however weak, would win: mode 6 at the 21st on the default machine, 3.877 against mode
+    1's 3.862 at the third); under the Kelvin-Voigt law it dominates. Mode 1's LowestMode is the
+    summary's lowest_mode object itself."""
+
+    mode_number: int  # 1: the lowest
+    harmonic_share: float  # |A_n| / max |A_m| of the cam's acceleration harmonics, n the mode's harmonic
+    # the highest of the modes searched: a harmonic far above it may meet a higher mode unsearched (a
+    # long chain's 12 lowest modes end at 4.0 Hz at 10,000 links, below the 12 Hz index rate)
+    searched_up_to_Hz: float
+    mode: LowestMode
+
+
+# the modes searched for the nearest resonance, one shift-invert solve for all of them (cached per
+# machine): at 1,000 links they reach 40 Hz, past the third index harmonic (on the default scene mode
+# 7, 3.5 % below the second, is driven hardest); at 10,000 links only 4.0 Hz, and reaching the third harmonic there
+# would take about 130 modes, 6.5 s of CPU against the scenario's 80 s (docs/performance.md)
+NEAREST_RESONANCE_MODES = 12
+# samples of one cam cycle for its harmonics (at least 16 per period of the highest one asked for)
+HARMONIC_SAMPLES = 1024
+
+
+def harmonic_shares(cam, harmonics) -> np.ndarray:
+    """|A_n| / max_m |A_m| at the `harmonics` n >= 1 of the cam's cycle rate: A_n the Fourier
+    coefficients of the cam's acceleration over one cycle (cam.cycle_s), the inertial load it puts on
+    the chain, sampled at HARMONIC_SAMPLES points or more."""
+    n = np.asarray(harmonics, dtype=int)
+    samples = max(HARMONIC_SAMPLES, 16 * int(n.max()))
+    t = np.arange(samples) * (cam.cycle_s / samples)
+    amplitudes = np.abs(np.fft.rfft(np.asarray(cam.svaj(t)[2], dtype=float)))[1:]
+    return amplitudes[n - 1] / amplitudes.max()
+
+
+def nearest_resonance(frequencies_Hz, damping_ratios, cam, lowest: LowestMode) -> Resonance:
+    """Resonance of the modes at frequencies_Hz (ascending, the first mode 1) with their damping ratios,
+    driven by `cam`; `lowest` is mode 1's LowestMode, returned itself where mode 1 is driven hardest
+    (the first of equals)."""
+    modes = [lowest] + [
+        lowest_mode(float(f), float(z), cam.cycle_s) for f, z in zip(frequencies_Hz[1:], damping_ratios[1:])
+    ]
+    shares = harmonic_shares(cam, [m.harmonic for m in modes])
+    best = int(np.argmax([m.amplification * share for m, share in zip(modes, shares)]))
+    return Resonance(best + 1, float(shares[best]), float(max(frequencies_Hz)), modes[best])
+
+
 @dataclass(frozen=True)
 class ContactSummary:
     """What the designer reads about contact, per scenario (SI)."""
@@ -213,6 +348,12 @@ class ContactSummary:
     # the machine on its wheels: its lowest mode under the run's damping law against the cam's harmonics
     # (LowestMode); None for the single-link drive
     lowest_mode: LowestMode | None = None
+    # the machine on its wheels: of its lowest NEAREST_RESONANCE_MODES modes the one its nearest cam
+    # harmonic drives hardest (Resonance); None for the single-link drive
+    nearest_resonance: Resonance | None = None
+    # whether linear_min_tension_N and preload_for_full_contact_N hold (LinearModelValidity); on the
+    # wheels (the pitch is the sprocket's), None for the single-link drive
+    linear_model_validity: LinearModelValidity | None = None
 
 
 def choose_model(model: ClearanceChain, choice: str, linear_min_tension_N: float) -> ModelChoice:

@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from dynamics.response.metrics import rank_cams, rms, station_links
-from dynamics.scene import ChainModelKind
+from dynamics.scene import ChainModelKind, Validity, linear_validity_at_yield
 from reporting import html, plots, replica_sections
 from reporting.drawing import FigureJob, draw_figures
 from reporting.history import CamHistory
@@ -126,9 +126,12 @@ def _number_or_null(value: float) -> float | None:
     return None if np.isnan(value) else float(value)
 
 
-def _contact_summary(contact) -> dict:
-    """Which model ran and why, and what it says about free play and impacts (issue #11)."""
+def _contact_summary(contact, linear_validity=None) -> dict:
+    """Which model ran and why, and what it says about free play and impacts (issue #11).
+    `linear_validity`: the linear model's validity with the link's yield load
+    (dynamics.scene.linear_validity_at_yield); None: the contact's own."""
     ss = contact.steady_state
+    linear_validity = contact.linear_model_validity if linear_validity is None else linear_validity
     return {
         "model": contact.model,
         "model_reason": contact.reason,
@@ -144,6 +147,7 @@ def _contact_summary(contact) -> dict:
         },
         "preload_for_full_contact_N": float(contact.preload_for_full_contact_N),
         "linear_min_tension_N": float(contact.linear_min_tension_N),
+        "linear_model_validity": None if linear_validity is None else vars(linear_validity),
         "clearance_steady_state": None
         if ss is None
         else {
@@ -156,6 +160,20 @@ def _contact_summary(contact) -> dict:
         "steps_per_output_sample": contact.steps_per_output,
         "peak_sampling": contact.peak_sampling,
         "lowest_mode": None if contact.lowest_mode is None else vars(contact.lowest_mode),
+        "nearest_resonance": _resonance_summary(contact.nearest_resonance),
+    }
+
+
+def _resonance_summary(resonance) -> dict | None:
+    """dynamics.scene.Resonance as one flat record: the mode's number, harmonic share and the highest
+    mode searched beside its LowestMode fields."""
+    if resonance is None:
+        return None
+    return {
+        "mode_number": resonance.mode_number,
+        "harmonic_share": resonance.harmonic_share,
+        "searched_up_to_Hz": resonance.searched_up_to_Hz,
+        **vars(resonance.mode),
     }
 
 
@@ -174,7 +192,7 @@ def _scenario_summary(scenario, fea, band_m: float) -> dict:
         "per_link": {k: getattr(scenario.metrics, k).tolist() for k in PER_LINK_KEYS},
         "peak_tension_N": peak_N,
         "min_tension_N": min_N,
-        **_contact_summary(scenario.contact),
+        **_contact_summary(scenario.contact, _linear_validity(scenario.contact, fea)),
         "samples_per_degree": scenario.samples_per_degree,
     }
     if scenario.machine is not None:
@@ -185,6 +203,13 @@ def _scenario_summary(scenario, fea, band_m: float) -> dict:
         out["peak_link_stress_Pa"] = peak_stress
         out["yield_safety_factor"] = fea.yield_strength_Pa / peak_stress if peak_stress > 0 else None
     return out
+
+
+def _linear_validity(contact, fea):
+    """The contact's linear_model_validity with the link's yield load where the FEA gives it."""
+    if fea is None:
+        return contact.linear_model_validity
+    return linear_validity_at_yield(contact, fea.yield_strength_Pa, fea.peak_von_mises_converged_Pa_per_N)
 
 
 def _rankings(scenarios: dict, materials, cams, station: str) -> dict:
@@ -553,6 +578,16 @@ def _station_table(scenarios: dict, band_m: float) -> Table:
     )
 
 
+def _preload_kN(c: dict):
+    """A scenario's preload for full contact in kN, marked where the linear model it comes from does
+    not hold (summary.json's linear_model_validity)."""
+    kN = c.get("preload_for_full_contact_N", float("nan")) / 1e3
+    validity = c.get("linear_model_validity")
+    if validity is None or validity["validity"] == Validity.VALID:
+        return kN
+    return f"{kN:.4g} ({Validity.OUTSIDE_LINEAR_MODEL})"
+
+
 def _tension_table(summary_materials: dict) -> Table:
     rows = []
     for material, data in summary_materials.items():
@@ -568,7 +603,7 @@ def _tension_table(summary_materials: dict) -> Table:
                     100.0 * c.get("free_play_time_fraction", 0.0),
                     c.get("impacts_per_cycle", 0.0),
                     c.get("impact_force_spike_N", 0.0) / 1e3,
-                    c.get("preload_for_full_contact_N", float("nan")) / 1e3,
+                    _preload_kN(c),
                     c["peak_link_stress_Pa"] / 1e6,
                     c["yield_safety_factor"],
                 )

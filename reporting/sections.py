@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from dynamics.scene import ChainModelKind, Validity
+from dynamics.scene import LINEAR_ELASTIC_STRAIN_LIMIT, ChainModelKind, Validity
 from reporting import html
 from reporting.tables import Table
 
@@ -97,12 +97,16 @@ def _model_paragraphs(results: RunResults) -> str:
     statements. A model whose response does not hold for its scene is shown as a warning."""
     groups: dict[tuple, list[str]] = {}
     linear_min: dict[tuple, list[float]] = {}
+    outside: dict[tuple, list[str]] = {}  # the runs whose linear model's numbers do not hold
     statements = []
     for (m, c), scenario in results.scenarios.items():
         contact = scenario.contact
         key = (contact.model, contact.reason, contact.validity)
         groups.setdefault(key, []).append(f"{m} / {c}")
         linear_min.setdefault(key, []).append(contact.linear_min_tension_N)
+        linear = contact.linear_model_validity
+        if linear is not None and not linear.valid:
+            outside.setdefault(key, []).append(f"{m} / {c}")
         ss = contact.steady_state
         if ss is not None and not (ss.found and ss.period_cycles == 1):
             statements.append(f"{m} / {c}: {ss.statement}")
@@ -118,12 +122,27 @@ def _model_paragraphs(results: RunResults) -> str:
         which = (
             f"all {len(runs)} scenarios (material x cam law)" if len(groups) == 1 and len(runs) > 1 else ", ".join(runs)
         )
+        marked = _outside_linear_words(outside.get((model, reason, validity), []), runs)
         out += html.paragraph(
-            f"Model: {name} for {which}: {reason} (linear chain's minimum tension {low:.3g} to {high:.3g} kN).", css
+            f"Model: {name} for {which}: {reason} (linear chain's minimum tension {low:.3g} to {high:.3g} kN{marked}).",
+            "warn" if marked else css,
         )
     for text in statements:
         out += html.paragraph(text, "warn")
     return out
+
+
+def _outside_linear_words(outside: list[str], runs: list[str]) -> str:
+    """The mark on a group's linear minimum tension where the linear model deforms a span beyond a metal
+    link's elastic range (dynamics.scene.LinearModelValidity) in some of its runs."""
+    if not outside:
+        return ""
+    which = "" if len(outside) == len(runs) else " for " + ", ".join(outside)
+    return (
+        f", {Validity.OUTSIDE_LINEAR_MODEL}{which}: it deforms a span by more than "
+        f"{LINEAR_ELASTIC_STRAIN_LIMIT:.0%} of the pitch, so that minimum tension and the preload for full "
+        "contact describe no chain"
+    )
 
 
 def run_section(report: Report) -> list[html.Section]:

@@ -31,10 +31,10 @@ def write_outputs(
 
 
 def plotted_metrics(spec: StudySpec) -> list[str]:
-    from study.records import METRICS
+    from study.records import FLAGS, METRICS
 
     named = [o.metric for o in spec.objectives] + [c.metric for c in spec.constraints]
-    chosen = [m for m in dict.fromkeys(named) if m in METRICS and m != "loss_of_contact"]
+    chosen = [m for m in dict.fromkeys(named) if m in METRICS and m not in FLAGS]
     return chosen or list(DEFAULT_PLOTTED)
 
 

@@ -30,14 +30,22 @@ METRICS = {
     "impact_closing_speed_max_m_s": "largest closing speed of a span entering contact from free play",
     "impact_energy_per_cycle_J": "approach kinetic energy (m/4 v^2) of the impacts, per cam cycle",
     "preload_for_full_contact_N": "preload that would keep every span in pulling contact (linear chain)",
+    "linear_model_valid": "the linear chain's numbers (its min tension, the preload for full contact) hold: it "
+    "deforms no span by more than 1 % of the pitch (on the wheels; empty on the single-link drive)",
+    "preload_above_yield_load": "the preload for full contact is above the link's yield load (yield strength / "
+    "peak stress per newton): no designer can apply it (on the wheels)",
     "peak_link_stress_Pa": "peak tension x peak von Mises stress per newton",
     "yield_safety_factor": "yield strength / peak link stress",
 }
 
 
+#: The metrics that are yes / no (None: not known), not numbers.
+FLAGS = ("loss_of_contact", "linear_model_valid", "preload_above_yield_load")
+
+
 def blank_metrics() -> dict:
     """Metrics of a point that was not computed (NaN; the slack flag unknown)."""
-    return {name: (None if name == "loss_of_contact" else math.nan) for name in METRICS}
+    return {name: (None if name in FLAGS else math.nan) for name in METRICS}
 
 
 def fea_metrics(fea) -> dict:
@@ -55,7 +63,10 @@ def chain_metrics(scenario, fea, station: str, lumped_mass_kg: float, f1_Hz: flo
     """The chain's share, from a stages.chain.Scenario at `station`."""
     at = scenario.stations[station]
     settling = float(scenario.settling_time_s[scenario.history.column(at.link)])
+    from dynamics.scene import linear_validity_at_yield
+
     peak_stress = scenario.contact.peak_tension_N * fea.peak_von_mises_converged_Pa_per_N
+    linear = linear_validity_at_yield(scenario.contact, fea.yield_strength_Pa, fea.peak_von_mises_converged_Pa_per_N)
     return {
         "lumped_mass_kg": lumped_mass_kg,
         "first_natural_frequency_Hz": f1_Hz,
@@ -75,6 +86,8 @@ def chain_metrics(scenario, fea, station: str, lumped_mass_kg: float, f1_Hz: flo
         "impact_closing_speed_max_m_s": scenario.contact.impacts.closing_speed_max_m_s,
         "impact_energy_per_cycle_J": scenario.contact.impacts.energy_per_cycle_J,
         "preload_for_full_contact_N": scenario.contact.preload_for_full_contact_N,
+        "linear_model_valid": None if linear is None else linear.valid,
+        "preload_above_yield_load": None if linear is None else linear.preload_above_yield_load,
         "peak_link_stress_Pa": peak_stress,
         "yield_safety_factor": fea.yield_strength_Pa / peak_stress if peak_stress > 0 else math.inf,
     }

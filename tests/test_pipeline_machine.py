@@ -341,7 +341,8 @@ def test_drive_link_gives_todays_summary(tmp_path):
         python pipeline.py --mesh-size 10 --links 12 --samples-per-degree 2 --no-images -q
             --cams modified-sine,cycloidal --drive link --out OUT --cache-dir EMPTY
     Every key and value equal (numbers to 1e-10, see _assert_same) except the wall times, the keys of the machine
-    (the drive, which parts ran) and each scenario's `lowest_mode` (the wheels' only: null here). First written by main at d46096f, before the wheels were wired in;
+    (the drive, which parts ran) and each scenario's `lowest_mode`, `nearest_resonance` and
+    `linear_model_validity` (the wheels' only: null here). First written by main at d46096f, before the wheels were wired in;
     rewritten when the stress study moved to the mirror half and the stiffness level's peak stopped
     counting folded cells: against d46096f every chain figure was then still equal to 1e-12, only
     the FEA's stress fields (3-8 %, drive-independent), what is computed from them (link stress,
@@ -368,9 +369,11 @@ def test_drive_link_gives_todays_summary(tmp_path):
     theirs = json.loads((DATA / "link_drive_summary.json").read_text())
     assert ours["inputs"]["drive"] == ours["machine"]["drive"] == "link"
     new = [("inputs", "drive"), ("machine",), *(("materials", m, "machine") for m in ours["materials"])]
-    # written after the file: the wheels' lowest mode, null on the link drive (asserted here)
-    lowest = [("materials", m, "cams", c, "lowest_mode") for m in ours["materials"] for c in ours["cams"]]
-    assert all(ours["materials"][m]["cams"][c]["lowest_mode"] is None for _, m, _, c, _ in lowest)
+    # written after the file: the wheels' lowest mode, nearest resonance and linear model's validity,
+    # null on the link drive (asserted here)
+    wheels_only = ("lowest_mode", "nearest_resonance", "linear_model_validity")
+    lowest = [("materials", m, "cams", c, key) for m in ours["materials"] for c in ours["cams"] for key in wheels_only]
+    assert all(ours["materials"][m]["cams"][c][key] is None for _, m, _, c, key in lowest)
     ours = _without(ours, [*new, *lowest, ("timing_s",)])
     theirs = _without(theirs, [*new, ("timing_s",)])
     _assert_same(ours, theirs)

@@ -59,7 +59,12 @@ def test_section_names_are_unique_and_before_must_exist(registry):
 
 def _results(validity: Validity, reason: str):
     contact = SimpleNamespace(
-        model=ChainModelKind.LINEAR, reason=reason, validity=validity, linear_min_tension_N=-500.0, steady_state=None
+        model=ChainModelKind.LINEAR,
+        reason=reason,
+        validity=validity,
+        linear_min_tension_N=-500.0,
+        steady_state=None,
+        linear_model_validity=None,
     )
     return SimpleNamespace(scenarios={("al6061-t6", "modified-sine"): SimpleNamespace(contact=contact)})
 
