@@ -18,7 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from dynamics.response.metrics import rank_cams, rms, station_links
-from dynamics.scene import ChainModelKind, Validity, linear_validity_at_yield
+from dynamics.scene import ChainModelKind, linear_validity_at_yield
 from reporting import html, plots, replica_sections
 from reporting.drawing import FigureJob, draw_figures
 from reporting.history import CamHistory
@@ -578,14 +578,12 @@ def _station_table(scenarios: dict, band_m: float) -> Table:
     )
 
 
-def _preload_kN(c: dict):
-    """A scenario's preload for full contact in kN, marked where the linear model it comes from does
-    not hold (summary.json's linear_model_validity)."""
-    kN = c.get("preload_for_full_contact_N", float("nan")) / 1e3
+def _linear_model_cell(c: dict) -> str:
+    """Whether a scenario's linear model (its minimum tension, the preload for full contact) holds:
+    summary.json's linear_model_validity, "" where there is none (the single-link drive). A column of
+    its own, so that the preload's column stays numbers in the CSV."""
     validity = c.get("linear_model_validity")
-    if validity is None or validity["validity"] == Validity.VALID:
-        return kN
-    return f"{kN:.4g} ({Validity.OUTSIDE_LINEAR_MODEL})"
+    return "" if validity is None else str(validity["validity"])
 
 
 def _tension_table(summary_materials: dict) -> Table:
@@ -603,7 +601,8 @@ def _tension_table(summary_materials: dict) -> Table:
                     100.0 * c.get("free_play_time_fraction", 0.0),
                     c.get("impacts_per_cycle", 0.0),
                     c.get("impact_force_spike_N", 0.0) / 1e3,
-                    _preload_kN(c),
+                    c.get("preload_for_full_contact_N", float("nan")) / 1e3,
+                    _linear_model_cell(c),
                     c["peak_link_stress_Pa"] / 1e6,
                     c["yield_safety_factor"],
                 )
@@ -623,6 +622,7 @@ def _tension_table(summary_materials: dict) -> Table:
             "impacts per cycle",
             "impact force spike (kN)",
             "preload for full contact (kN)",
+            "linear model",
             "peak stress (MPa)",
             "safety factor on yield",
         ),
