@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parent.parent
 STEPS = ("stiffness", "stress study", "images (the rest of the second step)")
 
 CHILD = """
-import dataclasses, json, tempfile, time
+import dataclasses, json, shutil, tempfile, time
 from pathlib import Path
 start = time.process_time()
 from fem import load_materials
@@ -56,6 +56,7 @@ stiffness, _ = next(steps)
 after_stiffness = time.process_time()
 stresses, _ = next(steps)
 end = time.process_time()
+shutil.rmtree(tmp, ignore_errors=True)
 print(json.dumps({
     "cpu_s": [after_stiffness - start, sum(stress_cpu), end - after_stiffness - sum(stress_cpu)],
     "k": {m: r["stiffness_N_per_m"] for m, r in stiffness.items()},
