@@ -632,9 +632,7 @@ def _periodic_state(
     n = model.n_links
     n_p = max(int(round(period / h)), 1)
     h_p = period / n_p
-    every = max(n_p // 90, 1)
-    while n_p % every:
-        every -= 1
+    every = shooting.search_out_every(n_p)
     zd, zdd = _cam_nodes(cam, t0, h_p, n_p)
 
     def one_period(x):

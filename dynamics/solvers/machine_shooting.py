@@ -144,17 +144,14 @@ def _cycle_map(model, cam, step_s, n_steps, n, predictor, last, on_cycle):
     """x = (q, q') -> (its index cycle's end after the seat change, the acceptance test's scale: the
     cycle's largest |q| and |q'|), the cycle's MachineRun kept in last["run"]."""
     zr, zd, zdd = mv.cycle_nodes(cam, step_s, n_steps)
-    every = max(n_steps // 90, 1)
-    while n_steps % every:
-        every -= 1
-    tiny = np.finfo(float).tiny
+    every = shooting.search_out_every(n_steps)
 
     def one_cycle(x):
         q1, v1, run, _ = mv.next_index_start(
             model, cam, (zr, zd, zdd), step_s, x[:n], x[n:], out_every=every, predictor=predictor
         )
         last["run"] = run
-        sq, sv = max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
+        sq, sv = mv.cycle_scales(run)
         image, scale = np.concatenate([q1, v1]), np.concatenate([np.full(n, sq), np.full(n, sv)])
         if on_cycle is not None:
             on_cycle(float(np.max(np.abs(image - x) / scale)), (q1, v1), run)

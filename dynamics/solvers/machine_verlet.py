@@ -50,6 +50,7 @@ from dynamics.solvers.clearance_verlet import (
     stable_omega_h,
 )
 from dynamics.solvers.friction_tanh import TANH_IS_ONE
+from dynamics.solvers.shooting import search_out_every
 
 try:
     import numba
@@ -1270,9 +1271,7 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
     stepping cycle after cycle with the seat change between them until the start state changes by
     less than `tol` (relative to the largest |q| and |q'| over the cycle). Returns (q0, v0, cycles,
     residual, found, the last cycle's MachineRun)."""
-    every = max(n_steps // 90, 1)
-    while n_steps % every:
-        every -= 1
+    every = search_out_every(n_steps)
     residual = math.inf
     cycles = index_cycles(model, cam, step_s, n_steps, q0, v0, out_every=every, predictor=predictor)
     for cycle in range(1, max_cycles + 1):
@@ -1301,9 +1300,15 @@ def index_cycles(
         q0, v0 = q1, v1
 
 
+def cycle_scales(run) -> tuple[float, float]:
+    """The largest |q| and |q'| over a cycle's `run` (at least the smallest float): the scales a cycle's
+    change is measured against."""
+    tiny = np.finfo(float).tiny
+    return max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
+
+
 def cycle_change(run, start, end) -> float:
     """The change from a cycle's start state to `end` (each (q, v)), relative to the largest |q| and
     |q'| over the cycle's `run` (the test relabelled_periodic_state accepts a state by)."""
-    tiny = np.finfo(float).tiny
-    sq, sv = max(float(np.max(np.abs(run.q))), tiny), max(float(np.max(np.abs(run.v))), tiny)
+    sq, sv = cycle_scales(run)
     return max(float(np.max(np.abs(end[0] - start[0]))) / sq, float(np.max(np.abs(end[1] - start[1]))) / sv)

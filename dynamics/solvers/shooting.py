@@ -55,6 +55,9 @@ DEFECT_INNER_TOL_FRACTION = 0.5
 # Least-squares columns below this fraction of the largest singular value are dropped (a
 # near-dependent history would only amplify noise in the extrapolation).
 RCOND = 1e-10
+# about this many outputs in a searching period: the search needs the period's end and the scale of
+# its motion, not a fine history
+SEARCH_OUTPUTS_PER_PERIOD = 90
 
 
 @dataclass(frozen=True)
@@ -71,6 +74,15 @@ class FixedPointSearch:
     # the secant pairs (differences of scaled residuals, of images) the extrapolation held at the end,
     # the last period's among them; empty once the search went on with plain periods
     history: tuple = ((), ())
+
+
+def search_out_every(n_steps: int) -> int:
+    """Steps between the outputs of a searching period of n_steps: the largest divisor of n_steps at
+    most n_steps // SEARCH_OUTPUTS_PER_PERIOD (at least 1), so the period ends on an output."""
+    every = max(n_steps // SEARCH_OUTPUTS_PER_PERIOD, 1)
+    while n_steps % every:
+        every -= 1
+    return every
 
 
 def accelerated_fixed_point(
