@@ -39,7 +39,7 @@ import numpy as np
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.layout import LINK_DRIVE, MachineLayout
-from dynamics.options import MODEL_CHOICES
+from dynamics.options import LINEAR_ELASTIC_STRAIN_LIMIT, MODEL_CHOICES
 from dynamics.response.fidelity import relative_change
 from dynamics.response.metrics import link_metrics, station_links
 from dynamics.solvers import cache, ring_on_topology, shooting
@@ -180,14 +180,6 @@ def lowest_mode(frequency_Hz: float, damping_ratio: float, cycle_s: float) -> Lo
     amplification = 1.0 / float(np.hypot(1.0 - r * r, 2.0 * damping_ratio * r))
     decay = float(np.exp(-damping_ratio * 2.0 * np.pi * frequency_Hz * cycle_s))
     return LowestMode(float(frequency_Hz), float(damping_ratio), int(n), 1.0 / r - 1.0, amplification, decay)
-
-
-# The linear span law T = P + k e holds while a span stays in its link's elastic range. No structural
-# metal stays elastic beyond about 1 % strain (sigma_y / E: 0.4 % for 6061-T6, 0.3 % for titanium grade
-# 2, 0.7 % for 7075-T6, 1 % for maraging steel), and a link's stress concentrations only lower that
-# limit: a span deformed from its unloaded length by more than this fraction of the pitch has yielded
-# whatever the link, so the linear model's numbers there describe no chain (docs/physics.md)
-LINEAR_ELASTIC_STRAIN_LIMIT = 0.01
 
 
 @dataclass(frozen=True)
