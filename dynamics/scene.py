@@ -258,8 +258,8 @@ def linear_validity_at_yield(contact, yield_strength_Pa: float | None, stress_Pa
 
 @dataclass(frozen=True)
 class Resonance:
-    """Of the machine's lowest NEAREST_RESONANCE_MODES modes, the one its nearest cam harmonic drives
-    hardest: the largest amplification x harmonic_share, the linear response the harmonic builds on the
+    """Of the machine's lowest NEAREST_RESONANCE_MODES modes (dynamics.solvers.machine_modes), the one its
+    nearest cam harmonic drives hardest: the largest amplification x harmonic_share, the linear response the harmonic builds on the
     mode relative to the cam's strongest harmonic applied slowly. The amplification alone does not
     rank them under the global law (zeta 0.13 on every mode caps it at 3.9, so the mode nearest some
     harmonic, however weak, would win: mode 6 at the 21st on the default machine, 3.877 against mode
@@ -274,11 +274,6 @@ class Resonance:
     mode: LowestMode
 
 
-# the modes searched for the nearest resonance, one shift-invert solve for all of them (cached per
-# machine): at 1,000 links they reach 40 Hz, past the third index harmonic (on the default scene mode
-# 7, 3.5 % below the second, is driven hardest); at 10,000 links only 4.0 Hz, and reaching the third harmonic there
-# would take about 130 modes, 6.5 s of CPU against the scenario's 80 s (docs/performance.md)
-NEAREST_RESONANCE_MODES = 12
 # samples of one cam cycle for its harmonics (at least 16 per period of the highest one asked for)
 HARMONIC_SAMPLES = 1024
 
