@@ -148,9 +148,9 @@ def simulate_machine(
 @dataclass(frozen=True)
 class _Outcome:
     """What one run of simulate_machine gives its response and its summary: the scene's machine
-    (`model`), the one that ran (`ran`: it, or its linear machine), the model choice, the window, the
-    linear machine's span force range (min, peak) that chose the model, the steady state and the
-    window's steps per output sample."""
+    (`model`), the one that ran (`ran`: it, or its linear machine), the model choice, the output times
+    and the window over them, the linear machine's span force range (min, peak) that chose the model,
+    the steady state and the window's steps per output sample."""
 
     model: ClearanceMachine
     ran: ClearanceMachine
