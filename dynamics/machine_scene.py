@@ -43,11 +43,11 @@ from dynamics.response.metrics import LinkMetrics
 from dynamics.scene import (
     DEFAULT_MAX_CYCLES,
     DEFAULT_TOL,
-    NEAREST_RESONANCE_MODES,
     ChainModelKind,
     ContactSummary,
     LinearModelValidity,
     LowestMode,
+    ModelChoice,
     Resonance,
     SteadyState,
     _select,
@@ -58,8 +58,8 @@ from dynamics.scene import (
     nearest_resonance,
     station_values,
 )
-from dynamics.solvers import cache, machine_shooting
 from dynamics.solvers import clearance_verlet as verlet
+from dynamics.solvers import machine_modes, machine_shooting
 from dynamics.solvers import machine_verlet as mv
 from dynamics.solvers.simulate import ChainResponse
 
@@ -136,20 +136,47 @@ def linear_machine(model: ClearanceMachine) -> ClearanceMachine:
 
 
 def simulate_machine(
+    model: ClearanceMachine, cam, t_eval_s, *, links=None, **settings
+) -> tuple[ChainResponse, ContactSummary]:
+    """The response of the machine at t_eval_s (index cycles from an index's start, equally spaced,
+    a whole number of samples per cycle) at `links` (None: every link) and what it says about contact
+    and seating. `settings`: _run_machine's (choice, steady_state, safety, predictor, tol, max_cycles)."""
+    out = _run_machine(model, cam, t_eval_s, **settings)
+    return _response(out, cam, links), _summary(out, cam)
+
+
+@dataclass(frozen=True)
+class _Outcome:
+    """What one run of simulate_machine gives its response and its summary: the scene's machine
+    (`model`), the one that ran (`ran`: it, or its linear machine), the model choice, the output times
+    and the window over them, the linear machine's span force range (min, peak) that chose the model,
+    the steady state and the window's steps per output sample."""
+
+    model: ClearanceMachine
+    ran: ClearanceMachine
+    chosen: ModelChoice
+    t_s: np.ndarray
+    window: _Window
+    linear_tension_N: tuple[float, float]
+    steady_state: SteadyState | None
+    steps_per_output: int
+
+
+def _run_machine(
     model: ClearanceMachine,
     cam,
     t_eval_s,
     *,
     choice: str = "auto",
     steady_state: bool = True,
-    links=None,
     safety: float | None = None,
     predictor: str | None = None,
     tol: float = DEFAULT_TOL,
     max_cycles: int = DEFAULT_MAX_CYCLES,
-) -> tuple[ChainResponse, ContactSummary]:
-    """The response of the machine at t_eval_s (index cycles from an index's start, equally spaced,
-    a whole number of samples per cycle) and what it says about contact and seating."""
+) -> _Outcome:
+    """The machine stepped over t_eval_s as the module docstring says: the model `choice` ("auto",
+    "linear", "clearance"), in its relabelled steady state (searched to `tol` in `max_cycles` index
+    cycles) or from rest, the step's `safety` and `predictor` (None: the defaults, SearchSettings.of)."""
     t = np.asarray(t_eval_s, dtype=float)
     period = getattr(cam, "period_s", None)
     if period is None:
@@ -190,7 +217,6 @@ def simulate_machine(
         lin = _window(linear, cam, t, per_cycle, lin_sub, lin_state, lin_pred, _found(lin_ss))
         lin_min, lin_peak = lin.min_tension_N, lin.peak_tension_N
         chosen = choose_model(model, choice, lin_min)
-    needed = max(model.chain.preload_N - lin_min, 0.0)
     if chosen.model == ChainModelKind.LINEAR:
         run, sub, ss = lin, lin_sub, lin_ss
     else:
@@ -198,14 +224,7 @@ def simulate_machine(
         state, ss, sub = _searched_and_settled(model, cam, h_out, per_cycle, lin_state, search)
         run = _window(model, cam, t, per_cycle, sub, state, search.predictor, _found(ss))
     ran = model if chosen.model == ChainModelKind.CLEARANCE else linear
-    mode = machine_lowest_mode(ran, cam.cycle_s)
-    summary = _summary(model, chosen, run, lin_min, needed, ss, sub, mode)
-    summary = replace(
-        summary,
-        nearest_resonance=machine_nearest_resonance(ran, cam, mode),
-        linear_model_validity=machine_linear_validity(model, lin_min, lin_peak),
-    )
-    return _response(model, cam, t, run, links, sub, ss), summary
+    return _Outcome(model, ran, chosen, t, run, (lin_min, lin_peak), ss, sub)
 
 
 class _Window:
@@ -563,7 +582,8 @@ def _drive_force(model: ClearanceMachine, run: _Window, zdd: np.ndarray) -> np.n
     return run.tension_N[:, ends.behind_span] - run.tension_N[:, ends.ahead_span] + seated * zdd
 
 
-def _response(model, cam, t, run: _Window, links, sub, ss) -> ChainResponse:
+def _response(out: _Outcome, cam, links) -> ChainResponse:
+    model, t, run = out.model, out.t_s, out.window
     s, v, a, _ = (np.asarray(x, dtype=float) for x in cam.svaj(t))
     cols = list(range(model.n_links)) if links is None else [int(i) for i in np.atleast_1d(links)]
     dof = model.topology.link_dof()[cols]
@@ -589,9 +609,9 @@ def _response(model, cam, t, run: _Window, links, sub, ss) -> ChainResponse:
         slack=run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
         method="machine-verlet",
         diagnostics={
-            "steps_per_output": sub,
+            "steps_per_output": out.steps_per_output,
             "step_s": run.step_s,
-            "steady_state": ss,
+            "steady_state": out.steady_state,
             "carriage_m": run.q[:, -1] if model.tensioner is not None else None,
             "frame": "places (relabelled: each index moves every link one place ahead)",
             "station_peaks": _station_peaks(model, run),
@@ -629,20 +649,18 @@ def _free_play_fraction(model, chosen, run: _Window) -> float:
 
 def machine_lowest_mode(model: ClearanceMachine, cycle_s: float) -> LowestMode:
     """The machine's lowest natural mode under `model`'s damping law against the harmonics of an index
-    cycle of cycle_s (dynamics.scene.LowestMode), cached (one eigensolve per machine)."""
-    frequency = machine_shooting.lowest_frequency_Hz(model.machine)
+    cycle of cycle_s (dynamics.scene.LowestMode): the first of the machine's lowest modes, one cached
+    eigensolve per machine (dynamics.solvers.machine_modes)."""
+    frequency = machine_modes.lowest_frequency_Hz(model.machine)
     return lowest_mode(frequency, model.damping_ratio_at(2.0 * np.pi * frequency), cycle_s)
 
 
 def machine_nearest_resonance(model: ClearanceMachine, cam, lowest: LowestMode) -> Resonance:
-    """Of the machine's lowest NEAREST_RESONANCE_MODES modes under `model`'s damping law, the one an
-    index harmonic of `cam` drives hardest (dynamics.scene.nearest_resonance); `lowest` is mode 1's LowestMode
-    (machine_lowest_mode), kept as it is."""
-    machine = model.machine
-    frequencies = cache.cached(
-        ("machine lowest frequencies", machine, NEAREST_RESONANCE_MODES),
-        lambda: machine.lowest_natural_frequencies_Hz(NEAREST_RESONANCE_MODES),
-    )
+    """Of the machine's lowest NEAREST_RESONANCE_MODES modes (dynamics.solvers.machine_modes, the solve
+    mode 1 of `lowest` came from) under `model`'s damping law, the one an index harmonic of `cam` drives
+    hardest (dynamics.scene.nearest_resonance); `lowest` is mode 1's LowestMode (machine_lowest_mode),
+    kept as it is."""
+    frequencies = machine_modes.lowest_frequencies_Hz(model.machine)
     ratios = [model.damping_ratio_at(2.0 * np.pi * f) for f in frequencies]
     return nearest_resonance(frequencies, ratios, cam, lowest)
 
@@ -658,26 +676,32 @@ def machine_linear_validity(
     return linear_model_validity(min_tension_N, peak_tension_N, model.chain.stiffness_N_per_m, sprocket.pitch_m)
 
 
-def _summary(model, chosen, run: _Window, lin_min_tension_N: float, needed, ss, sub, mode=None) -> ContactSummary:
-    cycles = run.cycles
-    impacts = impact_statistics(run, cycles)
+def _summary(out: _Outcome, cam, step_error_estimate: float | None = None) -> ContactSummary:
+    """The ContactSummary of a run: its modes are those of the machine that ran, under its damping law;
+    `step_error_estimate` the step control's (simulate_machine_to_accuracy; None: the step not controlled)."""
+    model, chosen, run = out.model, out.chosen, out.window
+    lin_min, lin_peak = out.linear_tension_N
+    mode = machine_lowest_mode(out.ran, cam.cycle_s)
     return ContactSummary(
         *chosen,
         model.clearance_m,
         run.free_play_fraction > 0.0 or run.min_tension_N < 0.0,
         _free_play_fraction(model, chosen, run),
-        run.impacts / cycles,
+        run.impacts / run.cycles,
         run.impact_force_spike_N,
         run.peak_tension_N,
         run.min_tension_N,
-        needed,
-        lin_min_tension_N,
-        ss,
-        sub,
-        impacts=impacts,
+        max(model.chain.preload_N - lin_min, 0.0),
+        lin_min,
+        out.steady_state,
+        out.steps_per_output,
+        impacts=impact_statistics(run, run.cycles),
         seating=run.seating,
+        step_error_estimate=step_error_estimate,
         peak_sampling="output samples" if run.station_peaks is None else "every step",
         lowest_mode=mode,
+        nearest_resonance=machine_nearest_resonance(out.ran, cam, mode),
+        linear_model_validity=machine_linear_validity(model, lin_min, lin_peak),
     )
 
 
@@ -698,19 +722,20 @@ def simulate_machine_to_accuracy(
     pred = verlet.default_predictor(model) if pred is None else pred
     safety = options.pop("safety", None)
     safety = verlet.default_safety(model, pred) if safety is None else safety
-    response, summary = simulate_machine(model, cam, t_eval_s, safety=safety, predictor=pred, **options)
+    out = _run_machine(model, cam, t_eval_s, safety=safety, predictor=pred, **options)
+    response = _response(out, cam, None)
     coarse = _station_values(model, cam, t_eval_s, response)
     estimate = np.inf
     for _ in range(MAX_STEP_DOUBLINGS):
         safety /= 2.0
-        response, summary = simulate_machine(model, cam, t_eval_s, safety=safety, predictor=pred, **options)
+        out = _run_machine(model, cam, t_eval_s, safety=safety, predictor=pred, **options)
+        response = _response(out, cam, None)
         fine = _station_values(model, cam, t_eval_s, response)
         estimate = relative_change(fine, coarse)
         if estimate <= accuracy:
             break
         coarse = fine
-    summary = replace(summary, step_error_estimate=estimate)
-    return (response if links is None else _select(response, links)), summary
+    return (response if links is None else _select(response, links)), _summary(out, cam, estimate)
 
 
 def _station_values(model: ClearanceMachine, cam, t_eval_s, response: ChainResponse) -> np.ndarray:

@@ -1,6 +1,7 @@
-"""The chain's named options, declared without their implementations: the settings check a run's
-choices against these names before the FEA's process starts, and importing the models and solvers
-that implement them (numba, SciPy) took 0.8 s of that start (`python -X importtime pipeline.py`).
+"""The chain's named options and the constants read outside the dynamics, declared without their
+implementations: the settings check a run's choices against these names before the FEA's process
+starts, and importing the models and solvers that implement them (numba, SciPy) took 0.8 s of that
+start (`python -X importtime pipeline.py`); a study's client describes its columns with them.
 
 Each name lives here once; the implementations import it from here and refuse an id not declared
 here (dynamics.solvers builds `METHODS` from `SOLVER_METHODS`; tests/test_startup.py checks that
@@ -32,6 +33,14 @@ DEFAULT_PRELOAD_N = 2224.0
 # Above this many links the pipeline solves in the lowest modes (dynamics.models.reduction, where the
 # figures are) and the clearance chains take the O(N) damping (dynamics.models.machine_damping)
 DENSE_LINK_LIMIT = 400
+
+# The linear span law T = P + k e holds while a span stays in its link's elastic range. No structural
+# metal stays elastic beyond about 1 % strain (sigma_y / E: 0.4 % for 6061-T6, 0.3 % for titanium grade
+# 2, 0.7 % for 7075-T6, 1 % for maraging steel), and a link's stress concentrations only lower that
+# limit: a span deformed from its unloaded length by more than this fraction of the pitch has yielded
+# whatever the link, so the linear model's numbers there describe no chain (docs/physics.md;
+# dynamics.scene.linear_model_validity applies it, study.records describes it)
+LINEAR_ELASTIC_STRAIN_LIMIT = 0.01
 
 
 @dataclass(frozen=True)

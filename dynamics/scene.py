@@ -39,7 +39,7 @@ import numpy as np
 from dynamics.errors import DynamicsError
 from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.layout import LINK_DRIVE, MachineLayout
-from dynamics.options import MODEL_CHOICES
+from dynamics.options import LINEAR_ELASTIC_STRAIN_LIMIT, MODEL_CHOICES
 from dynamics.response.fidelity import relative_change
 from dynamics.response.metrics import link_metrics, station_links
 from dynamics.solvers import cache, ring_on_topology, shooting
@@ -182,14 +182,6 @@ def lowest_mode(frequency_Hz: float, damping_ratio: float, cycle_s: float) -> Lo
     return LowestMode(float(frequency_Hz), float(damping_ratio), int(n), 1.0 / r - 1.0, amplification, decay)
 
 
-# The linear span law T = P + k e holds while a span stays in its link's elastic range. No structural
-# metal stays elastic beyond about 1 % strain (sigma_y / E: 0.4 % for 6061-T6, 0.3 % for titanium grade
-# 2, 0.7 % for 7075-T6, 1 % for maraging steel), and a link's stress concentrations only lower that
-# limit: a span deformed from its unloaded length by more than this fraction of the pitch has yielded
-# whatever the link, so the linear model's numbers there describe no chain (docs/physics.md)
-LINEAR_ELASTIC_STRAIN_LIMIT = 0.01
-
-
 @dataclass(frozen=True)
 class LinearModelValidity:
     """Whether the linear model's own numbers (its minimum tension, the preload for full contact) hold
@@ -266,8 +258,8 @@ def linear_validity_at_yield(contact, yield_strength_Pa: float | None, stress_Pa
 
 @dataclass(frozen=True)
 class Resonance:
-    """Of the machine's lowest NEAREST_RESONANCE_MODES modes, the one its nearest cam harmonic drives
-    hardest: the largest amplification x harmonic_share, the linear response the harmonic builds on the
+    """Of the machine's lowest NEAREST_RESONANCE_MODES modes (dynamics.solvers.machine_modes), the one its
+    nearest cam harmonic drives hardest: the largest amplification x harmonic_share, the linear response the harmonic builds on the
     mode relative to the cam's strongest harmonic applied slowly. The amplification alone does not
     rank them under the global law (zeta 0.13 on every mode caps it at 3.9, so the mode nearest some
     harmonic, however weak, would win: mode 6 at the 21st on the default machine, 3.877 against mode
@@ -282,11 +274,6 @@ class Resonance:
     mode: LowestMode
 
 
-# the modes searched for the nearest resonance, one shift-invert solve for all of them (cached per
-# machine): at 1,000 links they reach 40 Hz, past the third index harmonic (on the default scene mode
-# 7, 3.5 % below the second, is driven hardest); at 10,000 links only 4.0 Hz, and reaching the third harmonic there
-# would take about 130 modes, 6.5 s of CPU against the scenario's 80 s (docs/performance.md)
-NEAREST_RESONANCE_MODES = 12
 # samples of one cam cycle for its harmonics (at least 16 per period of the highest one asked for)
 HARMONIC_SAMPLES = 1024
 

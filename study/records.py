@@ -5,6 +5,9 @@ from __future__ import annotations
 
 import math
 
+# numba- and SciPy-free (dynamics.options): the study's client describes the columns without the dynamics
+from dynamics.options import LINEAR_ELASTIC_STRAIN_LIMIT
+
 #: Metric columns, in table order, with what each one is.
 METRICS = {
     "stiffness_N_per_m": "link axial stiffness k (FEA, Richardson-extrapolated)",
@@ -31,7 +34,8 @@ METRICS = {
     "impact_energy_per_cycle_J": "approach kinetic energy (m/4 v^2) of the impacts, per cam cycle",
     "preload_for_full_contact_N": "preload that would keep every span in pulling contact (linear chain)",
     "linear_model_valid": "the linear chain's numbers (its min tension, the preload for full contact) hold: it "
-    "deforms no span by more than 1 % of the pitch (on the wheels; empty on the single-link drive)",
+    f"deforms no span by more than {LINEAR_ELASTIC_STRAIN_LIMIT * 100:g} % of the pitch (on the wheels; empty on the "
+    "single-link drive)",
     "preload_above_yield_load": "the preload for full contact is above the link's yield load (yield strength / "
     "peak stress per newton): no designer can apply it (on the wheels)",
     "peak_link_stress_Pa": "peak tension x peak von Mises stress per newton",

@@ -200,3 +200,27 @@ def test_the_study_records_carry_the_validity_and_the_preload_against_yield():
     )
     assert all(blank_metrics()[name] is None for name in FLAGS)
     assert all(math.isnan(value) for name, value in blank_metrics().items() if name not in FLAGS)
+
+
+def test_the_study_records_describe_the_models_limit_without_the_dynamics_heavy_imports():
+    """The study's column says the bound the model applies (dynamics.options.LINEAR_ELASTIC_STRAIN_LIMIT,
+    which dynamics.scene applies), and reading the columns, as a study's client does, imports neither
+    numba, SciPy nor dynamics.scene."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import dynamics.options
+    import dynamics.scene
+    from study.records import METRICS
+
+    assert dynamics.scene.LINEAR_ELASTIC_STRAIN_LIMIT is dynamics.options.LINEAR_ELASTIC_STRAIN_LIMIT
+    percent = dynamics.options.LINEAR_ELASTIC_STRAIN_LIMIT * 100
+    assert f"deforms no span by more than {percent:g} % of the pitch" in METRICS["linear_model_valid"]
+    code = "import json, sys, study.records; print(json.dumps(sorted(sys.modules)))"
+    root = Path(__file__).resolve().parents[1]
+    out = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True, text=True, check=True)
+    loaded = json.loads(out.stdout.splitlines()[-1])
+    assert "dynamics.options" in loaded
+    heavy = ("numba", "scipy", "dynamics.scene", "dynamics.solvers", "dynamics.models")
+    assert [m for m in loaded if any(m == h or m.startswith(h + ".") for h in heavy)] == []

@@ -10,7 +10,9 @@ from dynamics.cams import CamProgram
 from dynamics.machine_scene import machine_lowest_mode, machine_model, machine_nearest_resonance, simulate_machine
 from dynamics.models.chain import ChainModel
 from dynamics.options import DENSE_LINK_LIMIT
-from dynamics.scene import NEAREST_RESONANCE_MODES, harmonic_shares, lowest_mode, nearest_resonance
+from dynamics.scene import harmonic_shares, lowest_mode, nearest_resonance
+from dynamics.solvers import cache, machine_modes, machine_shooting
+from dynamics.solvers.machine_modes import NEAREST_RESONANCE_MODES
 from geometry.dimensions import LinkDimensions
 from settings import RunConfig
 from stages.chain import chain_scene
@@ -83,6 +85,33 @@ def test_the_long_machines_modes_are_the_dense_eigensolves():
     reference = nearest_resonance(dense, [0.13] * NEAREST_RESONANCE_MODES, cam, lowest)
     assert picked.mode_number == reference.mode_number
     assert picked.mode.frequency_Hz == pytest.approx(reference.mode.frequency_Hz, rel=1e-9)
+
+
+@pytest.mark.parametrize("links", [85, DENSE_LINK_LIMIT + 50])
+def test_one_eigensolve_gives_the_lowest_mode_the_searches_decay_and_the_resonances_modes(links, monkeypatch):
+    """Mode 1 of the summary's lowest_mode and of the searches' slowest decay is the first of the
+    NEAREST_RESONANCE_MODES the nearest resonance is picked from, to the bit, from one eigensolve per
+    machine (the dense one at 85 links, one shift-invert Lanczos solve above DENSE_LINK_LIMIT)."""
+    model = _machine(links)
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180.0)
+    machine = model.machine
+    solves = []
+    solve = type(machine).lowest_natural_frequencies_Hz
+
+    def counted(self, count):
+        solves.append(count)
+        return solve(self, count)
+
+    monkeypatch.setattr(type(machine), "lowest_natural_frequencies_Hz", counted)
+    cache.clear()
+    decay = machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s)
+    lowest = machine_lowest_mode(model, cam.cycle_s)
+    resonance = machine_nearest_resonance(model, cam, lowest)
+    modes = machine_modes.lowest_frequencies_Hz(machine)
+    assert solves == [NEAREST_RESONANCE_MODES]
+    assert lowest.frequency_Hz == modes[0] and resonance.searched_up_to_Hz == modes[-1]
+    omega = 2 * np.pi * modes[0]
+    assert decay == np.exp(-model.damping_ratio_at(omega) * omega * cam.cycle_s)
 
 
 def test_on_the_default_machine_the_nearest_resonance_is_mode_1s_lowest_mode():

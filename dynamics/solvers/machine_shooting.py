@@ -33,6 +33,7 @@ import scipy.sparse as sp
 
 from dynamics.solvers import cache, shooting
 from dynamics.solvers import machine_verlet as mv
+from dynamics.solvers.machine_modes import lowest_frequency_Hz
 
 # The Newton step is left out on the modes the linear machine keeps more than this fraction of per
 # index cycle (plain cycling and Anderson take them): there its step multiplies a residual by up to
@@ -176,18 +177,11 @@ def slowest_decay_per_cycle(model, period_s: float) -> float:
     carriage in; zeta its damping ratio under the model's law), cached. The searches' error bound
     (dynamics.machine_scene.long_search_tol): a map contracting by this factor per cycle is within
     residual / (1 - decay) of its fixed point. O(N) above DENSE_LINK_LIMIT links
-    (MachineOnWheels.lowest_natural_frequencies_Hz: shift-invert Lanczos on the sparse K and M)."""
+    (MachineOnWheels.lowest_natural_frequencies_Hz: shift-invert Lanczos on the sparse K and M); omega_1
+    is the summary's lowest mode's, of the one solve (dynamics.solvers.machine_modes)."""
     return cache.cached(
         ("machine slowest decay", model.machine, model.span_damping, model.beta_s, period_s),
         lambda: _slowest_decay(model, period_s),
-    )
-
-
-def lowest_frequency_Hz(machine) -> float:
-    """The machine's lowest natural frequency (MachineOnWheels.lowest_natural_frequencies_Hz), cached:
-    the searches' decay and the summary's lowest mode share one eigensolve."""
-    return cache.cached(
-        ("machine lowest frequency", machine), lambda: float(machine.lowest_natural_frequencies_Hz(1)[0])
     )
 
 

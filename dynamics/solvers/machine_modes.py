@@ -1,0 +1,37 @@
+"""The machine's lowest natural frequencies, one eigensolve per machine (cached): mode 1 gives the
+steady-state searches' slowest decay per index cycle (machine_shooting.slowest_decay_per_cycle) and the
+summary's lowest mode (dynamics.machine_scene.machine_lowest_mode), and all NEAREST_RESONANCE_MODES of
+them the mode an index harmonic drives hardest (dynamics.machine_scene.machine_nearest_resonance).
+
+One solve serves both (MachineOnWheels.lowest_natural_frequencies_Hz): up to DENSE_LINK_LIMIT links
+the dense eigensolve, whose first frequency is the same to the bit whatever the count; above it one
+shift-invert Lanczos solve for the NEAREST_RESONANCE_MODES lowest. Its mode 1 is within 2 ulp of a
+solve for mode 1 alone (measured at 401 to 10,000 links on the default wheels); both are 2e-12 (401
+links) to 1.4e-9 (10,000) from the exact eigenvalue (the Rayleigh quotient of the mode in exact
+arithmetic), the shift-invert factorisation's rounding, so neither is the more accurate.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from dynamics.solvers import cache
+
+# the modes searched for the nearest resonance: at 1,000 links they reach 40 Hz, past the third index
+# harmonic (on the default scene mode 7, 3.5 % below the second, is driven hardest); at 10,000 links
+# only 4.0 Hz, and reaching the third harmonic there would take about 130 modes, 6.5 s of CPU against
+# the scenario's 80 s (docs/performance.md)
+NEAREST_RESONANCE_MODES = 12
+
+
+def lowest_frequencies_Hz(machine) -> np.ndarray:
+    """The machine's NEAREST_RESONANCE_MODES lowest natural frequencies (ascending), cached per machine."""
+    return cache.cached(
+        ("machine lowest frequencies", machine),
+        lambda: machine.lowest_natural_frequencies_Hz(NEAREST_RESONANCE_MODES),
+    )
+
+
+def lowest_frequency_Hz(machine) -> float:
+    """The machine's lowest natural frequency: the first of lowest_frequencies_Hz (the same solve)."""
+    return float(lowest_frequencies_Hz(machine)[0])
