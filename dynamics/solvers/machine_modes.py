@@ -5,10 +5,11 @@ them the mode an index harmonic drives hardest (dynamics.machine_scene.machine_n
 
 One solve serves both (MachineOnWheels.lowest_natural_frequencies_Hz): up to DENSE_LINK_LIMIT links
 the dense eigensolve, whose first frequency is the same to the bit whatever the count; above it one
-shift-invert Lanczos solve for the NEAREST_RESONANCE_MODES lowest. Its mode 1 is within 2 ulp of a
-solve for mode 1 alone (measured at 401 to 10,000 links on the default wheels); both are 2e-12 (401
-links) to 1.4e-9 (10,000) from the exact eigenvalue (the Rayleigh quotient of the mode in exact
-arithmetic), the shift-invert factorisation's rounding, so neither is the more accurate.
+shift-invert Lanczos solve for the NEAREST_RESONANCE_MODES lowest. Its mode 1 is within 4 ulp of a
+solve for mode 1 alone (measured at 401 to 10,000 links on the default wheels); both are 2.8e-13
+(450 links) to 1.4e-10 (10,000) from the exact eigenvalue in omega^2 (the Rayleigh quotient of the
+mode in exact arithmetic), the shift-invert factorisation's rounding, so neither is the more
+accurate (docs/performance.md, "Long clearance chains on wheels").
 """
 
 from __future__ import annotations
