@@ -118,10 +118,10 @@ def stiffness_studies(
     `settings.mirror_symmetry`: where the link is mirror symmetric about the plane through its bore
     axes (checked, geometry.symmetry), solve the finest level on its half (`LinkSolution.mirrored`),
     the same discrete problem as the whole link meshed as that half and its mirror image, at about
-    half the unknowns. The coarser levels stay whole: they are cheap, run beside the finest on the
-    second core, and on the default link the half's coarse meshes came out stiffer than the trend of
-    finer ones (the plane cuts the 6.9 mm web under the pocket), which more than doubled the estimate
-    (exploratory runs, README). The extrapolation's h is DOFs^(-1/3) of the whole link's mesh
+    half the unknowns. The coarser levels stay whole: on the half (its surfaces meshed by MeshAdapt,
+    conforming to the plane) a coarse level comes out stiffer for its unknowns than the whole link's,
+    erratically near 6 mm, which widened the built-in link's estimate from 0.85 to 0.99 % for 1.2-2.4
+    CPU s less (docs/performance.md, "The FEA's CPU in the whole job"). The extrapolation's h is DOFs^(-1/3) of the whole link's mesh
     (`whole_link_dofs`). False: every level on the whole link.
     """
     import geometry
