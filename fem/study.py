@@ -121,8 +121,8 @@ def stiffness_studies(
     half the unknowns. The coarser levels stay whole: on the half (its surfaces meshed by MeshAdapt,
     conforming to the plane) a coarse level comes out stiffer for its unknowns than the whole link's,
     erratically near 6 mm, which widened the built-in link's estimate from 0.85 to 0.99 % for 1.2-2.4
-    CPU s less (docs/performance.md, "The FEA's CPU in the whole job"). The extrapolation's h is DOFs^(-1/3) of the whole link's mesh
-    (`whole_link_dofs`). False: every level on the whole link.
+    CPU s less (docs/performance.md, "The FEA's CPU in the whole job"). The extrapolation's h is
+    DOFs^(-1/3) of the whole link's mesh (`whole_link_dofs`). False: every level on the whole link.
     """
     import geometry
     from geometry.mesh_estimate import estimated_dofs
