@@ -35,8 +35,10 @@ def up_filtered(pixels: np.ndarray) -> np.ndarray:
     scanlines = np.empty((height, 1 + width * channels), np.uint8)
     scanlines[:, 0] = _UP
     body = scanlines[:, 1:].reshape(height, width, channels)  # a view: each row's bytes after its filter type
-    body[0] = pixels[0]
-    np.subtract(pixels[1:], pixels[:-1], out=body[1:])  # uint8: wraps modulo 256, as PNG's filter
+    # channel by channel: numpy walks a view of 3 of every 4 bytes 10 times slower than single bytes
+    for k in range(channels):
+        body[0, :, k] = pixels[0, :, k]
+        np.subtract(pixels[1:, :, k], pixels[:-1, :, k], out=body[1:, :, k])  # uint8: modulo 256, as PNG's
     return scanlines
 
 
