@@ -8,10 +8,10 @@ the run at the fork and are sent only a batch's number: pickling the arguments (
 N-wide) sent every figure of a 2,000-link run about 46 MB through a pipe, and made its outputs
 stage 23 s where drawing the figures took 4 s.
 
-Jobs of one batch (the same figure for each material) are drawn one after the other in one
-process, so that the second draws on the first's axes (reporting.plots keeps a drawn figure for
-the next of the same plot and layout): creating the axes and their ticks is about half of drawing
-a figure.
+Jobs of one batch (the figures with the same grid of axes: the same figure for each material, or
+kinds that share a grid) are drawn one after the other in one process, so that each draws on the
+axes of the one before (reporting.plots keeps a drawn figure for the next of the same grid):
+creating the axes and their ticks is 40-45 % of drawing the figure that creates them.
 """
 
 from __future__ import annotations

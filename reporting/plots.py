@@ -59,7 +59,9 @@ def _save(fig, path: Path) -> Path:
     ink plus savefig's pad (`cropped_to_ink`). Only a figure whose ink still reaches the grown
     canvas's edge is saved the two-draw way. Titles are placed without matplotlib's search for
     ticks above the axes (none here: the x ticks are at the bottom) unless a y-axis offset text
-    stands where the title goes; then the figure is drawn again with the search (`_titles_clear`)."""
+    stands where the title goes; then the figure is drawn again with the search (`_titles_clear`).
+    Axes without an x or y label do not place it (`_fix_empty_label_positions`). The PNG is
+    written by `reporting.png` (RGB where every pixel is opaque)."""
     titled = _fix_title_positions(fig)
     unlabelled = _fix_empty_label_positions(fig)
     pixels = _rendered(fig)
