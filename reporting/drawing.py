@@ -46,10 +46,17 @@ _BATCHES: list[list[FigureJob]] = []
 
 def batches(jobs: dict[Hashable, FigureJob]) -> list[list[Hashable]]:
     """The jobs' keys grouped by batch (a job without one alone), the largest batches first (the
-    longest work first keeps both workers busy to the end), else in the jobs' order."""
+    longest work first keeps both workers busy to the end), else in the jobs' order. Within a
+    batch the jobs of one plot function come one after the other, in the jobs' order: a figure
+    drawn on the axes of another kind (another size, other ticks) makes ticks and a canvas anew."""
     groups: dict[Hashable, list[Hashable]] = {}
     for key, job in jobs.items():
         groups.setdefault(("batch", job.batch) if job.batch is not None else ("job", key), []).append(key)
+    for keys in groups.values():
+        first_of = {}
+        for key in keys:
+            first_of.setdefault(jobs[key].plot, len(first_of))
+        keys.sort(key=lambda key: first_of[jobs[key].plot])
     return sorted(groups.values(), key=len, reverse=True)
 
 

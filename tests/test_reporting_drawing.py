@@ -206,6 +206,17 @@ def _reusing_plots(folder: Path, name: str, histories: list) -> list:
     ]
 
 
+def test_a_batch_draws_the_figures_of_one_plot_one_after_the_other(tmp_path):
+    """Material-major jobs of two kinds sharing a grid: each kind's figures together, in order."""
+    from reporting import plots
+    from reporting.drawing import batches
+
+    a, b = _reusing_plots(tmp_path, "a", []), _reusing_plots(tmp_path, "b", [])
+    jobs = {("a", "all cams"): a[1], ("a", "differences"): a[3], ("b", "all cams"): b[1], ("b", "differences"): b[3]}
+    assert {job.batch for job in jobs.values()} == {"3 x 1"} and a[1].plot is plots.plot_three_links
+    assert batches(jobs) == [[("a", "all cams"), ("b", "all cams"), ("a", "differences"), ("b", "differences")]]
+
+
 def test_a_figure_drawn_on_the_axes_of_the_one_before_has_the_pixels_of_a_new_one(tmp_path):
     """A batch's figures are drawn each on the axes of the one before (reporting.plots keeps them),
     whether of the same kind (the other material's) or of another kind with the same grid of axes
