@@ -129,7 +129,7 @@ def main(argv=None) -> int:
         folders = {name: (args.keep or work) / name for name in trees}
         runs: dict[str, list[dict]] = {name: [] for name in trees}
         for repeat in range(args.repeats):
-            # the trees' order turned round every repeat: the first of a pair ran slower, by 5-15 %
+            # the trees' order turned round every repeat: a drift in the host's load favours neither
             for name, tree in list(trees.items())[:: 1 if repeat % 2 == 0 else -1]:
                 runs[name].append(draw_once(tree, jobs, folders[name]))
                 print(f"run {repeat + 1} {name}: {runs[name][-1]['total']:.2f} CPU s", flush=True)
