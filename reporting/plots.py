@@ -206,10 +206,7 @@ def _fix_empty_label_positions(fig) -> list:
     second and third time (`Axis._update_label_position`, the spine's extent): about a fifth of
     drawing the 3 x 5 link-versus-input figure (profiled), where 22 of its 30 axes have no label."""
     unlabelled = [
-        axis
-        for ax in fig.axes
-        for axis in (ax.xaxis, ax.yaxis)
-        if axis._autolabelpos and not axis.label.get_text()
+        axis for ax in fig.axes for axis in (ax.xaxis, ax.yaxis) if axis._autolabelpos and not axis.label.get_text()
     ]
     for axis in unlabelled:
         axis._autolabelpos = False  # matplotlib's own flag, False where a label's position was set

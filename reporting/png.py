@@ -46,7 +46,9 @@ def write_png(path: Path, pixels: np.ndarray, dpi: float) -> Path:
     """Write the (rows, columns, 3 or 4) uint8 RGB(A) image to `path` as a PNG, with its
     resolution (`dpi`, dots per inch) recorded as Pillow records it."""
     if pixels.dtype != np.uint8 or pixels.ndim != 3 or pixels.shape[2] not in _COLOUR_TYPE:
-        raise ValueError(f"write_png: expected a (rows, columns, 3 or 4) uint8 image, got {pixels.dtype} {pixels.shape}")
+        raise ValueError(
+            f"write_png: expected a (rows, columns, 3 or 4) uint8 image, got {pixels.dtype} {pixels.shape}"
+        )
     height, width, channels = pixels.shape
     per_metre = int(dpi / _METRES_PER_INCH + 0.5)
     header = struct.pack(">IIBBBBB", width, height, 8, _COLOUR_TYPE[channels], 0, 0, 0)

@@ -257,7 +257,9 @@ def test_a_reused_figure_holds_the_lines_of_its_own_histories_only(tmp_path):
         (fig,) = plots._SPARE.values()
         axes = np.array(fig.axes).reshape(3, len(second))
         for col, h in enumerate(second):
-            for row, (x_link, z_input) in enumerate(((h.x_m * 1e3, h.z_m * 1e3), (h.v_m_s, h.zdot_m_s), (h.a_m_s2, h.zddot_m_s2))):
+            for row, (x_link, z_input) in enumerate(
+                ((h.x_m * 1e3, h.z_m * 1e3), (h.v_m_s, h.zdot_m_s), (h.a_m_s2, h.zddot_m_s2))
+            ):
                 lines = axes[row, col].get_lines()
                 assert len(lines) == 2
                 assert np.array_equal(lines[0].get_xdata(), h.t_s) and np.array_equal(lines[0].get_ydata(), z_input)
@@ -288,7 +290,6 @@ def test_the_in_view_locator_keeps_autolocators_ticks_inside_the_view():
 
 
 def _sharex_figure(plots, locator):
-    import matplotlib.ticker
     import numpy as np
 
     fig, axes = plots.plt.subplots(2, 2, figsize=(6, 4), sharex=True, squeeze=False)

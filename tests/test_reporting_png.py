@@ -35,7 +35,10 @@ def test_the_rgb_view_of_a_cropped_rgba_buffer_is_written_as_it_is(tmp_path):
 def test_the_resolution_is_recorded_as_pillow_records_it(tmp_path):
     pixels = _image(8, 8, 3)
     Image.fromarray(pixels).save(tmp_path / "pillow.png", dpi=(110, 110))
-    with Image.open(write_png(tmp_path / "ours.png", pixels, 110)) as ours, Image.open(tmp_path / "pillow.png") as theirs:
+    with (
+        Image.open(write_png(tmp_path / "ours.png", pixels, 110)) as ours,
+        Image.open(tmp_path / "pillow.png") as theirs,
+    ):
         assert ours.info["dpi"] == theirs.info["dpi"]
 
 
