@@ -505,6 +505,15 @@ def _write_tables(staged: StagedOutput, tables: dict[str, Table]) -> str:
     return "\n".join(t.to_markdown() for t in tables.values())
 
 
+# The figures that share a grid of axes with another kind: drawn in one batch (the rest by kind)
+_LAYOUT_BATCH = {
+    "middle link, all cams": "3 x 1",
+    "differences": "3 x 1",
+    "dwell": "1 x 1",
+    "tension": "1 x 1",
+}
+
+
 def _material_plots(
     staged: StagedOutput, histories: list[CamHistory], links: dict[str, int], focus: int
 ) -> dict[str, FigureJob]:
@@ -533,8 +542,9 @@ def _material_plots(
     }
     if np.any(histories[0].tension_N):
         figures["tension"] = FigureJob(plots.plot_tension, (histories, staged.path(f"{m}_tension.png")))
-    # each material's figure of a kind drawn after the other's, on its axes (reporting.drawing)
-    return {label: replace(job, batch=label) for label, job in figures.items()}
+    # the figures of one grid of axes drawn one after the other, each on the axes of the one before
+    # (reporting.drawing, reporting.plots._subplots)
+    return {label: replace(job, batch=_LAYOUT_BATCH.get(label, label)) for label, job in figures.items()}
 
 
 def _drawn(figures: dict[str, dict[str, FigureJob]]) -> dict[str, dict[str, Path]]:

@@ -14,10 +14,12 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from reporting.history import CamHistory  # noqa: E402
+from reporting.png import write_png  # noqa: E402
 
 if TYPE_CHECKING:
     from dynamics.response.sweep import SweepResult
@@ -36,9 +38,6 @@ PAD_INCHES = 0.1  # around what is drawn, as savefig's bbox_inches="tight" (its 
 # y labels of a narrow figure, rotated tick labels): without it 3 of the default run's 15 figures
 # were drawn twice more by bbox_inches="tight"
 MARGIN_INCHES = 0.5
-# zlib's fastest level: the default run's 14 figures encode in 0.38 instead of 0.54 CPU s (as RGB),
-# their files 4 % larger (2.13 against 2.04 MB), measured on one run's figures
-PNG_COMPRESS_LEVEL = 1
 QUANTITIES = (
     ("displacement (mm)", lambda h: h.x_m * 1e3, lambda h: h.z_m * 1e3),
     ("velocity (m/s)", lambda h: h.v_m_s, lambda h: h.zdot_m_s),
@@ -60,21 +59,24 @@ def _save(fig, path: Path) -> Path:
     ink plus savefig's pad (`cropped_to_ink`). Only a figure whose ink still reaches the grown
     canvas's edge is saved the two-draw way. Titles are placed without matplotlib's search for
     ticks above the axes (none here: the x ticks are at the bottom) unless a y-axis offset text
-    stands where the title goes; then the figure is drawn again with the search (`_titles_clear`)."""
-    from PIL import Image
-
+    stands where the title goes; then the figure is drawn again with the search (`_titles_clear`).
+    Axes without an x or y label do not place it (`_fix_empty_label_positions`). The PNG is
+    written by `reporting.png` (RGB where every pixel is opaque)."""
     titled = _fix_title_positions(fig)
+    unlabelled = _fix_empty_label_positions(fig)
     pixels = _rendered(fig)
     if not _titles_clear(titled):
         for ax in titled:
             ax._autotitlepos = True  # matplotlib's own flag: place the title above the offset text
         pixels = _rendered(fig)
+    for axis in unlabelled:
+        axis._autolabelpos = True
     background = np.round(np.asarray(matplotlib.colors.to_rgba(fig.get_facecolor())) * 255).astype(np.uint8)
     cropped = cropped_to_ink(pixels, background, round(PAD_INCHES * DPI))
     if cropped is None:
         fig.savefig(path, dpi=DPI, bbox_inches="tight", pad_inches=PAD_INCHES)
     else:
-        Image.fromarray(opaque(cropped)).save(path, format="png", dpi=(DPI, DPI), compress_level=PNG_COMPRESS_LEVEL)
+        write_png(path, opaque(cropped), DPI)
     layout = _LAYOUT_OF.pop(fig, None)
     if layout is None:
         plt.close(fig)
@@ -83,26 +85,49 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
-# A drawn figure of each plot and layout, kept for the next figure of the same (reporting.drawing
-# draws the same figure of each material one after the other): its axes and their ticks drawn
-# again instead of created (a second 3 x 5 figure 0.42 instead of 0.66-0.76 CPU s, the same pixels)
+# A drawn figure of each layout, kept for the next figure of the same grid of axes (reporting.drawing
+# draws the figures of a layout one after the other): its axes and their ticks drawn again instead
+# of created (a second 3 x 5 figure 0.42 instead of 0.66-0.76 CPU s, the same pixels)
 _SPARE: dict[tuple, Figure] = {}
 _LAYOUT_OF: dict[Figure, tuple] = {}
 
 
-def _subplots(plot: str, nrows: int, ncols: int, figsize: tuple[float, float], sharex: bool = False):
-    """plt.subplots(nrows, ncols, figsize=figsize, sharex=sharex, squeeze=False) for the plot
-    function `plot`, or the spare figure the last call for the same plot and layout drew, emptied
-    (`_emptied`); `_save` keeps the figure as the spare. The plot must set again everything it sets
-    on the axes but their lines, legends and titles."""
-    layout = (plot, nrows, ncols, tuple(figsize), sharex)
+def _subplots(nrows: int, ncols: int, figsize: tuple[float, float], sharex: bool = False):
+    """plt.subplots(nrows, ncols, figsize=figsize, sharex=sharex, squeeze=False), or the spare
+    figure the last call for the same grid drew (for any plot, at any size), emptied (`_emptied`)
+    and set to `figsize` (the axes keep their places as fractions of the figure, as a new figure's);
+    `_save` keeps the figure as the spare. The plot must set again everything it sets on the axes
+    but their lines, legends and titles."""
+    layout = (nrows, ncols, sharex)
     fig = _SPARE.pop(layout, None)
     if fig is None:
         fig, axes = plt.subplots(nrows, ncols, figsize=figsize, sharex=sharex, squeeze=False)
+        for ax in fig.axes:
+            ax.xaxis.set_major_locator(InViewLocator())
+            ax.yaxis.set_major_locator(InViewLocator())
     else:
         axes = _emptied(fig).reshape(nrows, ncols)
+        fig.set_size_inches(figsize)
     _LAYOUT_OF[fig] = layout
     return fig, axes
+
+
+class InViewLocator(matplotlib.ticker.AutoLocator):
+    """matplotlib's default tick locator, without the ticks it places beyond the axis's view.
+
+    AutoLocator adds a tick past each end of the view, which matplotlib makes (three lines and
+    two texts), positions and labels on every draw but does not draw: 30 % of the default run's
+    figures' ticks. The formatter then sees only the ticks in view: its offset and order of
+    magnitude came from those alone already, and its number of decimals (the fewest that write
+    every tick it sees) is the same for ticks of one step. The ticks drawn and their labels are
+    the same (the default run's PNGs pixel for pixel, benchmarks/bench_figures.py)."""
+
+    def __call__(self):
+        locs = super().__call__()
+        low, high = sorted(self.axis.get_view_interval())
+        # a tick a rounding error outside the view is kept: matplotlib's own test decides
+        slack = 1e-9 * (high - low)
+        return locs[(locs >= low - slack) & (locs <= high + slack)]
 
 
 def _emptied(fig: Figure) -> np.ndarray:
@@ -172,6 +197,22 @@ def _fix_title_positions(fig) -> list:
     return titled
 
 
+def _fix_empty_label_positions(fig) -> list:
+    """The axes' x and y axes without a label, matplotlib's placement of their (empty, undrawn)
+    label turned off for one render; `_save` turns it on again (a reused figure may label them,
+    and savefig's bbox_inches="tight" counts an empty label's position in the figure's extent).
+
+    Placing an axis's label measures its tick labels and works out their ticks' positions a
+    second and third time (`Axis._update_label_position`, the spine's extent): about a fifth of
+    drawing the 3 x 5 link-versus-input figure (profiled), where 22 of its 30 axes have no label."""
+    unlabelled = [
+        axis for ax in fig.axes for axis in (ax.xaxis, ax.yaxis) if axis._autolabelpos and not axis.label.get_text()
+    ]
+    for axis in unlabelled:
+        axis._autolabelpos = False  # matplotlib's own flag, False where a label's position was set
+    return unlabelled
+
+
 def _titles_clear(titled: list) -> bool:
     """No titled axes shows a y-axis offset text (e.g. "1e-3", "+5.002e1"), which matplotlib's
     title placement would have moved the title above."""
@@ -179,15 +220,16 @@ def _titles_clear(titled: list) -> bool:
 
 
 def opaque(pixels: np.ndarray) -> np.ndarray:
-    """RGBA pixels as RGB where every pixel is opaque (a quarter less to encode), else as they are."""
+    """RGBA pixels as RGB (a view) where every pixel is opaque (a quarter less to encode), else as
+    they are."""
     if np.all(pixels[..., 3] == 255):
-        return np.ascontiguousarray(pixels[..., :3])
+        return pixels[..., :3]
     return pixels
 
 
 def cropped_to_ink(pixels: np.ndarray, background: np.ndarray, pad: int) -> np.ndarray | None:
-    """The (rows, columns, 4) image cropped to its pixels that differ from `background`, plus `pad`
-    pixels around them; None where the ink reaches the image's edge (or there is none)."""
+    """The (rows, columns, 4) image cropped (a view) to its pixels that differ from `background`,
+    plus `pad` pixels around them; None where the ink reaches the image's edge (or there is none)."""
     # one 32-bit comparison per RGBA pixel rather than four byte comparisons and a reduction
     ink = np.ascontiguousarray(pixels).view(np.uint32)[..., 0] != np.ascontiguousarray(background).view(np.uint32)[0]
     rows, columns = np.flatnonzero(ink.any(axis=1)), np.flatnonzero(ink.any(axis=0))
@@ -196,12 +238,12 @@ def cropped_to_ink(pixels: np.ndarray, background: np.ndarray, pad: int) -> np.n
     top, bottom, left, right = rows[0], rows[-1], columns[0], columns[-1]
     if top == 0 or left == 0 or bottom == ink.shape[0] - 1 or right == ink.shape[1] - 1:
         return None
-    return np.ascontiguousarray(pixels[max(top - pad, 0) : bottom + pad + 1, max(left - pad, 0) : right + pad + 1])
+    return pixels[max(top - pad, 0) : bottom + pad + 1, max(left - pad, 0) : right + pad + 1]
 
 
 def plot_three_links(histories: list[CamHistory], links: list[int], path: Path) -> Path:
     """Displacement, velocity and acceleration of several links (1-based), every cam law."""
-    fig, axes = _subplots("three links", 3, len(links), (4.2 * len(links), 8), sharex=True)
+    fig, axes = _subplots(3, len(links), (4.2 * len(links), 8), sharex=True)
     for col, link in enumerate(links):
         axes[0, col].set_title(f"link {link}")
         for row, (label, link_value, _) in enumerate(QUANTITIES):
@@ -219,7 +261,7 @@ def plot_three_links(histories: list[CamHistory], links: list[int], path: Path) 
 
 def plot_link_vs_input(histories: list[CamHistory], link: int, path: Path) -> Path:
     """One column per cam law: the link's motion over the cam input it follows."""
-    fig, axes = _subplots("link vs input", 3, len(histories), (3.6 * len(histories), 8), sharex=True)
+    fig, axes = _subplots(3, len(histories), (3.6 * len(histories), 8), sharex=True)
     for col, h in enumerate(histories):
         axes[0, col].set_title(h.cam)
         for row, (label, link_value, input_value) in enumerate(QUANTITIES):
@@ -237,7 +279,7 @@ def plot_link_vs_input(histories: list[CamHistory], link: int, path: Path) -> Pa
 
 def plot_differences(histories: list[CamHistory], link: int, path: Path) -> Path:
     """Link motion minus cam input (x - z, v - z', a - z'') for every cam law at one link."""
-    fig, axes = _subplots("differences", 3, 1, (9, 8), sharex=True)
+    fig, axes = _subplots(3, 1, (9, 8), sharex=True)
     axes = axes[:, 0]
     for row, (label, link_value, input_value) in enumerate(QUANTITIES):
         for h in histories:
@@ -272,7 +314,7 @@ def plot_residual_vibration(residual_m: dict[str, dict[str, float]], station: st
 
 def plot_dwell_vibration(histories: list[CamHistory], link: int, path: Path) -> Path:
     """x - z during the dwells only, so the residual vibration is visible at its own scale."""
-    fig, axes = _subplots("dwell vibration", 1, 1, (9, 4.5))
+    fig, axes = _subplots(1, 1, (9, 4.5))
     ax = axes[0, 0]
     for h in histories:
         dev_mm = (h.x_m[:, h.column(link)] - h.z_m) * 1e3
@@ -287,7 +329,7 @@ def plot_dwell_vibration(histories: list[CamHistory], link: int, path: Path) -> 
 
 def plot_tension(histories: list[CamHistory], path: Path) -> Path:
     """Peak and minimum tension of every link over the window, per cam law; below zero a span pushes."""
-    fig, axes = _subplots("tension", 1, 1, (9, 4.5))
+    fig, axes = _subplots(1, 1, (9, 4.5))
     ax = axes[0, 0]
     for h in histories:
         links = np.arange(1, h.tension_N.shape[1] + 1)

@@ -60,6 +60,30 @@ def test_a_figure_that_fails_fails_the_drawing(tmp_path):
         draw_figures(jobs, workers=2)
 
 
+class _Cycle:
+    def __init__(self) -> None:
+        self.me = self
+
+
+def _make_garbage(made: list, path: Path) -> Path:
+    import gc
+    import weakref
+
+    made.append((weakref.ref(_Cycle()), gc.isenabled()))
+    return _write("garbage", path)
+
+
+def test_a_batch_is_drawn_with_the_collector_paused_and_its_garbage_collected(tmp_path):
+    import gc
+
+    made = []
+    jobs = {i: FigureJob(_make_garbage, (made, tmp_path / f"{i}.txt"), batch="one") for i in range(2)}
+    assert gc.isenabled()
+    draw_figures(jobs, workers=1)
+    assert [enabled for _, enabled in made] == [False, False]  # paused while drawing
+    assert gc.isenabled() and all(ref() is None for ref, _ in made)  # on again, the cycles collected
+
+
 def test_the_heap_gives_its_free_pages_back_on_glibc():
     import platform
 
@@ -168,20 +192,36 @@ def _histories(material: str, scale: float, cams=("cycloidal", "poly-345")) -> l
 
 
 def _reusing_plots(folder: Path, name: str, histories: list) -> list:
+    """The report's figures, batched as reporting.outputs batches them: a kind of its own, or the
+    kinds that share a grid of axes (3 x 1, 1 x 1) together."""
     from reporting import plots
 
     return [
         FigureJob(plots.plot_three_links, (histories, [1, 2, 4], folder / f"{name}_three.png"), batch="three"),
+        FigureJob(plots.plot_three_links, (histories, [3], folder / f"{name}_all_cams.png"), batch="3 x 1"),
         FigureJob(plots.plot_link_vs_input, (histories, 2, folder / f"{name}_vs_input.png"), batch="vs input"),
-        FigureJob(plots.plot_differences, (histories, 2, folder / f"{name}_differences.png"), batch="differences"),
-        FigureJob(plots.plot_dwell_vibration, (histories, 2, folder / f"{name}_dwell.png"), batch="dwell"),
-        FigureJob(plots.plot_tension, (histories, folder / f"{name}_tension.png"), batch="tension"),
+        FigureJob(plots.plot_differences, (histories, 2, folder / f"{name}_differences.png"), batch="3 x 1"),
+        FigureJob(plots.plot_dwell_vibration, (histories, 2, folder / f"{name}_dwell.png"), batch="1 x 1"),
+        FigureJob(plots.plot_tension, (histories, folder / f"{name}_tension.png"), batch="1 x 1"),
     ]
 
 
+def test_a_batch_draws_the_figures_of_one_plot_one_after_the_other(tmp_path):
+    """Material-major jobs of two kinds sharing a grid: each kind's figures together, in order."""
+    from reporting import plots
+    from reporting.drawing import batches
+
+    a, b = _reusing_plots(tmp_path, "a", []), _reusing_plots(tmp_path, "b", [])
+    jobs = {("a", "all cams"): a[1], ("a", "differences"): a[3], ("b", "all cams"): b[1], ("b", "differences"): b[3]}
+    assert {job.batch for job in jobs.values()} == {"3 x 1"} and a[1].plot is plots.plot_three_links
+    assert batches(jobs) == [[("a", "all cams"), ("b", "all cams"), ("a", "differences"), ("b", "differences")]]
+
+
 def test_a_figure_drawn_on_the_axes_of_the_one_before_has_the_pixels_of_a_new_one(tmp_path):
-    """A batch's second figure is drawn on the first's axes (reporting.plots keeps them): the
-    same PNG as drawn on a figure of its own, though its data, limits, titles and ticks differ."""
+    """A batch's figures are drawn each on the axes of the one before (reporting.plots keeps them),
+    whether of the same kind (the other material's) or of another kind with the same grid of axes
+    and another size: the same PNGs as drawn on figures of their own, though their data, limits,
+    titles, labels and ticks differ."""
     import numpy as np
     from PIL import Image
 
@@ -195,13 +235,91 @@ def test_a_figure_drawn_on_the_axes_of_the_one_before_has_the_pixels_of_a_new_on
     assert not plots._SPARE and not plots._LAYOUT_OF  # closed at the batch's end
     alone = tmp_path / "alone"
     alone.mkdir()
-    for job in _reusing_plots(alone, "b", second):
+    for job in [*_reusing_plots(alone, "a", first), *_reusing_plots(alone, "b", second)]:
         assert not plots._SPARE
         job.draw()
         plots.close_spare_figures()
-    for (_, name), path in drawn.items():
-        if name == "b":
-            assert np.array_equal(np.asarray(Image.open(path)), np.asarray(Image.open(alone / path.name))), path.name
+    for path in drawn.values():
+        assert np.array_equal(np.asarray(Image.open(path)), np.asarray(Image.open(alone / path.name))), path.name
+
+
+def test_a_reused_figure_holds_the_lines_of_its_own_histories_only(tmp_path):
+    """The link-versus-input figure drawn on the axes of another material's: each axes holds the
+    cam input and the link's history of its own cam law, nothing left of the first figure."""
+    import numpy as np
+
+    from reporting import plots
+
+    first, second = _histories("metal a", 1.0), _histories("metal b", 3.0)
+    plots.plot_link_vs_input(first, 2, tmp_path / "a.png")
+    plots.plot_link_vs_input(second, 2, tmp_path / "b.png")
+    try:
+        (fig,) = plots._SPARE.values()
+        axes = np.array(fig.axes).reshape(3, len(second))
+        for col, h in enumerate(second):
+            for row, (x_link, z_input) in enumerate(
+                ((h.x_m * 1e3, h.z_m * 1e3), (h.v_m_s, h.zdot_m_s), (h.a_m_s2, h.zddot_m_s2))
+            ):
+                lines = axes[row, col].get_lines()
+                assert len(lines) == 2
+                assert np.array_equal(lines[0].get_xdata(), h.t_s) and np.array_equal(lines[0].get_ydata(), z_input)
+                assert np.array_equal(lines[1].get_ydata(), x_link[:, h.column(2)])
+    finally:
+        plots.close_spare_figures()
+
+
+def test_the_in_view_locator_keeps_autolocators_ticks_inside_the_view():
+    import matplotlib.ticker
+    import numpy as np
+
+    from reporting import plots
+
+    fig, ax = plots.plt.subplots()
+    try:
+        # the views and how many of AutoLocator's ticks lie beyond them
+        for low, high, beyond in ((-0.0083, 0.1743, 2), (3.0, 1234.5, 2), (-1.2e-5, 7.7e-5, 2), (0.0, 200.0, 0)):
+            ax.set_ylim(low, high)
+            ax.yaxis.set_major_locator(matplotlib.ticker.AutoLocator())
+            every = ax.yaxis.get_majorticklocs()
+            ax.yaxis.set_major_locator(plots.InViewLocator())
+            in_view = ax.yaxis.get_majorticklocs()
+            assert np.array_equal(in_view, every[(every >= low) & (every <= high)])
+            assert len(every) - len(in_view) == beyond
+    finally:
+        plots.plt.close(fig)
+
+
+def _sharex_figure(plots, locator):
+    import numpy as np
+
+    fig, axes = plots.plt.subplots(2, 2, figsize=(6, 4), sharex=True, squeeze=False)
+    t = np.linspace(0.0, 0.17, 50)
+    for i, ax in enumerate(fig.axes):
+        ax.xaxis.set_major_locator(locator())
+        ax.yaxis.set_major_locator(locator())
+        ax.plot(t, (i + 1) * 1e-3 * np.sin(30 * t) + (500.0 if i == 3 else 0.0))
+        ax.grid(alpha=0.3)
+    axes[0, 0].set_ylabel("only this axes has a y label")
+    axes[1, 0].set_xlabel("time (s)")
+    return fig
+
+
+def test_the_figures_ways_to_save_work_draw_the_pixels_matplotlib_draws(tmp_path):
+    """Empty axis labels left unplaced and the in-view locator (plots._save): the pixels of the
+    same figure drawn by matplotlib's own placement and locator (offset texts included)."""
+    import matplotlib.ticker
+    import numpy as np
+
+    from reporting import plots
+
+    mine = _sharex_figure(plots, plots.InViewLocator)
+    reference = _sharex_figure(plots, matplotlib.ticker.AutoLocator)
+    try:
+        assert len(plots._fix_empty_label_positions(mine)) == 6  # 3 of the 4 x axes, 3 of the 4 y axes
+        assert np.array_equal(plots._rendered(mine), plots._rendered(reference))
+    finally:
+        plots.plt.close(mine)
+        plots.plt.close(reference)
 
 
 def test_the_jobs_of_a_batch_are_drawn_together_largest_batch_first(tmp_path):
