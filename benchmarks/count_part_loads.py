@@ -1,7 +1,10 @@
 """How often one pipeline run loads the part into gmsh and chooses its pin bores (issue #21).
 
     python benchmarks/count_part_loads.py [PIPELINE OPTIONS]
-    e.g. python benchmarks/count_part_loads.py --geometry geometry/data/example_link.step --materials al6061-t6
+    e.g. python benchmarks/count_part_loads.py --geometry geometry/data/example_link.step --materials al6061-t6 --serial
+
+Counts are of this process only: pass --serial, or the FEA runs in a process of its own
+(stages.beside) whose translations are not counted (1 instead of 4 on the example STEP).
 
 Runs `pipeline.main` once with the given options, --no-images and a fresh temporary cache (so the
 stiffness and the stress studies both run), and counts, with the seconds spent in each:

@@ -53,8 +53,8 @@ class MaterialFea(MaterialStiffness):
 
 
 def fea_settings(cfg: RunConfig, concurrent_levels: bool = True) -> FeaSettings:
-    """The run's FEA settings: its --mesh-size (the finest level) and --order, FeaSettings' defaults
-    for the rest. `concurrent_levels`: see fem.stiffness_studies."""
+    """The run's FEA settings: its --mesh-size (the finest level), --order and --max-memory,
+    FeaSettings' defaults for the rest. `concurrent_levels`: see fem.stiffness_studies."""
     from fem.settings import FeaSettings
 
     return FeaSettings.with_finest(
