@@ -82,13 +82,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--solver",
         default=d.solver,
-        help="dynamics method (default: %(default)s, exact for the linear model); see README, Solvers",
+        help="dynamics method (default: %(default)s, exact for the linear model); see docs/performance.md, Dynamics: solvers",
     )
     p.add_argument(
         "--preset",
         choices=registries.PRESETS,
         default=d.preset,
-        help="mqp2012: replicate the 2012 report's MATLAB model, quirks included (see README)",
+        help="mqp2012: replicate the 2012 report's MATLAB model, quirks included (see docs/user-guide.md, The report replica)",
     )
     p.add_argument(
         "--out",

@@ -31,7 +31,7 @@ from .materials import Material
 from .richardson import Extrapolation, extrapolate, rate_bracket
 from .settings import LEVEL_RATIO, FeaSettings, levels_for_finest, settings_with
 
-# Relative sizes, chosen by measurement on the default link (README, FEA work-precision): two
+# Relative sizes, chosen by measurement on the default link (docs/performance.md, FEA: elements and work-precision): two
 # curved-P2 levels (6 and 4.5 mm there) put k's guaranteed-under-the-model estimate below 1 %.
 # Coarser levels are not in the asymptotic range there: above ~6.5 mm the 6.9 mm web under the
 # pocket is crossed by flattened elements and k jumps by 1.5 % (measured, 7.5 -> 6 mm).

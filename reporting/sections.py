@@ -20,7 +20,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from dynamics.scene import LINEAR_ELASTIC_STRAIN_LIMIT, ChainModelKind, Validity
+from dynamics.options import LINEAR_ELASTIC_STRAIN_LIMIT
+from dynamics.scene import ChainModelKind, Validity
 from reporting import html
 from reporting.tables import Table
 

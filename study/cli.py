@@ -29,7 +29,7 @@ def build_parser() -> argparse.ArgumentParser:
             "(sensitivity), plots and an HTML page. SI units throughout."
         ),
     )
-    p.add_argument("study", type=Path, help="study file (TOML; see README, Design studies)")
+    p.add_argument("study", type=Path, help="study file (TOML; see docs/user-guide.md, The study file)")
     p.add_argument("--out", type=Path, default=None, help="output folder (default: results-<study file name>)")
     p.add_argument(
         "--scheduler",

@@ -26,8 +26,8 @@ chain), and divides the output interval evenly.
 
 Speed: with numba installed the step loop runs compiled (`_run_loops`: loops over preallocated
 arrays, no temporaries, its helpers inlined); without numba the vectorised numpy form (`_run`, the
-same steps and outputs, tested equal) runs, about 50x slower (benchmarks/bench_clearance.py; README,
-"The clearance chain"). What makes the compiled step fast: the global law's product C w, otherwise
+same steps and outputs, tested equal) runs, about 50x slower (benchmarks/bench_clearance.py; docs/performance.md,
+"Clearance chain"). What makes the compiled step fast: the global law's product C w, otherwise
 half of a step, is taken in the two blocks of the chain's mirror symmetry (`reflection_blocks`: 4224
 padded multiply-adds instead of 7225, four rows per pass over w, the blocks computed once per chain);
 the helpers are inlined into the loop under FASTMATH; the span law, the friction law's saturated
@@ -77,7 +77,7 @@ SPEED_CAPACITY = 1 << 16
 # Velocity predictors for the velocity-dependent forces, w_pred = w + h (a + theta (a - a_prev)):
 # "euler" (theta 0: w + h a, off by O(h^2)), the default; "ab2" (theta 1/2, Adams-Bashforth 2: off
 # by O(h^3) where a is smooth), which cuts the global damping law's error 2-5x at the same step
-# (README, "The clearance chain") at a lower stability limit (`stable_omega_h`). Not for the
+# (docs/performance.md, "Clearance chain") at a lower stability limit (`stable_omega_h`). Not for the
 # Kelvin-Voigt law: its dashpot force jumps at each impact, and there "ab2" loses the clean second
 # order (measured on the case of tests/test_clearance_fast_vs_reference.py: orders 1.2 and 1.5).
 PREDICTORS = {"euler": 0.0, "ab2": 0.5}

@@ -16,7 +16,7 @@ of one (3N)x(3N) exponential (set-up per material at N = 85: 0.72 ms in bench_dy
 rounding, tested), and a linear run on a uniform grid is stepped in those modes by blocks
 (dynamics.solvers.mode_scan), so the dense matrices are never built (180 steps of the 85-link
 chain: 0.39 ms against 0.82 ms for the dense loop in bench_dynamics, a ratio that moves with page
-faults; see the README). Other systems (the report replica's asymmetric damping) take the
+faults; see docs/performance.md, Dynamics: solvers). Other systems (the report replica's asymmetric damping) take the
 augmented-matrix route and the step loop; for a linear run its B keeps only the DOFs the force
 acts on. The matrices are cached per system and step (dynamics.solvers.cache), so a speed sweep
 or a set of cams on one chain computes them once.
