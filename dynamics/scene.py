@@ -213,23 +213,19 @@ def linear_model_validity(
     deformation = force / stiffness_N_per_m
     bound = LINEAR_ELASTIC_STRAIN_LIMIT * pitch_m
     if deformation <= bound:
-        return LinearModelValidity(
+        validity, reason = (
             Validity.VALID,
             f"the linear model deforms no span by more than {LINEAR_ELASTIC_STRAIN_LIMIT:.0%} of the pitch "
             "(the elastic strain of the strongest structural metals)",
-            force,
-            deformation,
-            bound,
         )
-    return LinearModelValidity(
-        Validity.OUTSIDE_LINEAR_MODEL,
-        f"the linear model deforms a span by more than {LINEAR_ELASTIC_STRAIN_LIMIT:.0%} of the pitch, beyond "
-        "the elastic range of any metal link: its minimum tension and the preload for full contact "
-        "describe no chain",
-        force,
-        deformation,
-        bound,
-    )
+    else:
+        validity, reason = (
+            Validity.OUTSIDE_LINEAR_MODEL,
+            f"the linear model deforms a span by more than {LINEAR_ELASTIC_STRAIN_LIMIT:.0%} of the pitch, "
+            "beyond the elastic range of any metal link: its minimum tension and the preload for full "
+            "contact describe no chain",
+        )
+    return LinearModelValidity(validity, reason, force, deformation, bound)
 
 
 def with_yield_load(
