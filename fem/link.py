@@ -517,7 +517,7 @@ def _solution(
     timing: dict,
     whole_dofs: int,
 ) -> LinkSolution:
-    work = _copies(mesh) * float(f @ u)  # of the whole link
+    work = _copies(mesh) * solvers.dot(f, u)  # of the whole link
     if not work > 0:
         raise FemError("the link did not deform under the load: check the bore facet sets")
     return LinkSolution(
@@ -526,7 +526,7 @@ def _solution(
         curved=not sk_mesh.affine,
         load_N=float(load_N),
         stiffness_N_per_m=load_N**2 / work,
-        stiffness_from_energy_N_per_m=load_N**2 / (_copies(mesh) * float(u[free] @ (K @ u[free]))),
+        stiffness_from_energy_N_per_m=load_N**2 / (_copies(mesh) * solvers.dot(u[free], K @ u[free])),
         volume_m3=float(mesh.cad_volume_m3),
         mesh_volume_m3=_copies(mesh) * float(np.sum(basis.dx)),
         mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),
