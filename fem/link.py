@@ -195,9 +195,10 @@ def closest_to_cad(
     MIN_CURVED_JACOBIAN_RATIO_AWAY away from the bore facets): whichever has its volume nearer the
     CAD volume."""
     candidates = []
+    ratios = _curved_jacobian_ratio(mesh)  # the candidates' first round: the same mesh
     for away in away_ratios:
         try:
-            candidates.append(straighten_distorted(mesh, on_facets=on_facets, away_ratio=away))
+            candidates.append(straighten_distorted(mesh, on_facets=on_facets, away_ratio=away, ratios=ratios))
         except FemError:
             continue
     if not candidates:
@@ -218,6 +219,7 @@ def straighten_distorted(
     min_ratio: float = MIN_CURVED_JACOBIAN_RATIO,
     on_facets: np.ndarray | None = None,
     away_ratio: float = MIN_CURVED_JACOBIAN_RATIO_AWAY,
+    ratios: np.ndarray | None = None,
 ) -> MeshTet2:
     """Move the mid-edge nodes of badly distorted curved cells back onto their chords.
 
@@ -225,11 +227,13 @@ def straighten_distorted(
     1 mm edge break); those break the isoparametric map. Straightening a few cells costs only a
     local O(h^2) geometry error there. With `on_facets` (per cell: it has a face on a loaded or
     clamped facet) only those cells are held to `min_ratio`; the others are straightened below
-    `away_ratio` only (nearly folded), which keeps the rounds they follow.
+    `away_ratio` only (nearly folded), which keeps the rounds they follow. `ratios`: the mesh's
+    `_curved_jacobian_ratio`, if the caller has it.
     """
     limit = min_ratio if on_facets is None else np.where(on_facets, min_ratio, away_ratio)
     for _ in range(STRAIGHTENING_ROUNDS):
-        bad = np.flatnonzero(_curved_jacobian_ratio(mesh) < limit)
+        bad = np.flatnonzero((_curved_jacobian_ratio(mesh) if ratios is None else ratios) < limit)
+        ratios = None
         if len(bad) == 0:
             return mesh
         edges = np.unique(mesh.t2e[:, bad])
