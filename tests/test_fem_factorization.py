@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg
+from threadpoolctl import threadpool_limits
 
 from fem import solvers
 from fem.errors import FemError
@@ -41,6 +42,13 @@ def _pypardiso_solve(A: sp.csr_matrix, b: np.ndarray) -> np.ndarray:
 def test_the_direct_solve_phase_gives_pypardisos_solve_to_the_bit():
     A = _laplacian_3d(12)
     rng = np.random.default_rng(7)
+    # one MKL thread: with more, PARDISO's sums depend on how many threads it gets, so two
+    # factorisations of one matrix can differ in their last bits under load
+    with threadpool_limits(limits=1):
+        _compare_with_pypardiso(A, rng)
+
+
+def _compare_with_pypardiso(A: sp.csr_matrix, rng: np.random.Generator) -> None:
     factor = solvers.Factorization(A)
     try:
         for b in (rng.standard_normal(A.shape[0]), np.linspace(-1.0, 2.0, A.shape[0])):
@@ -93,3 +101,14 @@ def test_dot_is_the_exact_sum_to_rounding():
         exact = math.fsum(a * b)  # the products themselves rounded once: within n eps of the bound
         bound = n * np.finfo(float).eps * float(np.abs(a * b).sum())
         assert abs(solvers.dot(a, b) - exact) <= bound
+
+
+def test_pair_keys_are_int32_only_where_every_key_fits():
+    from fem.assembly import pair_key_dtype
+
+    largest_int32 = np.iinfo(np.int32).max
+    assert pair_key_dtype(1000) is np.int32
+    assert pair_key_dtype(46340) is np.int32  # 46340^2 - 1 is the largest key
+    assert 46340**2 <= largest_int32 < 46341**2
+    assert pair_key_dtype(46341) is np.int64
+    assert pair_key_dtype(np.int32(50_000)) is np.int64  # not squared in int32, where it wraps
