@@ -107,7 +107,9 @@ class Factorization:
     The solves call PARDISO's solve phase (33) directly, with the matrix's 1-based indices
     converted once: pypardiso's `solve` makes the same call after comparing the matrix with its copy
     of the factorised one and converting the indices again, 4-5 ms of a 40 ms back-substitution at
-    the default link's 37k unknowns (measured), and keeps that copy (16 MB there)."""
+    the default link's 37k unknowns (measured), and keeps that copy (16 MB there). The call uses
+    pypardiso's handle, settings and library (`pt`, `iparm`, `_mkl_pardiso`): a pypardiso that
+    renamed them fails tests/test_fem_factorization.py."""
 
     def __init__(self, A: sp.spmatrix):
         _point_pypardiso_at_mkl()
@@ -128,7 +130,9 @@ class Factorization:
         """A^-1 b for one right-hand side (1-D)."""
         b = np.ascontiguousarray(b, dtype=float)
         if b.shape != (self._upper.shape[0],):
-            raise FemError(f"Factorization.solve: expected a right-hand side of shape ({self._upper.shape[0]},), got {b.shape}")
+            raise FemError(
+                f"Factorization.solve: expected a right-hand side of shape ({self._upper.shape[0]},), got {b.shape}"
+            )
         x = np.zeros_like(b)
         error = ctypes.c_int32(0)
         solver = self._solver
