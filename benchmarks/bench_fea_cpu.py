@@ -8,9 +8,9 @@ beside the chain runs it (stiffness levels concurrent, then the stress study and
 images), in a fresh process per run, this tree and DIR alternating, and prints the CPU seconds (the
 process's, all threads) of the first step (the stiffness, with the process's imports and the part's
 measurement), of the stress study (`fem.stress.stress_study`, timed around its call) and of the
-rest of the second step (the images), with their medians, and each tree's k and converged stress. The whole job keeps both
-cores busy, so its wall time follows its CPU time; CPU times are also steadier than wall times on a
-shared machine.
+rest of the second step (the images), with their medians, each run's k and each tree's last k and
+converged stress to the last digit. The whole job keeps both cores busy, so its wall time follows
+its CPU time; CPU times are also steadier than wall times on a shared machine.
 """
 
 from __future__ import annotations
@@ -84,7 +84,8 @@ def main(argv=None) -> int:
         for name, tree in trees.items():
             runs[name].append(run_once(tree))
             cpu = ", ".join(f"{c:.2f}" for c in runs[name][-1]["cpu_s"])
-            print(f"run {repeat + 1} {name}: CPU s {cpu}", flush=True)
+            k = ", ".join(f"{m} {v!r}" for m, v in runs[name][-1]["k"].items())
+            print(f"run {repeat + 1} {name}: CPU s {cpu}; k (N/m) {k}", flush=True)
     print(f"medians of {args.repeats} runs, trees alternating; load average now {os.getloadavg()[0]:.1f}")
     print("| step | " + " | ".join(f"{name}: CPU s (runs)" for name in trees) + " |")
     print("|---|" + "---|" * len(trees))
@@ -96,7 +97,7 @@ def main(argv=None) -> int:
         print(f"| {step} | " + " | ".join(cells) + " |")
     for name in trees:
         last = runs[name][-1]
-        answers = ", ".join(f"{m} k {last['k'][m]:.6g} N/m, stress {last['stress'][m]:.6g} Pa/N" for m in last["k"])
+        answers = ", ".join(f"{m} k {last['k'][m]!r} N/m, stress {last['stress'][m]!r} Pa/N" for m in last["k"])
         print(f"{name}: {answers}")
     return 0
 

@@ -195,9 +195,10 @@ def closest_to_cad(
     MIN_CURVED_JACOBIAN_RATIO_AWAY away from the bore facets): whichever has its volume nearer the
     CAD volume."""
     candidates = []
+    ratios = _curved_jacobian_ratio(mesh)  # the candidates' first round: the same mesh
     for away in away_ratios:
         try:
-            candidates.append(straighten_distorted(mesh, on_facets=on_facets, away_ratio=away))
+            candidates.append(straighten_distorted(mesh, on_facets=on_facets, away_ratio=away, ratios=ratios))
         except FemError:
             continue
     if not candidates:
@@ -218,6 +219,7 @@ def straighten_distorted(
     min_ratio: float = MIN_CURVED_JACOBIAN_RATIO,
     on_facets: np.ndarray | None = None,
     away_ratio: float = MIN_CURVED_JACOBIAN_RATIO_AWAY,
+    ratios: np.ndarray | None = None,
 ) -> MeshTet2:
     """Move the mid-edge nodes of badly distorted curved cells back onto their chords.
 
@@ -225,11 +227,13 @@ def straighten_distorted(
     1 mm edge break); those break the isoparametric map. Straightening a few cells costs only a
     local O(h^2) geometry error there. With `on_facets` (per cell: it has a face on a loaded or
     clamped facet) only those cells are held to `min_ratio`; the others are straightened below
-    `away_ratio` only (nearly folded), which keeps the rounds they follow.
+    `away_ratio` only (nearly folded), which keeps the rounds they follow. `ratios`: the mesh's
+    `_curved_jacobian_ratio`, if the caller has it.
     """
     limit = min_ratio if on_facets is None else np.where(on_facets, min_ratio, away_ratio)
     for _ in range(STRAIGHTENING_ROUNDS):
-        bad = np.flatnonzero(_curved_jacobian_ratio(mesh) < limit)
+        bad = np.flatnonzero((_curved_jacobian_ratio(mesh) if ratios is None else ratios) < limit)
+        ratios = None
         if len(bad) == 0:
             return mesh
         edges = np.unique(mesh.t2e[:, bad])
@@ -517,7 +521,7 @@ def _solution(
     timing: dict,
     whole_dofs: int,
 ) -> LinkSolution:
-    work = _copies(mesh) * float(f @ u)  # of the whole link
+    work = _copies(mesh) * solvers.dot(f, u)  # of the whole link
     if not work > 0:
         raise FemError("the link did not deform under the load: check the bore facet sets")
     return LinkSolution(
@@ -526,7 +530,7 @@ def _solution(
         curved=not sk_mesh.affine,
         load_N=float(load_N),
         stiffness_N_per_m=load_N**2 / work,
-        stiffness_from_energy_N_per_m=load_N**2 / (_copies(mesh) * float(u[free] @ (K @ u[free]))),
+        stiffness_from_energy_N_per_m=load_N**2 / (_copies(mesh) * solvers.dot(u[free], K @ u[free])),
         volume_m3=float(mesh.cad_volume_m3),
         mesh_volume_m3=_copies(mesh) * float(np.sum(basis.dx)),
         mass_kg=material.density_kg_per_m3 * float(mesh.cad_volume_m3),

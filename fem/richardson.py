@@ -30,7 +30,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .errors import FemError
 
@@ -75,6 +74,10 @@ def observed_rate(values: np.ndarray, spacing: np.ndarray) -> float | None:
     lo, hi = 0.05, 12.0
     if mismatch(lo) * mismatch(hi) > 0:
         return None
+    # imported here: two levels (the default study) never get here, and SciPy's optimize costs
+    # the FEA's process about 0.2 CPU s to import
+    from scipy.optimize import brentq
+
     return float(brentq(mismatch, lo, hi, xtol=1e-10))
 
 

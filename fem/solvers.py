@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import glob
 import os
 import sys
@@ -46,6 +47,7 @@ REUSE_MAX_ITERATIONS = 200
 #   does not change the residual's order here and costs extra products and back-substitutions,
 #   which are most of a further material's CG.
 PARDISO_IPARM = {1: 1, 2: 2, 8: 0, 37: -90}
+PARDISO_SOLVE_PHASE = 33  # forward and backward substitution with the kept factor
 
 
 def _point_pypardiso_at_mkl() -> None:
@@ -100,7 +102,14 @@ def _error_code(message: str) -> int | None:
 
 class Factorization:
     """A kept MKL PARDISO Cholesky factorisation of one SPD matrix, to solve it again or to
-    precondition a nearby one (another material on the same mesh). Call `free()` when done."""
+    precondition a nearby one (another material on the same mesh). Call `free()` when done.
+
+    The solves call PARDISO's solve phase (33) directly, with the matrix's 1-based indices
+    converted once: pypardiso's `solve` makes the same call after comparing the matrix with its copy
+    of the factorised one and converting the indices again, 4-5 ms of a 40 ms back-substitution at
+    the default link's 37k unknowns (measured), and keeps that copy (16 MB there). The call uses
+    pypardiso's handle, settings and library (`pt`, `iparm`, `_mkl_pardiso`): a pypardiso that
+    renamed them fails tests/test_fem_factorization.py."""
 
     def __init__(self, A: sp.spmatrix):
         _point_pypardiso_at_mkl()
@@ -112,10 +121,44 @@ class Factorization:
         self._upper = sp.triu(A, format="csr")
         with explained_solver_errors("pardiso", A.shape[0]):
             self._solver.factorize(self._upper)
+        self._solver.remove_stored_factorization()
+        # as pypardiso passes them (`_call_pardiso`): CSR, 1-based, int32
+        self._one_based_indptr = self._upper.indptr.astype(np.int32) + 1
+        self._one_based_indices = self._upper.indices.astype(np.int32) + 1
 
     def solve(self, b: np.ndarray) -> np.ndarray:
-        with explained_solver_errors("pardiso", self._upper.shape[0]):
-            return np.asarray(self._solver.solve(self._upper, np.asarray(b, dtype=float)))
+        """A^-1 b for one right-hand side (1-D)."""
+        b = np.ascontiguousarray(b, dtype=float)
+        if b.shape != (self._upper.shape[0],):
+            raise FemError(
+                f"Factorization.solve: expected a right-hand side of shape ({self._upper.shape[0]},), got {b.shape}"
+            )
+        x = np.zeros_like(b)
+        error = ctypes.c_int32(0)
+        solver = self._solver
+        int_p, double_p = ctypes.POINTER(ctypes.c_int32), ctypes.POINTER(ctypes.c_double)
+        solver._mkl_pardiso(
+            solver.pt.ctypes.data_as(ctypes.POINTER(solver._pt_type[0])),
+            ctypes.byref(ctypes.c_int32(1)),  # maxfct
+            ctypes.byref(ctypes.c_int32(1)),  # mnum
+            ctypes.byref(ctypes.c_int32(solver.mtype)),
+            ctypes.byref(ctypes.c_int32(PARDISO_SOLVE_PHASE)),
+            ctypes.byref(ctypes.c_int32(b.size)),
+            self._upper.data.ctypes.data_as(double_p),
+            self._one_based_indptr.ctypes.data_as(int_p),
+            self._one_based_indices.ctypes.data_as(int_p),
+            solver.perm.ctypes.data_as(int_p),
+            ctypes.byref(ctypes.c_int32(1)),  # right-hand sides
+            solver.iparm.ctypes.data_as(int_p),
+            ctypes.byref(ctypes.c_int32(solver.msglvl)),
+            b.ctypes.data_as(double_p),
+            x.ctypes.data_as(double_p),
+            ctypes.byref(error),
+        )
+        if error.value != 0:
+            what = _PARDISO_ERRORS.get(error.value, "failed")
+            raise FemError(f"solver pardiso: error {error.value} ({what}) on {b.size} unknowns; {SOLVER_REMEDY}")
+        return x
 
     def free(self) -> None:
         self._solver.free_memory(everything=True)
@@ -137,24 +180,38 @@ def preconditioned_cg(
     """
     x = np.array(x0, dtype=float)
     r = b - A @ x
-    limit = rtol * np.linalg.norm(b)
+    limit = rtol * _norm(b)
     z = precondition(r)
     p = z.copy()
-    rz = float(r @ z)
+    rz = dot(r, z)
     for iteration in range(REUSE_MAX_ITERATIONS + 1):
-        if np.linalg.norm(r) <= limit:
+        if _norm(r) <= limit:
             return x, iteration
         Ap = A @ p
-        alpha = rz / float(p @ Ap)
+        alpha = rz / dot(p, Ap)
         x += alpha * p
         r -= alpha * Ap
         z = precondition(r)
-        rz, rz_old = float(r @ z), rz
+        rz, rz_old = dot(r, z), rz
         p = z + (rz / rz_old) * p
     raise FemError(
         f"preconditioned CG did not converge in {REUSE_MAX_ITERATIONS} iterations "
-        f"(relative residual {np.linalg.norm(r) / np.linalg.norm(b):.1e})"
+        f"(relative residual {_norm(r) / _norm(b):.1e})"
     )
+
+
+def dot(a: np.ndarray, b: np.ndarray) -> float:
+    """a . b of two 1-D float arrays in the calling thread, without BLAS.
+
+    numpy's `a @ b` is OpenBLAS's ddot, which above 10,000 entries wakes OpenBLAS's worker thread;
+    that thread then spins for tens of ms, taking a core from PARDISO's threads and the other
+    stiffness level: in titanium's CG (three dots an iteration) it doubled the CG's CPU (measured,
+    docs/performance.md). Rounding: a different summation order than ddot's, to a few ulp."""
+    return float(np.einsum("i,i", a, b))
+
+
+def _norm(a: np.ndarray) -> float:
+    return float(np.sqrt(dot(a, a)))
 
 
 def _pardiso(A: sp.csr_matrix, b: np.ndarray, near_nullspace: np.ndarray | None) -> np.ndarray:
