@@ -47,9 +47,7 @@ def test_the_stage_reports_lowest_modes_frequency_from_its_one_eigensolve(monkey
     lowest_mode frequency to the bit, the reported modes are the first REPORTED_MODES of the modes the
     nearest resonance was picked from, and the stage solved the machine's modes once."""
     cfg = RunConfig(cams=("modified-sine",))
-    stiffness = MaterialStiffness(
-        "al", K_AL, 1e-3, M_AL - cfg.hardware_mass_kg - cfg.nest_mass_kg, 1e-4, PITCH_M, 0.01
-    )
+    stiffness = MaterialStiffness("al", K_AL, 1e-3, M_AL - cfg.hardware_mass_kg - cfg.nest_mass_kg, 1e-4, PITCH_M, 0.01)
     solves = _count_solves(monkeypatch)
     chains, scenarios = chain_stage.run_dynamics(cfg, {"al": stiffness}, lambda line: None)
     reported = chains["al"].natural_frequencies_Hz
@@ -58,7 +56,9 @@ def test_the_stage_reports_lowest_modes_frequency_from_its_one_eigensolve(monkey
     assert solves == [machine_modes.SOLVED_MODES]
     assert reported.size == machine_modes.REPORTED_MODES
     assert reported[0] == contact.lowest_mode.frequency_Hz
-    modes = machine_modes.lowest_frequencies_Hz(scene_machine(chain_stage.chain_scene(cfg, PITCH_M), chains["al"].model))
+    modes = machine_modes.lowest_frequencies_Hz(
+        scene_machine(chain_stage.chain_scene(cfg, PITCH_M), chains["al"].model)
+    )
     assert np.array_equal(reported, modes[: reported.size]) and contact.nearest_resonance.searched_up_to_Hz == modes[-1]
     assert solves == [machine_modes.SOLVED_MODES]
 
@@ -134,3 +134,64 @@ def test_the_machines_step_control_counts_every_levels_search_cycles(monkeypatch
     assert contact.model == "clearance" and contact.steady_state.found
     assert contact.steady_state.cycles == len(calls) > 0
     assert f"after {len(calls)} index cycles" in contact.steady_state.statement
+
+
+def _exact_rayleigh_quotient(topology, shape) -> float:
+    """The oracle: y^T K y / y^T M y of `shape` in long double, summed term by term (the spans'
+    stretches, the ground springs, the couplings): its rounding is about 1e-19 of each term."""
+    y = np.asarray(shape, dtype=np.longdouble)
+    b = topology.incidence().tocoo()
+    e = np.zeros(b.shape[0], dtype=np.longdouble)
+    np.add.at(e, b.row, b.data.astype(np.longdouble) * y[b.col])
+    elastic = np.longdouble(topology.span_stiffness_N_per_m) * np.sum(e * e)
+    elastic += np.sum(topology.ground_vector().astype(np.longdouble) * y * y)
+    for a, c, k in topology.couplings:
+        elastic += np.longdouble(k) * (y[a] - y[c]) ** 2
+    return elastic / np.sum(np.asarray(topology.masses_kg, dtype=np.longdouble) * y * y)
+
+
+@pytest.mark.skipif(np.finfo(np.longdouble).eps > 1e-18, reason="the oracle needs an extended long double")
+def test_a_long_machines_mode_1_is_the_exact_eigenvalue_to_rounding():
+    """Above DENSE_LINK_LIMIT links mode 1 is the Rayleigh quotient of the shift-invert mode shape: within
+    1e-14 (about 50 ulp) of the exact eigenvalue in omega^2, the Rayleigh quotient of numpy's dense
+    mode-1 shape in long double (its error quadratic in the shape's, far below 1e-18 here). The
+    shift-invert eigenvalue itself is 2.8e-12 off on this machine (the factorisation's rounding), so the
+    test fails without the refinement; modes 2 to 12 stay the shift-invert solve's (the dense
+    eigensolve's to its own rounding, eps x lambda_max / lambda_1)."""
+    chain = ChainModel(DENSE_LINK_LIMIT + 50, M_AL, K_AL, damping_ratio=0.13)
+    machine = scene_machine(chain_stage.chain_scene(RunConfig(), PITCH_M), chain)
+    topo = machine.topology
+    r = 1 / np.sqrt(np.asarray(topo.masses_kg, dtype=float))
+    lam, shapes = np.linalg.eigh(r[:, None] * topo.stiffness_matrix_sparse().toarray() * r[None, :])
+    exact = _exact_rayleigh_quotient(topo, r * shapes[:, 0])
+    frequencies = machine.lowest_natural_frequencies_Hz(machine_modes.SOLVED_MODES)
+    omega2 = (2 * np.pi * frequencies) ** 2
+    assert abs(float(omega2[0] / exact - 1)) < 1e-14
+    assert omega2[1:] == pytest.approx(lam[1 : machine_modes.SOLVED_MODES], rel=1e-9)
+
+
+def _trapezoid_moments(values, nodes, step_s, out_every):
+    """The oracle: the trapezoid rule's integrals of 1, y and y^2 per output interval, written out
+    (y the values plus the cam's nodes), each interval's steps summed in order."""
+    y = values + np.stack(nodes, axis=1)[:, None, :]
+    powers = np.stack([np.ones_like(y), y, y * y], axis=-1)
+    steps = 0.5 * step_s * (powers[1:] + powers[:-1])
+    return steps.reshape(-1, out_every, *steps.shape[1:]).sum(axis=1)
+
+
+def test_the_step_moments_are_the_trapezoid_rules_to_the_bit():
+    """machine_verlet.step_moments (the RMS metrics over every step) is the written-out trapezoid rule to
+    the last bit, at several samplings, station counts and scales (the default run's numbers stay)."""
+    rng = np.random.default_rng(7)
+    for out_every, intervals, stations, scale in (
+        (1, 5, 1, 1.0),
+        (21, 360, 4, 1e-3),
+        (9, 40, 2, 1e2),
+        (37, 3, 3, 1e-6),
+    ):
+        n = out_every * intervals + 1
+        values = scale * rng.normal(size=(n, stations, 3))
+        nodes = tuple(scale * rng.normal(size=n) for _ in range(3))
+        step_s = float(rng.uniform(1e-6, 1e-3))
+        got = mv.step_moments(values, nodes, step_s, out_every)
+        assert np.array_equal(got, _trapezoid_moments(values, nodes, step_s, out_every))

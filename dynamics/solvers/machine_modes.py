@@ -5,13 +5,12 @@ the mode an index harmonic drives hardest (dynamics.machine_scene.machine_neares
 REPORTED_MODES lowest the frequencies the run reports (stages.chain.natural_frequencies_Hz): the
 reported f1 is lowest_mode's frequency, the same number.
 
-One solve serves all three (MachineOnWheels.lowest_natural_frequencies_Hz, SOLVED_MODES): up to DENSE_LINK_LIMIT links
-the dense eigensolve, whose first frequency is the same to the bit whatever the count; above it one
-shift-invert Lanczos solve for the NEAREST_RESONANCE_MODES lowest. Its mode 1 is within 4 ulp of a
-solve for mode 1 alone (measured at 401 to 10,000 links on the default wheels); both are 2.8e-13
-(450 links) to 1.4e-10 (10,000) from the exact eigenvalue in omega^2 (the Rayleigh quotient of the
-mode in exact arithmetic), the shift-invert factorisation's rounding, so neither is the more
-accurate (docs/performance.md, "Long clearance chains on wheels").
+One solve serves all three (MachineOnWheels.lowest_natural_frequencies_Hz, SOLVED_MODES): up to
+DENSE_LINK_LIMIT links the dense eigensolve, whose first frequency is the same to the bit whatever the
+count; above it one shift-invert Lanczos solve for the SOLVED_MODES lowest, its mode 1 the Rayleigh
+quotient of its mode shape: within 2e-16 of the exact eigenvalue in omega^2 at 450 to 10,000 links,
+where the shift-invert eigenvalue itself is 2.8e-13 to 1.4e-10 off (the factorisation's rounding;
+docs/performance.md, "Long clearance chains on wheels"). Modes 2 and up are the shift-invert solve's.
 """
 
 from __future__ import annotations
