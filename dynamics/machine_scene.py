@@ -173,10 +173,12 @@ def _run_machine(
     predictor: str | None = None,
     tol: float = DEFAULT_TOL,
     max_cycles: int = DEFAULT_MAX_CYCLES,
+    cycles_before: int = 0,
 ) -> _Outcome:
     """The machine stepped over t_eval_s as the module docstring says: the model `choice` ("auto",
     "linear", "clearance"), in its relabelled steady state (searched to `tol` in `max_cycles` index
-    cycles) or from rest, the step's `safety` and `predictor` (None: the defaults, SearchSettings.of)."""
+    cycles) or from rest, the step's `safety` and `predictor` (None: the defaults, SearchSettings.of);
+    its SteadyState counts `cycles_before` (SearchSettings.cycles_before)."""
     t = np.asarray(t_eval_s, dtype=float)
     period = getattr(cam, "period_s", None)
     if period is None:
@@ -188,7 +190,7 @@ def _run_machine(
     if abs(t[0] / period - round(t[0] / period)) > 1e-9:
         raise DynamicsError("t_eval_s: the machine's output window must start at an index's start (the dwell's end)")
     linear = linear_machine(model)
-    options = dict(tol=tol, max_cycles=max_cycles, steady_state=steady_state)
+    options = dict(tol=tol, max_cycles=max_cycles, steady_state=steady_state, cycles_before=cycles_before)
     lin_search = SearchSettings.of(linear, predictor, safety, **options)
     lin_pred = lin_search.predictor
     n_state = model.n_state  # the DOFs, and a tooth model's seat offsets
@@ -258,8 +260,9 @@ class SearchSettings:
     search accepts (`tol`, relative to the largest |q| and |q'| over the cycle) and its cycles
     (`max_cycles`); `steady_state` False: no search, the window from the state given (from rest).
     `default_step`: the safety is the default one, so the search runs at SEARCH_SAFETY and the window
-    at safety / WINDOW_REFINEMENT (a safety given steps everything at it). `of` takes each default
-    from its home."""
+    at safety / WINDOW_REFINEMENT (a safety given steps everything at it). `cycles_before`: the index
+    cycles the step control's coarser levels' searches stepped (simulate_machine_to_accuracy), which the
+    SteadyState counts with this search's (SteadyState.cycles). `of` takes each default from its home."""
 
     predictor: str
     safety: float
@@ -267,6 +270,7 @@ class SearchSettings:
     max_cycles: int = DEFAULT_MAX_CYCLES
     steady_state: bool = True
     default_step: bool = True
+    cycles_before: int = 0
 
     @classmethod
     def of(cls, model, predictor: str | None = None, safety: float | None = None, **settings) -> SearchSettings:
@@ -344,7 +348,7 @@ def _settle_by_defect_correction(model, cam, h_out, per_cycle, steps, state, sea
         max_cycles=search.max_cycles,
         predictor=search.predictor,
     )
-    ss = _steady_state(two.found, two.cycles, two.residual, search.tol)
+    ss = _steady_state(two.found, search.cycles_before + two.cycles, two.residual, search.tol)
     found = (two.q0, two.v0)
     return (found if two.settled is not None else None), found, ss
 
@@ -395,9 +399,9 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
     """(state, SteadyState or None, last cycle's run) of the relabelled steady state searched from
     `state` at `sub` steps per output sample to `search.tol` in `search.max_cycles` (with its
     predictor; its safety is `sub`'s); `state` itself when not `search.steady_state`. `coarse_done`:
-    (state, cycles) of this search's coarse part (`_coarse_substeps`) already run from `state`, not
-    run again."""
-    tol, max_cycles, predictor = search.tol, search.max_cycles, search.predictor
+    (state, cycles counted) of this search's coarse part (`_coarse_substeps`) already run from `state`,
+    not run again: a SteadyState's cycles of it. The SteadyState counts `search.cycles_before` too."""
+    tol, max_cycles, predictor, before = search.tol, search.max_cycles, search.predictor, search.cycles_before
     if not search.steady_state:
         return state, None, None
     # long chains (the O(N) damping's range) cycle with Anderson acceleration: their slow low modes take
@@ -409,7 +413,8 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
     coarse_cycles = 0
     coarse = _coarse_substeps(model, h_out, sub, predictor)
     if coarse_done is not None:
-        state, coarse_cycles = coarse_done
+        state, counted = coarse_done
+        coarse_cycles = counted - before
     elif coarse is not None:
         # most of the search at the coarsest step the search takes, the rest at `sub` from there: the
         # two fixed points differ by the step's error only, and the state is accepted by the test at `sub`
@@ -427,7 +432,7 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
         max_cycles=max(max_cycles - coarse_cycles, 1),
         predictor=predictor,
     )
-    return (q0, v0), _steady_state(found, cycles + coarse_cycles, residual, tol), last
+    return (q0, v0), _steady_state(found, before + coarse_cycles + cycles, residual, tol), last
 
 
 def _steady_state(found: bool, cycles: int, residual: float, tol: float) -> SteadyState:
@@ -661,7 +666,8 @@ def machine_nearest_resonance(model: ClearanceMachine, cam, lowest: LowestMode) 
     hardest (dynamics.scene.nearest_resonance); `lowest` is mode 1's LowestMode (machine_lowest_mode),
     kept as it is."""
     frequencies = machine_modes.lowest_frequencies_Hz(model.machine)
-    ratios = [model.damping_ratio_at(2.0 * np.pi * f) for f in frequencies]
+    # mode 1's damping ratio is `lowest`'s, computed there
+    ratios = [lowest.damping_ratio] + [model.damping_ratio_at(2.0 * np.pi * f) for f in frequencies[1:]]
     return nearest_resonance(frequencies, ratios, cam, lowest)
 
 
@@ -712,7 +718,8 @@ def simulate_machine_to_accuracy(
     output sample) until the stations' metrics change by at most `accuracy`, as
     dynamics.scene.simulate_chain(accuracy=) does for the single-link drive: the last change is the
     error estimate (ContactSummary.step_error_estimate; the scheme is second order, so it is about 3x
-    the error left at the finer step once in the asymptotic range)."""
+    the error left at the finer step once in the asymptotic range). The SteadyState's cycles are every
+    level's search's (SteadyState.cycles), as the single-link drive's step control counts them."""
     from dynamics.response.fidelity import relative_change
     from dynamics.scene import MAX_STEP_DOUBLINGS
 
@@ -728,7 +735,9 @@ def simulate_machine_to_accuracy(
     estimate = np.inf
     for _ in range(MAX_STEP_DOUBLINGS):
         safety /= 2.0
-        out = _run_machine(model, cam, t_eval_s, safety=safety, predictor=pred, **options)
+        # each level runs afresh from rest; its SteadyState counts the coarser levels' search cycles too
+        before = 0 if out.steady_state is None else out.steady_state.cycles
+        out = _run_machine(model, cam, t_eval_s, safety=safety, predictor=pred, cycles_before=before, **options)
         response = _response(out, cam, None)
         fine = _station_values(model, cam, t_eval_s, response)
         estimate = relative_change(fine, coarse)

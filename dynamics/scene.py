@@ -105,7 +105,11 @@ class SteadyState:
 
     found: bool
     period_cycles: int | None  # 1: periodic with the cam; k > 1: subharmonic of period k cam cycles; None: none
-    cycles: int  # cam periods stepped before the output window
+    # the cam (index) cycles the steady state's search stepped before the output window, on the model
+    # that ran, at every step it searched at (a long chain's coarse and fine searches); under the step
+    # control (`accuracy`, --tolerance) the sum over its levels. Not counted: the linear model's cycles
+    # that chose the model, and the machine's SETTLE_CYCLES plain cycles at the window's step
+    cycles: int
     residual: float  # last change per period (relative), or per k periods for a subharmonic
     statement: str
 
@@ -287,8 +291,8 @@ def harmonic_shares(cam, harmonics) -> np.ndarray:
 
 def nearest_resonance(frequencies_Hz, damping_ratios, cam, lowest: LowestMode) -> Resonance:
     """Resonance of the modes at frequencies_Hz (ascending, the first mode 1) with their damping ratios,
-    driven by `cam`; `lowest` is mode 1's LowestMode, returned itself where mode 1 is driven hardest
-    (the first of equals)."""
+    driven by `cam`; `lowest` is mode 1's LowestMode (its frequency and damping ratio are the first of
+    each), returned itself where mode 1 is driven hardest (the first of equals)."""
     modes = [lowest] + [
         lowest_mode(float(f), float(z), cam.cycle_s) for f, z in zip(frequencies_Hz[1:], damping_ratios[1:])
     ]
@@ -540,13 +544,18 @@ class _Level(NamedTuple):
     steady_state: SteadyState | None
 
 
-def _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor, kernel="ring") -> _Level:
+def _window_run(
+    model, cam, t, sub, start, steady_state, tol, max_cycles, predictor, kernel="ring", cycles_before=0
+) -> _Level:
     """The output window at `sub` steps per output sample, from the periodic state at that step
-    (searched from `start`) or, without steady state, from `start` itself."""
+    (searched from `start`, its SteadyState counting `cycles_before` cycles stepped before the search:
+    `_periodic_state`) or, without steady state, from `start` itself."""
     h = float(t[1] - t[0]) / sub
     state, ss = start, None
     if steady_state:
-        state, ss = _periodic_state(model, cam, t[0], h, start, tol, max_cycles, predictor, kernel=kernel)
+        state, ss = _periodic_state(
+            model, cam, t[0], h, start, tol, max_cycles, predictor, kernel=kernel, cycles_before=cycles_before
+        )
     zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
     run = _integrator(kernel)(
         model, zd, zdd, h, state[0], state[1], u0=state[2], ud0=state[3], out_every=sub, predictor=predictor
@@ -561,7 +570,8 @@ def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, pred
     at h/2 once the steps are in the asymptotic range; the 3x is kept as margin, because the ab2
     predictor's error is not monotone in the step before it (benchmarks/bench_accuracy.py). The finer
     level's periodic state is searched from the coarser one's (a few cycles: they differ by the
-    coarser step's error); without steady state both start where the run starts."""
+    coarser step's error); without steady state both start where the run starts. The finest level's
+    SteadyState counts the cam cycles every level's search stepped (SteadyState.cycles)."""
     coarse = _station_values(model, cam, t, level.run)
     estimate = np.inf
     for _ in range(MAX_STEP_DOUBLINGS):
@@ -570,11 +580,10 @@ def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, pred
         # max_cycles): both windows start there, and no steady state is claimed for the finer one
         search = steady_state and previous.steady_state.found
         begin = previous.state if steady_state else start
-        level = _window_run(model, cam, t, 2 * previous.sub, begin, search, tol, max_cycles, predictor, kernel)
-        ss = previous.steady_state
-        if search:
-            ss = replace(level.steady_state, cycles=previous.steady_state.cycles + level.steady_state.cycles)
-        level = level._replace(steady_state=ss)
+        before = previous.steady_state.cycles if search else 0
+        level = _window_run(model, cam, t, 2 * previous.sub, begin, search, tol, max_cycles, predictor, kernel, before)
+        if steady_state and not search:  # no search at this level: the coarser level's steady state stands
+            level = level._replace(steady_state=previous.steady_state)
         fine = _station_values(model, cam, t, level.run)
         estimate = relative_change(fine, coarse)
         if estimate <= accuracy:
@@ -607,8 +616,21 @@ def station_values(cam, t, x_m, v_m_s, a_m_s2, columns) -> np.ndarray:
 
 
 def _periodic_state(
-    model, cam, t0, h, state, tol, max_cycles, predictor="euler", depth=shooting.DEFAULT_DEPTH, kernel="ring"
+    model,
+    cam,
+    t0,
+    h,
+    state,
+    tol,
+    max_cycles,
+    predictor="euler",
+    depth=shooting.DEFAULT_DEPTH,
+    kernel="ring",
+    cycles_before=0,
 ):
+    """(the state at the period's start, SteadyState) of the periodic state searched from `state` at the
+    step h (the module docstring); the SteadyState counts the cam cycles this search stepped plus
+    `cycles_before`, those the step control's coarser levels stepped before it (SteadyState.cycles)."""
     period = getattr(cam, "period_s", None)
     if period is None:
         raise DynamicsError("steady_state: the cam program is not periodic (period_s is None); use steady_state=False")
@@ -632,7 +654,7 @@ def _periodic_state(
     )
     end = search.state
     state = (end[:n], end[n : 2 * n], float(end[-2]), float(end[-1]))
-    cycle, residual = search.periods, search.residual
+    cycle, residual = cycles_before + search.periods, search.residual
     if search.converged:
         return state, SteadyState(
             True,
@@ -649,7 +671,7 @@ def _periodic_state(
                 return state, SteadyState(
                     True,
                     k,
-                    max_cycles,
+                    cycle,
                     res_k,
                     f"subharmonic response: the motion repeats every {k} cam cycles, not every "
                     f"cycle (change per {k} cycles {res_k:.2g}); the output window shows "
@@ -658,12 +680,12 @@ def _periodic_state(
     return state, SteadyState(
         False,
         None,
-        max_cycles,
+        cycle,
         residual,
-        f"NO periodic steady state found: after {max_cycles} cam cycles the state still changes "
+        f"NO periodic steady state found: after {cycle} cam cycles the state still changes "
         f"by {residual:.2g} per cycle and repeats after no k <= {MAX_SUBHARMONIC} cycles "
         "(a chaotic or very slowly settling response); the results are the motion after "
-        f"{max_cycles} cycles, not a steady state",
+        f"{cycle} cycles, not a steady state",
     )
 
 

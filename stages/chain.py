@@ -19,7 +19,6 @@ if TYPE_CHECKING:  # numpy, scipy and the dynamics load when a stage runs, not w
     from reporting.history import CamHistory
     from stages.machine import MachineCycle, MachineParts
 
-REPORTED_MODES = 10  # natural frequencies kept per chain for the report
 CYCLE_DEG = 90.0  # one index cycle (index and dwell) of the cam programs the stage runs, in cam degrees
 K_PROBES = 8  # k errors stiffness_error_allowed tries below the FEA's (each a run of the scenario)
 
@@ -45,7 +44,8 @@ class MaterialChain:
     model its scenarios ran (the tooth model's where they switched to it: `scene_that_ran`)."""
 
     model: ChainModel
-    natural_frequencies_Hz: np.ndarray  # the lowest REPORTED_MODES of the machine (fewer for a shorter chain)
+    # the lowest machine_modes.REPORTED_MODES of the machine (fewer for a shorter chain)
+    natural_frequencies_Hz: np.ndarray
     machine: MachineParts  # which parts of the machine ran, and the stations
 
 
@@ -105,16 +105,21 @@ def chain_scene(cfg: RunConfig, pitch_m: float) -> Scene:
     )
 
 
-def natural_frequencies_Hz(scene: Scene, model: ChainModel, count: int = REPORTED_MODES) -> np.ndarray:
-    """The lowest `count` natural frequencies of the chain as the scene carries it (the link drive's
-    chain, or the machine on its wheels), with the idler tensioner's carriage where there is one."""
+def natural_frequencies_Hz(scene: Scene, model: ChainModel, count: int | None = None) -> np.ndarray:
+    """The lowest `count` (None: machine_modes.REPORTED_MODES) natural frequencies of the chain as the
+    scene carries it (the link drive's chain, or the machine on its wheels), with the idler tensioner's
+    carriage where there is one. A machine's come from its one cached eigensolve
+    (dynamics.solvers.machine_modes), which its scenarios' lowest_mode and nearest_resonance came from:
+    the reported f1 is lowest_mode's frequency."""
     from dynamics.models.reduction import lowest_natural_frequencies_Hz
+    from dynamics.solvers.machine_modes import REPORTED_MODES, lowest_frequencies_Hz
     from stages.machine import scene_machine
 
+    count = REPORTED_MODES if count is None else count
     if not scene.layout.on_wheels and scene.tensioner is None:
         return lowest_natural_frequencies_Hz(model, count)
     # the carriage is a DOF of the chain's topology; the link drive's machine carries it too
-    return scene_machine(scene, model).lowest_natural_frequencies_Hz(count)
+    return lowest_frequencies_Hz(scene_machine(scene, model), count)
 
 
 def chain_model(cfg: RunConfig, result: MaterialStiffness, stiffness_N_per_m: float | None = None) -> ChainModel:

@@ -12,7 +12,7 @@ from dynamics.models.chain import ChainModel
 from dynamics.options import DENSE_LINK_LIMIT
 from dynamics.scene import harmonic_shares, lowest_mode, nearest_resonance
 from dynamics.solvers import cache, machine_modes, machine_shooting
-from dynamics.solvers.machine_modes import NEAREST_RESONANCE_MODES
+from dynamics.solvers.machine_modes import NEAREST_RESONANCE_MODES, SOLVED_MODES
 from geometry.dimensions import LinkDimensions
 from settings import RunConfig
 from stages.chain import chain_scene
@@ -108,7 +108,7 @@ def test_one_eigensolve_gives_the_lowest_mode_the_searches_decay_and_the_resonan
     lowest = machine_lowest_mode(model, cam.cycle_s)
     resonance = machine_nearest_resonance(model, cam, lowest)
     modes = machine_modes.lowest_frequencies_Hz(machine)
-    assert solves == [NEAREST_RESONANCE_MODES]
+    assert solves == [SOLVED_MODES]
     assert lowest.frequency_Hz == modes[0] and resonance.searched_up_to_Hz == modes[-1]
     omega = 2 * np.pi * modes[0]
     assert decay == np.exp(-model.damping_ratio_at(omega) * omega * cam.cycle_s)

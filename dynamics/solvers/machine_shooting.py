@@ -149,7 +149,7 @@ def _cycle_map(model, cam, step_s, n_steps, n, predictor, last, on_cycle):
 
     def one_cycle(x):
         q1, v1, run, _ = mv.next_index_start(
-            model, cam, (zr, zd, zdd), step_s, x[:n], x[n:], out_every=every, predictor=predictor
+            model, cam, (zr, zd, zdd), step_s, x[:n], x[n:], out_every=every, predictor=predictor, seating=False
         )
         last["run"] = run
         sq, sv = mv.cycle_scales(run)

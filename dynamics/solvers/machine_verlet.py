@@ -911,9 +911,10 @@ def cycle_nodes(cam, step_s: float, n_steps: int):
     return s - s[0], np.asarray(v, dtype=float), np.asarray(a, dtype=float)
 
 
-def seat_change(model, q, v, z_rel_end_m: float, cycle_s: float | None = None):
-    """(q, v) after the transfer at the dwell, and its Seating; `cycle_s` (the index cycle) the tooth
-    model's engagement time (dynamics.solvers.tooth_transfer)."""
+def seat_change(model, q, v, z_rel_end_m: float, cycle_s: float | None = None, *, seating: bool = True):
+    """(q, v) after the transfer at the dwell, and its Seating (None when not `seating`: the stored
+    energies before and after, which only the Seating reports, are then not computed); `cycle_s` (the
+    index cycle) the tooth model's engagement time (dynamics.solvers.tooth_transfer)."""
     from dynamics.solvers.machine_steady import transfer
     from dynamics.solvers.tooth_transfer import tooth_transfer
 
@@ -921,16 +922,27 @@ def seat_change(model, q, v, z_rel_end_m: float, cycle_s: float | None = None):
         q_new, v_new, speeds, impacts = tooth_transfer(model, q, v, np.zeros(len(model.seats)), cycle_s)
     else:
         q_new, v_new, speeds, impacts = transfer(model.machine, q, v)
+    if not seating:
+        return q_new, v_new, None
     change = model.stored_energy_J(q_new, v_new, 0.0, 0.0) - model.stored_energy_J(q, v, 0.0, z_rel_end_m)
     return q_new, v_new, Seating(speeds, impacts, float(change))
 
 
 def seat_change_inside(
-    model, q, v, z_rel_m: float, zdot_m_s: float, zddot_m_s2: float = 0.0, cycle_s: float | None = None
+    model,
+    q,
+    v,
+    z_rel_m: float,
+    zdot_m_s: float,
+    zddot_m_s2: float = 0.0,
+    cycle_s: float | None = None,
+    *,
+    seating: bool = True,
 ):
     """(q, v) after the transfer inside the index (tooth phase != 0) at the cam's lift since the dwell
     `z_rel_m`, speed `zdot_m_s` and acceleration `zddot_m_s2` (recorded in the Seating), and its
-    Seating; after it the lift counts one pitch on. `cycle_s`: as for `seat_change`."""
+    Seating (None when not `seating`, as for `seat_change`); after it the lift counts one pitch on.
+    `cycle_s`: as for `seat_change`."""
     from dynamics.solvers.machine_steady import transfer
     from dynamics.solvers.tooth_transfer import tooth_transfer
 
@@ -941,6 +953,8 @@ def seat_change_inside(
         q_new, v_new, speeds, impacts = tooth_transfer(model, q, v, (z_rel_m - pitch) / radii, cycle_s, zdot_m_s)
     else:
         q_new, v_new, speeds, impacts = transfer(mach, q, v, angles_rad=z_rel_m / radii, zdot_m_s=zdot_m_s)
+    if not seating:
+        return q_new, v_new, None
     after = model.stored_energy_J(q_new, v_new, zdot_m_s, z_rel_m - pitch)
     change = after - model.stored_energy_J(q, v, zdot_m_s, z_rel_m)
     return q_new, v_new, Seating(speeds, impacts, float(change), float(zdot_m_s), float(zddot_m_s2))
@@ -959,9 +973,11 @@ def index_cycle(
     track_energy: bool = False,
     stations=None,
     flags_at=None,
+    seating: bool = True,
 ):
     """One index cycle from its start over the cam's `nodes` (cycle_nodes), outputs every `out_every`
-    steps: (MachineRun, Seating of a seat change inside it or None). At tooth phase 0 this is
+    steps: (MachineRun, Seating of a seat change inside it or None; None too when not `seating`:
+    seat_change_inside). At tooth phase 0 this is
     `integrate` and the seats change after it (`seat_change`). Else
     the cycle is stepped in pieces: to the last output node before the seat change's instant (the
     cam's lift since the dwell at MachineOnWheels.seat_change_lift_m, located by brentq on the cam's
@@ -1023,8 +1039,15 @@ def index_cycle(
     if before == 0:
         rows.append(_first_row(to_seat))
     _, zd_seat, zdd_seat, _ = (float(x[0]) for x in cam.svaj(np.array([t_seat])))
-    q1, v1, seating = seat_change_inside(
-        model, to_seat.q[-1], to_seat.v[-1], cam_lift_m(cam, t_seat) - s0, zd_seat, zdd_seat, n_steps * step_s
+    q1, v1, seated = seat_change_inside(
+        model,
+        to_seat.q[-1],
+        to_seat.v[-1],
+        cam_lift_m(cam, t_seat) - s0,
+        zd_seat,
+        zdd_seat,
+        n_steps * step_s,
+        seating=seating,
     )
     if not on_node:
         to_node = _sub_steps(
@@ -1056,11 +1079,11 @@ def index_cycle(
         rows.append(tail if on_node else _rows_from(tail, 1))
     merged = _merged(pieces, rows, durations, step_s)
     if stations is None:
-        return merged, seating
+        return merged, seated
     moments.append(seat_interval)
     if nxt < n_steps:
         moments.append(shifted_moments(tail.station_moments, pitch))
-    return replace(merged, station_moments=np.concatenate(moments)), seating
+    return replace(merged, station_moments=np.concatenate(moments)), seated
 
 
 def _sub_steps(
@@ -1203,11 +1226,17 @@ def step_moments(values, nodes, step_s: float, out_every: int) -> np.ndarray:
     """Per output interval (out_every steps) and station the trapezoid rule's integrals of 1, y and y^2
     over its steps (output intervals x stations x RMS_METRICS x 3), y the motion the RMS metrics
     square: values (nodes x stations x (q, q', q''), relative to the cam) plus the cam's nodes
-    (z_rel, z', z''); the displacement in the run's lift frame (`shifted_moments` moves it)."""
+    (z_rel, z', z''); the displacement in the run's lift frame (`shifted_moments` moves it). Each
+    interval's sum runs over its steps in order (as numpy sums an axis that is not the last), and the
+    integral of 1, the same for every station and metric, is summed once."""
     y = values + np.stack([np.asarray(z, dtype=float) for z in nodes], axis=1)[:, None, :]
-    powers = np.stack([np.ones_like(y), y, y * y], axis=-1)
-    steps = 0.5 * step_s * (powers[1:] + powers[:-1])
-    return steps.reshape(-1, out_every, *steps.shape[1:]).sum(axis=1)
+    half = 0.5 * step_s
+    intervals = (y.shape[0] - 1) // out_every
+    out = np.empty((intervals, *y.shape[1:], 3))
+    out[..., 0] = np.add.accumulate(np.full(out_every, half * 2.0))[-1]
+    for k, power in ((1, y), (2, y * y)):
+        out[..., k] = (half * (power[1:] + power[:-1])).reshape(intervals, out_every, *y.shape[1:]).sum(axis=1)
+    return out
 
 
 def shifted_moments(moments, lift_m: float):
@@ -1242,11 +1271,12 @@ def next_index_start(
     track_energy: bool = False,
     stations=None,
     flags_at=None,
+    seating: bool = True,
 ):
     """The relabelled map x0 -> T(P(x0)): the state at the start of the next index in the next
     index's labels, with the seats changed inside the cycle (a tooth phase other than 0) or after it.
-    Returns (q1, v1, the cycle's MachineRun, the seat change's Seating); the energy terms and station
-    peaks as index_cycle's."""
+    Returns (q1, v1, the cycle's MachineRun, the seat change's Seating, None when not `seating`: a
+    search's cycles need only the state); the energy terms and station peaks as index_cycle's."""
     run, inside = index_cycle(
         model,
         cam,
@@ -1259,11 +1289,14 @@ def next_index_start(
         track_energy=track_energy,
         stations=stations,
         flags_at=flags_at,
+        seating=seating,
     )
-    if inside is not None:
+    if model.machine.seat_change_lift_m is not None:  # the seats changed inside the cycle
         return run.q[-1], run.v[-1], run, inside
-    q1, v1, seating = seat_change(model, run.q[-1], run.v[-1], float(nodes[0][-1]), (nodes[1].size - 1) * step_s)
-    return q1, v1, run, seating
+    q1, v1, seated = seat_change(
+        model, run.q[-1], run.v[-1], float(nodes[0][-1]), (nodes[1].size - 1) * step_s, seating=seating
+    )
+    return q1, v1, run, seated
 
 
 def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor):
@@ -1273,7 +1306,7 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
     residual, found, the last cycle's MachineRun)."""
     every = search_out_every(n_steps)
     residual = math.inf
-    cycles = index_cycles(model, cam, step_s, n_steps, q0, v0, out_every=every, predictor=predictor)
+    cycles = index_cycles(model, cam, step_s, n_steps, q0, v0, out_every=every, predictor=predictor, seating=False)
     for cycle in range(1, max_cycles + 1):
         q0, v0, run, _, residual = next(cycles)
         if residual <= tol:
@@ -1282,21 +1315,33 @@ def relabelled_periodic_state(model, cam, step_s, n_steps, q0, v0, *, tol, max_c
 
 
 def index_cycles(
-    model, cam, step_s, n_steps, q0, v0, *, out_every: int, predictor: str, relabel=True, track_energy=False
+    model,
+    cam,
+    step_s,
+    n_steps,
+    q0,
+    v0,
+    *,
+    out_every: int,
+    predictor: str,
+    relabel=True,
+    track_energy=False,
+    seating=True,
 ):
     """Index cycle after index cycle from (q0, v0), without end: per cycle (q1, v1, its MachineRun, its
     Seating or None, its change): the next cycle's start and `cycle_change` to it. `relabel`: the
     relabelled map (next_index_start); False: the labelled frame, the cycle stepped with no seat change
-    (the same links on the same seats every cycle). `track_energy`: the runs' energy terms."""
+    (the same links on the same seats every cycle). `track_energy`: the runs' energy terms. `seating`
+    False: no Seating (None), its energies not computed (a search needs the states only)."""
     nodes = cycle_nodes(cam, step_s, n_steps)
     steps = dict(out_every=out_every, predictor=predictor, track_energy=track_energy)
     while True:
         if relabel:
-            q1, v1, run, seating = next_index_start(model, cam, nodes, step_s, q0, v0, **steps)
+            q1, v1, run, changed = next_index_start(model, cam, nodes, step_s, q0, v0, seating=seating, **steps)
         else:
-            run, seating = integrate(model, *nodes, step_s, q0, v0, **steps), None
+            run, changed = integrate(model, *nodes, step_s, q0, v0, **steps), None
             q1, v1 = run.q[-1], run.v[-1]
-        yield q1, v1, run, seating, cycle_change(run, (q0, v0), (q1, v1))
+        yield q1, v1, run, changed, cycle_change(run, (q0, v0), (q1, v1))
         q0, v0 = q1, v1
 
 
