@@ -127,7 +127,9 @@ def test_materials_on_one_mesh_share_its_surface_and_render_as_alone(tmp_path, m
         render_deformed(solution, alone[name], window_size=(320, 200))
     surfaces = []
     real_surface = render._surface
-    monkeypatch.setattr(render, "_surface", lambda fields: surfaces.append(len(fields)) or real_surface(fields))
+    monkeypatch.setattr(
+        render, "_surface", lambda fields, scalar: surfaces.append(len(fields)) or real_surface(fields, scalar)
+    )
     pictures = [render.Picture(s, tmp_path / f"together-{name}.png") for name, s in solutions.items()]
     factors = render.render_pictures(pictures, window_size=(320, 200))
     assert surfaces == [2]  # one surface for both materials
