@@ -132,6 +132,8 @@ def draw_pictures(
 ) -> list[float]:
     """`render_pictures` of the pictures' drawings (`Picture.drawing`)."""
     _check(scalar, [drawing.path for drawing in drawings])
+    if not drawings:  # no plotter: the FEA's process, its pictures drawn elsewhere, asks for none
+        return []
     fields = [drawing.fields for drawing in drawings]
     factors: dict[int, float] = {}
     plotter = _plotter(window_size)  # one render window (one GL context) for every picture

@@ -167,3 +167,13 @@ def test_pictures_share_one_render_window_and_each_is_rendered_once(tmp_path, mo
     assert len(windows) == 1 and renders == [1, 1]
     for picture, path in zip(pictures, alone):
         assert np.array_equal(matplotlib.image.imread(picture.path), matplotlib.image.imread(path))
+
+
+def test_no_pictures_open_no_plotter(monkeypatch):
+    """The FEA's process beside the run, its images drawn by another process, asks for none."""
+    import pyvista
+
+    from fem import render
+
+    monkeypatch.setattr(pyvista, "Plotter", lambda *args, **kwargs: pytest.fail("a plotter was opened"))
+    assert render.render_pictures([]) == [] and render.draw_pictures([]) == []
