@@ -35,9 +35,6 @@ DEFORMATION_FRACTION = 0.06  # exaggerated peak displacement as a fraction of th
 # with 8 samples and 0.80 s with one (medians of 3, benchmark's shared machine), the surfaces
 # look the same and only the thin feature edges show steps.
 MULTI_SAMPLES = 1
-# zlib's fastest level, as the report's figures (reporting.plots): Pillow's default level 6 took
-# about 0.2 CPU s per 1400 x 900 image for files a few percent smaller.
-PNG_COMPRESS_LEVEL = 1
 
 
 def nice_factor(raw: float) -> float:
@@ -135,12 +132,18 @@ def draw_pictures(
 ) -> list[float]:
     """`render_pictures` of the pictures' drawings (`Picture.drawing`)."""
     _check(scalar, [drawing.path for drawing in drawings])
+    if not drawings:  # no plotter: the FEA's process, its pictures drawn elsewhere, asks for none
+        return []
     fields = [drawing.fields for drawing in drawings]
     factors: dict[int, float] = {}
-    for group in _same_mesh(fields):
-        undeformed, edges = _surface([fields[i] for i in group])
-        for j, i in enumerate(group):
-            factors[i] = _render_one(drawings[i], undeformed, edges, j, scalar, window_size)
+    plotter = _plotter(window_size)  # one render window (one GL context) for every picture
+    try:
+        for group in _same_mesh(fields):
+            undeformed, edges = _surface([fields[i] for i in group], scalar)
+            for j, i in enumerate(group):
+                factors[i] = _render_one(plotter, drawings[i], undeformed, edges, j, scalar)
+    finally:
+        plotter.close()
     return [factors[i] for i in range(len(drawings))]
 
 
@@ -170,25 +173,48 @@ def _arrays_equal(a: np.ndarray, b: np.ndarray) -> bool:
     return a is b or (a.shape == b.shape and bool(np.array_equal(a, b)))
 
 
-def _surface(fields: list[NodalFields]):
+def _surface(fields: list[NodalFields], scalar: str = "von_mises"):
     """The undeformed outer surface (curved elements subdivided) carrying each solution's
-    displacement `u{i}`, von Mises stress `von_mises{i}` (MPa) and displacement magnitude
-    `displacement{i}` (um), and its feature edges."""
+    displacement `u{i}` and pictured scalar `{scalar}{i}` (`_scalar_values`), and its feature edges.
+    Only the arrays drawn: the subdivision interpolates every array onto its new points (the default
+    run's surface and edges took 0.02-0.03 CPU s more with the other scalar on them too)."""
     import pyvista as pv
 
     grid = _grid(fields[0])
     for i, f in enumerate(fields):
         grid.point_data[f"u{i}"] = np.ascontiguousarray(f.displacement_m.T)
-        grid.point_data[f"von_mises{i}"] = f.von_mises_Pa / 1e6
-        grid.point_data[f"displacement{i}"] = np.linalg.norm(f.displacement_m, axis=0) * 1e6
+        grid.point_data[f"{scalar}{i}"] = _scalar_values(f, scalar)
     subdivision = 2 if grid.celltypes[0] == pv.CellType.QUADRATIC_TETRA else 0
     undeformed = grid.extract_surface(algorithm="dataset_surface", nonlinear_subdivision=subdivision)
     return undeformed, undeformed.extract_feature_edges(30.0)
 
 
-def _render_one(drawing: Drawing, undeformed, edges, i: int, scalar, window_size) -> float:
+def _scalar_values(fields: NodalFields, scalar: str) -> np.ndarray:
+    """The nodal values a picture is coloured by: von Mises stress in MPa or displacement magnitude in um."""
+    if scalar == "von_mises":
+        return fields.von_mises_Pa / 1e6
+    return np.linalg.norm(fields.displacement_m, axis=0) * 1e6
+
+
+def _plotter(window_size):
+    """The off-screen plotter every picture of a call is drawn in, one after the other: Mesa's
+    renderer is set up once (its context, shaders and the window's buffers), not once per picture;
+    the default run's two images cost 1.77 instead of 2.07 CPU s in the run's fork (medians of 5
+    alternating, load 3.4-5.8, 2026-11-27), the PNGs the same byte for byte."""
     import pyvista as pv
-    from PIL import Image
+
+    theme = pv.themes.Theme()
+    theme.multi_samples = MULTI_SAMPLES
+    plotter = pv.Plotter(off_screen=True, window_size=list(window_size), theme=theme)
+    plotter.set_background("white")
+    return plotter
+
+
+def _render_one(plotter, drawing: Drawing, undeformed, edges, i: int, scalar) -> float:
+    # As the report's figures: "Up"-filtered rows at zlib's fastest level (Pillow's encoder, trying
+    # all five filters on every row, took 0.056 against 0.026 CPU s per default 1400 x 900 image at
+    # the same level; the file 2 % larger, the pixels the same).
+    from reporting.png import write_png
 
     fields, path = drawing.fields, drawing.path
     factor = exaggeration_factor(fields)
@@ -207,11 +233,9 @@ def _render_one(drawing: Drawing, undeformed, edges, i: int, scalar, window_size
     else:
         title = f"{drawing.title} (deformation x{factor:g})"
 
-    theme = pv.themes.Theme()
-    theme.multi_samples = MULTI_SAMPLES
-    plotter = pv.Plotter(off_screen=True, window_size=list(window_size), theme=theme)
-    try:
-        plotter.set_background("white")
+    # render=False throughout: once the first picture is drawn, pyvista renders the window again
+    # on every actor added or removed (a whole frame each, in Mesa's software rasteriser)
+    actors = [
         plotter.add_mesh(
             deformed,
             scalars=f"{scalar}{i}",
@@ -228,15 +252,19 @@ def _render_one(drawing: Drawing, undeformed, edges, i: int, scalar, window_size
                 "width": 0.6,
                 "title_font_size": 16,
                 "label_font_size": 14,
+                "render": False,
             },
-        )
-        plotter.add_mesh(edges, color="black", line_width=1, opacity=0.5)
-        plotter.add_text(title, position="upper_edge", font_size=11, color="black")
-        plotter.view_isometric()
-        path.parent.mkdir(parents=True, exist_ok=True)
-        pixels = plotter.screenshot(None, return_img=True)
-        with atomic_target(path) as tmp:
-            Image.fromarray(pixels).save(tmp, format="png", compress_level=PNG_COMPRESS_LEVEL)
-    finally:
-        plotter.close()
+            render=False,
+        ),
+        plotter.add_mesh(edges, color="black", line_width=1, opacity=0.5, render=False),
+        plotter.add_text(title, position="upper_edge", font_size=11, color="black", render=False),
+    ]
+    plotter.view_isometric(render=False)
+    plotter.render()  # a later picture's frame; before the first, the screenshot renders it
+    path.parent.mkdir(parents=True, exist_ok=True)
+    pixels = plotter.screenshot(None, return_img=True)
+    with atomic_target(path) as tmp:
+        write_png(tmp, pixels, None)
+    plotter.remove_scalar_bar(bar, render=False)
+    plotter.remove_actor(actors, render=False)
     return factor

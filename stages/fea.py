@@ -250,8 +250,27 @@ def _levels_key(part: Part) -> str:
     return cache_key(part.fingerprint, {"solved levels": True})
 
 
+# The images' process draws beside the dynamics and the stress study, every core busy (docs/
+# performance.md, The whole job), and ends when they are drawn. Measured in a fork of a process
+# holding the run's modules, frozen as the run's (benchmarks/bench_images.py; the default run's
+# two images, 2026-11-27):
+# - Mesa's software rasteriser draws in this process's thread instead of starting one thread per
+#   core (llvmpipe's LP_NUM_THREADS; read when VTK first opens its display, after this is set):
+#   1.85 against 2.07 CPU s (medians of 5 alternating, load 7.3-9.2), the PNGs the same byte for byte;
+# - no cyclic garbage collection: the drawing (pyvista's import included) set off 191 collections,
+#   0.06-0.07 CPU s, in a process of a few seconds whose memory is given back when it ends.
+DRAWING_ENVIRONMENT = {"LP_NUM_THREADS": "0"}
+
+
 def _draw_steps(drawings: list) -> Iterator[None]:
-    """The deformed images drawn (fem.render.draw_pictures), as one step of a process beside."""
+    """The deformed images drawn (fem.render.draw_pictures), as one step of a process beside (see
+    DRAWING_ENVIRONMENT)."""
+    import gc
+    import os
+
+    for name, value in DRAWING_ENVIRONMENT.items():
+        os.environ.setdefault(name, value)  # a user's own setting kept
+    gc.disable()
     from fem.render import draw_pictures
 
     draw_pictures(drawings)

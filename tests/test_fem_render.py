@@ -127,10 +127,53 @@ def test_materials_on_one_mesh_share_its_surface_and_render_as_alone(tmp_path, m
         render_deformed(solution, alone[name], window_size=(320, 200))
     surfaces = []
     real_surface = render._surface
-    monkeypatch.setattr(render, "_surface", lambda fields: surfaces.append(len(fields)) or real_surface(fields))
+    monkeypatch.setattr(
+        render, "_surface", lambda fields, scalar: surfaces.append(len(fields)) or real_surface(fields, scalar)
+    )
     pictures = [render.Picture(s, tmp_path / f"together-{name}.png") for name, s in solutions.items()]
     factors = render.render_pictures(pictures, window_size=(320, 200))
     assert surfaces == [2]  # one surface for both materials
     assert factors == [render.exaggeration_factor(whole_link_fields(s)) for s in solutions.values()]
     for name, picture in zip(solutions, pictures):
         assert np.array_equal(matplotlib.image.imread(picture.path), matplotlib.image.imread(alone[name]))
+
+
+def test_pictures_share_one_render_window_and_each_is_rendered_once(tmp_path, monkeypatch):
+    """fem.render draws a call's pictures one after the other in one plotter (Mesa's renderer set up
+    once); pyvista would render the window again on every actor added or removed after the first
+    picture. Pictures on two meshes, drawn together, are the same as drawn alone."""
+    import pyvista
+
+    from fem import render
+
+    solutions = [
+        analyse_link(plate_link(0.01, order=2), get_material("ti-grade2"), order=2),
+        analyse_link(plate_link(0.012, order=1), get_material("al6061-t6"), order=1),
+    ]
+    alone = [tmp_path / f"alone-{i}.png" for i in range(2)]
+    for solution, path in zip(solutions, alone):
+        render_deformed(solution, path, window_size=(320, 200))
+    windows, renders = [], []
+
+    class Counting(pyvista.Plotter):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            windows.append(self.render_window)
+            self.render_window.AddObserver("StartEvent", lambda *_: renders.append(len(windows)))
+
+    monkeypatch.setattr(pyvista, "Plotter", Counting)
+    pictures = [render.Picture(s, tmp_path / f"together-{i}.png") for i, s in enumerate(solutions)]
+    render.render_pictures(pictures, window_size=(320, 200))
+    assert len(windows) == 1 and renders == [1, 1]
+    for picture, path in zip(pictures, alone):
+        assert np.array_equal(matplotlib.image.imread(picture.path), matplotlib.image.imread(path))
+
+
+def test_no_pictures_open_no_plotter(monkeypatch):
+    """The FEA's process beside the run, its images drawn by another process, asks for none."""
+    import pyvista
+
+    from fem import render
+
+    monkeypatch.setattr(pyvista, "Plotter", lambda *args, **kwargs: pytest.fail("a plotter was opened"))
+    assert render.render_pictures([]) == [] and render.draw_pictures([]) == []
