@@ -35,6 +35,10 @@ DEFORMATION_FRACTION = 0.06  # exaggerated peak displacement as a fraction of th
 # with 8 samples and 0.80 s with one (medians of 3, benchmark's shared machine), the surfaces
 # look the same and only the thin feature edges show steps.
 MULTI_SAMPLES = 1
+# zlib's fastest level, as the report's figures (reporting.plots): Pillow's default level 6 took
+# about 0.2 CPU s per 1400 x 900 image for files a few percent smaller. (reporting/png.py's writer
+# would save 0.03 CPU s more per image, but fem does not import reporting: the data flows one way.)
+PNG_COMPRESS_LEVEL = 1
 
 
 def nice_factor(raw: float) -> float:
@@ -211,10 +215,7 @@ def _plotter(window_size):
 
 
 def _render_one(plotter, drawing: Drawing, undeformed, edges, i: int, scalar) -> float:
-    # As the report's figures: "Up"-filtered rows at zlib's fastest level (Pillow's encoder, trying
-    # all five filters on every row, took 0.056 against 0.026 CPU s per default 1400 x 900 image at
-    # the same level; the file 2 % larger, the pixels the same).
-    from reporting.png import write_png
+    from PIL import Image
 
     fields, path = drawing.fields, drawing.path
     factor = exaggeration_factor(fields)
@@ -264,7 +265,7 @@ def _render_one(plotter, drawing: Drawing, undeformed, edges, i: int, scalar) ->
     path.parent.mkdir(parents=True, exist_ok=True)
     pixels = plotter.screenshot(None, return_img=True)
     with atomic_target(path) as tmp:
-        write_png(tmp, pixels, None)
+        Image.fromarray(pixels).save(tmp, format="png", compress_level=PNG_COMPRESS_LEVEL)
     plotter.remove_scalar_bar(bar, render=False)
     plotter.remove_actor(actors, render=False)
     return factor

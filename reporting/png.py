@@ -42,22 +42,20 @@ def up_filtered(pixels: np.ndarray) -> np.ndarray:
     return scanlines
 
 
-def write_png(path: Path, pixels: np.ndarray, dpi: float | None) -> Path:
+def write_png(path: Path, pixels: np.ndarray, dpi: float) -> Path:
     """Write the (rows, columns, 3 or 4) uint8 RGB(A) image to `path` as a PNG, with its
-    resolution (`dpi`, dots per inch) recorded as Pillow records it; None records none (a render's
-    pixels, fem.render, have no size on paper)."""
+    resolution (`dpi`, dots per inch) recorded as Pillow records it."""
     if pixels.dtype != np.uint8 or pixels.ndim != 3 or pixels.shape[2] not in _COLOUR_TYPE:
         raise ValueError(
             f"write_png: expected a (rows, columns, 3 or 4) uint8 image, got {pixels.dtype} {pixels.shape}"
         )
     height, width, channels = pixels.shape
+    per_metre = int(dpi / _METRES_PER_INCH + 0.5)
     header = struct.pack(">IIBBBBB", width, height, 8, _COLOUR_TYPE[channels], 0, 0, 0)
     with open(path, "wb") as file:
         file.write(_SIGNATURE)
         file.write(_chunk(b"IHDR", header))
-        if dpi is not None:
-            per_metre = int(dpi / _METRES_PER_INCH + 0.5)
-            file.write(_chunk(b"pHYs", struct.pack(">IIB", per_metre, per_metre, 1)))
+        file.write(_chunk(b"pHYs", struct.pack(">IIB", per_metre, per_metre, 1)))
         file.write(_chunk(b"IDAT", zlib.compress(up_filtered(pixels).data, COMPRESS_LEVEL)))
         file.write(_chunk(b"IEND", b""))
     return path

@@ -42,12 +42,6 @@ def test_the_resolution_is_recorded_as_pillow_records_it(tmp_path):
         assert ours.info["dpi"] == theirs.info["dpi"]
 
 
-def test_without_a_resolution_none_is_recorded(tmp_path):
-    pixels = _image(8, 8, 3)
-    with Image.open(write_png(tmp_path / "a.png", pixels, None)) as image:
-        assert "dpi" not in image.info and np.array_equal(np.asarray(image), pixels)
-
-
 def test_the_up_filter_is_each_byte_minus_the_byte_above_modulo_256():
     pixels = np.array([[[1, 2, 3], [250, 0, 9]], [[0, 2, 255], [4, 5, 6]]], np.uint8)
     scanlines = up_filtered(pixels)
