@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 from . import budget, quality
 from .errors import FemError, FemWarning
-from .heap import release_free_memory
+from .heap import TrimmingLock, release_free_memory
 from .link import LinkSolution, analyse_link_materials, check_mesh_and_materials, fallback_note
 from .materials import Material
 from .richardson import Extrapolation, extrapolate, rate_bracket
@@ -169,7 +169,9 @@ def stiffness_studies(
         given=settings.mesh_sizes_m is not None,
     )
     mesh_time += time.perf_counter() - start
-    # finest first: it is the longest solve, so the coarser levels are meshed and solved beside it
+    # finest first: it is the longest solve, so the coarser levels are meshed and solved beside it;
+    # one level at a time factorises and solves (`solve_slot`), the others meanwhile meshed and assembled
+    solve_slot = TrimmingLock()
     with ThreadPoolExecutor(max_workers=len(sizes) if concurrent_levels else 1, thread_name_prefix="fem-level") as pool:
         pending = {}
         for level in reversed(range(len(sizes))):
@@ -186,7 +188,7 @@ def stiffness_studies(
             # shape warnings concern the mesh whose stresses are reported
             check_mesh_and_materials(link, materials, order, warn_quality=finest)
             pending[level] = pool.submit(
-                analyse_link_materials,
+                _solve_level,
                 link,
                 materials,
                 order=order,
@@ -194,11 +196,11 @@ def stiffness_studies(
                 solver=settings.solver,
                 stress=finest,
                 checked=True,
+                solve_slot=solve_slot,
             )
             if not concurrent_levels:
                 pending[level].result()  # an error stops the study before the next level is meshed
         solved = [pending[level].result() for level in range(len(sizes))]
-    release_free_memory()  # the levels' threads' arenas
     solutions: dict[str, list[LinkSolution]] = {m.name: [s[m.name] for s in solved] for m in materials}
     if progress is not None:
         for level, (h, by_material) in enumerate(zip(sizes, solved), start=1):
@@ -218,6 +220,16 @@ def stiffness_studies(
         )
         for i, (name, sols) in enumerate(solutions.items())
     }
+
+
+def _solve_level(link, materials: Sequence[Material], **options) -> dict[str, LinkSolution]:
+    """`analyse_link_materials` in a level's thread, the heap's free pages then given back: the
+    level's arrays were freed into its thread's own malloc arena, which the other levels' threads do
+    not reuse, so that they would otherwise stay resident under the next level's factorisation."""
+    try:
+        return analyse_link_materials(link, materials, **options)
+    finally:
+        release_free_memory()
 
 
 def planned_mesh_sizes(part, settings: FeaSettings) -> tuple[tuple[float, ...], float]:
