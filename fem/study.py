@@ -10,8 +10,10 @@ A link that is mirror symmetric about the plane through its bore axes has its fi
 on its half (`mirror_symmetry`, geometry.symmetry): the same discrete problem at about half the
 unknowns.
 Each level is meshed once and solved for all materials at once (`link.analyse_link_materials`),
-the finest first and each in a thread of its own, so that the coarser levels are meshed and solved
-on the second core beside the finest one's solve.
+the finest first and each in a thread of its own, so that the coarser levels are meshed and
+assembled on the second core beside the finest one's solve. One level at a time holds a
+factorisation (the study's solve slot, `heap.TrimmingLock`): two levels' factors, solves and freed
+temporaries side by side made the FEA's process the peak of the whole job's memory.
 """
 
 from __future__ import annotations
@@ -113,7 +115,9 @@ def stiffness_studies(
     `progress`, if given, gets one line per solve (level, material, DOFs, k, seconds).
     `settings.concurrent_levels`: solve each level in a thread of its own as soon as it is meshed, so
     that meshing the next level and the levels' solves overlap on the machine's cores (gmsh, numpy
-    and PARDISO release the GIL; the levels share nothing). False where the caller already keeps
+    and PARDISO release the GIL; the levels share nothing but the solve slot: one level at a time
+    factorises and solves, a level that must wait for it gives the heap's free pages back first,
+    and each level's thread does when its level is done). False where the caller already keeps
     every core busy, as the design study's workers do (one task per core).
     `settings.mirror_symmetry`: where the link is mirror symmetric about the plane through its bore
     axes (checked, geometry.symmetry), solve the finest level on its half (`LinkSolution.mirrored`),
@@ -189,6 +193,7 @@ def stiffness_studies(
             check_mesh_and_materials(link, materials, order, warn_quality=finest)
             pending[level] = pool.submit(
                 _solve_level,
+                concurrent_levels,
                 link,
                 materials,
                 order=order,
@@ -222,14 +227,17 @@ def stiffness_studies(
     }
 
 
-def _solve_level(link, materials: Sequence[Material], **options) -> dict[str, LinkSolution]:
-    """`analyse_link_materials` in a level's thread, the heap's free pages then given back: the
-    level's arrays were freed into its thread's own malloc arena, which the other levels' threads do
-    not reuse, so that they would otherwise stay resident under the next level's factorisation."""
+def _solve_level(side_by_side: bool, link, materials: Sequence[Material], **options) -> dict[str, LinkSolution]:
+    """`analyse_link_materials` in a level's thread; with the levels `side_by_side`, the heap's free
+    pages then given back: the level's arrays were freed into its thread's own malloc arena, which
+    the other levels' threads do not reuse, so that they would otherwise stay resident under the
+    next level's factorisation. One level after the other, the next level reuses them in the same
+    thread (trimming there would only fault them in again)."""
     try:
         return analyse_link_materials(link, materials, **options)
     finally:
-        release_free_memory()
+        if side_by_side:
+            release_free_memory()
 
 
 def planned_mesh_sizes(part, settings: FeaSettings) -> tuple[tuple[float, ...], float]:
