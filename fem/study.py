@@ -206,6 +206,7 @@ def stiffness_studies(
             if not concurrent_levels:
                 pending[level].result()  # an error stops the study before the next level is meshed
         solved = [pending[level].result() for level in range(len(sizes))]
+    release_free_memory()  # the levels' arrays, before the caller's next stage
     solutions: dict[str, list[LinkSolution]] = {m.name: [s[m.name] for s in solved] for m in materials}
     if progress is not None:
         for level, (h, by_material) in enumerate(zip(sizes, solved), start=1):

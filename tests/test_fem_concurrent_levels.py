@@ -81,10 +81,10 @@ def test_without_concurrency_one_level_at_a_time(monkeypatch):
 
     monkeypatch.setattr(fem.study, "analyse_link_materials", one_at_a_time)
     trims = []
-    monkeypatch.setattr(fem.study, "release_free_memory", lambda: trims.append(1))
+    monkeypatch.setattr(fem.study, "release_free_memory", lambda: trims.append(threading.current_thread().name))
     stiffness_studies(None, [ALUMINIUM], mesh_sizes_m=COARSE_SIZES_M, concurrent_levels=False)
     assert len(threads) == N_LEVELS
-    assert not trims  # one thread: each level reuses the freed pages of the one before
+    assert trims == ["MainThread"]  # after the levels only: each level reuses the freed pages of the one before
 
 
 @pytest.mark.parametrize("concurrent", [True, False])
@@ -133,7 +133,8 @@ def test_levels_side_by_side_factorise_one_at_a_time_and_give_their_heap_back(mo
     assert len(set(threads)) == N_LEVELS
     assert len(most_alive) == N_LEVELS and max(most_alive) == 1 and not alive
     assert len(slots) == 1 and slots[0].trimmed_waits >= 1  # the barrier made at least one level wait
-    assert sorted(trims) == sorted(threads)  # each level's thread, once its level is done
+    # each level's thread once its level is done, then the study's after the levels
+    assert sorted(trims) == sorted(threads) + ["MainThread"]
 
 
 def test_a_trimming_lock_excludes_and_only_a_waiter_trims(monkeypatch):
