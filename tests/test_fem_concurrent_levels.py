@@ -134,7 +134,7 @@ def test_levels_side_by_side_factorise_one_at_a_time_and_give_their_heap_back(mo
     assert len(most_alive) == N_LEVELS and max(most_alive) == 1 and not alive
     assert len(slots) == 1 and slots[0].trimmed_waits >= 1  # the barrier made at least one level wait
     # each level's thread once its level is done, then the study's after the levels
-    assert sorted(trims) == sorted(threads) + ["MainThread"]
+    assert sorted(trims) == sorted([*threads, "MainThread"])
 
 
 def test_a_trimming_lock_excludes_and_only_a_waiter_trims(monkeypatch):
