@@ -16,6 +16,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Sequence
+from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -348,6 +349,7 @@ def analyse_link_materials(
     stress: bool = True,
     checked: bool = False,
     away_ratios: Sequence[float] = VOLUME_AWAY_RATIOS,
+    solve_slot: AbstractContextManager | None = None,
 ) -> dict[str, LinkSolution]:
     """`analyse_link` for several materials on one mesh, keyed by material name.
 
@@ -361,6 +363,9 @@ def analyse_link_materials(
     the caller has run `check_mesh_and_materials` (a study does, before it solves the level in a
     thread of its own, so that its warnings come from the caller's thread). `away_ratios`: how
     curved cells are straightened (`closest_to_cad`; the stress study holds them to one ratio).
+    `solve_slot`: held from the first matrix to the factorisation's release (the solves and the
+    stresses), so that levels solved side by side that share one never hold two factorisations at
+    once (fem.study); None: not waited for.
     """
     problem.element(order)
     if not (np.isfinite(load_N) and load_N > 0):
@@ -411,36 +416,50 @@ def analyse_link_materials(
     factor = None
     fallback = None  # why the first solve left the asked-for solver: the others use the one it took
     modes = rigid_body_modes(problem.dof_locations(basis))[free] if method == "amg" else None
-    try:
-        for material in materials:
-            timing = dict(shared) if first is None else {}
-            lam, mu = material.lame_Pa
-            start = time.perf_counter()
-            K = parts.matrix(lam, mu)
-            timing["assembly"] = timing.get("assembly", 0.0) + time.perf_counter() - start
-            start = time.perf_counter()
-            u = np.zeros(f.size)
-            if first is None:
-                if method == "pardiso":
-                    factor = solvers.Factorization(K)
-                    u[free] = factor.solve(f[free])
+    with solve_slot if solve_slot is not None else nullcontext():
+        try:
+            for material in materials:
+                timing = dict(shared) if first is None else {}
+                lam, mu = material.lame_Pa
+                start = time.perf_counter()
+                K = parts.matrix(lam, mu)
+                timing["assembly"] = timing.get("assembly", 0.0) + time.perf_counter() - start
+                start = time.perf_counter()
+                u = np.zeros(f.size)
+                if first is None:
+                    if method == "pardiso":
+                        factor = solvers.Factorization(K)
+                        u[free] = factor.solve(f[free])
+                    else:
+                        solved = solvers.solve_reported(K, f[free], method, near_nullspace=modes)
+                        u[free], method, fallback = solved.x, solved.solver, solved.fallback
+                    first = (material, u)
                 else:
-                    solved = solvers.solve_reported(K, f[free], method, near_nullspace=modes)
-                    u[free], method, fallback = solved.x, solved.solver, solved.fallback
-                first = (material, u)
-            else:
-                u[free] = _reuse(first, material, K, f[free], free, factor, method, modes)
-            timing["solve"] = time.perf_counter() - start
-            start = time.perf_counter()
-            results[material.name] = _solution(
-                mesh, sk_mesh, basis, material, order, load_N, f, u, free, K, method, stress_points, timing, whole_dofs
-            )
-            if fallback is not None:
-                results[material.name] = replace(results[material.name], solver_fallback=fallback)
-            timing["post"] = timing.get("post", 0.0) + time.perf_counter() - start
-    finally:
-        if factor is not None:
-            factor.free()
+                    u[free] = _reuse(first, material, K, f[free], free, factor, method, modes)
+                timing["solve"] = time.perf_counter() - start
+                start = time.perf_counter()
+                results[material.name] = _solution(
+                    mesh,
+                    sk_mesh,
+                    basis,
+                    material,
+                    order,
+                    load_N,
+                    f,
+                    u,
+                    free,
+                    K,
+                    method,
+                    stress_points,
+                    timing,
+                    whole_dofs,
+                )
+                if fallback is not None:
+                    results[material.name] = replace(results[material.name], solver_fallback=fallback)
+                timing["post"] = timing.get("post", 0.0) + time.perf_counter() - start
+        finally:
+            if factor is not None:
+                factor.free()
     return results
 
 

@@ -10,8 +10,10 @@ A link that is mirror symmetric about the plane through its bore axes has its fi
 on its half (`mirror_symmetry`, geometry.symmetry): the same discrete problem at about half the
 unknowns.
 Each level is meshed once and solved for all materials at once (`link.analyse_link_materials`),
-the finest first and each in a thread of its own, so that the coarser levels are meshed and solved
-on the second core beside the finest one's solve.
+the finest first and each in a thread of its own, so that the coarser levels are meshed and
+assembled on the second core beside the finest one's solve. One level at a time holds a
+factorisation (the study's solve slot, `heap.TrimmingLock`): two levels' factors, solves and freed
+temporaries side by side made the FEA's process the peak of the whole job's memory.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from dataclasses import dataclass
 
 from . import budget, quality
 from .errors import FemError, FemWarning
-from .heap import release_free_memory
+from .heap import TrimmingLock, release_free_memory
 from .link import LinkSolution, analyse_link_materials, check_mesh_and_materials, fallback_note
 from .materials import Material
 from .richardson import Extrapolation, extrapolate, rate_bracket
@@ -113,7 +115,9 @@ def stiffness_studies(
     `progress`, if given, gets one line per solve (level, material, DOFs, k, seconds).
     `settings.concurrent_levels`: solve each level in a thread of its own as soon as it is meshed, so
     that meshing the next level and the levels' solves overlap on the machine's cores (gmsh, numpy
-    and PARDISO release the GIL; the levels share nothing). False where the caller already keeps
+    and PARDISO release the GIL; the levels share nothing but the solve slot: one level at a time
+    factorises and solves, a level that must wait for it gives the heap's free pages back first,
+    and each level's thread does when its level is done). False where the caller already keeps
     every core busy, as the design study's workers do (one task per core).
     `settings.mirror_symmetry`: where the link is mirror symmetric about the plane through its bore
     axes (checked, geometry.symmetry), solve the finest level on its half (`LinkSolution.mirrored`),
@@ -169,7 +173,9 @@ def stiffness_studies(
         given=settings.mesh_sizes_m is not None,
     )
     mesh_time += time.perf_counter() - start
-    # finest first: it is the longest solve, so the coarser levels are meshed and solved beside it
+    # finest first: it is the longest solve, so the coarser levels are meshed and solved beside it;
+    # one level at a time factorises and solves (`solve_slot`), the others meanwhile meshed and assembled
+    solve_slot = TrimmingLock()
     with ThreadPoolExecutor(max_workers=len(sizes) if concurrent_levels else 1, thread_name_prefix="fem-level") as pool:
         pending = {}
         for level in reversed(range(len(sizes))):
@@ -186,7 +192,8 @@ def stiffness_studies(
             # shape warnings concern the mesh whose stresses are reported
             check_mesh_and_materials(link, materials, order, warn_quality=finest)
             pending[level] = pool.submit(
-                analyse_link_materials,
+                _solve_level,
+                concurrent_levels,
                 link,
                 materials,
                 order=order,
@@ -194,11 +201,12 @@ def stiffness_studies(
                 solver=settings.solver,
                 stress=finest,
                 checked=True,
+                solve_slot=solve_slot,
             )
             if not concurrent_levels:
                 pending[level].result()  # an error stops the study before the next level is meshed
         solved = [pending[level].result() for level in range(len(sizes))]
-    release_free_memory()  # the levels' threads' arenas
+    release_free_memory()  # the levels' arrays, before the caller's next stage
     solutions: dict[str, list[LinkSolution]] = {m.name: [s[m.name] for s in solved] for m in materials}
     if progress is not None:
         for level, (h, by_material) in enumerate(zip(sizes, solved), start=1):
@@ -218,6 +226,19 @@ def stiffness_studies(
         )
         for i, (name, sols) in enumerate(solutions.items())
     }
+
+
+def _solve_level(side_by_side: bool, link, materials: Sequence[Material], **options) -> dict[str, LinkSolution]:
+    """`analyse_link_materials` in a level's thread; with the levels `side_by_side`, the heap's free
+    pages then given back: the level's arrays were freed into its thread's own malloc arena, which
+    the other levels' threads do not reuse, so that they would otherwise stay resident under the
+    next level's factorisation. One level after the other, the next level reuses them in the same
+    thread (trimming there would only fault them in again)."""
+    try:
+        return analyse_link_materials(link, materials, **options)
+    finally:
+        if side_by_side:
+            release_free_memory()
 
 
 def planned_mesh_sizes(part, settings: FeaSettings) -> tuple[tuple[float, ...], float]:

@@ -1,12 +1,16 @@
 """A stiffness study solves its mesh levels side by side (issue #13): same answer as one after the
-other, the levels really overlap, and an error in a level's thread reaches the caller."""
+other, the levels really overlap, one factorisation alive at a time (issue #24: the FEA's peak
+memory), and an error in a level's thread reaches the caller."""
 
 from __future__ import annotations
 
 import threading
+import time
 
 import pytest
 
+import fem.heap
+import fem.solvers
 import fem.study
 from fem import FemError, get_material, stiffness_studies
 
@@ -76,8 +80,11 @@ def test_without_concurrency_one_level_at_a_time(monkeypatch):
             solving.pop()
 
     monkeypatch.setattr(fem.study, "analyse_link_materials", one_at_a_time)
+    trims = []
+    monkeypatch.setattr(fem.study, "release_free_memory", lambda: trims.append(threading.current_thread().name))
     stiffness_studies(None, [ALUMINIUM], mesh_sizes_m=COARSE_SIZES_M, concurrent_levels=False)
     assert len(threads) == N_LEVELS
+    assert trims == ["MainThread"]  # after the levels only: each level reuses the freed pages of the one before
 
 
 @pytest.mark.parametrize("concurrent", [True, False])
@@ -92,3 +99,62 @@ def test_an_error_in_a_level_reaches_the_caller(monkeypatch, concurrent):
     monkeypatch.setattr(fem.study, "analyse_link_materials", failing)
     with pytest.raises(FemError, match="finest level failed"):
         stiffness_studies(None, [ALUMINIUM], mesh_sizes_m=COARSE_SIZES_M, concurrent_levels=concurrent)
+
+
+def test_levels_side_by_side_factorise_one_at_a_time_and_give_their_heap_back(monkeypatch):
+    """The levels start together (a barrier), yet no two factorisations are alive at once (the
+    study's solve slot); the levels that waited for it, and every level when done, trimmed the heap."""
+    threads = _meeting_levels(monkeypatch, parties=N_LEVELS)
+    alive, most_alive = [], []
+    factorisation = fem.solvers.Factorization
+
+    class Counted(factorisation):
+        def __init__(self, A):
+            alive.append(self)
+            most_alive.append(len(alive))
+            super().__init__(A)
+
+        def free(self):
+            super().free()
+            alive.remove(self)
+
+    monkeypatch.setattr(fem.solvers, "Factorization", Counted)
+    slots: list[fem.heap.TrimmingLock] = []
+
+    class Recorded(fem.heap.TrimmingLock):
+        def __init__(self):
+            super().__init__()
+            slots.append(self)
+
+    monkeypatch.setattr(fem.study, "TrimmingLock", Recorded)
+    trims = []
+    monkeypatch.setattr(fem.study, "release_free_memory", lambda: trims.append(threading.current_thread().name))
+    stiffness_studies(None, [ALUMINIUM, TITANIUM], mesh_sizes_m=COARSE_SIZES_M, concurrent_levels=True)
+    assert len(set(threads)) == N_LEVELS
+    assert len(most_alive) == N_LEVELS and max(most_alive) == 1 and not alive
+    assert len(slots) == 1 and slots[0].trimmed_waits >= 1  # the barrier made at least one level wait
+    # each level's thread once its level is done, then the study's after the levels
+    assert sorted(trims) == sorted([*threads, "MainThread"])
+
+
+def test_a_trimming_lock_excludes_and_only_a_waiter_trims(monkeypatch):
+    trims = []
+    monkeypatch.setattr(fem.heap, "release_free_memory", lambda: trims.append(1))
+    lock = fem.heap.TrimmingLock()
+    with lock:
+        pass
+    assert lock.trimmed_waits == 0 and not trims  # free: taken at once
+    order = []
+
+    def waiter():
+        with lock:
+            order.append("waiter")
+
+    with lock:
+        thread = threading.Thread(target=waiter)
+        thread.start()
+        while lock.trimmed_waits == 0:  # the waiter has trimmed and now blocks
+            time.sleep(0.001)
+        order.append("holder")
+    thread.join(timeout=10)
+    assert order == ["holder", "waiter"] and lock.trimmed_waits == 1 and trims == [1]
