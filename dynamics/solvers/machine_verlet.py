@@ -1233,7 +1233,7 @@ def step_moments(values, nodes, step_s: float, out_every: int) -> np.ndarray:
     half = 0.5 * step_s
     intervals = (y.shape[0] - 1) // out_every
     out = np.empty((intervals, *y.shape[1:], 3))
-    out[..., 0] = np.add.accumulate(np.full(out_every, half * 2.0))[-1]
+    out[..., 0] = np.cumsum(np.full(out_every, step_s))[-1]  # h (1 + 1) / 2 per step, summed in order
     for k, power in ((1, y), (2, y * y)):
         out[..., k] = (half * (power[1:] + power[:-1])).reshape(intervals, out_every, *y.shape[1:]).sum(axis=1)
     return out
