@@ -14,8 +14,6 @@ import numpy as np
 import pytest
 
 CHART = Path(__file__).resolve().parents[1] / "benchmarks" / "chart_fea_workprecision.py"
-# the Richardson reference from 6.5/5.1/4.5 mm takes about 90 s: 1.5 of the 20 min that CI may take
-pytestmark = pytest.mark.slow
 
 
 def load_chart():
