@@ -47,10 +47,22 @@ PHASES = {
         (0, "meshing (geometry.meshing.mesh_volumes)", ["geometry.load:mesh_volumes"]),
         (1, "gmsh's 3D mesh (generate(3))", ["gmsh:model.mesh.generate"]),
         (1, "gmsh's setOrder(2)", ["gmsh:model.mesh.setOrder"]),
-        (1, "the small-hole and thin-wall searches", ["geometry.meshing:small_hole_fields", "geometry.meshing:thin_wall_fields"]),
+        (
+            1,
+            "the small-hole and thin-wall searches",
+            ["geometry.meshing:small_hole_fields", "geometry.meshing:thin_wall_fields"],
+        ),
         (1, "the bore and mirror faces", ["geometry.meshing:faces_on_bore", "geometry.meshing:faces_on_plane"]),
-        (1, "the flat-tet check, the mesh arrays", ["geometry.meshing:_has_flat_tets", "geometry.meshing:_mesh_arrays"]),
-        (0, "the mesh checks (quality, thin walls)", ["fem.study:check_mesh_and_materials", "fem.quality:thin_wall_warning"]),
+        (
+            1,
+            "the flat-tet check, the mesh arrays",
+            ["geometry.meshing:_has_flat_tets", "geometry.meshing:_mesh_arrays"],
+        ),
+        (
+            0,
+            "the mesh checks (quality, thin walls)",
+            ["fem.study:check_mesh_and_materials", "fem.quality:thin_wall_warning"],
+        ),
         (0, "the levels' FEA (fem.link.analyse_link_materials)", ["fem.study:analyse_link_materials"]),
         (1, "scikit-fem's curved mesh and its straightening", ["fem.link:skfem_mesh"]),
         (1, "basis, bore facets and the bearing load", ["fem.link:_discretise_curved"]),
@@ -67,9 +79,21 @@ PHASES = {
     ),
     "stress study": (
         (0, "the global's hot spots", ["fem.stress:well_shaped_hot_spots"]),
-        (0, "the CAD loaded and cut (half, loaded bore)", ["geometry.part:Part.load_body", "geometry.ball_mesh:keep_positive_half", "geometry.ball_mesh:split_at_loaded_half"]),
+        (
+            0,
+            "the CAD loaded and cut (half, loaded bore)",
+            [
+                "geometry.part:Part.load_body",
+                "geometry.ball_mesh:keep_positive_half",
+                "geometry.ball_mesh:split_at_loaded_half",
+            ],
+        ),
         (0, "the balls cut out of it", ["gmsh:model.occ.intersect", "gmsh:model.occ.fuse"]),
-        (0, "the balls' faces told apart", ["geometry.ball_mesh:faces_on_bore", "geometry.ball_mesh:faces_on_plane", "geometry.ball_mesh:_on_sphere"]),
+        (
+            0,
+            "the balls' faces told apart",
+            ["geometry.ball_mesh:faces_on_bore", "geometry.ball_mesh:faces_on_plane", "geometry.ball_mesh:_on_sphere"],
+        ),
         (0, "the sub-model levels meshed", ["geometry.ball_mesh:BallMesher.mesh"]),
         (1, "gmsh's 3D mesh (generate(3))", ["gmsh:model.mesh.generate"]),
         (1, "gmsh's setOrder(2)", ["gmsh:model.mesh.setOrder"]),
@@ -252,7 +276,9 @@ def print_phases(runs: dict[str, list[dict]]) -> None:
 
 def _phase_cpu(cpu: dict[str, float], label: str, rows: list[tuple[int, str]]) -> float:
     if label == "the rest":
-        return cpu["the step"] - sum(cpu.get(name, 0.0) for depth, name in rows if depth == 0 and name not in ("the rest", "the step"))
+        return cpu["the step"] - sum(
+            cpu.get(name, 0.0) for depth, name in rows if depth == 0 and name not in ("the rest", "the step")
+        )
     return cpu.get(label, 0.0)
 
 

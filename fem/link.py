@@ -32,6 +32,7 @@ from .errors import FemError, FemWarning
 from .fields import NodalFields
 from .materials import Material
 from .problem import JACOBIAN_CHECK_INTORDER
+from .tets import CurvedTets, Tets
 
 # "Away from the clamp": element nodes farther than this fraction of the fixed bore's radius from
 # the rim curves where the clamped bore surface ends. The clamp's rim is a stress singularity
@@ -158,12 +159,12 @@ def skfem_mesh(
         used10, compact = np.unique(link.tets10, return_inverse=True)
         points = np.ascontiguousarray(link.points_m[:, used10], dtype=float)
         bores = np.hstack([link.fixed_bore_facets, link.loaded_bore_facets])
-        mesh = MeshTet2(points, compact.reshape(link.tets10.shape))
+        mesh = CurvedTets(points, compact.reshape(link.tets10.shape))
         mesh = closest_to_cad(
             mesh, cells_on_facets(mesh.t, index[bores]), link.cad_volume_m3 / _copies(link), away_ratios
         )
     else:
-        mesh = MeshTet1(np.ascontiguousarray(link.points_m[:, used], dtype=float), index[link.tets])
+        mesh = Tets(np.ascontiguousarray(link.points_m[:, used], dtype=float), index[link.tets])
     return mesh, index
 
 
@@ -171,7 +172,7 @@ def _curved_jacobian_ratio(mesh: MeshTet2) -> np.ndarray:
     """Per element: min over quadrature points and vertices of det J (curved) / det J (straight)."""
     points = np.hstack([get_quadrature(mesh.elem.refdom, JACOBIAN_CHECK_INTORDER)[0], np.eye(3, 4, 1)])
     curved = mesh._mapping().detDF(points)
-    straight = MeshTet1(np.ascontiguousarray(mesh.p[:, : mesh.nvertices]), mesh.t)._mapping().detDF(points[:, :1])
+    straight = Tets(np.ascontiguousarray(mesh.p[:, : mesh.nvertices]), mesh.t)._mapping().detDF(points[:, :1])
     return curved.min(axis=1) / straight[:, 0]
 
 
