@@ -171,7 +171,7 @@ def skfem_mesh(
 def _curved_jacobian_ratio(mesh: MeshTet2) -> np.ndarray:
     """Per element: min over quadrature points and vertices of det J (curved) / det J (straight)."""
     points = np.hstack([get_quadrature(mesh.elem.refdom, JACOBIAN_CHECK_INTORDER)[0], np.eye(3, 4, 1)])
-    curved = mesh._mapping().detDF(points)
+    curved = _curved_det_jacobian(mesh, points)
     straight = Tets(np.ascontiguousarray(mesh.p[:, : mesh.nvertices]), mesh.t)._mapping().detDF(points[:, :1])
     return curved.min(axis=1) / straight[:, 0]
 
@@ -213,7 +213,23 @@ def closest_to_cad(
 
 def _curved_volume_m3(mesh: MeshTet2) -> float:
     points, weights = get_quadrature(mesh.elem.refdom, 4)
-    return float(np.sum(np.abs(mesh._mapping().detDF(points)) @ weights))
+    return float(np.sum(np.abs(_curved_det_jacobian(mesh, points)) @ weights))
+
+
+def _curved_det_jacobian(mesh: MeshTet2, points: np.ndarray) -> np.ndarray:
+    """det J of the cells' isoparametric maps (n_elements, n_points) at reference points (3, n_points):
+    scikit-fem's `detDF` to about 1e-12 of itself (another summation order), in one product of the
+    cells' nodes with the basis gradients instead of 90 accumulations of the cells' arrays (a third
+    of its CPU on the default link's meshes, where the straightening calls it 4-6 times a level)."""
+    element = mesh.elem()
+    cells = mesh.dofs.element_dofs  # (10, n_elements), scikit-fem's node order
+    gradients = np.array([element.lbasis(points, node)[1] for node in range(cells.shape[0])])  # (10, 3, n_points)
+    J = np.einsum("ine,njq->ijeq", mesh.doflocs[:, cells], gradients, optimize=True)
+    return (
+        J[0, 0] * (J[1, 1] * J[2, 2] - J[1, 2] * J[2, 1])
+        - J[0, 1] * (J[1, 0] * J[2, 2] - J[1, 2] * J[2, 0])
+        + J[0, 2] * (J[1, 0] * J[2, 1] - J[1, 1] * J[2, 0])
+    )
 
 
 def straighten_distorted(

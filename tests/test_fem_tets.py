@@ -1,4 +1,5 @@
-"""fem.tets' edges and facets by integer keys are scikit-fem's own, to the element."""
+"""fem.tets' edges and facets by integer keys are scikit-fem's own, to the element; fem.link's curved
+cells' Jacobian determinants are scikit-fem's to rounding."""
 
 from __future__ import annotations
 
@@ -42,3 +43,20 @@ def test_keys_that_would_overflow_fall_back_to_scikit_fems_way():
     indices = MeshTet1.elem.refdom.facets
     for a, b in zip(build_entities(t, indices), MeshTet1.build_entities(t, indices)):
         assert np.array_equal(a, b)
+
+
+def test_the_curved_cells_jacobian_determinants_are_scikit_fems_to_rounding():
+    from skfem.quadrature import get_quadrature
+
+    from fem.link import _curved_det_jacobian
+
+    ball = MeshTet2.init_ball(2)  # its boundary's mid-edge nodes on the sphere: curved cells
+    rng = np.random.default_rng(4)
+    bent = ball.doflocs + 0.02 * rng.standard_normal(ball.doflocs.shape) * (
+        np.arange(ball.doflocs.shape[1]) >= ball.nvertices
+    )
+    mesh = CurvedTets(bent, ball.t)
+    points = np.hstack([get_quadrature(mesh.elem.refdom, 4)[0], np.eye(3, 4, 1)])
+    ours, theirs = _curved_det_jacobian(mesh, points), MeshTet2(bent, ball.t)._mapping().detDF(points)
+    assert ours.shape == theirs.shape
+    assert np.max(np.abs(ours - theirs)) <= 1e-12 * np.max(np.abs(theirs))
