@@ -20,7 +20,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
-from skfem import Basis, MeshTet1, MeshTet2
+from skfem import Basis
 
 from . import problem, solvers
 from .assembly import DIM, elasticity_parts
@@ -33,6 +33,7 @@ from .link import (
     straighten_distorted,
 )
 from .materials import Material
+from .tets import CurvedTets, Tets
 
 _CANDIDATES = 12  # nearest cells (by centroid) tried for each point located in the global mesh
 
@@ -172,9 +173,9 @@ def skfem_ball_mesh(ball, order: int):
     index[used] = np.arange(len(used))
     if order == 2 and ball.tets10 is not None:
         used10, compact = np.unique(ball.tets10, return_inverse=True)
-        mesh = MeshTet2(np.ascontiguousarray(ball.points_m[:, used10]), compact.reshape(ball.tets10.shape))
+        mesh = CurvedTets(np.ascontiguousarray(ball.points_m[:, used10]), compact.reshape(ball.tets10.shape))
         return straighten_distorted(mesh, MIN_CURVED_JACOBIAN_RATIO), index
-    return MeshTet1(np.ascontiguousarray(ball.points_m[:, used]), index[ball.tets]), index
+    return Tets(np.ascontiguousarray(ball.points_m[:, used]), index[ball.tets]), index
 
 
 def solve_submodel(

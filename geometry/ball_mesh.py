@@ -54,7 +54,7 @@ def ball_mesher(part: Part, centers_m, radius_m: float, *, mirror: bool = False)
     fixed, loaded = part.pins.fixed, part.pins.loaded
     plane = part.mirror_plane if mirror else None
     with gmsh_model("balls"):
-        volumes = part.load_body()
+        volumes = part.load_body_brep()
         if plane is not None:
             volumes = keep_positive_half(volumes, plane)
         volumes = split_at_loaded_half(volumes, fixed.bore, loaded.bore)

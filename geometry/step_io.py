@@ -78,6 +78,24 @@ def import_step_bytes(data: bytes, name: str | os.PathLike) -> list[int]:
     return volumes
 
 
+def model_brep_bytes() -> bytes:
+    """The current model's shapes as OpenCASCADE's BREP text (model units, metres; no unit header)."""
+    with tempfile.TemporaryDirectory(prefix="link-brep-") as folder:
+        copy = Path(folder) / "body.brep"
+        gmsh.write(str(copy))
+        return copy.read_bytes()
+
+
+def import_brep_bytes(data: bytes) -> list[int]:
+    """Import `model_brep_bytes`' text into the current model; its volume tags."""
+    with tempfile.TemporaryDirectory(prefix="link-brep-") as folder:
+        copy = Path(folder) / "body.brep"
+        copy.write_bytes(data)
+        volumes = gmsh.model.occ.importShapes(str(copy), highestDimOnly=True, format="brep")
+        gmsh.model.occ.synchronize()
+    return [tag for dim, tag in volumes if dim == 3]
+
+
 def write_model_step(path: str | os.PathLike, *, unit: str = "mm") -> Path:
     """Write the current model (in metres) to a STEP file in `unit` ("mm" or "m"), atomically."""
     if unit not in _UNITS:

@@ -1,8 +1,9 @@
 """A run resolves its part once (geometry.part): the STEP file is read from disk once and the link
 body and its pin bores are chosen once, however many mesh levels the FEA, the stress study and the
-cache key need. Each mesh level loads the body into its own gmsh model from the part's copy (the
-STEP bytes kept at resolution, or the parametric link's dimensions): that is counted too, so a
-level that read the file again or chose the bores again would fail here.
+cache key need. Each stiffness level loads the body into its own gmsh model from the part's copy
+(the STEP bytes kept at resolution, or the parametric link's dimensions), the stress study's
+sub-model from the BREP text the measurement wrote: that is counted too, so a level that read the
+file again or chose the bores again would fail here.
 
 The runs use an empty private cache, so both the stiffness study and the stress study run.
 """
@@ -68,7 +69,8 @@ def calls(monkeypatch) -> Counter:
     counted(geometry.part, "symmetry_plane")
     counted(geometry.part, "add_link")  # the parametric link built in gmsh
     counted(gmsh.model.occ, "importShapes", record=lambda path, *a, **k: ("importShapes", str(Path(path).resolve())))
-    counted(geometry.part.Part, "load_body")  # one per mesh level
+    counted(geometry.part.Part, "load_body")  # one per stiffness level
+    counted(geometry.part.Part, "load_body_brep")  # the stress study's sub-model, from the measured body's BREP
     return counts
 
 
@@ -84,9 +86,9 @@ def test_a_step_run_reads_the_file_and_chooses_the_bores_once(tmp_path, calls):
     assert calls[("importShapes", step)] == 0  # OpenCASCADE reads the bytes kept at resolution, never the file
     assert calls["select_pin_bores"] == 1 and calls["find_holes"] == 1
     assert calls["symmetry_plane"] == 1
-    # both studies ran: 2 stiffness levels and at least one stress level, each loaded into gmsh once
-    assert calls["load_body"] >= 3
-    assert calls["importShapes"] == 1 + calls["load_body"]
+    # both studies ran: 2 stiffness levels and the stress study's sub-model, each loaded into gmsh once
+    assert calls["load_body"] >= 2 and calls["load_body_brep"] >= 1
+    assert calls["importShapes"] == 1 + calls["load_body"] + calls["load_body_brep"]
     assert calls["add_link"] == 0
     assert _summary(out)["materials"]["al6061-t6"]["stiffness_N_per_m"] > 0
 
@@ -94,16 +96,19 @@ def test_a_step_run_reads_the_file_and_chooses_the_bores_once(tmp_path, calls):
 def test_a_parametric_run_builds_the_link_and_chooses_the_bores_once(tmp_path, calls):
     out, cache = tmp_path / "out", tmp_path / "cache"
     assert pipeline.main([*FAST, "--out", str(out), "--cache-dir", str(cache)]) == 0
-    assert calls["read_step"] == 0 and calls["importShapes"] == 0
+    assert calls["read_step"] == 0
     assert calls["select_pin_bores"] == 1 and calls["find_holes"] == 1
     assert calls["symmetry_plane"] == 1
-    assert calls["load_body"] >= 3
-    # resolution builds the link once; each mesh level builds its own copy from the dimensions
+    assert calls["load_body"] >= 2 and calls["load_body_brep"] >= 1
+    # resolution builds the link once; each stiffness level builds its own copy from the dimensions,
+    # the stress study's sub-model loads the measured body's BREP
     assert calls["add_link"] == 1 + calls["load_body"]
+    assert calls["importShapes"] == calls["load_body_brep"]
     # the same run again: all of its FEA is in the cache, so the part is never built in gmsh
     calls.clear()
     assert pipeline.main([*FAST, "--out", str(tmp_path / "again"), "--cache-dir", str(cache)]) == 0
     assert calls["add_link"] == 0 and calls["find_holes"] == 0 and calls["load_body"] == 0
+    assert calls["load_body_brep"] == 0
     cached, solved = _summary(tmp_path / "again")["materials"]["al6061-t6"], _summary(out)["materials"]["al6061-t6"]
     for key in ("stiffness_N_per_m", "body_mass_kg", "peak_von_mises_converged_Pa_per_N"):
         assert cached[key] == solved[key]
@@ -114,7 +119,8 @@ def test_python_m_fem_resolves_the_part_once(tmp_path, calls, capsys):
     step = str(Path(EXAMPLE_STEP).resolve())
     assert calls[("read_step", step)] == 1 and calls[("importShapes", step)] == 0
     assert calls["select_pin_bores"] == 1 and calls["find_holes"] == 1
-    assert calls["load_body"] >= 3 and calls["importShapes"] == 1 + calls["load_body"]
+    assert calls["load_body"] >= 2 and calls["load_body_brep"] >= 1
+    assert calls["importShapes"] == 1 + calls["load_body"] + calls["load_body_brep"]
     assert json.loads(capsys.readouterr().out)["stress_converged"] in (True, False)
 
 
