@@ -173,12 +173,10 @@ def _run_machine(
     predictor: str | None = None,
     tol: float = DEFAULT_TOL,
     max_cycles: int = DEFAULT_MAX_CYCLES,
-    cycles_before: int = 0,
 ) -> _Outcome:
     """The machine stepped over t_eval_s as the module docstring says: the model `choice` ("auto",
     "linear", "clearance"), in its relabelled steady state (searched to `tol` in `max_cycles` index
-    cycles) or from rest, the step's `safety` and `predictor` (None: the defaults, SearchSettings.of);
-    its SteadyState counts `cycles_before` (SearchSettings.cycles_before)."""
+    cycles) or from rest, the step's `safety` and `predictor` (None: the defaults, SearchSettings.of)."""
     t = np.asarray(t_eval_s, dtype=float)
     period = getattr(cam, "period_s", None)
     if period is None:
@@ -190,7 +188,7 @@ def _run_machine(
     if abs(t[0] / period - round(t[0] / period)) > 1e-9:
         raise DynamicsError("t_eval_s: the machine's output window must start at an index's start (the dwell's end)")
     linear = linear_machine(model)
-    options = dict(tol=tol, max_cycles=max_cycles, steady_state=steady_state, cycles_before=cycles_before)
+    options = dict(tol=tol, max_cycles=max_cycles, steady_state=steady_state)
     lin_search = SearchSettings.of(linear, predictor, safety, **options)
     lin_pred = lin_search.predictor
     n_state = model.n_state  # the DOFs, and a tooth model's seat offsets
@@ -201,7 +199,7 @@ def _run_machine(
     # is then iterated to `tol`; only when the linear machine is the answer is it iterated on to `tol`
     # and its window stepped
     choosing = replace(lin_search, tol=max(tol, CHOICE_TOL))
-    choice_sub = _coarse_substeps(linear, h_out, lin_sub, lin_pred) or lin_sub
+    choice_sub = _choice_substeps(linear, h_out, lin_sub, lin_search)
     lin_state, lin_ss, lin_last = start_state(linear, cam, h_out, per_cycle, choice_sub, start, choosing)
     lin = None
     if lin_last is not None and lin_ss.found:
@@ -260,9 +258,8 @@ class SearchSettings:
     search accepts (`tol`, relative to the largest |q| and |q'| over the cycle) and its cycles
     (`max_cycles`); `steady_state` False: no search, the window from the state given (from rest).
     `default_step`: the safety is the default one, so the search runs at SEARCH_SAFETY and the window
-    at safety / WINDOW_REFINEMENT (a safety given steps everything at it). `cycles_before`: the index
-    cycles the step control's coarser levels' searches stepped (simulate_machine_to_accuracy), which the
-    SteadyState counts with this search's (SteadyState.cycles). `of` takes each default from its home."""
+    at safety / WINDOW_REFINEMENT (a safety given steps everything at it). `of` takes each default from
+    its home."""
 
     predictor: str
     safety: float
@@ -270,7 +267,6 @@ class SearchSettings:
     max_cycles: int = DEFAULT_MAX_CYCLES
     steady_state: bool = True
     default_step: bool = True
-    cycles_before: int = 0
 
     @classmethod
     def of(cls, model, predictor: str | None = None, safety: float | None = None, **settings) -> SearchSettings:
@@ -348,7 +344,7 @@ def _settle_by_defect_correction(model, cam, h_out, per_cycle, steps, state, sea
         max_cycles=search.max_cycles,
         predictor=search.predictor,
     )
-    ss = _steady_state(two.found, search.cycles_before + two.cycles, two.residual, search.tol)
+    ss = _steady_state(two.found, two.cycles, two.residual, search.tol)
     found = (two.q0, two.v0)
     return (found if two.settled is not None else None), found, ss
 
@@ -399,9 +395,10 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
     """(state, SteadyState or None, last cycle's run) of the relabelled steady state searched from
     `state` at `sub` steps per output sample to `search.tol` in `search.max_cycles` (with its
     predictor; its safety is `sub`'s); `state` itself when not `search.steady_state`. `coarse_done`:
-    (state, cycles counted) of this search's coarse part (`_coarse_substeps`) already run from `state`,
-    not run again: a SteadyState's cycles of it. The SteadyState counts `search.cycles_before` too."""
-    tol, max_cycles, predictor, before = search.tol, search.max_cycles, search.predictor, search.cycles_before
+    (state, cycles) of this search's coarse part (`_coarse_substeps`) already run from `state`, not run
+    again: its end and the index cycles it stepped, which the SteadyState counts and the budget of
+    `search.max_cycles` spends."""
+    tol, max_cycles, predictor = search.tol, search.max_cycles, search.predictor
     if not search.steady_state:
         return state, None, None
     # long chains (the O(N) damping's range) cycle with Anderson acceleration: their slow low modes take
@@ -413,8 +410,7 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
     coarse_cycles = 0
     coarse = _coarse_substeps(model, h_out, sub, predictor)
     if coarse_done is not None:
-        state, counted = coarse_done
-        coarse_cycles = counted - before
+        state, coarse_cycles = coarse_done
     elif coarse is not None:
         # most of the search at the coarsest step the search takes, the rest at `sub` from there: the
         # two fixed points differ by the step's error only, and the state is accepted by the test at `sub`
@@ -432,7 +428,7 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
         max_cycles=max(max_cycles - coarse_cycles, 1),
         predictor=predictor,
     )
-    return (q0, v0), _steady_state(found, before + coarse_cycles + cycles, residual, tol), last
+    return (q0, v0), _steady_state(found, coarse_cycles + cycles, residual, tol), last
 
 
 def _steady_state(found: bool, cycles: int, residual: float, tol: float) -> SteadyState:
@@ -453,12 +449,27 @@ def _coarse_substeps(model, h_out, sub, predictor) -> int | None:
     """Steps per output sample of a long chain's (the O(N) damping's) search before the one at `sub`:
     at SEARCH_SAFETY of the stability limit, where that is coarser than `sub` (None: no coarse search;
     up to DENSE_LINK_LIMIT links never, the default run's numbers as they were). The linear machine's
-    search to CHOICE_TOL that decides the model is run at this step alone (simulate_machine: measured
+    search to CHOICE_TOL that decides the model is run at this step alone (`_choice_substeps`: measured
     at 1,000 links, its minimum tension there and at the default safety within 2e-6)."""
     if not model.reduced_damping or model.span_damping not in SEARCH_SAFETY:
         return None
     coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], predictor)
     return coarse if coarse < sub else None
+
+
+def _choice_substeps(linear, h_out, sub, search: SearchSettings) -> int:
+    """Steps per output sample of the linear machine's search to CHOICE_TOL that decides the model:
+    at SEARCH_SAFETY of the stability limit where that is coarser than `sub` (the step of the linear
+    machine's window), for the default step at any length and for a long chain at any step
+    (`_coarse_substeps`); else `sub`. Only the model choice, the linear machine's minimum tension and
+    the start of the next search come from it, and each search is accepted at its own step. Measured
+    on the default run (85 links, both materials, five cams; 3-4 steps per output sample instead of
+    10): its minimum tension moved by 2.0e-5 of itself (CHOICE_TOL is 1e-3), the station metrics by
+    at most 4.3e-7, the searches' cycles the same."""
+    coarse = _coarse_substeps(linear, h_out, sub, search.predictor)
+    if coarse is None and search.default_step:
+        coarse = min(sub, mv.substeps_for(linear, h_out, SEARCH_SAFETY[linear.span_damping], search.predictor))
+    return sub if coarse is None else coarse
 
 
 def _window(model, cam, t, per_cycle, sub, state, predictor, periodic=False) -> _Window:
@@ -737,7 +748,8 @@ def simulate_machine_to_accuracy(
         safety /= 2.0
         # each level runs afresh from rest; its SteadyState counts the coarser levels' search cycles too
         before = 0 if out.steady_state is None else out.steady_state.cycles
-        out = _run_machine(model, cam, t_eval_s, safety=safety, predictor=pred, cycles_before=before, **options)
+        level = _run_machine(model, cam, t_eval_s, safety=safety, predictor=pred, **options)
+        out = _counting_cycles_before(level, before, options.get("tol", DEFAULT_TOL))
         response = _response(out, cam, None)
         fine = _station_values(model, cam, t_eval_s, response)
         estimate = relative_change(fine, coarse)
@@ -745,6 +757,17 @@ def simulate_machine_to_accuracy(
             break
         coarse = fine
     return (response if links is None else _select(response, links)), _summary(out, cam, estimate)
+
+
+def _counting_cycles_before(out: _Outcome, before: int, tol: float) -> _Outcome:
+    """`out` with its SteadyState counting `before` index cycles more (the step control's coarser levels'
+    searches: SteadyState.cycles), its statement saying so. Every search of a level with its safety
+    given runs to `tol` (no long-chain tolerance: that is the default step's), and a statement without
+    a steady state names no tolerance."""
+    ss = out.steady_state
+    if ss is None:
+        return out
+    return replace(out, steady_state=_steady_state(ss.found, before + ss.cycles, ss.residual, tol))
 
 
 def _station_values(model: ClearanceMachine, cam, t_eval_s, response: ChainResponse) -> np.ndarray:

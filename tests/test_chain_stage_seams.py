@@ -13,7 +13,7 @@ from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain
 from dynamics.models.machine import MachineOnWheels
 from dynamics.options import DENSE_LINK_LIMIT
-from dynamics.scene import simulate_chain
+from dynamics.scene import DEFAULT_TOL, simulate_chain
 from dynamics.solvers import cache, machine_modes
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import machine_verlet as mv
@@ -134,6 +134,7 @@ def test_the_machines_step_control_counts_every_levels_search_cycles(monkeypatch
     assert contact.model == "clearance" and contact.steady_state.found
     assert contact.steady_state.cycles == len(calls) > 0
     assert f"after {len(calls)} index cycles" in contact.steady_state.statement
+    assert contact.steady_state.statement.endswith(f"<= {DEFAULT_TOL:g})")  # the tolerance its levels searched to
 
 
 def _exact_rayleigh_quotient(topology, shape) -> float:
