@@ -16,7 +16,6 @@ import argparse
 import os
 import sys
 from pathlib import Path
-
 from typing import TYPE_CHECKING
 
 from settings import RunConfig, SettingsError, cam_ids, check_run_config, extra_cam_ids, m_to_mm, mm_to_m, registries

@@ -302,10 +302,12 @@ def waiting_fea_process() -> Beside | None:
     """A process for the FEA beside the run, started now, before the command line is read: its
     interpreter's start-up and FEA_MODULES' imports (about 1.3 CPU s) run on the core that this
     process's start-up leaves idle, and the FEA starts when `start_fea(..., process=...)` hands it
-    its steps (about 0.4 s sooner than a process spawned there, after the run's settings, part and
-    cache lookups: numpy, gmsh and the part's modules). A run that needs no FEA beside (every
-    material cached, --serial, --tolerance) cancels it (or it ends with this process); None where
-    this process may not start one (processes.may_start_children)."""
+    its steps. It starts 0.13-0.15 CPU s into the run instead of 0.5-0.56 for a process spawned by
+    `start_fea` (after the settings' checks, the part and the cache lookups: numpy, gmsh and the
+    part's modules); the stiffness was ready 25.9 instead of 28.0 s after the launch (medians of 5
+    alternating, benchmarks/bench_startup.py, load 4.4-6.6, 2026-11-27). A run that needs no FEA
+    beside (every material cached, --serial, --tolerance) cancels it (or it ends with this
+    process); None where this process may not start one (processes.may_start_children)."""
     from processes import may_start_children
     from stages.beside import Beside
 
