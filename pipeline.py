@@ -16,9 +16,13 @@ import argparse
 import os
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from settings import RunConfig, SettingsError, cam_ids, check_run_config, extra_cam_ids, m_to_mm, mm_to_m, registries
 from stages.progress import Progress, timed
+
+if TYPE_CHECKING:
+    from stages.beside import Beside
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -439,7 +443,9 @@ def check_writable_out(out: Path) -> None:
         raise SettingsError(problem)
 
 
-def run(cfg: RunConfig, progress: Progress) -> None:
+def run(cfg: RunConfig, progress: Progress, fea_process: Beside | None = None) -> None:
+    """The run of `cfg`. `fea_process`: a process started for the FEA already (stages.fea.
+    waiting_fea_process), handed the FEA if it runs beside, else cancelled."""
     from functools import partial
 
     from stages.chain import run_dynamics
@@ -448,6 +454,8 @@ def run(cfg: RunConfig, progress: Progress) -> None:
     from stages.tolerance import run_to_tolerance
 
     timing: dict[str, float] = {}
+    if fea_process is not None and (cfg.preset == "mqp2012" or cfg.tolerance is not None):
+        fea_process.cancel()  # these run no FEA beside: it ends now, not with the run
     if cfg.preset == "mqp2012":
         from reporting.outputs import write_replica_outputs
         from stages.replica import run_replicas
@@ -459,7 +467,8 @@ def run(cfg: RunConfig, progress: Progress) -> None:
     cfg, part = inspect_geometry(cfg, progress)  # the part resolved once for the whole run
     if cfg.tolerance is None:
         # the stress study and images (needed by the outputs' stress lines only) run beside what follows
-        fea = timed(timing, "fea", progress, partial(start_fea, part=part, beside=cfg.stress_beside), cfg, progress)
+        start = partial(start_fea, part=part, beside=cfg.stress_beside, process=fea_process)
+        fea = timed(timing, "fea", progress, start, cfg, progress)
         with fea:  # a failure below stops the process beside
             _import_chain_and_outputs()  # while the FEA's process starts and meshes
             stiffness = timed(timing, "fea", progress, lambda: fea.stiffness)
@@ -477,14 +486,16 @@ def _import_chain_and_outputs() -> None:
     FEA's process imports its own and meshes, before the chain waits for the stiffness; and numba's
     typing and target registries filled, which its first compiled call does otherwise: 0.22-0.28 CPU s
     here took the dynamics stage's first-call overhead from 0.38 to 0.10-0.13 s (measured on the
-    default run, kernels from numba's cache)."""
+    default run, kernels from numba's cache); and matplotlib's first text laid out once for the
+    figure workers (reporting.outputs.prepare_figure_workers)."""
     from numba.core.registry import cpu_target
 
     import dynamics.scene  # noqa: F401
-    import reporting.outputs  # noqa: F401
+    from reporting.outputs import prepare_figure_workers
 
     cpu_target.typing_context.refresh()
     cpu_target.target_context.refresh()
+    prepare_figure_workers()
 
 
 def _write_outputs(
@@ -497,7 +508,10 @@ def _write_outputs(
     write_default_outputs(RunResults(cfg, fea, chains, scenarios, sweeps, timing, shortfall), progress)
 
 
-def main(argv: list[str] | None = None) -> int:
+def main(argv: list[str] | None = None, fea_process: Beside | None = None) -> int:
+    """One run of the command line `argv`. `fea_process`: a process started for the FEA before the
+    command line is read (stages.fea.waiting_fea_process, as `python pipeline.py` does): the run
+    hands it the FEA, or it is cancelled."""
     from dynamics.errors import DynamicsError
     from fem.errors import FemError
     from geometry.errors import GeometryError
@@ -506,13 +520,16 @@ def main(argv: list[str] | None = None) -> int:
     try:
         cfg = parse_cli(argv)
         check_writable_out(cfg.out)
-        run(cfg, Progress(cfg.quiet))
+        run(cfg, Progress(cfg.quiet), fea_process)
     except (SettingsError, GeometryError, FemError, DynamicsError, BesideError) as e:
         print(f"pipeline.py: error: {e}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("pipeline.py: interrupted; nothing in --out was changed", file=sys.stderr)
         return 130
+    finally:
+        if fea_process is not None:
+            fea_process.cancel()  # ended already where the run used it; else (an error, --help) now
     return 0
 
 
@@ -527,4 +544,6 @@ def exit_now(status: int) -> None:
 
 
 if __name__ == "__main__":
-    exit_now(main())
+    from stages.fea import waiting_fea_process
+
+    exit_now(main(fea_process=waiting_fea_process()))

@@ -8,9 +8,10 @@ alternating, each run with its own empty cache, and stops each run (its process 
 stiffness of every material is handed over: the stiffness is on the job's critical path (the chain
 waits for it) and every second before the FEA's process starts delays it. Prints, medians over
 `--repeats` runs: the wall time from the launch to the `FEA: in process` line (interpreter, the
-settings' checks and what pipeline.py imports before `stages.fea.start_fea`), the run clock on that
-line (it starts after the command line is parsed and checked), and the wall time from the launch to
-the last `FEA ...: k =` line (the stiffness ready).
+settings' checks and what pipeline.py imports before `stages.fea.start_fea` hands the FEA to its
+process, which `python pipeline.py` starts before it reads its options: stages.fea.
+waiting_fea_process), the run clock on that line (it starts after the command line is parsed and
+checked), and the wall time from the launch to the last `FEA ...: k =` line (the stiffness ready).
 """
 
 from __future__ import annotations
@@ -68,7 +69,7 @@ def main(argv=None) -> int:
         for name, tree in trees.items():
             runs[name].append(run_once(tree))
             print(f"{name}: FEA start {runs[name][-1][0]:.2f} s, stiffness ready {runs[name][-1][2]:.2f} s", flush=True)
-    print("| tree | launch to FEA start (s) | run clock on that line (s) | launch to stiffness ready (s) |")
+    print("| tree | launch to the FEA handed over (s) | run clock on that line (s) | launch to stiffness ready (s) |")
     print("|---|---|---|---|")
     for name, measured in runs.items():
         medians = [statistics.median(m[i] for m in measured) for i in range(3)]

@@ -17,6 +17,8 @@ medians over `--repeats` runs of:
   and imports, before the run's clock starts), dynamics (from the stiffness, the last `FEA ...: k =`
   line, to the last `dynamics` line) and outputs (to `done`). The whole job is the process's wall
   time; the stages add up to more where they overlap;
+- the whole job's CPU seconds (user and system, every process the run waited for: its own, the
+  FEA's, the figure workers, the images'), from the timed runs;
 - peak memory, sampled every 50 ms in runs of their own (each timed run is followed by a sampled
   run of the same tree, whose wall time is printed but not used: reading every process's PSS from
   /proc every 50 ms takes CPU from the run and holds its memory map's lock, and made the whole job
@@ -40,6 +42,7 @@ import argparse
 import json
 import os
 import re
+import resource
 import statistics
 import subprocess
 import sys
@@ -67,6 +70,7 @@ class Run:
     wall_s: dict[str, float] = field(default_factory=dict)
     memory: dict[str, int] = field(default_factory=dict)
     total_s: float = 0.0
+    cpu_s: float = 0.0  # the whole job's CPU: the run's process and every process it waited for
     peak_pss_by_role: dict[str, int] = field(default_factory=dict)  # at the PSS peak, by ROLES
     peak_after: str = ""  # the last progress line before the PSS peak
     peak_at_s: float = 0.0  # when the PSS peaked, from the process's start
@@ -111,6 +115,7 @@ def run_once(tree: Path, extra: list[str], sample_memory: bool = False) -> Run:
     with tempfile.TemporaryDirectory(prefix="whole-job-") as tmp:
         command = [sys.executable, "pipeline.py", "--cache-dir", f"{tmp}/cache", "--out", f"{tmp}/out", *extra]
         env = {**os.environ, "PYTHONPATH": str(tree)}
+        cpu_before = _children_cpu_s()
         start = time.perf_counter()
         proc = subprocess.Popen(command, cwd=tree, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         run = Run()
@@ -130,6 +135,7 @@ def run_once(tree: Path, extra: list[str], sample_memory: bool = False) -> Run:
             seen.append((time.perf_counter() - start, match.group(2)))
         status = proc.wait()
         run.total_s = time.perf_counter() - start
+        run.cpu_s = _children_cpu_s() - cpu_before
         done.set()
         if sample_memory:
             sampler.join()
@@ -138,6 +144,12 @@ def run_once(tree: Path, extra: list[str], sample_memory: bool = False) -> Run:
         run.wall_s = stage_walls(stage_ends(lines), start_up_s or 0.0)
         run.peak_after = next((m for t, m in reversed(seen) if t <= run.peak_at_s), "start-up")
         return run
+
+
+def _children_cpu_s() -> float:
+    """User and system CPU of this process's waited-for children, theirs included (getrusage)."""
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def _sample(pid: int, run: Run, done: threading.Event, start: float) -> None:
@@ -258,6 +270,11 @@ def report(results: dict[str, list[Run]], sampled: dict[str, list[Run]]) -> list
         walls = ", ".join(f"{r.total_s:.1f}" for r in runs)
         cells.append(f"**{_median(runs, lambda r: r.total_s):.2f}** ({walls})")
     lines.append("| whole job | " + " | ".join(cells) + " |")
+    cells = []
+    for runs in results.values():
+        cpus = ", ".join(f"{r.cpu_s:.1f}" for r in runs)
+        cells.append(f"**{_median(runs, lambda r: r.cpu_s):.2f}** ({cpus})")
+    lines.append("| whole job, CPU s | " + " | ".join(cells) + " |")
     lines += ["", "| peak memory (MB), sampled runs | " + " | ".join(names) + " |", "|" + "---|" * (1 + len(names))]
     for key in MEMORY:
         cells = [f"{statistics.median(r.memory.get(key, 0) for r in runs) / 1e6:.0f}" for runs in sampled.values()]
@@ -286,7 +303,7 @@ def main(argv=None) -> int:
             memory = run_once(tree, args.pipeline_options, sample_memory=True)
             sampled[name].append(memory)
             print(
-                f"run {repeat + 1} {name}: {run.total_s:.1f} s; sampled run {memory.total_s:.1f} s, "
+                f"run {repeat + 1} {name}: {run.total_s:.1f} s, {run.cpu_s:.1f} CPU s; sampled run {memory.total_s:.1f} s, "
                 f"PSS {memory.memory.get('PSS', 0) / 1e6:.0f} MB; " + peak_line(memory),
                 flush=True,
             )

@@ -13,10 +13,15 @@ goes in (the part, the settings, the materials) and each step coming back are pi
 the child's imports run on the other core while this process imports its own. An exception in the
 child is raised again here; a child that dies without handing over a step (killed, out of memory)
 is one `BesideError`.
+
+A child can also be started before its work is known (`Beside.waiting`): it imports the modules it
+is told to, then waits to be handed its steps (`hand`), so that its interpreter's start-up and its
+imports run while this process is still reading its command line.
 """
 
 from __future__ import annotations
 
+import importlib
 import multiprocessing
 from collections.abc import Callable, Iterator
 
@@ -34,10 +39,36 @@ class Beside:
     importing anything again and without pickling `steps`."""
 
     def __init__(self, steps: Callable[[], Iterator], what: str, start_method: str = "spawn"):
+        self._hand_over = None
+        self._start(what, start_method, _run_child, steps, thread_limits())
+
+    @classmethod
+    def waiting(cls, what: str, modules: tuple[str, ...]) -> Beside:
+        """A fresh interpreter (spawn) that imports `modules`, then waits for `hand`. Not handed its
+        steps, it ends when this process closes its end of the pipe (or ends) or at `cancel()`."""
+        beside = cls.__new__(cls)
+        context = multiprocessing.get_context("spawn")
+        receive_steps, beside._hand_over = context.Pipe(duplex=False)
+        beside._start(what, "spawn", _run_handed_child, receive_steps, modules, what)
+        receive_steps.close()
+        return beside
+
+    def hand(self, steps: Callable[[], Iterator], what: str) -> None:
+        """Give a `waiting` child its steps (pickled now, run there on this process's thread limits)."""
+        self.what = what
+        try:
+            self._hand_over.send((steps, thread_limits()))
+        except OSError:  # the child ended already (its imports failed): `next` raises what it sent
+            pass
+        finally:
+            self._hand_over.close()
+
+    def _start(self, what: str, start_method: str, target, *args) -> None:
+        """The child running target(send, *args), `send` its end of the pipe its steps come back by."""
         self.what = what
         context = multiprocessing.get_context(start_method)
         receive, send = context.Pipe(duplex=False)
-        self._process = context.Process(target=_run_child, args=(steps, send, thread_limits()), name=what)
+        self._process = context.Process(target=target, args=(send, *args), name=what)
         self._process.start()
         send.close()
         self._receive = receive
@@ -62,7 +93,10 @@ class Beside:
             self._wait()
 
     def cancel(self) -> None:
-        """Stop the child if it still runs (a failure elsewhere in the run: nothing waits for it)."""
+        """Stop the child if it still runs (a failure elsewhere in the run: nothing waits for it; or
+        a `waiting` child the run had no work for)."""
+        if self._hand_over is not None:
+            self._hand_over.close()
         if self._running:
             self._process.terminate()
             self._wait()
@@ -103,7 +137,7 @@ def thread_limits() -> dict[str, int]:
     return limits
 
 
-def _run_child(steps: Callable[[], Iterator], send, limits: dict[str, int]) -> None:
+def _run_child(send, steps: Callable[[], Iterator], limits: dict[str, int]) -> None:
     from threadpoolctl import threadpool_limits
 
     try:
@@ -114,7 +148,30 @@ def _run_child(steps: Callable[[], Iterator], send, limits: dict[str, int]) -> N
                 send.send(("step", step))
         send.send(("end", None))
     except BaseException as exc:  # KeyboardInterrupt too: the parent reports it
+        _send_error(send, exc)
+
+
+def _send_error(send, exc: BaseException) -> None:
+    try:
+        send.send(("error", exc))
+    except Exception:  # an exception that does not pickle: its words
+        send.send(("error", BesideError(f"{type(exc).__name__}: {exc}")))
+
+
+def _run_handed_child(send, receive_steps, modules: tuple[str, ...], what: str) -> None:
+    """A `Beside.waiting` child: its imports, then the steps it is handed, run as `_run_child` runs
+    them. Not handed any (the pipe closed), it ends quietly. A failure before its steps (an import,
+    or the steps that do not unpickle here) is a `BesideError` that says so."""
+    try:
+        for name in modules:
+            importlib.import_module(name)
         try:
-            send.send(("error", exc))
-        except Exception:  # an exception that does not pickle: its words
-            send.send(("error", BesideError(f"{type(exc).__name__}: {exc}")))
+            steps, limits = receive_steps.recv()
+        except EOFError:
+            return
+        finally:
+            receive_steps.close()
+    except BaseException as exc:
+        _send_error(send, BesideError(f"{what}: its process failed to start: {type(exc).__name__}: {exc}"))
+        return
+    _run_child(send, steps, limits)

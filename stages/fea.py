@@ -293,6 +293,27 @@ def _start_drawing(drawings: list) -> Beside:
         gc.unfreeze()
 
 
+# What the FEA's process imports before its work (stages.fea._fea_steps and what it calls first),
+# for a process started before the run knows that it needs one (`waiting_fea_process`)
+FEA_MODULES = ("stages.fea", "fem.adaptive", "fem.heap", "fem.render", "fem.stress", "fem.study")
+
+
+def waiting_fea_process() -> Beside | None:
+    """A process for the FEA beside the run, started now, before the command line is read: its
+    interpreter's start-up and FEA_MODULES' imports (about 1.3 CPU s) run on the core that this
+    process's start-up leaves idle, and the FEA starts when `start_fea(..., process=...)` hands it
+    its steps. It starts 0.13-0.15 CPU s into the run instead of 0.5-0.56 for a process spawned by
+    `start_fea` (after the settings' checks, the part and the cache lookups: numpy, gmsh and the
+    part's modules); the stiffness was ready 25.9 instead of 28.0 s after the launch (medians of 5
+    alternating, benchmarks/bench_startup.py, load 4.4-6.6, 2026-11-27). A run that needs no FEA
+    beside (every material cached, --serial, --tolerance) cancels it (or it ends with this
+    process); None where this process may not start one (processes.may_start_children)."""
+    from processes import may_start_children
+    from stages.beside import Beside
+
+    return Beside.waiting("the FEA", FEA_MODULES) if may_start_children() else None
+
+
 def _messages(caught) -> list[str]:
     from fem.errors import FemWarning
 
@@ -369,6 +390,7 @@ def start_fea(
     part: Part | None = None,
     beside: bool = False,
     stress_later: bool = False,
+    process: Beside | None = None,
 ) -> FeaInProgress:
     """Stiffness, mass and stress per material, from the cache when nothing they depend on changed.
     Without `beside`, everything is solved here before it returns. With `beside`, it returns once a
@@ -380,7 +402,9 @@ def start_fea(
     `part`: the run's part (stages.geometry.inspect_geometry); None resolves it here.
     `stress_later` (without `beside`): the stress study and the images wait for `result()`, which a
     caller that may not need them never calls (the --tolerance pass a second pass replaces); nothing
-    is stored in the cache then."""
+    is stored in the cache then.
+    `process`: a process started for the FEA already (`waiting_fea_process`): handed the FEA's steps
+    where they run beside, else cancelled here (every material cached, or without `beside`)."""
     import multiprocessing
 
     from fem import load_materials
@@ -409,9 +433,12 @@ def start_fea(
             progress(f"FEA {name}: cached result (k = {stored['stiffness_N_per_m']:.5g} N/m)")
             out[name] = MaterialFea(**stored, cached=True, image=images[name])
     missing = [library[name] for name in cfg.materials if name not in out]
+    beside = beside and bool(missing) and may_start_children()
+    if process is not None and not beside:
+        process.cancel()  # no FEA to run beside: it ends now, not with the run
+        process = None
     if not missing:
         return FeaInProgress.done(out)
-    beside = beside and may_start_children()
     # the images drawn by a process forked from this one, beside the dynamics (see _start_drawing)
     draw_beside = (
         beside
@@ -431,7 +458,10 @@ def start_fea(
         draw_here=not draw_beside,
     )
     if beside:
-        process = Beside(steps, "the FEA")
+        if process is None:
+            process = Beside(steps, "the FEA")
+        else:
+            process.hand(steps, "the FEA")
         progress(f"FEA: in process {process.pid}, beside the dynamics and the figures from the stiffness on")
         next_step = process.next
     elif stress_later:  # the stiffness at `stiffness`, the stresses only at `result()`

@@ -57,10 +57,11 @@ def test_a_runs_line_says_when_and_of_what_its_peak_was():
 
 def test_the_times_come_from_the_unsampled_runs_and_the_memory_from_the_sampled_ones():
     bench = load_bench()
-    timed = bench.Run(wall_s={"stiffness": 5.0}, total_s=10.0)
-    sampled = bench.Run(wall_s={"stiffness": 7.0}, total_s=14.0, memory=dict.fromkeys(bench.MEMORY, 900e6))
+    timed = bench.Run(wall_s={"stiffness": 5.0}, total_s=10.0, cpu_s=18.0)
+    sampled = bench.Run(wall_s={"stiffness": 7.0}, total_s=14.0, memory=dict.fromkeys(bench.MEMORY, 900e6), cpu_s=21.0)
     lines = bench.report({"new": [timed]}, {"new": [sampled]})
     assert "| stiffness | 5.00 |" in lines
     assert "| whole job | **10.00** (10.0) |" in lines
+    assert "| whole job, CPU s | **18.00** (18.0) |" in lines
     assert "| PSS | 900 |" in lines
     assert "| (the sampled runs' whole job, s) | 14.00 |" in lines

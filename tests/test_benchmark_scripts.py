@@ -32,9 +32,15 @@ def test_run_cpu_splits_the_run_from_its_children(monkeypatch, capsys):
     assert own >= 0.2  # this process from its start: the 0.2 s burnt here at least
     assert 0.2 <= children < own + 5.0  # the child's burn and its interpreter's start only
     calls = []
-    monkeypatch.setattr(pipeline, "main", lambda options: calls.append(options) or 3)
+
+    def main(options, fea_process):  # as `python pipeline.py` calls it: the FEA's process started first
+        fea_process.cancel()
+        calls.append((options, fea_process.what))
+        return 3
+
+    monkeypatch.setattr(pipeline, "main", main)
     assert run_cpu.main(["--links", "12", "-q"]) == 3  # the run's exit status
-    assert calls == [["--links", "12", "-q"]]
+    assert calls == [(["--links", "12", "-q"], "the FEA")]
     out = capsys.readouterr().out.splitlines()
     assert out[0].startswith("the run's process: ") and out[0].endswith(" CPU s")
     assert out[1].startswith("its children (FEA beside, figure workers): ")

@@ -122,3 +122,47 @@ def test_the_fea_process_starts_before_the_outputs_modules_are_imported(tmp_path
     done = subprocess.run([sys.executable, "-c", probe], cwd=ROOT, env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["False", "False"]
+
+
+def test_a_dead_waiting_fea_process_is_one_line_exit_2_and_nothing_written(tmp_path, capsys):
+    """`python pipeline.py` starts the FEA's process before it reads its command line
+    (stages.fea.waiting_fea_process); that process dying before it is handed the FEA is one line."""
+    from stages.beside import Beside
+
+    waiting = Beside.waiting("the FEA", ())
+    os.kill(waiting.pid, signal.SIGKILL)
+    out, cache = tmp_path / "out", tmp_path / "cache"
+    assert pipeline.main([*FAST, "--out", str(out), "--cache-dir", str(cache)], fea_process=waiting) == 2
+    stderr = capsys.readouterr().err
+    lines = [line for line in stderr.splitlines() if not line.startswith("pipeline.py: warning:")]
+    assert len(lines) == 1 and lines[0].startswith("pipeline.py: error: the FEA: its process ended early (signal 9")
+    assert "Traceback" not in stderr
+    assert not out.exists() or not list(out.iterdir())
+    assert not list(cache.rglob("result.json"))
+
+
+def test_a_waiting_fea_process_is_ended_where_no_fea_runs_beside(tmp_path):
+    """Without an FEA beside (--serial here; every material cached likewise) start_fea ends the
+    waiting process at once, not with the run."""
+    from stages.beside import Beside
+    from stages.progress import Progress
+
+    cfg = pipeline.parse_cli([*FAST, "--serial", "--out", str(tmp_path / "out"), "--cache-dir", str(tmp_path / "c")])
+    waiting = Beside.waiting("the FEA", ())
+    fea = stages.fea.start_fea(cfg, Progress(True), beside=cfg.stress_beside, process=waiting, stress_later=True)
+    assert not waiting._process.is_alive() and not fea.beside
+
+
+def test_a_bad_option_ends_the_waiting_fea_process_with_the_runs_one_line_error():
+    """`python pipeline.py` starts the FEA's process before it reads its options; a run that ends on
+    a bad option ends it too (pipeline.main), with the option's one-line error."""
+    probe = (
+        "import multiprocessing, pipeline\n"
+        "from stages.fea import waiting_fea_process\n"
+        "status = pipeline.main(['--links', '-3'], fea_process=waiting_fea_process())\n"
+        "print(status, [p.name for p in multiprocessing.active_children()])\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", probe], cwd=ROOT, env=env, capture_output=True, text=True)
+    assert done.stdout.splitlines() == ["2 []"], done.stderr
+    assert done.stderr.startswith("pipeline.py: error: --links") and len(done.stderr.splitlines()) == 1

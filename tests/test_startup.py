@@ -110,3 +110,27 @@ def test_the_declared_fea_choices_are_the_implemented_ones():
         FemError, match=f"linear solver 'cholmod': expected one of auto, {', '.join(LINEAR_SOLVERS)}; set it with"
     ):
         FeaSettings(solver="cholmod")
+
+
+# what `python pipeline.py` imports before it starts the FEA's process (stages.fea.waiting_fea_process)
+PRE_WAITING_FEA = """
+import json, sys
+import pipeline
+from stages.fea import waiting_fea_process  # noqa: F401
+print(json.dumps(sorted(sys.modules)))
+"""
+
+
+def test_the_fea_process_starts_before_numpy_gmsh_or_the_part_are_imported():
+    loaded = _loaded_after(PRE_WAITING_FEA)
+    assert [m for m in ("numpy", "gmsh", "geometry") if m in loaded] == []
+    assert _heavy(loaded) == []
+
+
+def test_the_fea_process_imports_modules_that_exist():
+    """A waiting FEA process that cannot import one of them fails the run (stages.beside)."""
+    import importlib.util
+
+    from stages.fea import FEA_MODULES
+
+    assert [m for m in FEA_MODULES if importlib.util.find_spec(m) is None] == []

@@ -9,7 +9,6 @@ stability-limited on stiff chains and become slow there, the implicit ones are n
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from dynamics.errors import DynamicsError, SolverFailedError
 from dynamics.solvers._common import Problem, check_finite, divergence_bounds, force_at, state_matrices
@@ -47,6 +46,10 @@ def solve(
         if g is not None:
             dy[n:] += m_inv @ g(t, y[:n], y[n:])
         return dy
+
+    # imported here: scipy.integrate brings scipy.optimize, scipy.sparse.linalg and scipy.fft (0.35-0.4
+    # CPU s), which a run with another method never uses (pipeline.py imports this module at start-up)
+    from scipy.integrate import solve_ivp
 
     t = problem.t_eval_s
     kwargs = {"jac": lambda t, y: a} if name in ("radau", "bdf", "lsoda") else {}

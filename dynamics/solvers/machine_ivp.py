@@ -28,7 +28,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 from dynamics.errors import SolverFailedError
 from dynamics.models.machine import MachineOnWheels
@@ -156,6 +155,8 @@ def _integrate(machine, zddot, z, t, q0, v0, z_dwell, rtol, scale_m, scale_m_s) 
         if polygonal:
             force = force + machine.polygon_force((float(z(time)) - z_dwell) / radii, q)
         return np.concatenate([v, force / m])
+
+    from scipy.integrate import solve_ivp  # the reference only: see dynamics.solvers.ivp
 
     atol = np.concatenate([np.full(n, rtol * scale_m), np.full(n, rtol * scale_m_s)])
     sol = solve_ivp(rhs, (t[0], t[-1]), np.concatenate([q0, v0]), method="DOP853", t_eval=t, rtol=rtol, atol=atol)

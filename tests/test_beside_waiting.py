@@ -1,0 +1,59 @@
+"""A process started before its work is known (stages.beside.Beside.waiting, the FEA's process of
+`python pipeline.py`): it imports what it is told, runs the steps it is handed as a process started
+on them would, ends quietly when it is handed none, and a failure before its steps is one
+BesideError that says what failed."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from functools import partial
+
+import pytest
+
+from stages.beside import Beside, BesideError
+
+
+def modules_and_numbers(count: int):
+    """Steps that report whether the waiting child imported its modules before them."""
+    yield "json" in sys.modules and "colorsys" in sys.modules
+    yield from range(count)
+
+
+def test_a_waiting_process_imports_its_modules_then_runs_the_steps_it_is_handed():
+    beside = Beside.waiting("the test's work", ("json", "colorsys"))
+    beside.hand(partial(modules_and_numbers, 2), "the test's work")
+    assert [beside.next(), beside.next(), beside.next()] == [True, 0, 1]
+    beside.close()
+    assert beside._process.exitcode == 0
+
+
+def test_a_waiting_process_handed_nothing_ends_quietly_when_its_pipe_closes():
+    beside = Beside.waiting("the test's work", ())
+    beside._hand_over.close()  # as when this process ends without handing it anything
+    beside._process.join(timeout=30)
+    assert beside._process.exitcode == 0
+
+
+def test_a_waiting_process_is_cancelled_without_an_error():
+    beside = Beside.waiting("the test's work", ("json",))
+    beside.cancel()
+    assert not beside._process.is_alive()
+    beside.cancel()  # a second cancel (the run's own, after start_fea's) does nothing
+
+
+def test_a_failed_import_in_a_waiting_process_is_one_beside_error():
+    beside = Beside.waiting("the test's work", ("no_such_module_anywhere",))
+    beside.hand(partial(modules_and_numbers, 1), "the test's work")
+    with pytest.raises(BesideError, match="^the test's work: its process failed to start: ModuleNotFoundError"):
+        beside.next()
+
+
+def test_a_waiting_process_killed_before_its_steps_is_one_beside_error():
+    beside = Beside.waiting("the test's work", ())
+    os.kill(beside.pid, signal.SIGKILL)
+    beside._process.join(timeout=30)
+    beside.hand(partial(modules_and_numbers, 1), "the test's work")  # the pipe's other end is gone: no error here
+    with pytest.raises(BesideError, match=r"^the test's work: its process ended early \(signal 9"):
+        beside.next()
