@@ -90,11 +90,13 @@ def _draw_batch(batch: list[FigureJob]) -> list[Path]:
     youngest generation at its end (no pass moved it on): its garbage (about 25 MB for the 15
     figures) is collected there, without a pass over the run's objects."""
     from reporting.plots import close_spare_figures
+    from reporting.text_layout import cached_text_layout
 
     was_enabled = gc.isenabled()
     gc.disable()
     try:
-        return [job.draw() for job in batch]
+        with cached_text_layout():
+            return [job.draw() for job in batch]
     finally:
         close_spare_figures()
         gc.collect(0)

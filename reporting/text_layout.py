@@ -1,0 +1,123 @@
+"""Text measured and shaped once per string while a batch of figures is drawn.
+
+matplotlib works out a text's layout (its lines' extents: the font looked up, two of its tables
+read, the string measured by FreeType) every time it needs the text's extent: 2-4 times per tick
+label in one draw (the tick labels' boxes, the axis label's placement, the draw itself), again on
+every figure (its metrics cache lives with one renderer, and each figure's canvas has its own), and
+the Agg renderer shapes every string again when it draws it (HarfBuzz, about 0.6 ms for "0.25").
+The default run's 15 figures draw 648 texts of 131 strings, and measure texts 1,766 times.
+
+`cached_text_layout()` keeps both while it is active:
+- a text's layout (`Text._get_layout`: its box and lines relative to its anchor) under what it is
+  computed from: the string, the font properties, the rotation, the alignments, the line spacing,
+  the figure's and the renderer's dpi (texts that wrap, whose lines depend on where they stand, and
+  TeX texts are measured as before);
+- a string's shaping by the Agg renderer (the glyphs and their offsets from `FT2Font._layout`)
+  under the font properties, the dpi and the shaping's arguments; the glyphs are rendered at their
+  place as before.
+Both are pure functions of their keys, so the pixels are those of matplotlib's own drawing
+(tests/test_reporting_text_layout.py; the default run's PNGs, benchmarks/bench_figures.py). The
+caches hold a batch's strings only (a few hundred) and the rcParams stay as they are while it is
+active (the report's plots set none).
+
+Both rely on matplotlib's private `Text._get_layout`, `RendererAgg._prepare_font` and, for the
+shaping, `FT2Font._layout` (matplotlib 3.11); where one is missing, matplotlib works as before.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+from matplotlib.backends.backend_agg import RendererAgg
+from matplotlib.ft2font import FT2Font
+from matplotlib.text import Text
+
+# What Text._get_layout reads of a text besides its string, font, rotation and dpi (matplotlib 3.11);
+# an attribute an older matplotlib lacks is None in the key
+_LAYOUT_ATTRIBUTES = (
+    "_horizontalalignment",
+    "_verticalalignment",
+    "_multialignment",
+    "_rotation_mode",
+    "_linespacing",
+    "_parse_math",
+    "_features",
+    "_language",
+)
+
+
+def _font_key(properties) -> tuple:
+    """A FontProperties' state (family, style, weight, size, file...), as its own hash reads it."""
+    return tuple(vars(properties).items())
+
+
+def _layout_key(text: Text, renderer) -> tuple | None:
+    """What `text`'s layout is computed from, or None where it depends on more (wrapped or TeX text)."""
+    if text.get_wrap() or text.get_usetex():
+        return None
+    return (
+        type(text),
+        text.get_text(),
+        _font_key(text.get_fontproperties()),
+        text.get_rotation(),
+        text.get_figure(root=True).dpi,
+        type(renderer),
+        getattr(renderer, "dpi", None),
+        *(getattr(text, name, None) for name in _LAYOUT_ATTRIBUTES),
+    )
+
+
+class _PreparedFont:
+    """What RendererAgg._prepare_font returns, the font prepared (looked up, cleared, sized) only
+    when it is used for more than a string's shaping, and the shaping served from `shapes`."""
+
+    def __init__(self, prepare, key: tuple, shapes: dict) -> None:
+        self._prepare, self._key, self._shapes, self._font = prepare, key, shapes, None
+
+    def _prepared(self):
+        if self._font is None:
+            self._font = self._prepare()
+        return self._font
+
+    def _layout(self, text, flags, features=None, language=None):
+        key = (self._key, text, flags, None if features is None else tuple(features), language)
+        items = self._shapes.get(key)
+        if items is None:
+            items = self._shapes[key] = tuple(
+                self._prepared()._layout(text, flags=flags, features=features, language=language)
+            )
+        return items
+
+    def __getattr__(self, name):
+        return getattr(self._prepared(), name)
+
+
+@contextmanager
+def cached_text_layout() -> Iterator[None]:
+    """While active, texts' layouts and the Agg renderer's shaping of strings are computed once
+    per key (module docstring); matplotlib's own methods are back and the caches gone after."""
+    get_layout, prepare_font = Text._get_layout, RendererAgg._prepare_font
+    layouts: dict[tuple, tuple] = {}
+    shapes: dict[tuple, tuple] = {}
+
+    def cached_layout(text, renderer):
+        key = _layout_key(text, renderer)
+        if key is None:
+            return get_layout(text, renderer)
+        layout = layouts.get(key)
+        if layout is None:
+            layout = layouts[key] = get_layout(text, renderer)
+        box, lines, descent = layout
+        return box.frozen(), list(lines), descent  # the callers' own copies: they may move the box
+
+    def lazily_prepared_font(renderer, properties):
+        return _PreparedFont(lambda: prepare_font(renderer, properties), (_font_key(properties), renderer.dpi), shapes)
+
+    Text._get_layout = cached_layout
+    if hasattr(FT2Font, "_layout"):
+        RendererAgg._prepare_font = lazily_prepared_font
+    try:
+        yield
+    finally:
+        Text._get_layout, RendererAgg._prepare_font = get_layout, prepare_font
