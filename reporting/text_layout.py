@@ -7,7 +7,8 @@ every figure (its metrics cache lives with one renderer, and each figure's canva
 the Agg renderer shapes every string again when it draws it (HarfBuzz, about 0.6 ms for "0.25").
 The default run's 15 figures draw 648 texts of 131 strings, and measure texts 1,766 times.
 
-`cached_text_layout()` keeps both while it is active:
+`install_text_layout_cache()` (for the rest of a figure worker's life) or `cached_text_layout()` (for a
+block) keep both:
 - a text's layout (`Text._get_layout`: its box and lines relative to its anchor) under what it is
   computed from: the string, the font properties, the rotation, the alignments, the line spacing,
   the figure's and the renderer's dpi (texts that wrap, whose lines depend on where they stand, and
@@ -17,8 +18,8 @@ The default run's 15 figures draw 648 texts of 131 strings, and measure texts 1,
   place as before.
 Both are pure functions of their keys, so the pixels are those of matplotlib's own drawing
 (tests/test_reporting_text_layout.py; the default run's PNGs, benchmarks/bench_figures.py). The
-caches hold a batch's strings only (a few hundred) and the rcParams stay as they are while it is
-active (the report's plots set none).
+caches hold the strings of one draw_figures call (a few hundred), during which the rcParams stay as
+they are (the report's plots set none).
 
 Both rely on matplotlib's private `Text._get_layout`, `RendererAgg._prepare_font` and, for the
 shaping, `FT2Font._layout` (matplotlib 3.11); where one is missing, matplotlib works as before.
@@ -26,7 +27,7 @@ shaping, `FT2Font._layout` (matplotlib 3.11); where one is missing, matplotlib w
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 from matplotlib.backends.backend_agg import RendererAgg
@@ -93,10 +94,9 @@ class _PreparedFont:
         return getattr(self._prepared(), name)
 
 
-@contextmanager
-def cached_text_layout() -> Iterator[None]:
-    """While active, texts' layouts and the Agg renderer's shaping of strings are computed once
-    per key (module docstring); matplotlib's own methods are back and the caches gone after."""
+def install_text_layout_cache() -> Callable[[], None]:
+    """From now on, texts' layouts and the Agg renderer's shaping of strings are computed once per
+    key (module docstring); returns what puts matplotlib's own methods back and drops the caches."""
     get_layout, prepare_font = Text._get_layout, RendererAgg._prepare_font
     layouts: dict[tuple, tuple] = {}
     shapes: dict[tuple, tuple] = {}
@@ -114,10 +114,22 @@ def cached_text_layout() -> Iterator[None]:
     def lazily_prepared_font(renderer, properties):
         return _PreparedFont(lambda: prepare_font(renderer, properties), (_font_key(properties), renderer.dpi), shapes)
 
+    def uninstall() -> None:
+        Text._get_layout, RendererAgg._prepare_font = get_layout, prepare_font
+        layouts.clear()
+        shapes.clear()
+
     Text._get_layout = cached_layout
     if hasattr(FT2Font, "_layout"):
         RendererAgg._prepare_font = lazily_prepared_font
+    return uninstall
+
+
+@contextmanager
+def cached_text_layout() -> Iterator[None]:
+    """`install_text_layout_cache` while the block runs, matplotlib as before after it."""
+    uninstall = install_text_layout_cache()
     try:
         yield
     finally:
-        Text._get_layout, RendererAgg._prepare_font = get_layout, prepare_font
+        uninstall()
