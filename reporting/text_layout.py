@@ -27,11 +27,13 @@ shaping, `FT2Font._layout` (matplotlib 3.11); where one is missing, matplotlib w
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
-from matplotlib.backends.backend_agg import RendererAgg
-from matplotlib.ft2font import FT2Font
+import numpy as np
+from matplotlib.backends.backend_agg import RendererAgg, get_hinting_flag
+from matplotlib.ft2font import FT2Font, RenderMode
 from matplotlib.text import Text
 
 # What Text._get_layout reads of a text besides its string, font, rotation and dpi (matplotlib 3.11);
@@ -69,6 +71,53 @@ def _layout_key(text: Text, renderer) -> tuple | None:
     )
 
 
+def _glyph_drawer(draw_glyphs_and_boxes, bitmaps: dict):
+    """RendererAgg._draw_text_glyphs_and_boxes (matplotlib 3.11) with each glyph's bitmap rendered
+    once per font, size, direction and sub-pixel offset: FreeType rasterises a glyph at its place
+    given in 1/64 pixel, and a glyph moved by whole pixels is the same bitmap moved by them. The
+    boxes (mathtext's rules) are matplotlib's own."""
+
+    def draw(renderer, gc, x, y, angle, glyphs, boxes):
+        cos, sin = math.cos(math.radians(angle)), math.sin(math.radians(angle))
+        flags, antialiased = get_hinting_flag(), gc.get_antialiased()
+        for font, size, glyph, slant, extend, dx, dy in glyphs:  # dy upwards, as FreeType's y
+            place = (
+                round(0x40 * (x + dx * cos - dy * sin)),
+                round(0x40 * (renderer.height - y + dx * sin + dy * cos)),
+            )
+            key = (
+                font,
+                size,
+                renderer.dpi,
+                glyph,
+                angle,
+                slant,
+                extend,
+                place[0] & 63,
+                place[1] & 63,
+                flags,
+                antialiased,
+            )
+            drawn = bitmaps.get(key)
+            if drawn is None:
+                font.set_size(size, renderer.dpi)
+                matrix = 0x10000 * np.array([[cos, -sin], [sin, cos]]) @ [[extend, extend * slant], [0, 1]]
+                font._set_transform(matrix.round().astype(int), list(place))
+                bitmap = font._render_glyph(glyph, flags, RenderMode.NORMAL if antialiased else RenderMode.MONO)
+                buffer = bitmap.buffer if antialiased else bitmap.buffer * 0xFF
+                # the bitmap's corner relative to the glyph's whole-pixel place
+                drawn = bitmaps[key] = (buffer, bitmap.left - (place[0] >> 6), bitmap.top - (place[1] >> 6))
+            buffer, left, top = drawn
+            # draw_text_image's y is downwards, at the bitmap's bottom
+            bottom = int(renderer.height) - (top + (place[1] >> 6)) + buffer.shape[0]
+            renderer._renderer.draw_text_image(buffer, left + (place[0] >> 6), bottom, 0, gc)
+        boxes = list(boxes)
+        if boxes:
+            draw_glyphs_and_boxes(renderer, gc, x, y, angle, (), boxes)
+
+    return draw
+
+
 class _PreparedFont:
     """What RendererAgg._prepare_font returns, the font prepared (looked up, cleared, sized) only
     when it is used for more than a string's shaping, and the shaping served from `shapes`."""
@@ -98,8 +147,10 @@ def install_text_layout_cache() -> Callable[[], None]:
     """From now on, texts' layouts and the Agg renderer's shaping of strings are computed once per
     key (module docstring); returns what puts matplotlib's own methods back and drops the caches."""
     get_layout, prepare_font = Text._get_layout, RendererAgg._prepare_font
+    draw_glyphs_and_boxes = RendererAgg._draw_text_glyphs_and_boxes
     layouts: dict[tuple, tuple] = {}
     shapes: dict[tuple, tuple] = {}
+    bitmaps: dict[tuple, tuple] = {}
 
     def cached_layout(text, renderer):
         key = _layout_key(text, renderer)
@@ -116,12 +167,15 @@ def install_text_layout_cache() -> Callable[[], None]:
 
     def uninstall() -> None:
         Text._get_layout, RendererAgg._prepare_font = get_layout, prepare_font
-        layouts.clear()
-        shapes.clear()
+        RendererAgg._draw_text_glyphs_and_boxes = draw_glyphs_and_boxes
+        for cache in (layouts, shapes, bitmaps):
+            cache.clear()
 
     Text._get_layout = cached_layout
     if hasattr(FT2Font, "_layout"):
         RendererAgg._prepare_font = lazily_prepared_font
+    if hasattr(FT2Font, "_render_glyph"):
+        RendererAgg._draw_text_glyphs_and_boxes = _glyph_drawer(draw_glyphs_and_boxes, bitmaps)
     return uninstall
 
 
