@@ -104,3 +104,29 @@ def test_matplotlib_works_as_before_after_the_batch():
     except ValueError:
         pass
     assert Text._get_layout is get_layout and RendererAgg._prepare_font is prepare_font
+
+
+def test_a_glyph_moved_by_whole_pixels_is_rendered_once_and_drawn_as_matplotlib_draws_it(monkeypatch):
+    """One string at places a whole number of pixels apart (one bitmap per glyph) and at sub-pixel
+    offsets (a bitmap each), upright and turned: the pixels of matplotlib's own drawing."""
+    from matplotlib.ft2font import FT2Font
+    from matplotlib.transforms import IdentityTransform
+
+    rendered = []
+    render = FT2Font._render_glyph
+    monkeypatch.setattr(FT2Font, "_render_glyph", lambda font, *args: rendered.append(1) or render(font, *args))
+    fig = plt.figure(figsize=(3, 3), dpi=110)
+    places = [(20.0, 30.0), (57.0, 30.0), (20.0, 91.0), (20.25, 150.5), (140.0, 200.75)]
+    for x, y in places:
+        for rotation in (0, 30):
+            fig.text(x + 100 * (rotation > 0), y, "0.25", rotation=rotation, transform=IdentityTransform())
+    pixels = _pixels(fig)
+    glyphs = len(rendered)
+    with cached_text_layout():
+        rendered.clear()
+        cached = _pixels(fig)
+    plt.close(fig)
+    assert np.array_equal(cached, pixels)
+    # "0.25": 4 glyphs at each of 5 places in 2 directions (40 renders); the first three places,
+    # whole pixels apart, share their bitmaps: 4 x 3 renders per direction
+    assert glyphs == 4 * 5 * 2 and len(rendered) == 4 * 3 * 2
