@@ -1,28 +1,31 @@
-"""Text measured and shaped once per string while a batch of figures is drawn.
+"""Text measured, shaped and rendered once per string and glyph while figures are drawn.
 
 matplotlib works out a text's layout (its lines' extents: the font looked up, two of its tables
 read, the string measured by FreeType) every time it needs the text's extent: 2-4 times per tick
 label in one draw (the tick labels' boxes, the axis label's placement, the draw itself), again on
-every figure (its metrics cache lives with one renderer, and each figure's canvas has its own), and
-the Agg renderer shapes every string again when it draws it (HarfBuzz, about 0.6 ms for "0.25").
-The default run's 15 figures draw 648 texts of 131 strings, and measure texts 1,766 times.
+every figure (its metrics cache lives with one renderer, and each figure's canvas has its own); the
+Agg renderer shapes every string again when it draws it (HarfBuzz, about 0.6 ms for "0.25"), and
+renders every glyph again (FreeType loads, hints and rasterises it, reading the font file). The
+default run's 15 figures draw 648 texts of 131 strings (4,238 glyphs, 2,006 of them distinct to
+the sub-pixel), and measure texts 1,766 times.
 
 `install_text_layout_cache()` (for the rest of a figure worker's life) or `cached_text_layout()` (for a
-block) keep both:
+block) keep
 - a text's layout (`Text._get_layout`: its box and lines relative to its anchor) under what it is
   computed from: the string, the font properties, the rotation, the alignments, the line spacing,
   the figure's and the renderer's dpi (texts that wrap, whose lines depend on where they stand, and
   TeX texts are measured as before);
 - a string's shaping by the Agg renderer (the glyphs and their offsets from `FT2Font._layout`)
-  under the font properties, the dpi and the shaping's arguments; the glyphs are rendered at their
-  place as before.
-Both are pure functions of their keys, so the pixels are those of matplotlib's own drawing
+  under the font properties, the dpi and the shaping's arguments;
+- a glyph's bitmap under its font, size, direction and place modulo whole pixels (`_glyph_drawer`).
+Each is a pure function of its key, so the pixels are those of matplotlib's own drawing
 (tests/test_reporting_text_layout.py; the default run's PNGs, benchmarks/bench_figures.py). The
-caches hold the strings of one draw_figures call (a few hundred), during which the rcParams stay as
-they are (the report's plots set none).
+caches hold what one draw_figures call draws (a few hundred strings, a few thousand glyph bitmaps of
+a few dozen bytes), during which the rcParams stay as they are (the report's plots set none).
 
-Both rely on matplotlib's private `Text._get_layout`, `RendererAgg._prepare_font` and, for the
-shaping, `FT2Font._layout` (matplotlib 3.11); where one is missing, matplotlib works as before.
+They rely on matplotlib's private `Text._get_layout` and, for the shaping and the glyphs,
+`RendererAgg._prepare_font`, `RendererAgg._draw_text_glyphs_and_boxes`, `FT2Font._layout` and
+`FT2Font._render_glyph` (matplotlib 3.11); where those are missing, matplotlib draws as before.
 """
 
 from __future__ import annotations
@@ -32,9 +35,19 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
 import numpy as np
+from matplotlib import ft2font
 from matplotlib.backends.backend_agg import RendererAgg, get_hinting_flag
-from matplotlib.ft2font import FT2Font, RenderMode
 from matplotlib.text import Text
+
+# matplotlib 3.11's glyph-by-glyph Agg text drawing and string shaping (older versions have neither)
+_GLYPH_BY_GLYPH = all(
+    (
+        hasattr(ft2font, "RenderMode"),
+        hasattr(ft2font.FT2Font, "_render_glyph"),
+        hasattr(RendererAgg, "_draw_text_glyphs_and_boxes"),
+    )
+)
+_SHAPES_STRINGS = hasattr(ft2font.FT2Font, "_layout") and hasattr(RendererAgg, "_prepare_font")
 
 # What Text._get_layout reads of a text besides its string, font, rotation and dpi (matplotlib 3.11);
 # an attribute an older matplotlib lacks is None in the key
@@ -103,7 +116,9 @@ def _glyph_drawer(draw_glyphs_and_boxes, bitmaps: dict):
                 font.set_size(size, renderer.dpi)
                 matrix = 0x10000 * np.array([[cos, -sin], [sin, cos]]) @ [[extend, extend * slant], [0, 1]]
                 font._set_transform(matrix.round().astype(int), list(place))
-                bitmap = font._render_glyph(glyph, flags, RenderMode.NORMAL if antialiased else RenderMode.MONO)
+                bitmap = font._render_glyph(
+                    glyph, flags, ft2font.RenderMode.NORMAL if antialiased else ft2font.RenderMode.MONO
+                )
                 buffer = bitmap.buffer if antialiased else bitmap.buffer * 0xFF
                 # the bitmap's corner relative to the glyph's whole-pixel place
                 drawn = bitmaps[key] = (buffer, bitmap.left - (place[0] >> 6), bitmap.top - (place[1] >> 6))
@@ -144,10 +159,12 @@ class _PreparedFont:
 
 
 def install_text_layout_cache() -> Callable[[], None]:
-    """From now on, texts' layouts and the Agg renderer's shaping of strings are computed once per
-    key (module docstring); returns what puts matplotlib's own methods back and drops the caches."""
-    get_layout, prepare_font = Text._get_layout, RendererAgg._prepare_font
-    draw_glyphs_and_boxes = RendererAgg._draw_text_glyphs_and_boxes
+    """From now on, texts' layouts, the Agg renderer's shaping of strings and its glyphs' bitmaps are
+    computed once per key (module docstring); returns what puts matplotlib's own methods back and
+    drops the caches."""
+    get_layout = Text._get_layout
+    prepare_font = getattr(RendererAgg, "_prepare_font", None)
+    draw_glyphs_and_boxes = getattr(RendererAgg, "_draw_text_glyphs_and_boxes", None)
     layouts: dict[tuple, tuple] = {}
     shapes: dict[tuple, tuple] = {}
     bitmaps: dict[tuple, tuple] = {}
@@ -166,15 +183,18 @@ def install_text_layout_cache() -> Callable[[], None]:
         return _PreparedFont(lambda: prepare_font(renderer, properties), (_font_key(properties), renderer.dpi), shapes)
 
     def uninstall() -> None:
-        Text._get_layout, RendererAgg._prepare_font = get_layout, prepare_font
-        RendererAgg._draw_text_glyphs_and_boxes = draw_glyphs_and_boxes
+        Text._get_layout = get_layout
+        if _SHAPES_STRINGS:
+            RendererAgg._prepare_font = prepare_font
+        if _GLYPH_BY_GLYPH:
+            RendererAgg._draw_text_glyphs_and_boxes = draw_glyphs_and_boxes
         for cache in (layouts, shapes, bitmaps):
             cache.clear()
 
     Text._get_layout = cached_layout
-    if hasattr(FT2Font, "_layout"):
+    if _SHAPES_STRINGS:
         RendererAgg._prepare_font = lazily_prepared_font
-    if hasattr(FT2Font, "_render_glyph"):
+    if _GLYPH_BY_GLYPH:
         RendererAgg._draw_text_glyphs_and_boxes = _glyph_drawer(draw_glyphs_and_boxes, bitmaps)
     return uninstall
 

@@ -13,6 +13,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 from matplotlib.text import Text  # noqa: E402
 
+from reporting import text_layout  # noqa: E402
 from reporting.text_layout import cached_text_layout  # noqa: E402
 
 # texts of every kind the layout is computed from: rotation, alignments, lines, math, font, spacing
@@ -106,6 +107,7 @@ def test_matplotlib_works_as_before_after_the_batch():
     assert Text._get_layout is get_layout and RendererAgg._prepare_font is prepare_font
 
 
+@pytest.mark.skipif(not text_layout._GLYPH_BY_GLYPH, reason="matplotlib before 3.11 renders whole strings")
 def test_a_glyph_moved_by_whole_pixels_is_rendered_once_and_drawn_as_matplotlib_draws_it(monkeypatch):
     """One string at places a whole number of pixels apart (one bitmap per glyph) and at sub-pixel
     offsets (a bitmap each), upright and turned: the pixels of matplotlib's own drawing."""
