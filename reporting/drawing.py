@@ -12,8 +12,8 @@ Jobs of one batch (the figures with the same grid of axes: the same figure for e
 kinds that share a grid) are drawn one after the other in one process, so that each draws on the
 axes of the one before (reporting.plots keeps a drawn figure for the next of the same grid):
 creating the axes and their ticks is 40-45 % of drawing the figure that creates them. A worker (or
-this process, drawing the figures itself) lays out and shapes each string once for all its figures
-(reporting.text_layout).
+this process, drawing the figures itself) lays out and shapes each string and renders each glyph
+once for all its figures (reporting.text_layout).
 """
 
 from __future__ import annotations
@@ -110,8 +110,8 @@ def _draw_batch(batch: list[FigureJob]) -> list[Path]:
 
 
 def _start_worker() -> None:
-    """A forked worker's start: its texts laid out and shaped once for all its batches (the worker
-    ends with the draw_figures call; the parent's fonts are not used after the fork)."""
+    """A forked worker's start: its texts laid out, shaped and rendered once for all its batches
+    (the worker ends with the draw_figures call; matplotlib's fonts are opened anew after a fork)."""
     from reporting.text_layout import install_text_layout_cache
 
     install_text_layout_cache()
