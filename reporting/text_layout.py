@@ -49,6 +49,8 @@ _GLYPH_BY_GLYPH = all(
 )
 _SHAPES_STRINGS = hasattr(ft2font.FT2Font, "_layout") and hasattr(RendererAgg, "_prepare_font")
 
+_installed = False  # the caches are on (matplotlib's methods replaced) in this process
+
 # What Text._get_layout reads of a text besides its string, font, rotation and dpi (matplotlib 3.11);
 # an attribute an older matplotlib lacks is None in the key
 _LAYOUT_ATTRIBUTES = (
@@ -161,7 +163,12 @@ class _PreparedFont:
 def install_text_layout_cache() -> Callable[[], None]:
     """From now on, texts' layouts, the Agg renderer's shaping of strings and its glyphs' bitmaps are
     computed once per key (module docstring); returns what puts matplotlib's own methods back and
-    drops the caches."""
+    drops the caches. Where they are on already (a draw_figures call within another, or in another
+    thread) nothing changes, and the returned function does nothing: the first one's undo is the
+    undo."""
+    global _installed
+    if _installed:
+        return lambda: None
     get_layout = Text._get_layout
     prepare_font = getattr(RendererAgg, "_prepare_font", None)
     draw_glyphs_and_boxes = getattr(RendererAgg, "_draw_text_glyphs_and_boxes", None)
@@ -183,6 +190,8 @@ def install_text_layout_cache() -> Callable[[], None]:
         return _PreparedFont(lambda: prepare_font(renderer, properties), (_font_key(properties), renderer.dpi), shapes)
 
     def uninstall() -> None:
+        global _installed
+        _installed = False
         Text._get_layout = get_layout
         if _SHAPES_STRINGS:
             RendererAgg._prepare_font = prepare_font
@@ -196,6 +205,7 @@ def install_text_layout_cache() -> Callable[[], None]:
         RendererAgg._prepare_font = lazily_prepared_font
     if _GLYPH_BY_GLYPH:
         RendererAgg._draw_text_glyphs_and_boxes = _glyph_drawer(draw_glyphs_and_boxes, bitmaps)
+    _installed = True
     return uninstall
 
 

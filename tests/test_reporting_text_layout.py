@@ -132,3 +132,21 @@ def test_a_glyph_moved_by_whole_pixels_is_rendered_once_and_drawn_as_matplotlib_
     # "0.25": 4 glyphs at each of 5 places in 2 directions (40 renders); the first three places,
     # whole pixels apart, share their bitmaps: 4 x 3 renders per direction
     assert glyphs == 4 * 5 * 2 and len(rendered) == 4 * 3 * 2
+
+
+def test_caches_switched_on_within_caches_leave_matplotlib_as_it_was_when_the_first_ends():
+    """A draw_figures call within another (or in another thread): the inner one uses the outer's
+    caches, and matplotlib's own methods are back once the outer one ends, whatever the order."""
+    original = Text._get_layout
+    outer = text_layout.install_text_layout_cache()
+    cached = Text._get_layout
+    with cached_text_layout():
+        assert Text._get_layout is cached
+    assert Text._get_layout is cached
+    outer()
+    assert Text._get_layout is original
+    with cached_text_layout():
+        inner = text_layout.install_text_layout_cache()
+    assert Text._get_layout is original
+    inner()  # after the first one's end: nothing to undo
+    assert Text._get_layout is original
