@@ -25,6 +25,7 @@ _TEXTS = [
     dict(s="two lines\nthe second longer", multialignment="right", linespacing=1.6),
     dict(s="two lines\ncentred", ha="center", va="center_baseline"),
     dict(s=r"$x^2 - z$ (mm)", family="serif", weight="bold"),
+    dict(s=r"$\frac{x}{2} \sqrt{z}$"),  # mathtext with rules (boxes) beside its glyphs
     dict(s="a long text that wraps where it stands " * 3, wrap=True),
     dict(s="0.25", family="monospace", style="italic"),
     dict(s="0.25", rotation=30),  # one string in several fonts and directions: a layout each
