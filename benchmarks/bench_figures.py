@@ -1,6 +1,7 @@
 """The default run's 15 figures drawn in one process, in CPU seconds, this tree beside another.
 
     python benchmarks/bench_figures.py [--repeats 3] [--old-tree DIR] [--cache-dir CACHE] [--keep DIR]
+                                       [--workers N]
 
 First runs `pipeline.py` (the default job; `--cache-dir` a warm FEA cache makes it quicker) in this
 process with `reporting.outputs.draw_figures` replaced by a recorder, and pickles the figure jobs
@@ -11,7 +12,9 @@ tree's own plot functions and `reporting.drawing.draw_figures(jobs, workers=1)` 
 batches one after the other, as a figure worker draws them), and prints the CPU seconds
 (`time.process_time`) of the drawing, per figure and in all, their medians and the ratio of the
 medians. Last it says which PNGs of the trees' last runs differ and by how many pixels (`--keep
-DIR` keeps them under DIR/new and DIR/old).
+DIR` keeps them under DIR/new and DIR/old). With `--workers N` (N > 1) the figures are drawn as the
+run draws them, in N forked workers (`draw_figures(jobs, workers=N)`), and the CPU seconds are the
+workers' (user and system, `resource.getrusage(RUSAGE_CHILDREN)`), in all only.
 """
 
 from __future__ import annotations
@@ -31,11 +34,11 @@ ROOT = Path(__file__).resolve().parent.parent
 
 # Run in a fresh interpreter with the tree first on sys.path: argv = the recorded jobs, the PNGs' folder
 CHILD = """
-import importlib, json, pickle, sys, time
+import importlib, json, pickle, resource, sys, time
 from pathlib import Path
 import reporting.plots  # imported before the clock: pyplot and its fonts' list
 from reporting.drawing import FigureJob, draw_figures
-recorded, out = pickle.loads(Path(sys.argv[1]).read_bytes()), Path(sys.argv[2])
+recorded, out, workers = pickle.loads(Path(sys.argv[1]).read_bytes()), Path(sys.argv[2]), int(sys.argv[3])
 cpu_s = {}
 def timed(key, plot):
     def draw(*args):
@@ -51,9 +54,14 @@ jobs = {}
 for key, (module, name, args, batch) in recorded.items():
     plot = getattr(importlib.import_module(module), name)
     jobs[key] = FigureJob(timed(" ".join(map(str, key)), plot), tuple(here(a) for a in args), batch)
-start = time.process_time()
-draw_figures(jobs, workers=1)
-print(json.dumps({"total": time.process_time() - start, "figures": cpu_s}))
+def cpu_s_now():  # this process's, or its finished workers'
+    if workers == 1:
+        return time.process_time()
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+start = cpu_s_now()
+draw_figures(jobs, workers=workers)
+print(json.dumps({"total": cpu_s_now() - start, "figures": cpu_s}))
 """
 
 
@@ -82,11 +90,15 @@ def record_jobs(pipeline_options: list[str], destination: Path) -> int:
     return len(recorded)
 
 
-def draw_once(tree: Path, jobs: Path, out: Path) -> dict:
+def draw_once(tree: Path, jobs: Path, out: Path, workers: int = 1) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     env = {**os.environ, "PYTHONPATH": str(tree)}
     done = subprocess.run(
-        [sys.executable, "-c", CHILD, str(jobs), str(out)], cwd=tree, env=env, capture_output=True, text=True
+        [sys.executable, "-c", CHILD, str(jobs), str(out), str(workers)],
+        cwd=tree,
+        env=env,
+        capture_output=True,
+        text=True,
     )
     if done.returncode != 0:
         raise SystemExit(f"{tree}: drawing the figures failed:\n{done.stderr[-2000:]}")
@@ -118,7 +130,10 @@ def main(argv=None) -> int:
     parser.add_argument("--old-tree", type=Path, default=None, help="another checkout, drawn alternately")
     parser.add_argument("--cache-dir", type=Path, default=None, help="the FEA cache of the recording run")
     parser.add_argument("--keep", type=Path, default=None, help="keep each tree's last PNGs under DIR/<tree>")
+    parser.add_argument("--workers", type=int, default=1, help="draw in N forked workers, as the run does")
     args = parser.parse_args(argv)
+    if args.workers < 1:
+        parser.error(f"--workers {args.workers}: expected a number of workers of at least 1")
     trees = {"new": ROOT} | ({"old": args.old_tree.resolve()} if args.old_tree else {})
     work = Path(tempfile.mkdtemp(prefix="bench-figures-"))
     try:
@@ -131,7 +146,7 @@ def main(argv=None) -> int:
         for repeat in range(args.repeats):
             # the trees' order turned round every repeat: a drift in the host's load favours neither
             for name, tree in list(trees.items())[:: 1 if repeat % 2 == 0 else -1]:
-                runs[name].append(draw_once(tree, jobs, folders[name]))
+                runs[name].append(draw_once(tree, jobs, folders[name], args.workers))
                 print(f"run {repeat + 1} {name}: {runs[name][-1]['total']:.2f} CPU s", flush=True)
         print(f"medians of {args.repeats} runs, trees alternating; load average now {os.getloadavg()[0]:.1f}")
         print("| figure | " + " | ".join(f"{name}: CPU s (runs)" for name in trees) + " |")

@@ -11,7 +11,9 @@ stage 23 s where drawing the figures took 4 s.
 Jobs of one batch (the figures with the same grid of axes: the same figure for each material, or
 kinds that share a grid) are drawn one after the other in one process, so that each draws on the
 axes of the one before (reporting.plots keeps a drawn figure for the next of the same grid):
-creating the axes and their ticks is 40-45 % of drawing the figure that creates them.
+creating the axes and their ticks is 40-45 % of drawing the figure that creates them. A worker (or
+this process, drawing the figures itself) lays out and shapes each string and renders each glyph
+once for all its figures (reporting.text_layout).
 """
 
 from __future__ import annotations
@@ -67,14 +69,19 @@ def draw_figures(jobs: dict[Hashable, FigureJob], workers: int | None = None) ->
     workers = min(usable_cores() if workers is None else workers, len(grouped))
     # a Dask worker drawing a study's best designs may not start children (processes.may_start_children)
     if workers < 2 or not may_start_children() or "fork" not in multiprocessing.get_all_start_methods():
-        drawn = {key: path for keys in grouped for key, path in zip(keys, _draw_batch([jobs[k] for k in keys]))}
+        from reporting.text_layout import cached_text_layout
+
+        with cached_text_layout():
+            drawn = {key: path for keys in grouped for key, path in zip(keys, _draw_batch([jobs[k] for k in keys]))}
         return {key: drawn[key] for key in jobs}
     _BATCHES[:] = [[jobs[k] for k in keys] for keys in grouped]
     # the run's objects moved out of the collector's sight: a worker's collections would otherwise
     # touch every one of them and copy the run's pages into the worker (copy on write)
     gc.freeze()
     try:
-        with ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("fork")) as pool:
+        with ProcessPoolExecutor(
+            workers, mp_context=multiprocessing.get_context("fork"), initializer=_start_worker
+        ) as pool:
             pending = [(keys, pool.submit(_draw_forked_batch, i)) for i, keys in enumerate(grouped)]
             drawn = {key: path for keys, future in pending for key, path in zip(keys, future.result())}
         return {key: drawn[key] for key in jobs}
@@ -100,6 +107,14 @@ def _draw_batch(batch: list[FigureJob]) -> list[Path]:
         gc.collect(0)
         if was_enabled:
             gc.enable()
+
+
+def _start_worker() -> None:
+    """A forked worker's start: its texts laid out, shaped and rendered once for all its batches
+    (the worker ends with the draw_figures call; matplotlib's fonts are opened anew after a fork)."""
+    from reporting.text_layout import install_text_layout_cache
+
+    install_text_layout_cache()
 
 
 def _draw_forked_batch(index: int) -> list[Path]:

@@ -360,3 +360,21 @@ def test_a_figure_is_rendered_to_the_pixels_savefig_writes(tmp_path):
         plt.close(fig)
         assert pixels.shape[2] == 4 and pixels.shape[1] > (width + 2 * m) * plots.DPI - 2
         assert np.array_equal(pixels.ravel(), np.fromfile(path, dtype=np.uint8))
+
+
+def _write_layout_method(path: Path) -> Path:
+    from matplotlib.text import Text
+
+    return _write(Text._get_layout.__qualname__, path)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_every_batch_lays_out_its_texts_from_the_drawing_s_cache_and_matplotlib_is_as_before_after(tmp_path, workers):
+    """The text layout cache (reporting.text_layout) is on for every batch, in the workers or here,
+    and off once the figures are drawn."""
+    from matplotlib.text import Text
+
+    before = Text._get_layout
+    jobs = {i: FigureJob(_write_layout_method, (tmp_path / f"{i}.txt",)) for i in range(3)}
+    methods = {path.read_text().split()[0] for path in draw_figures(jobs, workers=workers).values()}
+    assert methods == {"install_text_layout_cache.<locals>.cached_layout"} and Text._get_layout is before

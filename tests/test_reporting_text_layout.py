@@ -1,0 +1,153 @@
+"""reporting.text_layout: texts measured and shaped once per key while a batch is drawn, with the
+pixels and extents of matplotlib's own drawing."""
+
+from __future__ import annotations
+
+import io
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.text import Text  # noqa: E402
+
+from reporting import text_layout  # noqa: E402
+from reporting.text_layout import cached_text_layout  # noqa: E402
+
+# texts of every kind the layout is computed from: rotation, alignments, lines, math, font, spacing
+_TEXTS = [
+    dict(s="0.25"),
+    dict(s="−500", fontsize=8),
+    dict(s="rotated", rotation=45, ha="right", va="top"),
+    dict(s="upright", rotation=90, rotation_mode="anchor", ha="left", va="baseline"),
+    dict(s="two lines\nthe second longer", multialignment="right", linespacing=1.6),
+    dict(s="two lines\ncentred", ha="center", va="center_baseline"),
+    dict(s=r"$x^2 - z$ (mm)", family="serif", weight="bold"),
+    dict(s=r"$\frac{x}{2} \sqrt{z}$"),  # mathtext with rules (boxes) beside its glyphs
+    dict(s="a long text that wraps where it stands " * 3, wrap=True),
+    dict(s="0.25", family="monospace", style="italic"),
+    dict(s="0.25", rotation=30),  # one string in several fonts and directions: a layout each
+    dict(s="0.25", rotation=30, ha="right"),
+    dict(s="0.25", va="top"),
+    dict(s="0.25", rotation=30, ha="right", fontsize=14),
+    dict(s="two lines\nthe second longer", multialignment="right"),
+    dict(s="two lines\nthe second longer", multialignment="center", linespacing=1.6),
+    dict(s="upright", rotation=90, ha="left", va="baseline"),
+]
+
+
+def _figure():
+    fig = plt.figure(figsize=(5, 5), dpi=110)
+    for i, spec in enumerate(_TEXTS):
+        spec = dict(spec)
+        fig.text(0.05 + 0.12 * (i % 3), 0.03 + 0.06 * i, spec.pop("s"), **spec)
+    ax = fig.add_axes((0.55, 0.2, 0.4, 0.6))
+    ax.plot([0.0, 1.0, 2.0], [-500.0, 0.25, 100.0], label="a line")
+    ax.set_ylabel("y (mm)")
+    ax.legend()
+    return fig
+
+
+def _pixels(fig) -> np.ndarray:
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="rgba", dpi=110)
+    return np.frombuffer(buffer.getvalue(), np.uint8)
+
+
+def _extents(fig) -> list:
+    renderer = fig.canvas.get_renderer()
+    return [text.get_window_extent(renderer).bounds for text in fig.findobj(Text) if text.get_text()]
+
+
+def test_texts_are_laid_out_and_drawn_as_matplotlib_lays_them_out_and_draws_them():
+    fig = _figure()
+    pixels, extents = _pixels(fig), _extents(fig)
+    with cached_text_layout():
+        twice = [(_pixels(fig), _extents(fig)) for _ in range(2)]  # measured, then from the caches
+    plt.close(fig)
+    for cached_pixels, cached_extents in twice:
+        assert np.array_equal(cached_pixels, pixels)
+        assert cached_extents == extents
+
+
+def test_a_string_measured_again_is_laid_out_once_and_a_changed_text_anew(monkeypatch):
+    laid_out = []
+    original = Text._get_layout
+    monkeypatch.setattr(
+        Text, "_get_layout", lambda text, renderer: laid_out.append(text.get_text()) or original(text, renderer)
+    )
+    fig = plt.figure(figsize=(3, 2), dpi=110)
+    first, second = fig.text(0.1, 0.2, "0.25"), fig.text(0.6, 0.7, "0.25")
+    renderer = fig.canvas.get_renderer()
+    with cached_text_layout():
+        box = first.get_window_extent(renderer)
+        moved = second.get_window_extent(renderer)
+        # the same box at another place (its size read from the moved corners: equal to rounding)
+        assert laid_out == ["0.25"] and (box.width, box.height) == pytest.approx((moved.width, moved.height))
+        second.set_fontsize(20)
+        bigger = second.get_window_extent(renderer)
+        second.set_rotation(90)
+        turned = second.get_window_extent(renderer)
+    plt.close(fig)
+    assert laid_out == ["0.25"] * 3
+    assert bigger.width > moved.width and turned.height == pytest.approx(bigger.width)
+
+
+def test_matplotlib_works_as_before_after_the_batch():
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    get_layout, prepare_font = Text._get_layout, RendererAgg._prepare_font
+    try:
+        with cached_text_layout():
+            assert Text._get_layout is not get_layout
+            raise ValueError("a figure failed")
+    except ValueError:
+        pass
+    assert Text._get_layout is get_layout and RendererAgg._prepare_font is prepare_font
+
+
+@pytest.mark.skipif(not text_layout._GLYPH_BY_GLYPH, reason="matplotlib before 3.11 renders whole strings")
+def test_a_glyph_moved_by_whole_pixels_is_rendered_once_and_drawn_as_matplotlib_draws_it(monkeypatch):
+    """One string at places a whole number of pixels apart (one bitmap per glyph) and at sub-pixel
+    offsets (a bitmap each), upright and turned: the pixels of matplotlib's own drawing."""
+    from matplotlib.ft2font import FT2Font
+    from matplotlib.transforms import IdentityTransform
+
+    rendered = []
+    render = FT2Font._render_glyph
+    monkeypatch.setattr(FT2Font, "_render_glyph", lambda font, *args: rendered.append(1) or render(font, *args))
+    fig = plt.figure(figsize=(3, 3), dpi=110)
+    places = [(20.0, 30.0), (57.0, 30.0), (20.0, 91.0), (20.25, 150.5), (140.0, 200.75)]
+    for x, y in places:
+        for rotation in (0, 30):
+            fig.text(x + 100 * (rotation > 0), y, "0.25", rotation=rotation, transform=IdentityTransform())
+    pixels = _pixels(fig)
+    glyphs = len(rendered)
+    with cached_text_layout():
+        rendered.clear()
+        cached = _pixels(fig)
+    plt.close(fig)
+    assert np.array_equal(cached, pixels)
+    # "0.25": 4 glyphs at each of 5 places in 2 directions (40 renders); the first three places,
+    # whole pixels apart, share their bitmaps: 4 x 3 renders per direction
+    assert glyphs == 4 * 5 * 2 and len(rendered) == 4 * 3 * 2
+
+
+def test_caches_switched_on_within_caches_leave_matplotlib_as_it_was_when_the_first_ends():
+    """A draw_figures call within another (or in another thread): the inner one uses the outer's
+    caches, and matplotlib's own methods are back once the outer one ends, whatever the order."""
+    original = Text._get_layout
+    outer = text_layout.install_text_layout_cache()
+    cached = Text._get_layout
+    with cached_text_layout():
+        assert Text._get_layout is cached
+    assert Text._get_layout is cached
+    outer()
+    assert Text._get_layout is original
+    with cached_text_layout():
+        inner = text_layout.install_text_layout_cache()
+    assert Text._get_layout is original
+    inner()  # after the first one's end: nothing to undo
+    assert Text._get_layout is original
