@@ -25,7 +25,8 @@ a few dozen bytes), during which the rcParams stay as they are (the report's plo
 
 They rely on matplotlib's private `Text._get_layout` and, for the shaping and the glyphs,
 `RendererAgg._prepare_font`, `RendererAgg._draw_text_glyphs_and_boxes`, `FT2Font._layout` and
-`FT2Font._render_glyph` (matplotlib 3.11); where those are missing, matplotlib draws as before.
+`FT2Font._render_glyph` (matplotlib 3.11, `CHECKED_MATPLOTLIB`); with another matplotlib the shaping
+and glyphs are matplotlib's own.
 """
 
 from __future__ import annotations
@@ -34,20 +35,28 @@ import math
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
+import matplotlib
 import numpy as np
 from matplotlib import ft2font
 from matplotlib.backends.backend_agg import RendererAgg, get_hinting_flag
 from matplotlib.text import Text
 
+# The matplotlib whose private drawing methods the shaping and glyph caches replace, and were
+# checked against pixel for pixel (tests/test_reporting_text_layout.py): another version (pyproject
+# allows matplotlib>=3.8) may keep a method's name and change what it does, so there matplotlib draws
+# its text itself.
+CHECKED_MATPLOTLIB = (3, 11)
+_CHECKED = tuple(int(part) for part in matplotlib.__version__.split(".")[:2]) == CHECKED_MATPLOTLIB
+
 # matplotlib 3.11's glyph-by-glyph Agg text drawing and string shaping (older versions have neither)
-_GLYPH_BY_GLYPH = all(
+_GLYPH_BY_GLYPH = _CHECKED and all(
     (
         hasattr(ft2font, "RenderMode"),
         hasattr(ft2font.FT2Font, "_render_glyph"),
         hasattr(RendererAgg, "_draw_text_glyphs_and_boxes"),
     )
 )
-_SHAPES_STRINGS = hasattr(ft2font.FT2Font, "_layout") and hasattr(RendererAgg, "_prepare_font")
+_SHAPES_STRINGS = _CHECKED and hasattr(ft2font.FT2Font, "_layout") and hasattr(RendererAgg, "_prepare_font")
 
 _installed = False  # the caches are on (matplotlib's methods replaced) in this process
 

@@ -108,7 +108,7 @@ def test_matplotlib_works_as_before_after_the_batch():
     assert Text._get_layout is get_layout and RendererAgg._prepare_font is prepare_font
 
 
-@pytest.mark.skipif(not text_layout._GLYPH_BY_GLYPH, reason="matplotlib before 3.11 renders whole strings")
+@pytest.mark.skipif(not text_layout._GLYPH_BY_GLYPH, reason="the glyph cache is on for CHECKED_MATPLOTLIB only")
 def test_a_glyph_moved_by_whole_pixels_is_rendered_once_and_drawn_as_matplotlib_draws_it(monkeypatch):
     """One string at places a whole number of pixels apart (one bitmap per glyph) and at sub-pixel
     offsets (a bitmap each), upright and turned: the pixels of matplotlib's own drawing."""
@@ -151,3 +151,10 @@ def test_caches_switched_on_within_caches_leave_matplotlib_as_it_was_when_the_fi
     assert Text._get_layout is original
     inner()  # after the first one's end: nothing to undo
     assert Text._get_layout is original
+
+
+def test_the_shaping_and_glyph_caches_replace_only_the_checked_matplotlib():
+    version = tuple(int(part) for part in matplotlib.__version__.split(".")[:2])
+    checked = version == text_layout.CHECKED_MATPLOTLIB
+    assert text_layout._GLYPH_BY_GLYPH == checked
+    assert text_layout._SHAPES_STRINGS == checked
