@@ -470,7 +470,7 @@ def run(cfg: RunConfig, progress: Progress, fea_process: Beside | None = None) -
         start = partial(start_fea, part=part, beside=cfg.stress_beside, process=fea_process)
         fea = timed(timing, "fea", progress, start, cfg, progress)
         with fea:  # a failure below stops the process beside
-            _import_chain_and_outputs()  # while the FEA's process starts and meshes
+            _import_chain_and_outputs(cfg)  # while the FEA's process starts and meshes
             stiffness = timed(timing, "fea", progress, lambda: fea.stiffness)
             chains, scenarios = timed(timing, "dynamics", progress, run_dynamics, cfg, stiffness, progress)
             _write_outputs(cfg, fea, chains, scenarios, timing, progress)
@@ -481,13 +481,16 @@ def run(cfg: RunConfig, progress: Progress, fea_process: Beside | None = None) -
         _write_outputs(cfg, FeaInProgress.done(done), chains, scenarios, timing, progress, shortfall)
 
 
-def _import_chain_and_outputs() -> None:
+def _import_chain_and_outputs(cfg: RunConfig) -> None:
     """The chain's and the outputs' modules (numba's kernels, matplotlib: 1-2 s), imported while the
     FEA's process imports its own and meshes, before the chain waits for the stiffness; and numba's
     typing and target registries filled, which its first compiled call does otherwise: 0.22-0.28 CPU s
     here took the dynamics stage's first-call overhead from 0.38 to 0.10-0.13 s (measured on the
-    default run, kernels from numba's cache); and matplotlib's first text laid out once for the
-    figure workers (reporting.outputs.prepare_figure_workers)."""
+    default run, kernels from numba's cache); for a chain on its wheels, its cached kernels loaded
+    (dynamics.warm_up, 0.12-0.2 CPU s that the stage's first scenario pays otherwise); and
+    matplotlib's first text laid out once for the figure workers
+    (reporting.outputs.prepare_figure_workers). All of it runs while the FEA's process meshes the
+    finest level on one thread, before its levels take both cores."""
     from numba.core.registry import cpu_target
 
     import dynamics.scene  # noqa: F401
@@ -495,6 +498,10 @@ def _import_chain_and_outputs() -> None:
 
     cpu_target.typing_context.refresh()
     cpu_target.target_context.refresh()
+    if cfg.machine_drive == "wheels":
+        from dynamics.warm_up import load_machine_kernels
+
+        load_machine_kernels()
     prepare_figure_workers()
 
 

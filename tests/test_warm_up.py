@@ -80,3 +80,19 @@ def test_the_warm_ups_small_machine_steps_from_rest_and_leaves_no_state_behind()
     again = cycle_start()
     np.testing.assert_array_equal(again.q, first.q)
     np.testing.assert_array_equal(again.a, first.a)
+
+
+@pytest.mark.parametrize("drive, loads", [("wheels", True), ("link", False)])
+def test_the_run_loads_the_machine_kernels_before_the_stiffness_only_for_a_chain_on_its_wheels(
+    monkeypatch, drive, loads
+):
+    import pipeline
+    from dynamics import warm_up
+    from reporting import outputs
+    from settings import RunConfig
+
+    calls = []
+    monkeypatch.setattr(warm_up, "load_machine_kernels", lambda: calls.append("kernels"))
+    monkeypatch.setattr(outputs, "prepare_figure_workers", lambda: None)
+    pipeline._import_chain_and_outputs(RunConfig(drive=drive))
+    assert calls == (["kernels"] if loads else [])
