@@ -496,7 +496,7 @@ def _run_loops(
         )
         for j in range(n):
             v[j] = wh[j] + hh * a[j]
-        if kv and stations.shape[0] > 0:
+        if stations.shape[0] > 0:
             _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switches[i + 1])
         changed = 0  # Kelvin-Voigt: spans whose contact changed within the step (`contact`: the step's end)
         for j in range(ns if kv else 0):
@@ -1189,8 +1189,7 @@ def _step_peaks_into(values, zdd, flags, switches, interpolate, out):
         for col in (0, 3):
             best, older, last = -1.0, -1.0, -1.0
             for i in range(values.shape[0]):
-                acc = values[i, s, 2] + (zdd[i] if col == 0 else 0.0)
-                y = abs(acc) if flags[i] & IN_WINDOW else -1.0
+                y = _abs_acceleration(values, zdd, flags, i, s, col)
                 best = max(best, y)
                 if interpolate and i >= 2:
                     smooth = switches[i - 1, s] < 0.0 and switches[i, s] < 0.0
@@ -1198,17 +1197,47 @@ def _step_peaks_into(values, zdd, flags, switches, interpolate, out):
                         bend = 2.0 * last - older - y
                         if bend > 0.0:
                             best = max(best, last + (y - older) * (y - older) / (8.0 * bend))
-                    after = switches[i - 1, s]  # a change in the step before the last node: from its far side
-                    if after >= 0.0 and last >= 0.0 and y >= 0.0:
-                        best = max(best, last + (1.0 - after) * (last - y))
-                    before = switches[i, s]  # a change in the step to this node: from its near side
-                    if before >= 0.0 and last >= 0.0 and older >= 0.0:
-                        best = max(best, last + before * (last - older))
+                if interpolate and i >= 1 and switches[i, s] >= 0.0:  # a change in the step to node i
+                    f = switches[i, s]
+                    best = max(best, _one_sided(values, zdd, flags, switches, i - 1, -1, f, s, col))
+                    best = max(best, _one_sided(values, zdd, flags, switches, i, 1, 1.0 - f, s, col))
                 older, last = last, y
             out[s, col] = best
 
 
+def _abs_acceleration(values, zdd, flags, i, s, col):
+    """|q'' + z''| (col 0) or |q''| (col 3) at node i of station s; -1 outside the window."""
+    if not flags[i] & IN_WINDOW:
+        return -1.0
+    return abs(values[i, s, 2] + (zdd[i] if col == 0 else 0.0))
+
+
+def _one_sided(values, zdd, flags, switches, j, side, x, s, col):
+    """The acceleration (_abs_acceleration) at a contact change x steps beyond node j, extrapolated from
+    node j and the nodes on its `side` (-1 before it, +1 after it) with no change between them: the
+    quadratic through three (Newton's differences: its error is third order in the step, the linear
+    one's second order, which overshoots an impact's curved flank by up to its second difference), the
+    line through two where only two are there; -1 where fewer are."""
+    n = values.shape[0]
+    y0 = _abs_acceleration(values, zdd, flags, j, s, col)
+    j1, j2 = j + side, j + 2 * side
+    if y0 < 0.0 or j1 < 0 or j1 >= n or switches[max(j, j1), s] >= 0.0:
+        return -1.0
+    y1 = _abs_acceleration(values, zdd, flags, j1, s, col)
+    if y1 < 0.0:
+        return -1.0
+    linear = y0 + x * (y0 - y1)
+    if j2 < 0 or j2 >= n or switches[max(j1, j2), s] >= 0.0:
+        return linear
+    y2 = _abs_acceleration(values, zdd, flags, j2, s, col)
+    if y2 < 0.0:
+        return linear
+    return linear + 0.5 * x * (x + 1.0) * (y0 - 2.0 * y1 + y2)
+
+
 if numba is not None:  # a pass over every node of the window: in Python it cost a sixth of the step
+    _abs_acceleration = numba.njit(cache=True)(_abs_acceleration)
+    _one_sided = numba.njit(cache=True)(_one_sided)
     _step_peaks_into = numba.njit(cache=True)(_step_peaks_into)
     # the kernels' cache entries are stale when a file they compile in changes (clearance_verlet.py's
     # helpers, friction_tanh.py, machine_damping.py), not only this one
