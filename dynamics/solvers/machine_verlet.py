@@ -406,8 +406,8 @@ def _run_loops(
     integrated trapezoidally in the powers at the steps' states when `track_energy` (one more force
     evaluation per step); the stations' motion at every node into `station_values` (`_station_nodes_into`:
     the acceleration the step computed, with its predicted velocity, and at an output node the
-    output's) and, under the Kelvin-Voigt law, their spans' contact changes into `switches`
-    (`_switches_at_stations`, at the node ending the step)."""
+    output's) and their spans' contact changes into `switches` (`_switches_at_stations`, at the node
+    ending the step: the peaks are not smooth there under either law, step_peaks)."""
     n_steps = zd.shape[0] - 1
     n = q.shape[0]
     ns = span_int.shape[0]
@@ -780,9 +780,10 @@ def integrate(
     DOFs (-1: a place that moves with the cam) whose peaks (PEAK_METRICS) are tracked at every node
     over the nodes `node_flags` (IN_WINDOW | IN_DWELL per node; None: every node in the window, none
     in a dwell), by the largest node or, `interpolate_peaks`, the parabola through the three nodes
-    around it (`step_peaks`; under the Kelvin-Voigt law not across a station's contact change, where
-    the dashpot's force jumps: there the one-sided values), and their motion's integrals for the RMS
-    over every step per output interval (`step_moments`, over every node whatever its flags)."""
+    around it (`step_peaks`; not across a station's contact change, where the acceleration has a kink
+    under the global law and jumps under the Kelvin-Voigt law: there the one-sided values), and their
+    motion's integrals for the RMS over every step per output interval (`step_moments`, over every node
+    whatever its flags)."""
     theta = PREDICTORS[predictor]
     precision = default_damping_precision(model) if damping_precision is None else damping_precision
     if precision not in DAMPING_PRODUCT_PRECISIONS:
@@ -1161,14 +1162,14 @@ def step_peaks(values, zdd, flags, switches, interpolate: bool = True) -> np.nda
     """The station peaks (stations x PEAK_METRICS; NaN where no node counted) of the stations' motion
     at every node (values: nodes x stations x (q, q', q''), relative to the cam; zdd the cam's
     acceleration; flags IN_WINDOW | IN_DWELL per node; switches: nodes x stations, the fraction of
-    the step ending at the node at which a span at the station changed contact under the
-    Kelvin-Voigt law, -1 none). The deviations |q| and |q'| are smooth where they peak (the chain's
+    the step ending at the node at which a span at the station changed contact, -1 none). The deviations |q| and |q'| are smooth where they peak (the chain's
     low modes): their largest node. The accelerations |q'' + z''| and |q''| peak on impact spikes a
     few steps wide: their largest node and, with `interpolate`, the vertex of the parabola through
     the three nodes around each node larger than both neighbours (within their bracket: at most 1/8
     of the outer two's difference above it), not across a contact change at the station, where the
-    Kelvin-Voigt dashpot's force jumps: there the two one-sided values at the change, each
-    extrapolated linearly from the two nodes on its side (docs/physics.md, Station peaks)."""
+    acceleration has a kink (global law: the span law's slope changes) or a jump (the Kelvin-Voigt
+    dashpot's force): there the two one-sided values at the change, each extrapolated by the quadratic
+    through the three nodes on its side (`_one_sided`; docs/physics.md, Station peaks)."""
     out = np.full((values.shape[1], N_PEAKS), -1.0)
     _step_peaks_into(
         values, np.asarray(zdd, dtype=float), np.asarray(flags, dtype=np.int64), switches, bool(interpolate), out
