@@ -254,10 +254,11 @@ def run(quick: bool) -> list[str]:
     lines += [f"| {name} | {err:.1e} |" for name, err in zip(METRICS, per_metric)]
     lines.append(f"| all | {np.max(per_metric):.1e} |")
     lines.append("")
-    labels = ("default", "controlled", f"default at {' and '.join(f'{b:g}x' for b in BAND)} the window refinement")
+    band = " and ".join(f"{b:g}x" for b in BAND)
+    labels = ("default run", "controlled run", f"default run at {band} its window refinement")
     for label, err in zip(labels, worst):
         lines.append(
-            f"worst error of the {label} run over the scenes: {err:.2e} (target {TARGET:g}: "
+            f"worst error of the {label} over the scenes: {err:.2e} (target {TARGET:g}: "
             f"{'met' if err <= TARGET else 'NOT met'})"
         )
     return lines + stage_rows(1 if quick else 3)
