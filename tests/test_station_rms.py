@@ -92,12 +92,17 @@ def test_the_machines_every_step_rms_is_the_trapezoid_rule_on_its_outputs_at_one
     from test_station_peaks import PITCH_M, _wheels_scene
 
     from dynamics.cams import CamProgram
-    from dynamics.machine_scene import machine_model, simulate_machine
+    from dynamics.machine_scene import WINDOW_REFINEMENT, machine_model, simulate_machine
     from dynamics.models.chain import ChainModel
+    from dynamics.solvers import clearance_verlet as verlet
 
     model = machine_model(_wheels_scene("global"), ChainModel(24, 2.03, 9.331e7))
     cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=300)
-    per_cycle = 120 * 38  # 38 steps per sample at the pipeline's 120 samples per cycle here
+    pred = verlet.default_predictor(model)
+    # the window's steps per sample at the pipeline's 120 samples per cycle here (52 at WINDOW_REFINEMENT 3.5, 38 at 2.5)
+    per_cycle = 120 * mv.substeps_for(
+        model, cam.cycle_s / 120, verlet.default_safety(model, pred) / WINDOW_REFINEMENT["global"], pred
+    )
     t = np.arange(2 * per_cycle + 1) * cam.cycle_s / per_cycle
     r, summary = simulate_machine(model, cam, t, choice="clearance", steady_state=False)
     assert summary.steps_per_output == 1 and summary.peak_sampling == "every step"

@@ -406,8 +406,8 @@ def _run_loops(
     integrated trapezoidally in the powers at the steps' states when `track_energy` (one more force
     evaluation per step); the stations' motion at every node into `station_values` (`_station_nodes_into`:
     the acceleration the step computed, with its predicted velocity, and at an output node the
-    output's) and, under the Kelvin-Voigt law, their spans' contact changes into `switches`
-    (`_switches_at_stations`, at the node ending the step)."""
+    output's) and their spans' contact changes into `switches` (`_switches_at_stations`, at the node
+    ending the step: the peaks are not smooth there under either law, step_peaks)."""
     n_steps = zd.shape[0] - 1
     n = q.shape[0]
     ns = span_int.shape[0]
@@ -496,7 +496,7 @@ def _run_loops(
         )
         for j in range(n):
             v[j] = wh[j] + hh * a[j]
-        if kv and stations.shape[0] > 0:
+        if stations.shape[0] > 0:
             _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, switches[i + 1])
         changed = 0  # Kelvin-Voigt: spans whose contact changed within the step (`contact`: the step's end)
         for j in range(ns if kv else 0):
@@ -780,9 +780,10 @@ def integrate(
     DOFs (-1: a place that moves with the cam) whose peaks (PEAK_METRICS) are tracked at every node
     over the nodes `node_flags` (IN_WINDOW | IN_DWELL per node; None: every node in the window, none
     in a dwell), by the largest node or, `interpolate_peaks`, the parabola through the three nodes
-    around it (`step_peaks`; under the Kelvin-Voigt law not across a station's contact change, where
-    the dashpot's force jumps: there the one-sided values), and their motion's integrals for the RMS
-    over every step per output interval (`step_moments`, over every node whatever its flags)."""
+    around it (`step_peaks`; not across a station's contact change, where the acceleration has a kink
+    under the global law and jumps under the Kelvin-Voigt law: there the one-sided values), and their
+    motion's integrals for the RMS over every step per output interval (`step_moments`, over every node
+    whatever its flags)."""
     theta = PREDICTORS[predictor]
     precision = default_damping_precision(model) if damping_precision is None else damping_precision
     if precision not in DAMPING_PRODUCT_PRECISIONS:
@@ -1161,14 +1162,14 @@ def step_peaks(values, zdd, flags, switches, interpolate: bool = True) -> np.nda
     """The station peaks (stations x PEAK_METRICS; NaN where no node counted) of the stations' motion
     at every node (values: nodes x stations x (q, q', q''), relative to the cam; zdd the cam's
     acceleration; flags IN_WINDOW | IN_DWELL per node; switches: nodes x stations, the fraction of
-    the step ending at the node at which a span at the station changed contact under the
-    Kelvin-Voigt law, -1 none). The deviations |q| and |q'| are smooth where they peak (the chain's
+    the step ending at the node at which a span at the station changed contact, -1 none). The deviations |q| and |q'| are smooth where they peak (the chain's
     low modes): their largest node. The accelerations |q'' + z''| and |q''| peak on impact spikes a
     few steps wide: their largest node and, with `interpolate`, the vertex of the parabola through
     the three nodes around each node larger than both neighbours (within their bracket: at most 1/8
     of the outer two's difference above it), not across a contact change at the station, where the
-    Kelvin-Voigt dashpot's force jumps: there the two one-sided values at the change, each
-    extrapolated linearly from the two nodes on its side (docs/physics.md, Station peaks)."""
+    acceleration has a kink (global law: the span law's slope changes) or a jump (the Kelvin-Voigt
+    dashpot's force): there the two one-sided values at the change, each extrapolated by the quadratic
+    through the three nodes on its side (`_one_sided`; docs/physics.md, Station peaks)."""
     out = np.full((values.shape[1], N_PEAKS), -1.0)
     _step_peaks_into(
         values, np.asarray(zdd, dtype=float), np.asarray(flags, dtype=np.int64), switches, bool(interpolate), out
@@ -1189,8 +1190,7 @@ def _step_peaks_into(values, zdd, flags, switches, interpolate, out):
         for col in (0, 3):
             best, older, last = -1.0, -1.0, -1.0
             for i in range(values.shape[0]):
-                acc = values[i, s, 2] + (zdd[i] if col == 0 else 0.0)
-                y = abs(acc) if flags[i] & IN_WINDOW else -1.0
+                y = _abs_acceleration(values, zdd, flags, i, s, col)
                 best = max(best, y)
                 if interpolate and i >= 2:
                     smooth = switches[i - 1, s] < 0.0 and switches[i, s] < 0.0
@@ -1198,17 +1198,47 @@ def _step_peaks_into(values, zdd, flags, switches, interpolate, out):
                         bend = 2.0 * last - older - y
                         if bend > 0.0:
                             best = max(best, last + (y - older) * (y - older) / (8.0 * bend))
-                    after = switches[i - 1, s]  # a change in the step before the last node: from its far side
-                    if after >= 0.0 and last >= 0.0 and y >= 0.0:
-                        best = max(best, last + (1.0 - after) * (last - y))
-                    before = switches[i, s]  # a change in the step to this node: from its near side
-                    if before >= 0.0 and last >= 0.0 and older >= 0.0:
-                        best = max(best, last + before * (last - older))
+                if interpolate and i >= 1 and switches[i, s] >= 0.0:  # a change in the step to node i
+                    f = switches[i, s]
+                    best = max(best, _one_sided(values, zdd, flags, switches, i - 1, -1, f, s, col))
+                    best = max(best, _one_sided(values, zdd, flags, switches, i, 1, 1.0 - f, s, col))
                 older, last = last, y
             out[s, col] = best
 
 
+def _abs_acceleration(values, zdd, flags, i, s, col):
+    """|q'' + z''| (col 0) or |q''| (col 3) at node i of station s; -1 outside the window."""
+    if not flags[i] & IN_WINDOW:
+        return -1.0
+    return abs(values[i, s, 2] + (zdd[i] if col == 0 else 0.0))
+
+
+def _one_sided(values, zdd, flags, switches, j, side, x, s, col):
+    """The acceleration (_abs_acceleration) at a contact change x steps beyond node j, extrapolated from
+    node j and the nodes on its `side` (-1 before it, +1 after it) with no change between them: the
+    quadratic through three (Newton's differences: its error is third order in the step, the linear
+    one's second order, which overshoots an impact's curved flank by up to its second difference), the
+    line through two where only two are there; -1 where fewer are."""
+    n = values.shape[0]
+    y0 = _abs_acceleration(values, zdd, flags, j, s, col)
+    j1, j2 = j + side, j + 2 * side
+    if y0 < 0.0 or j1 < 0 or j1 >= n or switches[max(j, j1), s] >= 0.0:
+        return -1.0
+    y1 = _abs_acceleration(values, zdd, flags, j1, s, col)
+    if y1 < 0.0:
+        return -1.0
+    linear = y0 + x * (y0 - y1)
+    if j2 < 0 or j2 >= n or switches[max(j1, j2), s] >= 0.0:
+        return linear
+    y2 = _abs_acceleration(values, zdd, flags, j2, s, col)
+    if y2 < 0.0:
+        return linear
+    return linear + 0.5 * x * (x + 1.0) * (y0 - 2.0 * y1 + y2)
+
+
 if numba is not None:  # a pass over every node of the window: in Python it cost a sixth of the step
+    _abs_acceleration = numba.njit(cache=True)(_abs_acceleration)
+    _one_sided = numba.njit(cache=True)(_one_sided)
     _step_peaks_into = numba.njit(cache=True)(_step_peaks_into)
     # the kernels' cache entries are stale when a file they compile in changes (clearance_verlet.py's
     # helpers, friction_tanh.py, machine_damping.py), not only this one
