@@ -54,11 +54,17 @@ class Beside:
         return beside
 
     def hand(self, steps: Callable[[], Iterator], what: str) -> None:
-        """Give a `waiting` child its steps (pickled now, run there on this process's thread limits)."""
+        """Give a `waiting` child its steps (pickled now, run there on this process's thread limits).
+        A child that has ended already (its imports failed, or it was killed) is not written to: a
+        process that has used gmsh no longer ignores SIGPIPE (gmsh.initialize sets it back to the
+        default; the run's process resolves the part with gmsh before it hands the FEA over), so a
+        write to the dead child's pipe would end this process without a word; `next` then raises
+        what the child sent, or that it ended early."""
         self.what = what
         try:
-            self._hand_over.send((steps, thread_limits()))
-        except OSError:  # the child ended already (its imports failed): `next` raises what it sent
+            if self._process.is_alive():
+                self._hand_over.send((steps, thread_limits()))
+        except OSError:  # it ended between the check and the write
             pass
         finally:
             self._hand_over.close()

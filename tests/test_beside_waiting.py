@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import os
 import signal
+import subprocess
 import sys
 from functools import partial
+from pathlib import Path
 
 import pytest
 
@@ -57,3 +59,29 @@ def test_a_waiting_process_killed_before_its_steps_is_one_beside_error():
     beside.hand(partial(modules_and_numbers, 1), "the test's work")  # the pipe's other end is gone: no error here
     with pytest.raises(BesideError, match=r"^the test's work: its process ended early \(signal 9"):
         beside.next()
+
+
+def test_a_killed_waiting_process_is_one_beside_error_after_gmsh_has_run_here():
+    """gmsh.initialize sets SIGPIPE back to the default (the run's process resolves its part with
+    gmsh before it hands the FEA over): handing steps to a dead child must not write to its pipe,
+    which would end this process without a word. Checked in a fresh process, whose death would
+    otherwise take the test runner's worker with it."""
+    probe = (
+        "import os, signal, sys\n"
+        "from functools import partial\n"
+        "import gmsh\n"
+        "gmsh.initialize(); gmsh.finalize()\n"
+        "from stages.beside import Beside, BesideError\n"
+        "beside = Beside.waiting('the work', ())\n"
+        "os.kill(beside.pid, signal.SIGKILL)\n"
+        "beside._process.join(timeout=30)\n"
+        "beside.hand(partial(range, 1), 'the work')\n"
+        "try:\n"
+        "    beside.next()\n"
+        "except BesideError as exc:\n"
+        "    print('one line:', exc)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    done = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, (done.returncode, done.stderr)
+    assert done.stdout.startswith("one line: the work: its process ended early (signal 9")
