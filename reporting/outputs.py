@@ -697,7 +697,8 @@ def prepare_figure_workers() -> None:
     from matplotlib.figure import Figure
 
     figure = Figure(figsize=(2.0, 1.5))
-    axes = FigureCanvasAgg(figure).figure.add_subplot()
+    FigureCanvasAgg(figure)  # the Agg canvas the workers draw on, attached to the figure
+    axes = figure.add_subplot()
     axes.plot([0.0, 1.0], [0.0, 1.0])
     axes.set_title("title")
     axes.set_xlabel("label")

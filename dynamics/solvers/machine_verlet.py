@@ -1162,8 +1162,8 @@ def step_peaks(values, zdd, flags, switches, interpolate: bool = True) -> np.nda
     """The station peaks (stations x PEAK_METRICS; NaN where no node counted) of the stations' motion
     at every node (values: nodes x stations x (q, q', q''), relative to the cam; zdd the cam's
     acceleration; flags IN_WINDOW | IN_DWELL per node; switches: nodes x stations, the fraction of
-    the step ending at the node at which a span at the station changed contact, -1 none). The deviations |q| and |q'| are smooth where they peak (the chain's
-    low modes): their largest node. The accelerations |q'' + z''| and |q''| peak on impact spikes a
+    the step ending at the node at which a span at the station changed contact, -1 none). The
+    deviations |q| and |q'| are smooth where they peak (the chain's low modes): their largest node. The accelerations |q'' + z''| and |q''| peak on impact spikes a
     few steps wide: their largest node and, with `interpolate`, the vertex of the parabola through
     the three nodes around each node larger than both neighbours (within their bracket: at most 1/8
     of the outer two's difference above it), not across a contact change at the station, where the
