@@ -72,3 +72,26 @@ def test_gmsh_leaves_python_ignoring_sigpipe():
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
     done = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=120)
     assert (done.returncode, done.stdout) == (0, "BrokenPipeError\n"), (done.returncode, done.stderr)
+
+
+def test_the_run_s_stiffness_step_hands_the_study_the_kept_half(monkeypatch):
+    """`stages.fea`'s stiffness step measures the part for its level sizes before the study: the
+    measurement must keep its mirror half then, for the study's finest level (above: meshed in it
+    as afresh), or the link's CAD is built a third time for that level."""
+    import fem
+    from fem.settings import FeaSettings
+    from stages.fea import _solve_stiffness
+
+    kept_when_called = []
+    monkeypatch.setattr(
+        fem,
+        "stiffness_studies",
+        lambda part, *args, **kwargs: kept_when_called.append(part.half_model_name in session._KEPT) or {},
+    )
+    part = resolve_part(None)
+    try:
+        _solve_stiffness(part, FeaSettings(), [], None, lambda line: None, None, 10**6)
+        assert kept_when_called == [True]
+    finally:
+        with session.taken_model(part.half_model_name):  # removed: gmsh as the test found it
+            pass
