@@ -162,19 +162,12 @@ def _mesh_volumes(
     # One thread: HXT then gives the same mesh on every run (with two it did not, and it was no
     # faster on these ~40k-tet meshes).
     gmsh.option.setNumber("General.NumThreads", 1)
-    # Surfaces by gmsh's default Frontal-Delaunay (6), but on a half link the faces its cut goes
-    # through (an edge on the cut face) by MeshAdapt (1): in exploratory runs on the default link's
-    # half, Frontal-Delaunay meshed the cut 1 mm pocket fillets as strips of flat triangles, and 40-140
-    # tets of radius ratio ~3e-4 followed at every size from 3 to 8 mm; MeshAdapt left none below 0.1
-    # at 3-4.5 mm (tests/test_fem_mirror.py checks the default level). MeshAdapt on every face of the
-    # half cost 0.5-0.9 CPU s of the finest level's curves and surfaces, on the cut's faces alone
-    # 0.3-0.7; and k's estimate at five finest sizes 0.97-1.03 x the default came out 0.81-0.88 %
-    # (median 0.83 %) against 0.82-0.92 % (0.85 %): the finest half's other faces meshed as the
-    # whole coarse level's are (docs/performance.md, "The FEA's CPU in the whole job"). MeshAdapt on
-    # the cut's curved faces alone gave 0.76-0.84 %, but a tet of radius ratio 0.05 on the default level.
-    gmsh.option.setNumber("Mesh.Algorithm", 6)
-    for face in faces_through_cut(volumes, mirror_faces or ()):
-        gmsh.model.mesh.setAlgorithm(2, face, 1)
+    # Surfaces of a half link by MeshAdapt (1), of a whole one by gmsh's default Frontal-Delaunay (6):
+    # in exploratory runs on the default link's half, Frontal-Delaunay meshed the cut 1 mm pocket
+    # fillets as strips of flat triangles, and 40-140 tets of radius ratio ~3e-4 followed at every
+    # size from 3 to 8 mm; MeshAdapt left none below 0.1 at 3-4.5 mm (tests/test_fem_mirror.py
+    # checks the default level).
+    gmsh.option.setNumber("Mesh.Algorithm", 1 if mirror_plane is not None else 6)
     gmsh.model.mesh.generate(3)
     if _has_flat_tets():  # HXT can leave a sliver of zero volume: optimise, else mesh by Delaunay
         gmsh.model.mesh.optimize("")
@@ -185,19 +178,6 @@ def _mesh_volumes(
     if order == 2:
         gmsh.model.mesh.setOrder(2)  # mid-edge nodes placed on the CAD surfaces
     return _mesh_arrays(fixed_faces, loaded_faces, order, mirror_faces)
-
-
-def faces_through_cut(volumes: list[int], plane_faces: Sequence[int]) -> list[int]:
-    """The solid's faces, `plane_faces` (a mirror half's cut face) left out, that share an edge
-    with one of them: the faces the cut goes through."""
-    cut_edges = {abs(tag) for _, tag in gmsh.model.getBoundary([(2, f) for f in plane_faces], oriented=False)}
-    boundary = gmsh.model.getBoundary([(3, v) for v in volumes], combined=True, oriented=False)
-    return [
-        face
-        for face in sorted({abs(tag) for _, tag in boundary})
-        if face not in plane_faces
-        and cut_edges & {abs(tag) for _, tag in gmsh.model.getBoundary([(2, face)], oriented=False)}
-    ]
 
 
 def _has_flat_tets() -> bool:
