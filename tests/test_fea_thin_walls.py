@@ -17,12 +17,11 @@ from benchmarks.wild_corpus import ABSENT, WILD
 from fem.budget import mesh_dofs
 from fem.quality import boundary_facets, thin_wall_warning, thinnest_wall_m
 from fem.settings import DEFAULT_BORE_REFINEMENT
-from geometry import DEFAULT_LINK, walls
+from geometry import DEFAULT_LINK
 from geometry.mesh_estimate import BORE_FIELD_OUTER_RADII, Hole, MeshFeatures, WallFeature, estimated_dofs
 from geometry.meshing import THIN_WALL_FRACTION, thin_wall_fields, thin_wall_size
 from geometry.session import gmsh_model
 from geometry.step_io import write_model_step
-from geometry.symmetry import keep_positive_half
 from geometry.walls import thin_walls
 
 PLATE_THICKNESS_M, PLATE_PITCH_M, PLATE_BORE_RADIUS_M, PLATE_HALF_WIDTH_M = 0.0015, 0.030, 0.0025, 0.006
@@ -54,26 +53,6 @@ def test_the_built_in_links_walls_are_its_side_rails_and_web():
         walls = thin_walls(geometry.resolve_part(None).load_body(), 0.010)
     thicknesses = sorted({round(w.thickness_m, 9) for w in walls})
     assert thicknesses[:2] == pytest.approx([rails, DEFAULT_LINK.web_thickness_m], rel=1e-9)  # 2.535, 6.858 mm
-
-
-def test_a_faces_samples_on_it_are_gmshs_point_by_point_answer():
-    """`_inside_face` asks gmsh about groups of points and halves only the mixed ones: the answer is
-    the one point-by-point calls give, on every face of the built-in link and of its mirror half
-    (whose cut faces are trimmed), grids that straddle their trims included."""
-    part = geometry.resolve_part(None)
-    t = (np.arange(walls._SAMPLES) + 0.5) / walls._SAMPLES
-    mixed = 0
-    with gmsh_model("walls"):
-        volumes = part.load_body()
-        keep_positive_half(volumes, part.mirror_plane)
-        for _, face in gmsh.model.getEntities(2):
-            (umin, vmin), (umax, vmax) = gmsh.model.getParametrizationBounds(2, face)
-            u, v = np.meshgrid(umin + t * (umax - umin), vmin + t * (vmax - vmin))
-            uv = np.column_stack([u.ravel(), v.ravel()])
-            one_by_one = [gmsh.model.isInside(2, face, list(point), parametric=True) > 0 for point in uv]
-            assert walls._inside_face(face, uv).tolist() == one_by_one, face
-            mixed += 0 < sum(one_by_one) < len(uv)
-    assert mixed >= 3  # the halving is exercised, not only whole groups
 
 
 def test_the_built_in_links_levels_refine_no_wall():
