@@ -12,10 +12,7 @@ less is a concave fillet and not a hole. Which two full holes carry the pins: ge
 
 from __future__ import annotations
 
-import contextlib
 import math
-import threading
-from collections.abc import Iterator
 from dataclasses import dataclass
 
 import gmsh
@@ -35,8 +32,6 @@ _OPEN_BORE_SECTORS = 6
 # Face types that are never cylinders: skipped without sampling, which keeps the search fast on
 # parts of thousands of faces.
 _NOT_CYLINDERS = frozenset({"Plane", "Cone", "Torus", "Sphere"})
-# each face's samples inside a `samples_kept` block, per thread (gmsh itself is used under one lock)
-_KEPT = threading.local()
 
 
 @dataclass(frozen=True)
@@ -252,32 +247,7 @@ def _edge_samples(volumes: list[int]) -> np.ndarray:
     return np.vstack(blocks)
 
 
-@contextlib.contextmanager
-def samples_kept() -> Iterator[None]:
-    """Inside the block each face is sampled (its points and normals) once, then the samples are
-    reused: for the searches of one model whose faces the block does not change (a mesh level's bore
-    faces, holes and walls, geometry.meshing.mesh_volumes: each of them samples every face, 0.9 ms a
-    face). The samples are read-only."""
-    outer = getattr(_KEPT, "samples", None)
-    _KEPT.samples = {} if outer is None else outer
-    try:
-        yield
-    finally:
-        _KEPT.samples = outer
-
-
 def _face_samples(face: int) -> tuple[np.ndarray, np.ndarray]:
-    kept = getattr(_KEPT, "samples", None)
-    if kept is None:
-        return _sampled_face(face)
-    if face not in kept:
-        kept[face] = _sampled_face(face)
-        for array in kept[face]:
-            array.setflags(write=False)
-    return kept[face]
-
-
-def _sampled_face(face: int) -> tuple[np.ndarray, np.ndarray]:
     lo, hi = gmsh.model.getParametrizationBounds(2, face)
     u = np.linspace(lo[0], hi[0], _SAMPLES_U)
     v = np.linspace(lo[1], hi[1], _SAMPLES_V)

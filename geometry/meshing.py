@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import gmsh
 import numpy as np
 
-from geometry.bores import DetectedBore, faces_on_bore, find_holes, samples_kept
+from geometry.bores import DetectedBore, faces_on_bore, find_holes
 from geometry.errors import GeometryError
 from geometry.link_mesh import Bore, MirrorPlane
 from geometry.symmetry import faces_on_plane
@@ -133,20 +133,6 @@ def mesh_volumes(
     """Mesh the volumes with tetrahedra of `order`; size `bore_size_m` at the bores, `mesh_size_m` away.
     With a `mirror_plane` (the volumes are a half link) the facets on that plane are returned too.
     Thin walls are refined relative to `wall_reference_m` (THIN_WALL_FRACTION; None: not refined)."""
-    with samples_kept():  # the searches below sample the same faces: once each
-        return _mesh_volumes(volumes, fixed, loaded, mesh_size_m, bore_size_m, order, mirror_plane, wall_reference_m)
-
-
-def _mesh_volumes(
-    volumes: list[int],
-    fixed: DetectedBore,
-    loaded: DetectedBore,
-    mesh_size_m: float,
-    bore_size_m: float,
-    order: int,
-    mirror_plane: MirrorPlane | None,
-    wall_reference_m: float | None,
-) -> MeshArrays:
     fixed_faces = faces_on_bore(volumes, fixed.bore)
     loaded_faces = faces_on_bore(volumes, loaded.bore)
     mirror_faces = faces_on_plane(volumes, mirror_plane) if mirror_plane is not None else None

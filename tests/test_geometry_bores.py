@@ -13,7 +13,6 @@ from geometry import (
     BoreOverride,
     GeometryError,
     LinkFeatures,
-    bores,
     load_link,
     write_step,
 )
@@ -157,20 +156,3 @@ def test_fit_cylinder_recovers_an_oblique_cylinder_and_rejects_a_sphere():
     assert fit_cylinder(centre + 0.007 * normals, normals) is None
     flat = np.tile([0.0, 0.0, 1.0], (50, 1))
     assert fit_cylinder(rng.uniform(size=(50, 3)) * [1, 1, 0], flat) is None
-
-
-def test_a_faces_samples_are_taken_once_inside_samples_kept_and_afresh_outside(monkeypatch):
-    with gmsh_model("samples"):
-        face = gmsh.model.getBoundary([(3, add_link(DEFAULT_LINK))], oriented=False)[0][1]
-        calls = []
-        get_value = gmsh.model.getValue
-        monkeypatch.setattr(gmsh.model, "getValue", lambda *args: calls.append(args) or get_value(*args))
-        with bores.samples_kept():
-            first = bores._face_samples(face)
-            with bores.samples_kept():  # a nested block keeps the outer one's samples
-                again = bores._face_samples(face)
-            assert len(calls) == 1 and all(a is b for a, b in zip(first, again, strict=True))
-            assert not first[0].flags.writeable
-        fresh = bores._face_samples(face)
-        assert len(calls) == 2 and fresh[0].flags.writeable
-        assert all(np.array_equal(a, b) for a, b in zip(first, fresh, strict=True))
