@@ -18,7 +18,16 @@ books the stiffness step's and the stress study's CPU to their phases instead ("
 step's CPU goes", docs/performance.md): the same steps with the levels solved one after the other
 (`concurrent_levels=False`), so that the process's CPU (PARDISO's threads included) within a
 function's call is that function's, each phase timed with `time.process_time()` around the functions
-`PHASES` names (patched in the child; a phase a tree does not have is left out). No images.
+`PHASES` names (patched in the child; a phase a tree does not have is left out). No images. One
+level is solved at a time, but the next is meshed beside it in the calling thread, so the coarse
+level's CAD and meshing rows also take in some of the finest level's solve (PARDISO's threads).
+
+    python benchmarks/bench_fea_cpu.py --geometry [--repeats 5] [--old-tree DIR]
+
+the stiffness step's geometry alone, as `stages.fea` runs it (the part measured, both levels' CAD
+built and meshed; `fem.stiffness_studies` replaced by its meshing, no FEA), in fresh processes:
+its CPU seconds, and a hash of the meshes (every level's nodes and P2 cells) that shows whether
+both trees mesh alike.
 """
 
 from __future__ import annotations
@@ -219,9 +228,34 @@ print(json.dumps({"cpu_s": cpu, "k": {m: r["stiffness_N_per_m"] for m, r in stif
 """
 
 
-def run_once(tree: Path, phases: bool = False) -> dict:
+GEOMETRY_CHILD = """
+import hashlib, json, time
+import fem, geometry
+from fem.settings import FeaSettings
+from fem.study import planned_mesh_sizes
+from stages.fea import _solve_stiffness
+meshes = hashlib.sha256()
+def meshing_only(part, materials, settings, progress=None):  # fem.stiffness_studies' meshing, finest first
+    part.measure_keeping_half()
+    sizes, wall_reference_m = planned_mesh_sizes(part, settings)
+    for level in reversed(range(len(sizes))):
+        mesh = geometry.mesh_part(part, mesh_size_m=sizes[level], order=settings.mesh_order,
+                                  bore_refinement=settings.bore_refinement, mirror=level == len(sizes) - 1,
+                                  wall_reference_m=wall_reference_m)
+        meshes.update(mesh.points_m.tobytes() + mesh.tets10.tobytes())
+    return {}
+fem.stiffness_studies = meshing_only  # _solve_stiffness imports it when it runs
+part = geometry.resolve_part(None)
+begin = time.process_time()
+_solve_stiffness(part, FeaSettings(), [], None, lambda line: None, None, 10**6)
+print(json.dumps({"cpu_s": time.process_time() - begin, "meshes": meshes.hexdigest()[:16]}))
+"""
+
+
+def run_once(tree: Path, phases: bool = False, geometry: bool = False) -> dict:
     env = {**os.environ, "PYTHONPATH": str(tree)}
     command = ["-c", PHASES_CHILD, json.dumps(PHASES)] if phases else ["-c", CHILD]
+    command = ["-c", GEOMETRY_CHILD] if geometry else command
     done = subprocess.run([sys.executable, *command], cwd=tree, env=env, capture_output=True, text=True)
     if done.returncode != 0:
         raise SystemExit(f"{tree}: the FEA steps failed:\n{done.stderr[-2000:]}")
@@ -233,9 +267,12 @@ def main(argv=None) -> int:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--old-tree", type=Path, default=None, help="another checkout, run alternately")
     parser.add_argument("--phases", action="store_true", help="each step's CPU booked to its phases, levels in turn")
+    parser.add_argument("--geometry", action="store_true", help="the stiffness step's geometry alone (no FEA)")
     args = parser.parse_args(argv)
     trees = {"new": ROOT} | ({"old": args.old_tree.resolve()} if args.old_tree else {})
     runs: dict[str, list[dict]] = {name: [] for name in trees}
+    if args.geometry:
+        return print_geometry(trees, args.repeats)
     for repeat in range(args.repeats):
         for name, tree in trees.items():
             runs[name].append(run_once(tree, args.phases))
@@ -255,6 +292,20 @@ def main(argv=None) -> int:
         last = runs[name][-1]
         answers = ", ".join(f"{m} k {last['k'][m]!r} N/m, stress {last['stress'][m]!r} Pa/N" for m in last["k"])
         print(f"{name}: {answers}")
+    return 0
+
+
+def print_geometry(trees: dict[str, Path], repeats: int) -> int:
+    """`--geometry`: each run's CPU seconds and meshes' hash, then the medians."""
+    runs: dict[str, list[dict]] = {name: [] for name in trees}
+    for repeat in range(repeats):
+        for name, tree in trees.items():
+            runs[name].append(run_once(tree, geometry=True))
+            print(f"run {repeat + 1} {name}: CPU s {runs[name][-1]['cpu_s']:.2f}, meshes {runs[name][-1]['meshes']}")
+    print(f"medians of {repeats} runs, trees alternating; load average now {os.getloadavg()[0]:.1f}")
+    for name, tree_runs in runs.items():
+        hashes = sorted({r["meshes"] for r in tree_runs})
+        print(f"{name}: the stiffness step's geometry {_cell([r['cpu_s'] for r in tree_runs])} CPU s, meshes {hashes}")
     return 0
 
 

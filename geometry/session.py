@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
 import sys
 import threading
 from collections.abc import Iterator
@@ -40,8 +41,7 @@ def gmsh_model(name: str = "link") -> Iterator[None]:
         _drop_kept(name)  # a stale model of the same name would shadow the new one
         owns_gmsh = not gmsh.isInitialized()
         if owns_gmsh:
-            # interruptible=False keeps gmsh from replacing the SIGINT handler for good.
-            gmsh.initialize(interruptible=False, readConfigFiles=False)
+            initialize_gmsh()
         kept = None
         try:
             _set_options()
@@ -58,6 +58,19 @@ def gmsh_model(name: str = "link") -> Iterator[None]:
                 kept.owns_gmsh = owns_gmsh
             elif owns_gmsh:
                 gmsh.finalize()
+
+
+def initialize_gmsh() -> None:
+    """gmsh.initialize as every caller needs it: no config files, Python's SIGINT handler left in
+    place (interruptible=False), and Python's SIGPIPE handler put back. gmsh's initialize sets SIGPIPE
+    to the default at the C level (Python still reports SIG_IGN), so a later write to a pipe whose
+    reader has died would end the process without a word instead of raising BrokenPipeError.
+    Only the main thread may set a signal handler; gmsh in another thread leaves it as gmsh set it."""
+    on_main_thread = threading.current_thread() is threading.main_thread()
+    sigpipe = signal.getsignal(signal.SIGPIPE) if on_main_thread else None
+    gmsh.initialize(interruptible=False, readConfigFiles=False)
+    if sigpipe is not None:
+        signal.signal(signal.SIGPIPE, sigpipe)
 
 
 def keep_model(name: str, volumes: list[int]) -> None:

@@ -9,6 +9,7 @@ import gmsh
 import numpy as np
 
 from geometry.link_mesh import Bore, LinkMesh
+from geometry.session import initialize_gmsh
 
 GMSH_TET10_TO_MESHIO = [0, 1, 2, 3, 4, 5, 6, 7, 9, 8]
 
@@ -24,7 +25,7 @@ def plate_link(
     end_m: float = 0.03,
 ) -> LinkMesh:
     """Plate along x with bores on z-parallel axes at x = 0 (fixed) and x = pitch (loaded)."""
-    gmsh.initialize(interruptible=False, readConfigFiles=False)
+    initialize_gmsh()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         occ = gmsh.model.occ

@@ -9,6 +9,8 @@ import gmsh
 import meshio
 import pytest
 
+from geometry.session import initialize_gmsh
+
 REPO = Path(__file__).resolve().parents[1]
 
 
@@ -20,7 +22,7 @@ def run_cli(*args, timeout=300):
 
 def write_step(path, build):
     """A STEP file (mm) of whatever `build(occ)` adds to an empty OpenCASCADE model."""
-    gmsh.initialize(interruptible=False, readConfigFiles=False)
+    initialize_gmsh()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         build(gmsh.model.occ)

@@ -112,3 +112,27 @@ def test_pair_keys_are_int32_only_where_every_key_fits():
     assert 46340**2 <= largest_int32 < 46341**2
     assert pair_key_dtype(46341) is np.int64
     assert pair_key_dtype(np.int32(50_000)) is np.int64  # not squared in int32, where it wraps
+
+
+@pytest.mark.parametrize("canonical", [True, False])
+def test_the_upper_triangle_is_scipys_triu_to_the_bit(canonical):
+    """`solvers.upper_triangle` (what PARDISO is given) against `sp.triu`: the same arrays, from a
+    matrix with sorted entries (as fem.assembly makes them) and from one with unsorted and duplicate
+    entries, which it leaves as it was given."""
+    rng = np.random.default_rng(3)
+    n = 40
+    A = sp.random(n, n, density=0.2, random_state=rng, format="csr") + sp.eye(n, format="csr")
+    if not canonical:  # each row reversed, its first entry repeated at its end
+        data, indices, indptr = [], [], [0]
+        for row in range(n):
+            entries = slice(A.indptr[row], A.indptr[row + 1])
+            data += [*A.data[entries][::-1], A.data[entries][-1]]
+            indices += [*A.indices[entries][::-1], A.indices[entries][-1]]
+            indptr.append(len(data))
+        A = sp.csr_matrix((np.array(data), np.array(indices, np.int32), np.array(indptr, np.int32)), shape=(n, n))
+        assert not A.has_canonical_format
+    given = (A.data.copy(), A.indices.copy(), A.indptr.copy())
+    upper, expected = solvers.upper_triangle(A), sp.triu(A, format="csr")
+    for name in ("data", "indices", "indptr"):
+        assert np.array_equal(getattr(upper, name), getattr(expected, name)), name
+    assert all(np.array_equal(a, b) for a, b in zip(given, (A.data, A.indices, A.indptr), strict=True))

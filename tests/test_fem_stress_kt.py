@@ -18,6 +18,7 @@ from skfem import MeshTet2
 from fem import problem
 from fem.assembly import elasticity_matrix
 from fem.materials import get_material
+from geometry.session import initialize_gmsh
 
 D_M = 0.040  # plate width
 HOLE_D_M = 0.016  # d/D = 0.4
@@ -33,7 +34,7 @@ def peterson_kt_net(d_over_D: float) -> float:
 
 def eighth_plate(hole_size_m: float, far_size_m: float) -> MeshTet2:
     """One eighth of the plate (symmetry planes x = 0, y = 0, z = 0), curved tets10, hole at the origin."""
-    gmsh.initialize(interruptible=False, readConfigFiles=False)
+    initialize_gmsh()
     try:
         gmsh.option.setNumber("General.Terminal", 0)
         occ = gmsh.model.occ

@@ -1,6 +1,11 @@
 """The mirror half kept from a part's measurement (Part.measure_keeping_half) meshes exactly as the
 half built afresh, is taken once, and leaves gmsh as it found it."""
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import gmsh
 import numpy as np
 
@@ -45,3 +50,48 @@ def test_a_kept_model_of_the_same_name_is_replaced_by_a_fresh_one():
     assert part.half_model_name not in session._KEPT
     with session.taken_model(part.half_model_name) as volumes:
         assert volumes is None
+
+
+def test_gmsh_leaves_python_ignoring_sigpipe():
+    """gmsh.initialize sets SIGPIPE to the default at the C level; `gmsh_model` (through
+    `initialize_gmsh`) puts Python's SIG_IGN back, so a write to a pipe whose reader is gone raises
+    BrokenPipeError instead of ending the process without a word. In a fresh process, whose death
+    would otherwise take the test runner with it."""
+    probe = (
+        "import os\n"
+        "from geometry.session import gmsh_model\n"
+        "with gmsh_model('probe'):\n"
+        "    pass\n"
+        "read_end, write_end = os.pipe()\n"
+        "os.close(read_end)\n"
+        "try:\n"
+        "    os.write(write_end, b'x')\n"
+        "except BrokenPipeError:\n"
+        "    print('BrokenPipeError')\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    done = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=120)
+    assert (done.returncode, done.stdout) == (0, "BrokenPipeError\n"), (done.returncode, done.stderr)
+
+
+def test_the_run_s_stiffness_step_hands_the_study_the_kept_half(monkeypatch):
+    """`stages.fea`'s stiffness step measures the part for its level sizes before the study: the
+    measurement must keep its mirror half then, for the study's finest level (above: meshed in it
+    as afresh), or the link's CAD is built a third time for that level."""
+    import fem
+    from fem.settings import FeaSettings
+    from stages.fea import _solve_stiffness
+
+    kept_when_called = []
+    monkeypatch.setattr(
+        fem,
+        "stiffness_studies",
+        lambda part, *args, **kwargs: kept_when_called.append(part.half_model_name in session._KEPT) or {},
+    )
+    part = resolve_part(None)
+    try:
+        _solve_stiffness(part, FeaSettings(), [], None, lambda line: None, None, 10**6)
+        assert kept_when_called == [True]
+    finally:
+        with session.taken_model(part.half_model_name):  # removed: gmsh as the test found it
+            pass
