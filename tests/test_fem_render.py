@@ -177,3 +177,36 @@ def test_no_pictures_open_no_plotter(monkeypatch):
 
     monkeypatch.setattr(pyvista, "Plotter", lambda *args, **kwargs: pytest.fail("a plotter was opened"))
     assert render.render_pictures([]) == [] and render.draw_pictures([]) == []
+
+
+@pytest.mark.parametrize("window_size, annotation", [((320, 200), False), ((1400, 900), False), ((320, 100), True)])
+def test_title_is_drawn_as_pyvistas_upper_edge_annotation(tmp_path, solution, monkeypatch, window_size, annotation):
+    """fem.render._add_title draws the title without vtkCornerAnnotation's font-size search where
+    the search's end is known (size 100), the same pixels as pyvista's add_text; in a window too low
+    for that the annotation draws it."""
+    import pyvista
+
+    from fem import render
+
+    titles = []
+    real_add_title = render._add_title
+    monkeypatch.setattr(render, "_add_title", lambda p, t: _recorded(titles, real_add_title(p, t)))
+    ours = render_deformed(solution, tmp_path / "ours.png", window_size=window_size)
+    assert [isinstance(t, pyvista.CornerAnnotation) for t in titles] == [annotation]
+
+    def pyvistas_title(plotter, title):
+        return plotter.add_text(
+            title, position="upper_edge", font_size=render.TITLE_FONT_SIZE, color="black", render=False
+        )
+
+    monkeypatch.setattr(render, "_add_title", pyvistas_title)
+    theirs = render_deformed(solution, tmp_path / "theirs.png", window_size=window_size)
+    assert ours == theirs
+    assert np.array_equal(
+        matplotlib.image.imread(tmp_path / "ours.png"), matplotlib.image.imread(tmp_path / "theirs.png")
+    )
+
+
+def _recorded(found: list, actor):
+    found.append(actor)
+    return actor

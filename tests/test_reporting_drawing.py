@@ -378,3 +378,23 @@ def test_every_batch_lays_out_its_texts_from_the_drawing_s_cache_and_matplotlib_
     jobs = {i: FigureJob(_write_layout_method, (tmp_path / f"{i}.txt",)) for i in range(3)}
     methods = {path.read_text().split()[0] for path in draw_figures(jobs, workers=workers).values()}
     assert methods == {"install_text_layout_cache.<locals>.cached_layout"} and Text._get_layout is before
+
+
+def _record_collections(path: Path) -> Path:
+    import gc
+
+    return _write(f"{gc.isenabled()} {sum(generation['collections'] for generation in gc.get_stats())}", path)
+
+
+def test_a_forked_worker_never_runs_the_collector(tmp_path):
+    """A worker's garbage goes with it (reporting.drawing._start_worker): no collection in a
+    worker, though one draws several batches (three batches, at most two workers)."""
+    jobs = {i: FigureJob(_record_collections, (tmp_path / f"{i}.txt",), batch=i // 2) for i in range(6)}
+    draw_figures(jobs, workers=2)
+    records = [path.read_text().split() for path in sorted(tmp_path.glob("*.txt"))]
+    pids = {pid for _, _, pid in records}
+    assert pids and os.getpid() not in {int(pid) for pid in pids}
+    assert all(enabled == "False" for enabled, _, _ in records)
+    # no collection in a worker: its count is the one it was forked with, before and after a batch
+    for pid in pids:
+        assert len({count for _, count, p in records if p == pid}) == 1
