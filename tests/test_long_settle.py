@@ -14,7 +14,7 @@ from dynamics.models.reduction import DENSE_LINK_LIMIT
 from dynamics.models.wheels import Wheel
 from dynamics.solvers import machine_shooting
 from dynamics.solvers import machine_verlet as mv
-from dynamics.solvers.shooting import accelerated_fixed_point, defect_corrected_fixed_point
+from dynamics.solvers.shooting import DEFECT_INNER_TOL_FRACTION, accelerated_fixed_point, defect_corrected_fixed_point
 
 PITCH_M = 0.1125
 LAYOUT = MachineLayout("wheels", Wheel(12, PITCH_M, 6, 0.688), Wheel(12, PITCH_M, 6, 0.688), None, True)
@@ -159,7 +159,6 @@ def test_the_machines_settle_at_the_search_step_is_the_search():
     tolerance, then, the defect 0, the same extrapolation on to DEFECT_INNER_TOL_FRACTION of it, each
     of the two stretches ended by one more cycle at the (same) fine step (the O(N) damping's sums vary
     at round-off between runs, docs/performance.md)."""
-    from dynamics.solvers.shooting import DEFECT_INNER_TOL_FRACTION
     from dynamics.machine_scene import SEARCH_SAFETY
 
     model, cam, pred, _ = _machine()
