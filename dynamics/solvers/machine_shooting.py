@@ -49,8 +49,8 @@ NEWTON_DECAY_CAP = 0.9
 # hardly settled (2,500 links: its change per cycle 0.2-1.7 over the first 20 cycles, 2e-2 after 60;
 # the same with Anderson's history 16). Measured on the default wheels and link, 180 rpm, from rest to 1e-3 at SEARCH_SAFETY, cap /
 # every slow mode: 2,200 links (slowest 0.901) 60 cycles, NOT found / 3; 2,500 (0.912) 60, NOT found
-# / 3; 3,000 (0.926) 56 / 4; 4,000 (about 0.946) 48 / 5; but 5,000 (0.956) 16 / 10 and 6,000 (0.963)
-# 15 / 56, 7,500 ... / 60, NOT found, 10,000 (0.977) 21 / 50: 0.95 keeps the cap from about 4,500 links
+# / 3; 3,000 (0.926) 56 / 4; 4,000 (about 0.946) 48 / 5; but 5,000 (0.956) 16 / 10 and 6,000 (about 0.964)
+# 15 / 56, 7,500 15 / 60, NOT found, 10,000 (0.977) 21 / 50: 0.95 keeps the cap from about 4,500 links
 # on, where it is today's search.
 NEWTON_EVERY_SLOW_MODE_UP_TO_DECAY = 0.95
 # With free play the Newton step (built on the closed machine's modes) helps the search up to
