@@ -46,12 +46,12 @@ from dynamics.solvers.machine_modes import lowest_frequency_Hz
 NEWTON_DECAY_CAP = 0.9
 # The cap holds only where the slowest mode keeps more than this of itself per cycle: up to it the
 # step takes every slow mode. With the slowest mode just above the cap the linear machine's search
-# hardly settled (2,500 links: its change per cycle 0.2-1.7 over the first 20 cycles, 2e-2 after 60;
-# the same with Anderson's history 16). Measured on the default wheels and link, 180 rpm, from rest to 1e-3 at SEARCH_SAFETY, cap /
-# every slow mode: 2,200 links (slowest 0.901) 60 cycles, NOT found / 3; 2,500 (0.912) 60, NOT found
-# / 3; 3,000 (0.926) 56 / 4; 4,000 (about 0.946) 48 / 5; but 5,000 (0.956) 16 / 10 and 6,000 (about 0.964)
-# 15 / 56, 7,500 15 / 60, NOT found, 10,000 (0.977) 21 / 50: 0.95 keeps the cap from about 4,500 links
-# on, where it is today's search.
+# hardly settled (2,500 links: its change per cycle 0.2-1.7 over the first 20 cycles, 2e-2 after
+# 60; the same with Anderson's history 16). Measured on the default wheels and link, 180 rpm, from
+# rest to 1e-3 at SEARCH_SAFETY, cycles with the cap / with every slow mode: 2,200 links (slowest
+# 0.901) 60, NOT found / 3; 2,500 (0.912) 60, NOT found / 3; 3,000 (0.926) 56 / 4; 4,000 (about
+# 0.946) 48 / 5; but 5,000 (0.956) 16 / 10, 6,000 (about 0.964) 15 / 56, 7,500 15 / 60, NOT found,
+# 10,000 (0.977) 21 / 50: 0.95 keeps the cap from about 4,500 links on, today's search there.
 NEWTON_EVERY_SLOW_MODE_UP_TO_DECAY = 0.95
 # With free play the Newton step (built on the closed machine's modes) helps the search up to
 # NEWTON_FREE_PLAY_LINKS links and misleads it above: the slack spans and the guide's friction in
@@ -79,7 +79,8 @@ FREE_PLAY_STALL = 24
 # same linear state in one process (coarse search + corrected coarse + default-safety cycles; station
 # metrics against factor 1): 10,000 links (tol 1.0e-4) 1: 38 + 21 + 4, 10: 33 + 19 + 3 (1.3e-4);
 # 5,000 links (tol 2.0e-4) 1: 24 + 12 + 3, 10: 17 + 15 + 3, 30: 15 + 17 + 4 (each from the default
-# safety's fixed point searched to 1e-7: 4.5e-4, 1.5e-4, 1.2e-3).
+# safety's fixed point searched to 1e-7: 4.5e-4, 1.5e-4, 1.2e-3); 10,000 links at 20: 19 + 32 + 4
+# (what the coarse search leaves, the corrected search takes).
 DEFECT_COARSE_TOL_FACTOR = 10.0
 
 
