@@ -21,7 +21,8 @@ default safety's fixed point with coarse cycles (dynamics.solvers.shooting.defec
 one cycle at the default safety gives the two steps' difference d at the current start, the coarse map
 plus d is searched with the coarse search's Anderson history (its secant pairs are the coarse map's),
 and a cycle at the default safety accepts the result by the same test; d is renewed there until it
-does.
+does. The coarse search stops short of its own fixed point (DEFECT_COARSE_TOL_FACTOR times the
+tolerance), which the default safety never sees: the corrected search carries its history on.
 """
 
 from __future__ import annotations
@@ -43,6 +44,15 @@ from dynamics.solvers.machine_modes import lowest_frequency_Hz
 # 1.0, ... (no steady state); without those above 0.9 it falls (1.0, 0.50, 0.26, 0.19, 0.08, 0.04).
 # No mode is above it up to about 2,100 links (the slowest keeps 0.893 at 2,000, 0.902 at 2,200).
 NEWTON_DECAY_CAP = 0.9
+# The cap holds only where the slowest mode keeps more than this of itself per cycle: up to it the
+# step takes every slow mode. With the slowest mode just above the cap the linear machine's search
+# hardly settled (2,500 links: its change per cycle 0.2-1.7 over the first 20 cycles, 2e-2 after
+# 60; the same with Anderson's history 16). Measured on the default wheels and link, 180 rpm, from
+# rest to 1e-3 at SEARCH_SAFETY, cycles with the cap / with every slow mode: 2,200 links (slowest
+# 0.901) 60, NOT found / 3; 2,500 (0.912) 60, NOT found / 3; 3,000 (0.926) 56 / 4; 4,000 (about
+# 0.946) 48 / 5; but 5,000 (0.956) 16 / 10, 6,000 (about 0.964) 15 / 56, 7,500 15 / 60, NOT found,
+# 10,000 (0.977) 21 / 50: 0.95 keeps the cap from about 4,500 links on, today's search there.
+NEWTON_EVERY_SLOW_MODE_UP_TO_DECAY = 0.95
 # With free play the Newton step (built on the closed machine's modes) helps the search up to
 # NEWTON_FREE_PLAY_LINKS links and misleads it above: the slack spans and the guide's friction in
 # the dwell change the slow directions, more of the chain the longer it is. Measured on the default
@@ -60,6 +70,18 @@ NEWTON_FREE_PLAY_LINKS = 2000
 # links while the history filled and later took up to 17 (depth 8) and 11 (depth 16) to halve.
 FREE_PLAY_DEPTH = 16
 FREE_PLAY_STALL = 24
+# defect_corrected_periodic_state's coarse search stops at this multiple of the settle's tolerance:
+# its own fixed point is not the one the window needs, and the defect correction's first corrected
+# search carries the same Anderson history on to the default safety's, so the coarse search's last
+# cycles were partly stepped twice. Stopped well below the two steps' offset (the fine cycle's change
+# at the coarse fixed point: 5.7e-3 at 5,000 and 10,000 links), the first renewal starts about as far
+# from the fine fixed point as before. Measured on the default wheels, 0.094 mm, 180 rpm, from the
+# same linear state in one process (coarse search + corrected coarse + default-safety cycles; station
+# metrics against factor 1): 10,000 links (tol 1.0e-4) 1: 38 + 21 + 4, 10: 33 + 19 + 3 (1.3e-4);
+# 5,000 links (tol 2.0e-4) 1: 24 + 12 + 3, 10: 17 + 15 + 3, 30: 15 + 17 + 4 (each from the default
+# safety's fixed point searched to 1e-7: 4.5e-4, 1.5e-4, 1.2e-3); 10,000 links at 20: 19 + 32 + 4
+# (what the coarse search leaves, the corrected search takes).
+DEFECT_COARSE_TOL_FACTOR = 10.0
 
 
 def relabelled_periodic_state(
@@ -88,7 +110,8 @@ def defect_corrected_periodic_state(
 ) -> DefectCorrectedState:
     """The relabelled steady state at the fine step searched mostly at the coarse one: the accelerated
     search (relabelled_periodic_state's) at `coarse` (step_s, steps per index cycle) from (q0, v0) to
-    `tol`, then, where it is found, the fixed point at `fine` by defect correction with coarse cycles
+    DEFECT_COARSE_TOL_FACTOR `tol`, then, where it is found, the fixed point at `fine` by defect
+    correction with coarse cycles
     (shooting.defect_corrected_fixed_point: the coarse search's history carried on), accepted by the
     fine step's test to the same `tol`. `max_cycles` bounds the coarse search's cycles and, apart,
     the settle's (coarse and fine together), as a settle's cycles are apart from the search's
@@ -105,7 +128,8 @@ def defect_corrected_periodic_state(
     options = _search_options(model, cam, None)
     coarse_cycle = cycle_map(coarse)
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
-    found = shooting.accelerated_fixed_point(coarse_cycle, x0, tol=tol, max_periods=max_cycles, **options)
+    coarse_tol = DEFECT_COARSE_TOL_FACTOR * tol
+    found = shooting.accelerated_fixed_point(coarse_cycle, x0, tol=coarse_tol, max_periods=max_cycles, **options)
     if not found.converged:
         return DefectCorrectedState(found.state[:n].copy(), found.state[n:].copy(), found, None, last["run"])
     settled = shooting.defect_corrected_fixed_point(
@@ -230,7 +254,9 @@ def slow_mode_newton(model, period_s: float, decay: float):
         omega, vec = shooting.slow_modes(x, is_slow)
         slow = np.ones(omega.size, dtype=bool)
     decay_per_cycle = np.exp(-np.array([model.damping_ratio_at(o) * o for o in omega]) * period_s)
-    slow &= decay_per_cycle <= NEWTON_DECAY_CAP
+    slowest = float(decay_per_cycle[slow].max()) if slow.any() else 0.0
+    if slowest > NEWTON_EVERY_SLOW_MODE_UP_TO_DECAY:
+        slow &= decay_per_cycle <= NEWTON_DECAY_CAP
     omega, vec = omega[slow], vec[:, slow]
     to_modes = np.ascontiguousarray((vec / r[:, None]).T)  # a = V^T M^(1/2) q
     from_modes = np.ascontiguousarray(vec * r[:, None])  # q = M^(-1/2) V a
