@@ -3,13 +3,15 @@
     python benchmarks/bench_long_accuracy.py --links 2000                       # every variant
     python benchmarks/bench_long_accuracy.py --links 1000 --variants default tight-5 tight-10
     python benchmarks/bench_long_accuracy.py --links 10000 --reference search-tol --variants default
+    python benchmarks/bench_long_accuracy.py --links 4000 --reference tight-5 --variants default --keep DIR
 
 The scenario is benchmarks/bench_long_wheels.py's (default wheels and link, 0.094 mm free play, 180 rpm
 modified sine, the pipeline's output grid, `--model auto`, steady state). Each variant runs in its own
 process, one after the other (one heavy job at a time). The tight runs are given their step (the
 "converged reference" path of dynamics.machine_scene.simulate_machine: search, settle and window all
-at it): `tight-5` at the default safety / 5 (twice the window's refinement), `tight-10` at / 10, both
-searched to 1e-8 with each mode's damping ratio to 1e-7. The other variants are the default run with
+at it): `tight-5` at the default safety / 5 (twice the window's refinement), `tight-10` at / 10, all
+searched to 1e-8 (in up to TIGHT_MAX_CYCLES) with each mode's damping ratio to 1e-7; `tight-3.5` at
+the window's own step (/ 3.5), its fixed point. The other variants are the default run with
 ONE ingredient at its tight value (VARIANTS): the search's tolerance (a long chain's coarse search and
 the search on at the default safety that settles it), the window's step, the damping's tolerance, the
 coarse search's step, the factors' precision; `all-three` the first three together. The settle's
@@ -18,7 +20,7 @@ were measured with this script at 41d9ca3. Reported per variant against the refe
 relative difference of the 20 station metrics as the pipeline has them (stages/chain.py: the kernel's
 over every step, the RMS of x, v, a over time, max |a| and the residual vibration its peaks) and as
 bench_long_wheels.py computes them (every metric from the output samples), which metric and
-station, the CPU seconds and the search's index cycles; then per metric the worst over the stations. `--reference` may also be a variant: where a
+station, the CPU seconds and the search's index cycles (and its last change per cycle); then per metric the worst over the stations. `--reference` may also be a variant: where a
 tight run takes hours (10,000 links), how far one tight ingredient moves the default run.
 """
 
@@ -41,7 +43,7 @@ if str(ROOT) not in sys.path:  # run as a script in a subprocess
 KEYS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2")
 KEYS += ("residual_vibration_m",)
 # a tight run: its safety as a fraction of the default safety, the search's tolerance, the damping's
-TIGHT = {"tight-5": 5.0, "tight-10": 10.0}
+TIGHT = {"tight-3.5": 3.5, "tight-5": 5.0, "tight-10": 10.0}
 TIGHT_TOL = 1e-8
 TIGHT_DAMPING_TOLERANCE = 1e-7
 # a tight run's search budget in index cycles: at 3,000 links the search at safety / 5 had not reached
