@@ -104,6 +104,14 @@ SETTLE_CYCLES = 1
 # undamped, would ask for far less, and 10,000 links take 39 of the 60-cycle budget to reach it.
 LONG_SEARCH_STATE_ERROR = 4.5e-3
 LONG_SEARCH_TOL = 1e-4
+# The state's error bound holds the station metrics to 1e-3 only while they are not much more sensitive
+# to the state than it (1,000 links: 2.2e-4 for 4.5e-3). Above this rho they are (the slack side's
+# max |a| and RMS a, its impacts' timing): searched to long_search_tol's bound, 4,000 links (rho 0.946,
+# 2.4e-4) were 7.2e-3 from the search to 1e-5, 3,000 (0.926, 3.3e-4) 7.8e-4; at LONG_SEARCH_TOL 4.3e-4
+# and 3.0e-4 (+5 and +6 index cycles; benchmarks/bench_long_accuracy.py, the default wheels, 0.094 mm,
+# 180 rpm, docs/performance.md "Long clearance chains on wheels"). There the tolerance is LONG_SEARCH_TOL,
+# the fixed one (already the tolerance from about 9,000 links on, where the bound is looser still)
+LONG_SEARCH_STATE_ERROR_UP_TO_DECAY = 0.92
 # One settling cycle at the default safety keeps rho (the slowest mode's decay per cycle) of the
 # offset between the search step's fixed point and the default step's. Above this rho the settle is a
 # search to long_search_tol instead (measured on the default wheels, 0.094 mm, 180 rpm, against a run
@@ -376,8 +384,11 @@ def long_search_tol(model, cam, tol: float) -> float:
     """The tolerance of a long chain's search at SEARCH_SAFETY (never tighter than `tol` or
     LONG_SEARCH_TOL): the change per cycle that leaves the state within about LONG_SEARCH_STATE_ERROR of
     the fixed point, given its slowest mode's decay per index cycle
-    (machine_shooting.slowest_decay_per_cycle)."""
+    (machine_shooting.slowest_decay_per_cycle), up to LONG_SEARCH_STATE_ERROR_UP_TO_DECAY; above it
+    LONG_SEARCH_TOL."""
     decay = machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s)
+    if decay > LONG_SEARCH_STATE_ERROR_UP_TO_DECAY:
+        return max(tol, LONG_SEARCH_TOL)
     return max(tol, LONG_SEARCH_TOL, LONG_SEARCH_STATE_ERROR * (1.0 - decay))
 
 

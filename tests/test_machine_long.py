@@ -272,11 +272,13 @@ def test_a_long_chains_default_run_searches_each_machine_once_at_the_coarse_step
         assert machine_scene.SETTLE_CYCLES == 1
 
 
-def test_the_slowest_decay_per_cycle_is_the_dense_lowest_modes():
+def test_the_slowest_decay_per_cycle_is_the_dense_lowest_modes(monkeypatch):
     """machine_shooting.slowest_decay_per_cycle (one sparse shift-invert Lanczos) is exp(-zeta omega_1 T)
     of the lowest mode of the dense (K, M) eigensolve, with and without a tensioner's carriage, and
     long_search_tol is LONG_SEARCH_STATE_ERROR (1 - that), never below the caller's tol nor
-    LONG_SEARCH_TOL (the Kelvin-Voigt law's nearly undamped slow modes)."""
+    LONG_SEARCH_TOL (the Kelvin-Voigt law's nearly undamped slow modes); above
+    LONG_SEARCH_STATE_ERROR_UP_TO_DECAY (moved below this chain's decay) LONG_SEARCH_TOL."""
+    from dynamics import machine_scene
     from dynamics.machine_scene import LONG_SEARCH_STATE_ERROR, LONG_SEARCH_TOL, long_search_tol
 
     cam = _cam()
@@ -290,8 +292,14 @@ def test_the_slowest_decay_per_cycle_is_the_dense_lowest_modes():
         decay = machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s)
         assert 0.0 < decay < 1.0
         np.testing.assert_allclose(decay, expected, rtol=1e-10)
+        assert decay < machine_scene.LONG_SEARCH_STATE_ERROR_UP_TO_DECAY
         np.testing.assert_allclose(long_search_tol(model, cam, 1e-6), LONG_SEARCH_STATE_ERROR * (1.0 - expected))
         assert long_search_tol(model, cam, 0.5) == 0.5
+        with monkeypatch.context() as patched:
+            patched.setattr(machine_scene, "LONG_SEARCH_STATE_ERROR_UP_TO_DECAY", 0.99 * decay)
+            assert LONG_SEARCH_STATE_ERROR * (1.0 - expected) > LONG_SEARCH_TOL
+            assert long_search_tol(model, cam, 1e-6) == LONG_SEARCH_TOL
+            assert long_search_tol(model, cam, 0.5) == 0.5
     kelvin_voigt = ClearanceMachine.of(chain, LAYOUT, None, 94e-6, "kelvin-voigt")
     assert (
         LONG_SEARCH_STATE_ERROR * (1.0 - machine_shooting.slowest_decay_per_cycle(kelvin_voigt, cam.cycle_s))
