@@ -9,7 +9,7 @@ The scenario is benchmarks/bench_long_wheels.py's (default wheels and link, 0.09
 modified sine, the pipeline's output grid, `--model auto`, steady state). Each variant runs in its own
 process, one after the other (one heavy job at a time). The tight runs are given their step (the
 "converged reference" path of dynamics.machine_scene.simulate_machine: search, settle and window all
-at it): `tight-5` at the default safety / 5 (twice the window's refinement), `tight-10` at / 10, all
+at it): `tight-5` at the default safety / 5 (finer than the window, at / 3.5), `tight-10` at / 10, all
 searched to 1e-8 (in up to TIGHT_MAX_CYCLES) with each mode's damping ratio to 1e-7; `tight-3.5` at
 the window's own step (/ 3.5), its fixed point. The other variants are the default run with
 ONE ingredient at its tight value (VARIANTS): the search's tolerance (a long chain's coarse search and
