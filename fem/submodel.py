@@ -32,7 +32,7 @@ from .link import (
     rim_points_of_triangles,
     straighten_distorted,
 )
-from .materials import Material
+from .materials import Material, lame_ratio_low
 from .tets import CurvedTets, Tets
 
 _CANDIDATES = 12  # nearest cells (by centroid) tried for each point located in the global mesh
@@ -239,7 +239,8 @@ def solve_submodel(
                 u[free] = factor.solve(rhs)
             elif factor is not None:
                 scale = fields[0].material.youngs_modulus_Pa / material.youngs_modulus_Pa
-                u[free], _ = solvers.preconditioned_cg(K_free, rhs, factor.solve, first_u * scale)
+                low = lame_ratio_low(material, fields[0].material)
+                u[free], _ = solvers.preconditioned_cg(K_free, rhs, factor.solve, first_u * scale, spectrum_low=low)
             else:
                 u[free] = solvers.solve(K_free, rhs, solver)
             if first_u is None:
