@@ -139,9 +139,7 @@ def _interleaved_parts(
     shape = (DIM * n, DIM * n)
     volumetric_csr = sp.bsr_matrix((volumetric, indices, indptr), shape=shape).tocsr()
     shear_csr = sp.bsr_matrix((shear, indices, indptr), shape=shape).tocsr()
-    return ElasticityParts(
-        volumetric_csr.indptr, volumetric_csr.indices, volumetric_csr.data, shear_csr.data, DIM * n
-    )
+    return ElasticityParts(volumetric_csr.indptr, volumetric_csr.indices, volumetric_csr.data, shear_csr.data, DIM * n)
 
 
 def elasticity_matrix(basis: Basis, lam_Pa: float, mu_Pa: float) -> sp.csr_matrix:
