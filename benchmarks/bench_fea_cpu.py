@@ -231,17 +231,19 @@ print(json.dumps({"cpu_s": cpu, "k": {m: r["stiffness_N_per_m"] for m, r in stif
 GEOMETRY_CHILD = """
 import hashlib, json, time
 import fem, geometry
+from fem import study
 from fem.settings import FeaSettings
-from fem.study import planned_mesh_sizes
 from stages.fea import _solve_stiffness
 meshes = hashlib.sha256()
+def mesh_level_before(part, settings, sizes, level, wall_reference_m):  # trees without study.mesh_planned_level
+    return geometry.mesh_part(part, mesh_size_m=sizes[level], order=settings.mesh_order,
+                              bore_refinement=settings.bore_refinement, mirror=level == len(sizes) - 1,
+                              wall_reference_m=wall_reference_m)
+mesh_level = getattr(study, "mesh_planned_level", mesh_level_before)
 def meshing_only(part, materials, settings, progress=None):  # fem.stiffness_studies' meshing, finest first
-    part.measure_keeping_half()
-    sizes, wall_reference_m = planned_mesh_sizes(part, settings)
+    sizes, wall_reference_m = study.planned_mesh_sizes(part, settings)
     for level in reversed(range(len(sizes))):
-        mesh = geometry.mesh_part(part, mesh_size_m=sizes[level], order=settings.mesh_order,
-                                  bore_refinement=settings.bore_refinement, mirror=level == len(sizes) - 1,
-                                  wall_reference_m=wall_reference_m)
+        mesh = mesh_level(part, settings, sizes, level, wall_reference_m)
         meshes.update(mesh.points_m.tobytes() + mesh.tets10.tobytes())
     return {}
 fem.stiffness_studies = meshing_only  # _solve_stiffness imports it when it runs

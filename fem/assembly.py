@@ -95,7 +95,9 @@ def _gradient_blocks(basis: Basis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     by_element = grads.transpose(2, 0, 1, 3).reshape(n_elements, n_local * DIM, -1)  # rows (i, a)
     weighted = by_element * np.asarray(basis.dx)[:, None, :]
     local = np.matmul(by_element, weighted.transpose(0, 2, 1))  # (E, (i, a), (j, b))
-    local = local.reshape(n_elements, n_local, DIM, n_local, DIM)
+    # each element pair's 3 x 3 block contiguous: rows (E, i, j), columns (a, b)
+    pair_blocks = local.reshape(n_elements, n_local, DIM, n_local, DIM).transpose(0, 1, 3, 2, 4)
+    pair_blocks = pair_blocks.reshape(-1, DIM * DIM)
     dofs = np.asarray(basis.element_dofs, dtype=pair_key_dtype(basis.N))  # (n_local, E)
     rows = np.broadcast_to(dofs.T[:, :, None], (n_elements, n_local, n_local)).ravel()
     cols = np.broadcast_to(dofs.T[:, None, :], (n_elements, n_local, n_local)).ravel()
@@ -104,48 +106,40 @@ def _gradient_blocks(basis: Basis) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     sorted_keys = keys[order]
     starts = np.r_[True, sorted_keys[1:] != sorted_keys[:-1]]
     entry_keys = sorted_keys[starts]
-    # each element pair's entry, summed by bincount where it lies: no sorted copy of the 3 x 3
-    # blocks (reduceat over them was 3/4 of this function on the default link). One bincount per
-    # component (a, b) adds the same terms in the same order as one over all nine did, without
-    # its slot array and the copy of the blocks in slot order (100 MB for the default link's finest
-    # level, while the other level factorises beside it)
-    entry = np.empty(keys.size, dtype=np.int64)
+    entry = np.empty(keys.size, dtype=np.int32 if entry_keys.size < 2**31 else np.int64)
     entry[order] = np.cumsum(starts) - 1
-    blocks = np.empty((entry_keys.size, DIM, DIM))
-    for a in range(DIM):
-        for b in range(DIM):
-            blocks[:, a, b] = np.bincount(entry, weights=local[:, :, a, :, b].ravel(), minlength=entry_keys.size)
-    indptr = np.zeros(basis.N + 1, dtype=np.int64)
-    np.cumsum(np.bincount(entry_keys // basis.N, minlength=basis.N), out=indptr[1:])
-    return blocks, indptr, entry_keys % basis.N
+    return _summed(entry, entry_keys.size, pair_blocks).reshape(-1, DIM, DIM), *_scalar_pattern(entry_keys, basis.N)
+
+
+def _summed(entry: np.ndarray, n_entries: int, pair_blocks: np.ndarray) -> np.ndarray:
+    """Each entry's sum of the element pairs' blocks (rows of `pair_blocks`) that lie on it
+    (`entry`): one product with the 0/1 matrix of entries by pairs, whose rows hold their pairs in
+    increasing order (the transpose's conversion is a stable counting sort), so every entry adds its
+    terms in the order nine `np.bincount(entry, weights=...)` calls did, the same to the bit, in one
+    pass over the blocks instead of nine strided copies and scatters (0.03-0.05 CPU s a default level)."""
+    n_pairs = entry.size
+    by_pair = sp.csr_matrix((np.ones(n_pairs), entry, np.arange(n_pairs + 1)), shape=(n_pairs, n_entries))
+    return by_pair.T.tocsr() @ pair_blocks
+
+
+def _scalar_pattern(entry_keys: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """CSR indptr and indices of the sorted keys i n + j of a scalar pattern's entries."""
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(entry_keys // n, minlength=n), out=indptr[1:])
+    return indptr, entry_keys % n
 
 
 def _interleaved_parts(
     indptr: np.ndarray, indices: np.ndarray, volumetric: np.ndarray, shear: np.ndarray, n: int
 ) -> ElasticityParts:
-    """Interleave scalar-pattern 3 x 3 blocks: scalar entry (i, j) becomes rows 3i + a, columns 3j + b."""
-    lengths = np.diff(indptr)
-    rows = _entry_rows(indptr)
-    position = np.arange(len(indices)) - indptr[rows]
-    a = np.arange(DIM)[None, :, None]
-    b = np.arange(DIM)[None, None, :]
-    # row 3i + a holds 3 x (row i's length) entries, in the order of row i's columns, then b
-    where = (
-        (DIM * DIM * indptr[rows])[:, None, None]
-        + a * (DIM * lengths[rows])[:, None, None]
-        + DIM * position[:, None, None]
-        + b
-    )
-    size = DIM * DIM * len(indices)
-    vector_indices = np.empty(size, dtype=np.int32 if DIM * n < 2**31 else np.int64)
-    vector_indices[where] = DIM * indices[:, None, None] + b
-    volumetric_data = np.empty(size)
-    volumetric_data[where] = volumetric
-    shear_data = np.empty(size)
-    shear_data[where] = shear
-    vector_indptr = np.zeros(DIM * n + 1, dtype=vector_indices.dtype)
-    np.cumsum(np.repeat(DIM * lengths, DIM), out=vector_indptr[1:])
-    return ElasticityParts(vector_indptr, vector_indices, volumetric_data, shear_data, DIM * n)
+    """Interleave scalar-pattern 3 x 3 blocks: scalar entry (i, j) becomes rows 3i + a, columns 3j + b,
+    each row's columns sorted (row i's columns j in order, then b). That is the CSR form of the
+    block matrix (BSR) of those blocks, which SciPy converts in one compiled pass: 4-5x less CPU
+    than numpy's scatter through an index array of all the entries (measured on the default levels)."""
+    shape = (DIM * n, DIM * n)
+    volumetric_csr = sp.bsr_matrix((volumetric, indices, indptr), shape=shape).tocsr()
+    shear_csr = sp.bsr_matrix((shear, indices, indptr), shape=shape).tocsr()
+    return ElasticityParts(volumetric_csr.indptr, volumetric_csr.indices, volumetric_csr.data, shear_csr.data, DIM * n)
 
 
 def elasticity_matrix(basis: Basis, lam_Pa: float, mu_Pa: float) -> sp.csr_matrix:

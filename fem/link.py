@@ -30,7 +30,7 @@ from . import locking, problem, quality, solvers
 from .assembly import DIM, elasticity_parts, rigid_body_modes
 from .errors import FemError, FemWarning
 from .fields import NodalFields
-from .materials import Material
+from .materials import Material, lame_ratio_low
 from .problem import JACOBIAN_CHECK_INTORDER
 from .tets import CurvedTets, Tets
 
@@ -374,7 +374,8 @@ def analyse_link_materials(
     the stiffness matrix (`assembly.ElasticityParts`). The first material is factorised; a material
     with the same Poisson's ratio is that solution scaled by the ratio of Young's moduli (exact); any
     other is solved by CG preconditioned with the first one's factorisation (PARDISO; a few
-    back-substitutions, converged to a 1e-10 residual), or directly with other solvers.
+    back-substitutions, its error's energy norm to solvers.REUSE_ENERGY_TOLERANCE of the solution's),
+    or directly with other solvers.
     Shared costs are booked in the first material's `timing_s`. stress=False skips the stress
     evaluation (its fields are NaN): a study needs stresses on its finest level only. checked=True:
     the caller has run `check_mesh_and_materials` (a study does, before it solves the level in a
@@ -506,8 +507,10 @@ def _reuse(
         return first_u[free] * scale  # K is E times a matrix that depends on nu only
     if factor is None:
         return solvers.solve(K, f_free, method, near_nullspace=modes)
-    # CG does not care how the preconditioner is scaled; the start is the E-scaled first solution.
-    u, _ = solvers.preconditioned_cg(K, f_free, factor.solve, first_u[free] * scale)
+    # the start is the E-scaled first solution; the first's factor bounds the error (lame_ratio_low)
+    u, _ = solvers.preconditioned_cg(
+        K, f_free, factor.solve, first_u[free] * scale, spectrum_low=lame_ratio_low(material, first_material)
+    )
     return u
 
 

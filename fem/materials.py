@@ -31,6 +31,14 @@ class Material:
         return E * nu / ((1 + nu) * (1 - 2 * nu)), E / (2 * (1 + nu))
 
 
+def lame_ratio_low(material: Material, reference: Material) -> float:
+    """The smaller of `material`'s Lame constants over `reference`'s: on one mesh K = lam A + mu B
+    with A and B positive semidefinite, so K_material >= this ratio times K_reference, a lower
+    bound of the eigenvalues of K_reference^-1 K_material (fem.solvers.preconditioned_cg)."""
+    (lam, mu), (lam_ref, mu_ref) = material.lame_Pa, reference.lame_Pa
+    return min(lam / lam_ref, mu / mu_ref)
+
+
 def _number(table: dict, key: str, where: str) -> float:
     value = table.get(key)
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):

@@ -137,20 +137,11 @@ def stiffness_studies(
     order, concurrent_levels, mirror_symmetry = settings.order, settings.concurrent_levels, settings.mirror_symmetry
     start = study_start = time.perf_counter()
     part = geometry.as_part(source, symmetry=mirror_symmetry)
-    if mirror_symmetry:  # the finest level (below, first) meshes the half its measurement ends with
-        part.measure_keeping_half()
     sizes, wall_reference_m = planned_mesh_sizes(part, settings)
     mesh_time = time.perf_counter() - start
 
     def mesh_level(level: int, level_sizes: tuple[float, ...]):
-        return geometry.mesh_part(
-            part,
-            mesh_size_m=level_sizes[level],
-            order=settings.mesh_order,
-            bore_refinement=settings.bore_refinement,
-            mirror=mirror_symmetry and level == len(level_sizes) - 1,
-            wall_reference_m=wall_reference_m,  # every level refines the same walls alike
-        )
+        return mesh_planned_level(part, settings, level_sizes, level, wall_reference_m)
 
     def estimate_levels(level_sizes: tuple[float, ...]) -> list[float]:
         """Unknowns of every level (finest first) estimated before meshing."""
@@ -246,13 +237,36 @@ def planned_mesh_sizes(part, settings: FeaSettings) -> tuple[tuple[float, ...], 
     asked for) of `part` (a `geometry.Part`): settings.mesh_sizes_m or `default_mesh_sizes`, with
     `with_wall_check_level`'s third level where a thin wall is refined.
 
+    The sizes measure the part; with `settings.mirror_symmetry` it is measured keeping its mirror
+    half (`Part.measure_keeping_half`), which the finest level (`mesh_planned_level`, meshed first)
+    then meshes instead of building the CAD again. A part measured already keeps nothing.
+
     Thin walls (geometry.walls: planar, rings round holes) thinner than half the finest size asked
     for get a size field on every level, the same fraction of each level's size
     (geometry.meshing.THIN_WALL_FRACTION). The reference is the finest size asked for, kept where the
     budget coarsens the levels (which keeps their number)."""
+    if settings.mirror_symmetry:
+        part.measure_keeping_half()
     sizes = default_mesh_sizes(part) if settings.mesh_sizes_m is None else settings.mesh_sizes_m
     wall_reference_m = sizes[-1]
     return with_wall_check_level(sizes, part.geometry.mesh_features.walls, wall_reference_m), wall_reference_m
+
+
+def mesh_planned_level(part, settings: FeaSettings, sizes: tuple[float, ...], level: int, wall_reference_m: float):
+    """The `geometry.LinkMesh` of the stiffness study's level `level` of `sizes` (coarse to fine,
+    `planned_mesh_sizes` or the budget's coarsening of them): the finest on the link's mirror half
+    where `settings.mirror_symmetry` (and the link is symmetric), every level's thin walls refined
+    for the same `wall_reference_m`, so that every level refines the same walls alike."""
+    import geometry
+
+    return geometry.mesh_part(
+        part,
+        mesh_size_m=sizes[level],
+        order=settings.mesh_order,
+        bore_refinement=settings.bore_refinement,
+        mirror=settings.mirror_symmetry and level == len(sizes) - 1,
+        wall_reference_m=wall_reference_m,
+    )
 
 
 def refined_down_to_m(walls, wall_reference_m: float) -> float:

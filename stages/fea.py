@@ -138,10 +138,6 @@ def _solve_stiffness(
 
     source = part.name if part.is_step else "built-in default link"
     if stiffness_tolerance is None:
-        if settings.mirror_symmetry:
-            # the level sizes below measure the part: measured here, it keeps its mirror half for the
-            # finest level (as fem.stiffness_studies asks), whose CAD is then not built again
-            part.measure_keeping_half()
         n_levels = len(planned_mesh_sizes(part, settings)[0])
         progress(f"FEA {', '.join(m.name for m in materials)}: {source}, P{settings.order}, {n_levels} mesh levels")
         return stiffness_studies(part, materials, settings, progress=progress)

@@ -63,12 +63,40 @@ def _blocks_summed_over_one_slot_array(basis):
 
 
 def test_gradient_blocks_are_summed_in_the_same_order_as_over_one_slot_array():
-    # per-component sums add the same terms in the same order: equal to the bit, not to round-off
+    # the product with the entries-by-pairs matrix adds the same terms in the same order: equal to
+    # the bit, not to round-off
     from fem.assembly import _gradient_blocks
 
     basis = problem.scalar_basis(MeshTet2.init_ball(1), 2)
     blocks, _, _ = _gradient_blocks(basis)
     assert np.array_equal(blocks, _blocks_summed_over_one_slot_array(basis))
+
+
+def _interleaved_by_scatter(indptr, indices, blocks, n):
+    """The interleaved CSR arrays of scalar-pattern 3 x 3 blocks as fem.assembly scattered them
+    before (an index array of every entry), the reference for the block matrix's conversion."""
+    lengths = np.diff(indptr)
+    rows = np.repeat(np.arange(n), lengths)
+    position = np.arange(len(indices)) - indptr[rows]
+    a, b = np.arange(3)[None, :, None], np.arange(3)[None, None, :]
+    where = (9 * indptr[rows])[:, None, None] + a * (3 * lengths[rows])[:, None, None] + 3 * position[:, None, None] + b
+    vector_indices, data = np.empty(9 * len(indices), dtype=np.int64), np.empty(9 * len(indices))
+    vector_indices[where] = 3 * indices[:, None, None] + b
+    data[where] = blocks
+    return np.r_[0, np.cumsum(np.repeat(3 * lengths, 3))], vector_indices, data
+
+
+def test_interleaved_parts_equal_a_scatter_of_the_blocks():
+    from fem.assembly import _gradient_blocks, _interleaved_parts
+
+    basis = problem.scalar_basis(MeshTet2.init_ball(1), 2)
+    blocks, indptr, indices = _gradient_blocks(basis)
+    shear = blocks.transpose(0, 2, 1) + 1.0
+    parts = _interleaved_parts(indptr, indices, blocks, shear, basis.N)
+    for data, scalar_blocks in ((parts.volumetric_data, blocks), (parts.shear_data, shear)):
+        reference = _interleaved_by_scatter(indptr, indices, scalar_blocks, basis.N)
+        for ours, theirs in zip((parts.indptr, parts.indices, data), reference):
+            assert np.array_equal(ours, theirs)
 
 
 def test_restricted_parts_equal_the_restricted_matrix():

@@ -10,6 +10,7 @@ from fem_plate import plate_link
 
 from fem import get_material, stiffness_studies, stiffness_study
 from fem.link import analyse_link, analyse_link_materials
+from fem.solvers import REUSE_ENERGY_TOLERANCE
 
 ALUMINIUM, TITANIUM, STEEL = (get_material(n) for n in ("al6061-t6", "ti-grade2", "steel-1018"))
 
@@ -25,10 +26,13 @@ def test_reused_solutions_equal_full_solves(plate, solver):
     for material in (TITANIUM, STEEL):
         alone = analyse_link(plate, material, solver=solver)
         shared = together[material.name]
-        # CG to a 1e-6 residual: k within ~1e-9 (measured 1.1e-9), stresses to ~1e-6; the
-        # discretisation error is ~1e-2.
-        assert shared.stiffness_N_per_m == pytest.approx(alone.stiffness_N_per_m, rel=1e-8)
-        assert shared.stiffness_from_energy_N_per_m == pytest.approx(alone.stiffness_N_per_m, rel=1e-8)
+        # CG to an error whose energy norm is below eta = REUSE_ENERGY_TOLERANCE of the solution's:
+        # k = F^2 / (f . u) within eta (|f . e| <= |u|_K |e|_K; measured 6.5e-7 titanium, 1.4e-7
+        # steel), k from the energy u K u within 2 eta + eta^2 (measured 1.3e-6); the stresses,
+        # linear in the error, measured 2.4e-6 (peak) here; the discretisation error is ~1e-2.
+        eta = REUSE_ENERGY_TOLERANCE
+        assert shared.stiffness_N_per_m == pytest.approx(alone.stiffness_N_per_m, rel=eta)
+        assert shared.stiffness_from_energy_N_per_m == pytest.approx(alone.stiffness_N_per_m, rel=2 * eta + eta**2)
         assert shared.peak_von_mises_away_from_clamp_Pa_per_N == pytest.approx(
             alone.peak_von_mises_away_from_clamp_Pa_per_N, rel=1e-5
         )

@@ -95,3 +95,28 @@ def test_the_run_s_stiffness_step_hands_the_study_the_kept_half(monkeypatch):
     finally:
         with session.taken_model(part.half_model_name):  # removed: gmsh as the test found it
             pass
+
+
+def test_the_planned_sizes_keep_the_half_for_the_finest_level():
+    """`fem.study.planned_mesh_sizes` measures the part keeping its mirror half (the one home of that
+    step: the study, the run's stiffness step and the benchmark only call it), which the finest
+    level (`mesh_planned_level`) then meshes; without mirror symmetry nothing is kept."""
+    from fem.settings import FeaSettings
+    from fem.study import mesh_planned_level, planned_mesh_sizes
+
+    whole = resolve_part(None)
+    planned_mesh_sizes(whole, FeaSettings(mirror_symmetry=False))
+    assert whole.half_model_name not in session._KEPT
+
+    part = resolve_part(None)
+    settings = FeaSettings.with_finest(SIZE_M)
+    try:
+        sizes, wall_reference_m = planned_mesh_sizes(part, settings)
+        assert part.half_model_name in session._KEPT
+        finest = mesh_planned_level(part, settings, sizes, len(sizes) - 1, wall_reference_m)
+        assert part.half_model_name not in session._KEPT
+        assert finest.mirror_plane is not None
+        assert mesh_planned_level(part, settings, sizes, 0, wall_reference_m).mirror_plane is None
+    finally:
+        with session.taken_model(part.half_model_name):
+            pass

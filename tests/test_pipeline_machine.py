@@ -362,7 +362,14 @@ def test_drive_link_gives_todays_summary(tmp_path):
     building it again (fem.submodel, geometry.part.Part.load_body_brep): the sub-model's mesh moved by
     a few nodes, so the converged stress, its change and the link stresses and safety factors from
     it moved by 0.9-1.0e-7 of themselves (their estimate 3.7 %); every other number within this
-    test's tolerances of the file before."""
+    test's tolerances of the file before.
+    Rewritten (on the AMD EPYC host) when titanium's CG on aluminium's factor stopped at an energy
+    error of 1e-4 (fem.solvers.REUSE_ENERGY_TOLERANCE) instead of a 1e-6 residual: only titanium's
+    figures moved beyond this test's tolerances, its k by 1.5e-6 (its estimate 1.4 %; the bound is
+    1e-4), its stresses by 1.6-2.2e-6 (estimate 4.7 %; their change between the sub-model's levels
+    by 1.2e-5), its chain figures by up to 2.6e-5 of themselves (the residual vibrations, a few um)
+    and the steady state's residual (a diagnostic) by 6e-5; aluminium's within the tolerances (its
+    k by 1e-11, the host's rounding)."""
     out = tmp_path / "out"
     args = ["--mesh-size", "10", "--links", "12", "--samples-per-degree", "2", "--no-images", "-q"]
     args += ["--cams", "modified-sine,cycloidal", "--drive", "link"]
