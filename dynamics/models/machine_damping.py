@@ -50,15 +50,16 @@ from dynamics.models.reduced_damping import zolotarev_nodes_for
 # with the trapezoidal rule at 1e-4 (14 nodes, its error 0.53 of the tolerance), 9e-5 at 1e-5 (10
 # nodes)): 1e-5 keeps them well inside the 1e-3 output accuracy with fewer nodes than before.
 DEFAULT_MACHINE_DAMPING_TOLERANCE = 1e-5
-# Above this many links each mode's ratio to LONG_MACHINE_DAMPING_TOLERANCE instead. There the station
-# metrics are far more sensitive to it: at 3,000 links (default wheels, 0.094 mm, 180 rpm) the slack
-# side's RMS a was 8.3e-3 from the tight runs (each ratio to 1e-7, the step at the default safety / 5
-# and / 10) at 1e-5, 1.3e-3 at 1e-7 with nothing else changed (benchmarks/bench_long_accuracy.py,
-# docs/performance.md "Long clearance chains on wheels"), for 2 % more CPU (20.8 against 20.3 s: 16
-# nodes against 12; 18 against 13 at 10,000 links). By length, not by the slowest mode's decay per cycle as the searches' settings
-# (dynamics.machine_scene): the form is built with the machine, before any cam. Up to 2,000 links (the
-# length where the factors are still stored in double) the default run's numbers stay as they were:
-# 9e-5 from the form at 1e-6 at 1,000 links, 2.5e-4 from the tight run at 2,000.
+# Above LONG_MACHINE_DAMPING_ABOVE_LINKS links each mode's ratio to LONG_MACHINE_DAMPING_TOLERANCE
+# instead: there the station metrics are far more sensitive to it. At 3,000 links (default wheels,
+# 0.094 mm, 180 rpm) the slack side's RMS a was 8.3e-3 from the tight runs (each ratio to 1e-7, the
+# step at the default safety / 5 and / 10) at 1e-5, 1.3e-3 at 1e-7 with nothing else changed
+# (benchmarks/bench_long_accuracy.py, docs/performance.md "Long clearance chains on wheels"), for 2 %
+# more CPU (20.8 against 20.3 s; 16 nodes against 12, 18 against 13 at 10,000 links). By length, not
+# by the slowest mode's decay per cycle as the searches' settings (dynamics.machine_scene): the form is
+# built with the machine, before any cam. Up to 2,000 links (where the factors are still stored in
+# double) the default run's numbers stay as they were: 9e-5 from the form at 1e-6 at 1,000 links,
+# 2.5e-4 from the tight run at 2,000.
 LONG_MACHINE_DAMPING_TOLERANCE = 1e-7
 LONG_MACHINE_DAMPING_ABOVE_LINKS = 2000
 # The factors (3 n p numbers, the product's memory traffic) are stored in single precision above this
