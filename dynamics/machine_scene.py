@@ -314,7 +314,8 @@ def _searched_and_settled(model, cam, h_out, per_cycle, state, search: SearchSet
     Given its step (not `search.default_step`): the relabelled steady state searched from `state` at
     `search.safety` (from rest: `state` itself). The default step: the window at safety /
     WINDOW_REFINEMENT, the steady state searched at SEARCH_SAFETY and settled at the window's step (a
-    long chain's: to long_search_tol, then settled at `safety` as `_settle_kind` says: one cycle, the
+    long chain's: to long_search_tol, then settled at `safety` (`_settle_substeps`: at the window's step
+    above SETTLE_AT_WINDOW_STEP_ABOVE_DECAY) as `_settle_kind` says: one cycle, the
     search on to the same tolerance, or that tolerance by defect correction with coarse cycles, its
     coarse search stopped at machine_shooting.DEFECT_COARSE_TOL_FACTOR times it); a
     search that finds none is redone from `state` at the window's step to `tol` (the motion after
