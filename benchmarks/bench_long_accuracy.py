@@ -63,6 +63,21 @@ VARIANTS = {
     "search-tol-1e-5": {"search_tol": 1e-5},
     # long_search_tol's state-error bound at every rho (as before LONG_SEARCH_STATE_ERROR_UP_TO_DECAY)
     "state-error-bound-everywhere": {"state_error_up_to_decay": 1.0},
+    # above rho 0.92 (dynamics.machine_scene): the state-error bound of the search's tolerance
+    # (LONG_SEARCH_SLACK_STATE_ERROR) looser and tighter than the default's, the settle at the default
+    # safety instead of the window's step, the damping's ratios to the previous 1e-5 or to 1e-6
+    "slack-state-error-1e-3": {"slack_state_error": 1e-3},
+    "slack-state-error-2.5e-4": {"slack_state_error": 2.5e-4},
+    "settle-at-default-safety": {"settle_at_window_step_above_decay": 1.0},
+    "damping-1e-5": {"damping_tol": 1e-5},
+    "damping-1e-6": {"damping_tol": 1e-6},
+    # the default run as it was before those three (search to LONG_SEARCH_TOL above rho 0.92)
+    "before-slack-rule": {
+        "damping_tol": 1e-5,
+        "settle_at_window_step_above_decay": 1.0,
+        "slack_state_error": 0.0,
+        "tol_floor": 1e-4,
+    },
     "all-three": {"window_refinement": 5.0, "damping_tol": TIGHT_DAMPING_TOLERANCE, "search_tol": TIGHT_TOL},
 }
 
@@ -82,6 +97,12 @@ def _apply(knobs: dict) -> None:
         clearance_machine.of_machine = functools.partial(machine_damping.of_machine, tolerance=knobs["damping_tol"])
     if "state_error_up_to_decay" in knobs:
         ms.LONG_SEARCH_STATE_ERROR_UP_TO_DECAY = knobs["state_error_up_to_decay"]
+    if "slack_state_error" in knobs:
+        ms.LONG_SEARCH_SLACK_STATE_ERROR = knobs["slack_state_error"]
+    if "tol_floor" in knobs:
+        ms.LONG_SEARCH_TOL_FLOOR = knobs["tol_floor"]
+    if "settle_at_window_step_above_decay" in knobs:
+        ms.SETTLE_AT_WINDOW_STEP_ABOVE_DECAY = knobs["settle_at_window_step_above_decay"]
     if knobs.get("single"):
         machine_damping.SINGLE_PRECISION_FACTORS_ABOVE_LINKS = 0
 

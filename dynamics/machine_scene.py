@@ -100,18 +100,33 @@ SETTLE_CYCLES = 1
 # bound on the state's error at every length, 1e-4 at 10,000 links (the tolerance all lengths had
 # before) and 9e-4 at 1,000 (8 cycles instead of 10; the station metrics moved by 2.2e-4, 6.9e-4
 # from the tight run against 7.6e-4 at 1e-4). A fixed 1e-3 at 10,000 links moved them by 5.8e-3.
-# Never below LONG_SEARCH_TOL, the fixed tolerance before: the Kelvin-Voigt law's slow modes, nearly
-# undamped, would ask for far less, and 10,000 links take 39 of the 60-cycle budget to reach it.
+# Never below LONG_SEARCH_TOL there, the fixed tolerance before (up to LONG_SEARCH_STATE_ERROR_UP_TO_DECAY
+# the bound is looser than it: 3.6e-4 at 0.92).
 LONG_SEARCH_STATE_ERROR = 4.5e-3
 LONG_SEARCH_TOL = 1e-4
 # The state's error bound holds the station metrics to 1e-3 only while they are not much more sensitive
 # to the state than it (1,000 links: 2.2e-4 for 4.5e-3). Above this rho they are (the slack side's
 # max |a| and RMS a, its impacts' timing): searched to long_search_tol's bound, 4,000 links (rho 0.946,
-# 2.4e-4) were 7.2e-3 from the search to 1e-5, 3,000 (0.926, 3.3e-4) 7.8e-4; at LONG_SEARCH_TOL 4.3e-4
-# and 3.0e-4 (+5 and +6 index cycles; benchmarks/bench_long_accuracy.py, the default wheels, 0.094 mm,
-# 180 rpm, docs/performance.md "Long clearance chains on wheels"). There the tolerance is LONG_SEARCH_TOL,
-# the fixed one (already the tolerance from about 9,000 links on, where the bound is looser still)
+# 2.4e-4) were 7.2e-3 from the search to 1e-5, 3,000 (0.926, 3.3e-4) 7.8e-4 (benchmarks/
+# bench_long_accuracy.py, the default wheels, 0.094 mm, 180 rpm, docs/performance.md "Long clearance
+# chains on wheels").
 LONG_SEARCH_STATE_ERROR_UP_TO_DECAY = 0.92
+# Above it the tolerance is this tighter bound on the state's error, LONG_SEARCH_SLACK_STATE_ERROR
+# (1 - rho), with the settle at the window's step (SETTLE_AT_WINDOW_STEP_ABOVE_DECAY) and each mode's
+# damping ratio to 1e-7 (machine_damping.default_tolerance): measured against the tight runs (the
+# step at the default safety / 5 or / 10 for search, settle and window, searched to 1e-8, each ratio to
+# 1e-7; benchmarks/bench_long_accuracy.py, the scene above), worst station metric (the slack side's
+# max |a|): 4,000 links (rho 0.946) 2.2e-3 at a tolerance of 1e-4, 2.4e-4 at 3e-5; 3,000 (0.926)
+# 1.4e-4 at 1e-4. The error is where the search happens to stop inside its bound, so the bound is set
+# by the worst measured length (4,000: 2.7e-5; at twice the bound, 5.4e-5, 1.05e-3) and holds the
+# state's error to the same 5e-4 at every rho above the threshold (3,000 links 3.7e-5, 5,000 2.2e-5,
+# 10,000 1.1e-5). With it the default run is 3.1e-4, 2.4e-4 and 4.0e-4 from the tight runs at 3,000,
+# 4,000 and 5,000 links, for 23.7 against 19.3 s of CPU at 3,000 links and 38.2 against 23.1 s at
+# 4,000 (20 index cycles more). Never below
+# LONG_SEARCH_TOL_FLOOR: the Kelvin-Voigt law's nearly undamped slow modes (rho 0.9995 at 1,000 links) ask for
+# 2.5e-7, which no search reaches in its budget (the search to 1e-5 took 77 index cycles at 4,000 links)
+LONG_SEARCH_SLACK_STATE_ERROR = 5e-4
+LONG_SEARCH_TOL_FLOOR = 1e-5
 # One settling cycle at the default safety keeps rho (the slowest mode's decay per cycle) of the
 # offset between the search step's fixed point and the default step's. Above this rho the settle is a
 # search to long_search_tol instead (measured on the default wheels, 0.094 mm, 180 rpm, against a run
@@ -132,6 +147,15 @@ SETTLE_SEARCH_ABOVE_DECAY = 0.85
 # against the fine search's 3.4e-3; 10,000 links, rho 0.978: 24 coarse + 3 fine, 29.6 s, against 15
 # cycles, 35.5 s (the two 7.3e-4 apart).
 SETTLE_DEFECT_CORRECTED_ABOVE_DECAY = 0.92
+# Above this rho the settle finds the fixed point at the window's step, not at the default safety: the
+# window starts at its own step's fixed point, where the default safety's differs from it along the slow
+# modes by more than the window's first cycles remove (they keep rho of it per cycle). Measured at
+# 3,000 links (rho 0.926) against the tight runs: the slack side's RMS a 8.3e-3 settled at the default
+# safety (tolerance 1e-4), 7.1e-3 at the window's step alone, 1.4e-4 with the damping's ratios to 1e-7
+# as well (24.7 s of CPU against 20.8 s); at 4,000 links (0.946) the damping's 1e-7 alone left 1.1e-2,
+# the state's RMS x 9.7e-4 off, with this too 2.2e-3 (RMS x 6.9e-5). Its fine cycles are 3.5 times the
+# default safety's (WINDOW_REFINEMENT), the defect correction's 3-4 of them about 4-7 s at 3,000-4,000 links
+SETTLE_AT_WINDOW_STEP_ABOVE_DECAY = 0.92
 
 
 def machine_model(scene, chain) -> ClearanceMachine:
@@ -293,7 +317,8 @@ def _searched_and_settled(model, cam, h_out, per_cycle, state, search: SearchSet
     Given its step (not `search.default_step`): the relabelled steady state searched from `state` at
     `search.safety` (from rest: `state` itself). The default step: the window at safety /
     WINDOW_REFINEMENT, the steady state searched at SEARCH_SAFETY and settled at the window's step (a
-    long chain's: to long_search_tol, then settled at `safety` as `_settle_kind` says: one cycle, the
+    long chain's: to long_search_tol, then settled at `safety` (`_settle_substeps`: at the window's step
+    above SETTLE_AT_WINDOW_STEP_ABOVE_DECAY) as `_settle_kind` says: one cycle, the
     search on to the same tolerance, or that tolerance by defect correction with coarse cycles, its
     coarse search stopped at machine_shooting.DEFECT_COARSE_TOL_FACTOR times it); a
     search that finds none is redone from `state` at the window's step to `tol` (the motion after
@@ -309,7 +334,7 @@ def _searched_and_settled(model, cam, h_out, per_cycle, state, search: SearchSet
         coarse = mv.substeps_for(model, h_out, SEARCH_SAFETY[model.span_damping], pred)
         long_chain = model.reduced_damping
         to = replace(search, tol=long_search_tol(model, cam, search.tol)) if long_chain else search
-        settle = mv.substeps_for(model, h_out, search.safety, pred) if long_chain else fine
+        settle = _settle_substeps(model, cam, h_out, search.safety, pred, fine) if long_chain else fine
         kind = _settle_kind(model, cam) if long_chain else "cycle"
         settled, found, ss = _SETTLES[kind](model, cam, h_out, per_cycle, (coarse, settle), state, to)
         if settled is not None:
@@ -380,15 +405,24 @@ def _settle_kind(model, cam) -> str:
     return next((kind for above, kind in by_decay if decay > above), "cycle")
 
 
+def _settle_substeps(model, cam, h_out, safety, predictor, fine) -> int:
+    """Steps per output sample a long chain's steady state is settled at: the default `safety`'s, or
+    the window's (`fine`) where the slowest mode keeps more than SETTLE_AT_WINDOW_STEP_ABOVE_DECAY of
+    itself per cycle (machine_shooting.slowest_decay_per_cycle)."""
+    if machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s) > SETTLE_AT_WINDOW_STEP_ABOVE_DECAY:
+        return fine
+    return mv.substeps_for(model, h_out, safety, predictor)
+
+
 def long_search_tol(model, cam, tol: float) -> float:
-    """The tolerance of a long chain's search at SEARCH_SAFETY (never tighter than `tol` or
-    LONG_SEARCH_TOL): the change per cycle that leaves the state within about LONG_SEARCH_STATE_ERROR of
-    the fixed point, given its slowest mode's decay per index cycle
-    (machine_shooting.slowest_decay_per_cycle), up to LONG_SEARCH_STATE_ERROR_UP_TO_DECAY; above it
-    LONG_SEARCH_TOL."""
+    """The tolerance of a long chain's search at SEARCH_SAFETY (never tighter than `tol`): the change per
+    cycle that leaves the state within about LONG_SEARCH_STATE_ERROR of the fixed point, given its
+    slowest mode's decay per index cycle rho (machine_shooting.slowest_decay_per_cycle), never below
+    LONG_SEARCH_TOL, up to LONG_SEARCH_STATE_ERROR_UP_TO_DECAY; above it within
+    LONG_SEARCH_SLACK_STATE_ERROR, never below LONG_SEARCH_TOL_FLOOR."""
     decay = machine_shooting.slowest_decay_per_cycle(model, cam.cycle_s)
     if decay > LONG_SEARCH_STATE_ERROR_UP_TO_DECAY:
-        return max(tol, LONG_SEARCH_TOL)
+        return max(tol, LONG_SEARCH_TOL_FLOOR, LONG_SEARCH_SLACK_STATE_ERROR * (1.0 - decay))
     return max(tol, LONG_SEARCH_TOL, LONG_SEARCH_STATE_ERROR * (1.0 - decay))
 
 

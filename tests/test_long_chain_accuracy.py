@@ -22,6 +22,13 @@ LAYOUT = MachineLayout("wheels", Wheel(12, PITCH_M, 6, 0.688), Wheel(12, PITCH_M
 TIGHT_SAFETY_DIVISOR = 5.0
 TIGHT_TOL = 1e-8
 TIGHT_DAMPING_TOLERANCE = 1e-7
+# the tight run's search budget in index cycles (benchmarks/bench_long_accuracy.py: at 3,000 links the
+# search at / 5 needs about 105, more than the default 60)
+TIGHT_MAX_CYCLES = 300
+# 3,000 links: the default run's worst station metric against the tight run, measured 3.1e-4 (the slack
+# side's RMS a; benchmarks/bench_long_accuracy.py --links 3000 --reference tight-5 --variants default),
+# plus the tight run's own 4.0e-5 from the run at / 10, rounded up (issue #24's target is 1e-3)
+BOUND_3000 = 5e-4
 METRICS = ("rms_displacement_m", "rms_velocity_m_s", "rms_acceleration_m_s2", "max_abs_acceleration_m_s2")
 METRICS += ("residual_vibration_m",)
 
@@ -96,3 +103,25 @@ def test_a_long_chains_settle_is_searched_to_its_tolerance_at_the_default_safety
     assert run.impacts > 0
     assert np.max(np.abs(q1 - q0)) <= tol * np.max(np.abs(run.q))
     assert np.max(np.abs(v1 - v0)) <= tol * np.max(np.abs(run.v))
+
+
+@pytest.mark.slow
+def test_the_3000_link_default_run_is_within_1e_3_of_a_tight_run(monkeypatch):
+    """3,000 links (the scene above; rho 0.926, above the 0.92 where the settle is by defect correction
+    at the window's step, the search's tolerance LONG_SEARCH_SLACK_STATE_ERROR (1 - rho) and each
+    mode's damping ratio to 1e-7 by length): the default run's 20 station metrics against the tight
+    run (TIGHT_*), as the pipeline reports them: within BOUND_3000 (its comment: the measured error
+    and the tight run's own). Slow: the tight run is 105 index cycles at 43 steps per output sample
+    (about 140 s of CPU), the default run about 25 s."""
+    links = 3000
+    chain = ChainModel(links, 2.03, 9.0092e7, damping_ratio=0.13, preload_N=2224.0, friction_coefficient=0.35)
+    cam = CamProgram.indexing("modified-sine", pitch_m=PITCH_M, rpm=180)
+    t = np.arange(721) / 4 / (6.0 * 180)
+    default = _station_metrics(ClearanceMachine.of(chain, LAYOUT, None, 94e-6), cam, t)
+    tight_damping = functools.partial(machine_damping.of_machine, tolerance=TIGHT_DAMPING_TOLERANCE)
+    monkeypatch.setattr(clearance_machine, "of_machine", tight_damping)
+    model = ClearanceMachine.of(chain, LAYOUT, None, 94e-6)
+    safety = verlet.default_safety(model, verlet.default_predictor(model)) / TIGHT_SAFETY_DIVISOR
+    tight = _station_metrics(model, cam, t, safety=safety, tol=TIGHT_TOL, max_cycles=TIGHT_MAX_CYCLES)
+    error = np.abs(default - tight) / np.abs(tight)
+    assert np.max(error) < BOUND_3000

@@ -50,6 +50,18 @@ from dynamics.models.reduced_damping import zolotarev_nodes_for
 # with the trapezoidal rule at 1e-4 (14 nodes, its error 0.53 of the tolerance), 9e-5 at 1e-5 (10
 # nodes)): 1e-5 keeps them well inside the 1e-3 output accuracy with fewer nodes than before.
 DEFAULT_MACHINE_DAMPING_TOLERANCE = 1e-5
+# Above LONG_MACHINE_DAMPING_ABOVE_LINKS links each mode's ratio to LONG_MACHINE_DAMPING_TOLERANCE
+# instead: there the station metrics are far more sensitive to it. At 3,000 links (default wheels,
+# 0.094 mm, 180 rpm) the slack side's RMS a was 8.3e-3 from the tight runs (each ratio to 1e-7, the
+# step at the default safety / 5 and / 10) at 1e-5, 1.3e-3 at 1e-7 with nothing else changed
+# (benchmarks/bench_long_accuracy.py, docs/performance.md "Long clearance chains on wheels"), for 2 %
+# more CPU (20.8 against 20.3 s; 16 nodes against 12, 18 against 13 at 10,000 links). By length, not
+# by the slowest mode's decay per cycle as the searches' settings (dynamics.machine_scene): the form is
+# built with the machine, before any cam. Up to 2,000 links (where the factors are still stored in
+# double) the default run's numbers stay as they were: 9e-5 from the form at 1e-6 at 1,000 links,
+# 2.5e-4 from the tight run at 2,000.
+LONG_MACHINE_DAMPING_TOLERANCE = 1e-7
+LONG_MACHINE_DAMPING_ABOVE_LINKS = 2000
 # The factors (3 n p numbers, the product's memory traffic) are stored in single precision above this
 # many links (the recurrences still run in double): at 10,000 links they no longer fit in the core's
 # share of L2 and the product is bound by their loads, 385 against 741 us a product (13 nodes, 10,000
@@ -104,11 +116,19 @@ def default_factor_precision(n_links: int) -> str:
     return "single" if n_links > SINGLE_PRECISION_FACTORS_ABOVE_LINKS else "double"
 
 
-def of_machine(
-    machine, tolerance: float = DEFAULT_MACHINE_DAMPING_TOLERANCE, factor_precision: str | None = None
-) -> MachineDamping:
-    """The O(N) form of `machine.damping_matrix()`'s chain-DOF block (modal or Rayleigh), its factors
-    in `factor_precision` (None: `default_factor_precision`)."""
+def default_tolerance(n_links: int) -> float:
+    """Each mode's damping ratio's relative error in the O(N) form of a machine of `n_links` links:
+    DEFAULT_MACHINE_DAMPING_TOLERANCE, LONG_MACHINE_DAMPING_TOLERANCE above LONG_MACHINE_DAMPING_ABOVE_LINKS."""
+    if n_links > LONG_MACHINE_DAMPING_ABOVE_LINKS:
+        return LONG_MACHINE_DAMPING_TOLERANCE
+    return DEFAULT_MACHINE_DAMPING_TOLERANCE
+
+
+def of_machine(machine, tolerance: float | None = None, factor_precision: str | None = None) -> MachineDamping:
+    """The O(N) form of `machine.damping_matrix()`'s chain-DOF block (modal or Rayleigh), each mode's
+    ratio to `tolerance` (None: `default_tolerance`), its factors in `factor_precision` (None:
+    `default_factor_precision`)."""
+    tolerance = default_tolerance(machine.n_links) if tolerance is None else tolerance
     precision = default_factor_precision(machine.n_links) if factor_precision is None else factor_precision
     if precision not in FACTOR_PRECISIONS:
         raise DynamicsError(f"factor_precision: expected one of {sorted(FACTOR_PRECISIONS)}, got {factor_precision!r}")

@@ -15,9 +15,10 @@ tolerance. An extrapolated start the step cannot take (outside the motion seen) 
 history from the last cycle's end; where the extrapolation stops helping (no steady state), the
 search goes on with plain cycles.
 
-A long chain's default run searches at a coarse step and settles at the default safety, whose fixed
-point differs from the coarse one along the slow modes. defect_corrected_periodic_state finds the
-default safety's fixed point with coarse cycles (dynamics.solvers.shooting.defect_corrected_fixed_point):
+A long chain's default run searches at a coarse step and settles at the default safety (above rho 0.92
+at the window's step, dynamics.machine_scene._settle_substeps), whose fixed point differs from the
+coarse one along the slow modes. defect_corrected_periodic_state finds the fine step's (here: the
+default safety's) fixed point with coarse cycles (dynamics.solvers.shooting.defect_corrected_fixed_point):
 one cycle at the default safety gives the two steps' difference d at the current start, the coarse map
 plus d is searched with the coarse search's Anderson history (its secant pairs are the coarse map's),
 and a cycle at the default safety accepts the result by the same test; d is renewed there until it
