@@ -60,8 +60,8 @@ def machine_of(model) -> ClearanceMachine:
     if model.damping_tolerance is not None and model.span_damping == "global":
         raise DynamicsError(
             f"kernel 'topology': damping_tolerance {model.damping_tolerance:g} is the ring's O(N) damping's; "
-            "the machine's takes its own (machine_damping.DEFAULT_MACHINE_DAMPING_TOLERANCE above "
-            "DENSE_LINK_LIMIT links, the dense C below); use kernel='ring' or damping_tolerance=None"
+            "the machine's takes its own (machine_damping.default_tolerance above DENSE_LINK_LIMIT links, "
+            "the dense C below); use kernel='ring' or damping_tolerance=None"
         )
     return cache.cached(
         ("ring on topology", model),
