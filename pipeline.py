@@ -501,6 +501,9 @@ def _import_chain_and_outputs(cfg: RunConfig) -> None:
     from processes import imports_done
 
     import dynamics.scene  # noqa: F401
+    from reporting.matplotlib_import import import_pyplot
+
+    import_pyplot()  # before reporting.plots imports it: its artists' docs left unbuilt
     from reporting.outputs import prepare_figure_workers
 
     cpu_target.typing_context.refresh()
