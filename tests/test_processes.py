@@ -43,3 +43,15 @@ imports_done()
 print(unpaused == (True, 0), gc.isenabled(), gc.get_freeze_count())
 """
     assert _run(code) == "True False 0"
+
+
+def test_the_runs_imports_end_the_pause_that_python_pipeline_py_starts():
+    code = """
+import gc
+import pipeline
+from processes import pause_collector_for_imports
+pause_collector_for_imports()  # as `python pipeline.py` does before anything else
+pipeline._import_chain_and_outputs(pipeline.parse_cli([]))
+print(gc.isenabled(), gc.get_freeze_count() > 0)
+"""
+    assert _run(code) == "True True"
