@@ -448,12 +448,11 @@ def run(cfg: RunConfig, progress: Progress, fea_process: Beside | None = None) -
     waiting_fea_process), handed the FEA if it runs beside, else cancelled."""
     from functools import partial
 
+    from processes import imports_done
     from stages.chain import run_dynamics
     from stages.fea import FeaInProgress, start_fea
     from stages.geometry import inspect_geometry
     from stages.tolerance import run_to_tolerance
-
-    from processes import imports_done
 
     timing: dict[str, float] = {}
     if fea_process is not None and (cfg.preset == "mqp2012" or cfg.tolerance is not None):
@@ -498,9 +497,8 @@ def _import_chain_and_outputs(cfg: RunConfig) -> None:
     (processes.imports_done: the garbage collector on again where `python pipeline.py` paused it)."""
     from numba.core.registry import cpu_target
 
-    from processes import imports_done
-
     import dynamics.scene  # noqa: F401
+    from processes import imports_done
     from reporting.matplotlib_import import import_pyplot
 
     import_pyplot()  # before reporting.plots imports it: its artists' docs left unbuilt
