@@ -448,6 +448,7 @@ def run(cfg: RunConfig, progress: Progress, fea_process: Beside | None = None) -
     waiting_fea_process), handed the FEA if it runs beside, else cancelled."""
     from functools import partial
 
+    from processes import imports_done
     from stages.chain import run_dynamics
     from stages.fea import FeaInProgress, start_fea
     from stages.geometry import inspect_geometry
@@ -456,6 +457,8 @@ def run(cfg: RunConfig, progress: Progress, fea_process: Beside | None = None) -
     timing: dict[str, float] = {}
     if fea_process is not None and (cfg.preset == "mqp2012" or cfg.tolerance is not None):
         fea_process.cancel()  # these run no FEA beside: it ends now, not with the run
+    if cfg.preset == "mqp2012" or cfg.tolerance is not None:
+        imports_done()  # these import as they go
     if cfg.preset == "mqp2012":
         from reporting.outputs import write_replica_outputs
         from stages.replica import run_replicas
@@ -490,10 +493,15 @@ def _import_chain_and_outputs(cfg: RunConfig) -> None:
     (dynamics.warm_up, 0.12-0.2 CPU s that the stage's first scenario pays otherwise); and
     matplotlib's first text laid out once for the figure workers
     (reporting.outputs.prepare_figure_workers). All of it runs while the FEA's process meshes the
-    finest level on one thread, before its levels take both cores."""
+    finest level on one thread, before its levels take both cores. The imports end here
+    (processes.imports_done: the garbage collector on again where `python pipeline.py` paused it)."""
     from numba.core.registry import cpu_target
 
     import dynamics.scene  # noqa: F401
+    from processes import imports_done
+    from reporting.matplotlib_import import import_pyplot
+
+    import_pyplot()  # before reporting.plots imports it: its artists' docs left unbuilt
     from reporting.outputs import prepare_figure_workers
 
     cpu_target.typing_context.refresh()
@@ -503,6 +511,7 @@ def _import_chain_and_outputs(cfg: RunConfig) -> None:
 
         load_machine_kernels()
     prepare_figure_workers()
+    imports_done()
 
 
 def _write_outputs(
@@ -551,6 +560,9 @@ def exit_now(status: int) -> None:
 
 
 if __name__ == "__main__":
+    from processes import pause_collector_for_imports
+
+    pause_collector_for_imports()  # until the run's imports are done (processes.imports_done)
     from stages.fea import waiting_fea_process
 
     exit_now(main(fea_process=waiting_fea_process()))

@@ -5,8 +5,8 @@
 Runs `python pipeline.py --cache-dir EMPTY --out TMP` of this tree (and, with `--old-tree DIR`, of
 another checkout, e.g. `git worktree add --detach DIR main`) in fresh processes, the trees
 alternating, each run with its own empty cache, after one untimed run of each tree at coarse FEA
-levels (numba compiles and caches its kernels in the tree on its first run), and prints the
-medians over `--repeats` runs of:
+levels (numba compiles and caches its kernels in the tree on its first run, Python writes the
+modules' bytecode outside the trees: `child_env`), and prints the medians over `--repeats` runs of:
 
 - each stage's wall time, from the run's own progress lines (`[  t s] ...`), as the span from the
   line that ends the stage before it on the same path to the line that ends it. Since the FEA runs
@@ -110,11 +110,21 @@ def stage_walls(ends: dict[str, float], start_up_s: float) -> dict[str, float]:
     }
 
 
-def run_once(tree: Path, extra: list[str], sample_memory: bool = False) -> Run:
-    """One run of `tree`'s pipeline.py; with sample_memory its peak memory, else its time only."""
+def child_env(tree: Path, bytecode_dir: Path) -> dict[str, str]:
+    """The environment of a run of `tree`: the modules' bytecode read from `bytecode_dir` and written
+    there by a tree's first (untimed) run (PYTHONPYCACHEPREFIX: outside the trees, which are left as
+    they are), as a user's second run of a checkout reads it from its __pycache__; without the
+    caller's PYTHONDONTWRITEBYTECODE, with which every run compiled the project's modules again
+    (about 150 of them between the run's and the FEA's processes, 0.6 CPU s)."""
+    env = {name: value for name, value in os.environ.items() if name != "PYTHONDONTWRITEBYTECODE"}
+    return env | {"PYTHONPATH": str(tree), "PYTHONPYCACHEPREFIX": str(bytecode_dir)}
+
+
+def run_once(tree: Path, extra: list[str], bytecode_dir: Path, sample_memory: bool = False) -> Run:
+    """One run of `tree`'s pipeline.py (`child_env`); with sample_memory its peak memory, else its time only."""
     with tempfile.TemporaryDirectory(prefix="whole-job-") as tmp:
         command = [sys.executable, "pipeline.py", "--cache-dir", f"{tmp}/cache", "--out", f"{tmp}/out", *extra]
-        env = {**os.environ, "PYTHONPATH": str(tree)}
+        env = child_env(tree, bytecode_dir)
         cpu_before = _children_cpu_s()
         start = time.perf_counter()
         proc = subprocess.Popen(command, cwd=tree, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
@@ -227,8 +237,8 @@ print(json.dumps({"wall_s": wall, "maxrss": resource.getrusage(resource.RUSAGE_S
 """
 
 
-def study_point(tree: Path) -> dict:
-    env = {**os.environ, "PYTHONPATH": str(tree)}
+def study_point(tree: Path, bytecode_dir: Path) -> dict:
+    env = child_env(tree, bytecode_dir)
     out = subprocess.run(
         [sys.executable, "-c", STUDY_POINT], cwd=tree, env=env, capture_output=True, text=True, check=True
     )
@@ -292,15 +302,20 @@ def main(argv=None) -> int:
     parser.add_argument("pipeline_options", nargs="*", help="passed to pipeline.py (after --)")
     args = parser.parse_args(argv)
     trees = {"new": ROOT} | ({"old": args.old_tree.resolve()} if args.old_tree else {})
+    with tempfile.TemporaryDirectory(prefix="whole-job-bytecode-") as bytecode_dir:
+        return _compare(trees, args, Path(bytecode_dir))
+
+
+def _compare(trees: dict[str, Path], args: argparse.Namespace, bytecode_dir: Path) -> int:
     results: dict[str, list[Run]] = {name: [] for name in trees}
-    for tree in trees.values():  # compile and cache each tree's numba kernels first (not timed)
-        run_once(tree, [*args.pipeline_options, "--mesh-size", WARM_UP_MESH_SIZE_MM])
+    for tree in trees.values():  # compile and cache each tree's numba kernels and bytecode first (not timed)
+        run_once(tree, [*args.pipeline_options, "--mesh-size", WARM_UP_MESH_SIZE_MM], bytecode_dir)
     sampled: dict[str, list[Run]] = {name: [] for name in trees}
     for repeat in range(args.repeats):
         for name, tree in trees.items() if repeat % 2 == 0 else reversed(trees.items()):
-            run = run_once(tree, args.pipeline_options)
+            run = run_once(tree, args.pipeline_options, bytecode_dir)
             results[name].append(run)
-            memory = run_once(tree, args.pipeline_options, sample_memory=True)
+            memory = run_once(tree, args.pipeline_options, bytecode_dir, sample_memory=True)
             sampled[name].append(memory)
             print(
                 f"run {repeat + 1} {name}: {run.total_s:.1f} s, {run.cpu_s:.1f} CPU s; sampled run {memory.total_s:.1f} s, "
@@ -316,7 +331,7 @@ def main(argv=None) -> int:
         points: dict[str, list[dict]] = {name: [] for name in trees}
         for repeat in range(args.repeats):
             for name, tree in trees.items() if repeat % 2 == 0 else reversed(trees.items()):
-                points[name].append(study_point(tree))
+                points[name].append(study_point(tree, bytecode_dir))
                 print(f"study point {repeat + 1} {name}: {points[name][-1]['wall_s']:.1f} s", flush=True)
         print("\n".join(study_point_lines(points)))
     return 0

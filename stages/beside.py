@@ -167,10 +167,17 @@ def _send_error(send, exc: BaseException) -> None:
 def _run_handed_child(send, receive_steps, modules: tuple[str, ...], what: str) -> None:
     """A `Beside.waiting` child: its imports, then the steps it is handed, run as `_run_child` runs
     them. Not handed any (the pipe closed), it ends quietly. A failure before its steps (an import,
-    or the steps that do not unpickle here) is a `BesideError` that says so."""
+    or the steps that do not unpickle here) is a `BesideError` that says so. The garbage collector
+    is paused for the imports (processes.pause_collector_for_imports)."""
+    from processes import imports_done, pause_collector_for_imports
+
     try:
-        for name in modules:
-            importlib.import_module(name)
+        pause_collector_for_imports()
+        try:
+            for name in modules:
+                importlib.import_module(name)
+        finally:
+            imports_done()
         try:
             steps, limits = receive_steps.recv()
         except EOFError:

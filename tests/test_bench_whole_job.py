@@ -65,3 +65,12 @@ def test_the_times_come_from_the_unsampled_runs_and_the_memory_from_the_sampled_
     assert "| whole job, CPU s | **18.00** (18.0) |" in lines
     assert "| PSS | 900 |" in lines
     assert "| (the sampled runs' whole job, s) | 14.00 |" in lines
+
+
+def test_the_runs_read_and_write_their_bytecode_outside_the_trees(monkeypatch, tmp_path):
+    bench = load_bench()
+    monkeypatch.setenv("PYTHONDONTWRITEBYTECODE", "1")
+    env = bench.child_env(tmp_path / "tree", tmp_path / "bytecode")
+    assert "PYTHONDONTWRITEBYTECODE" not in env
+    assert env["PYTHONPYCACHEPREFIX"] == str(tmp_path / "bytecode")
+    assert env["PYTHONPATH"] == str(tmp_path / "tree")

@@ -31,6 +31,20 @@ def test_a_waiting_process_imports_its_modules_then_runs_the_steps_it_is_handed(
     assert beside._process.exitcode == 0
 
 
+def collector_state():
+    """Steps that report the waiting child's garbage collector: on, and the imported modules frozen."""
+    import gc
+
+    yield gc.isenabled(), gc.get_freeze_count() > 0, gc.is_tracked(sys.modules["colorsys"].__dict__)
+
+
+def test_a_waiting_process_runs_its_steps_with_the_collector_on_and_its_imports_frozen():
+    beside = Beside.waiting("the test's work", ("json", "colorsys"))
+    beside.hand(collector_state, "the test's work")
+    assert beside.next() == (True, True, True)
+    beside.close()
+
+
 def test_a_waiting_process_handed_nothing_ends_quietly_when_its_pipe_closes():
     beside = Beside.waiting("the test's work", ())
     beside._hand_over.close()  # as when this process ends without handing it anything
