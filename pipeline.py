@@ -499,9 +499,6 @@ def _import_chain_and_outputs(cfg: RunConfig) -> None:
 
     import dynamics.scene  # noqa: F401
     from processes import imports_done
-    from reporting.matplotlib_import import import_pyplot
-
-    import_pyplot()  # before reporting.plots imports it: its artists' docs left unbuilt
     from reporting.outputs import prepare_figure_workers
 
     cpu_target.typing_context.refresh()
