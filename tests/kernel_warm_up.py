@@ -5,7 +5,7 @@ On a clean checkout numba's cache is empty: without this, the first test of each
 kernel compiles it (about 1 min of CPU per specialisation of the big step kernels), both workers often
 the same one at once, and each pipeline or study run in a child process compiles it again until one
 of them has written the cache. Here each family compiles once, the families in parallel processes,
-before any test runs. Each family steps a tiny model a few steps through the solvers' own entry
+before any test runs (about 60-90 CPU s each on an empty cache). Each family steps a tiny model a few steps through the solvers' own entry
 points, so it compiles what they call with the types they pass; the answers are thrown away. A
 family that compiles nothing new (a warm cache) only loads its kernels (about 1-2 s with the imports).
 """
@@ -86,5 +86,4 @@ def long_wheels() -> None:
     _machine_steps(ClearanceMachine.of(chain, layout, None, 94e-6))
 
 
-# longest first: a pool of processes takes them in this order
 FAMILIES = {"long_wheels": long_wheels, "wheels": wheels, "link_drive": link_drive, "ring": ring}
