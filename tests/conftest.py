@@ -62,7 +62,12 @@ def pytest_runtestloop(session):
     """xdist's controller: no test handed out before the warm-up's processes have ended."""
     if _warm_up is not None:
         processes, start = _warm_up
-        errors = {name: process.communicate()[1] for name, process in processes.items()}
+        try:
+            errors = {name: process.communicate()[1] for name, process in processes.items()}
+        except BaseException:  # interrupted: no family left compiling behind the session
+            for process in processes.values():
+                process.kill()
+            raise
         failed = [name for name, process in processes.items() if process.returncode != 0]
         reporter = session.config.pluginmanager.get_plugin("terminalreporter")
         if reporter is not None:
