@@ -15,13 +15,6 @@ from __future__ import annotations
 import numpy as np
 
 _STEPS = 4
-_PITCH_M = 0.1125
-
-
-def _cam():
-    from dynamics.cams import CamProgram
-
-    return CamProgram.indexing("modified-sine", pitch_m=_PITCH_M, rpm=180)
 
 
 def ring() -> None:
@@ -44,13 +37,13 @@ def ring() -> None:
             )
 
 
-def _machine_steps(model, predictor: str = "ab2", stations=None) -> None:
+def _machine_steps(model, predictor: str = "ab2") -> None:
     from dynamics.solvers import machine_verlet as mv
 
     nodes = np.zeros(_STEPS + 1)
     rest = np.zeros(model.n_state)
     step_s = 0.5 * mv.stable_step_s(model, 1.0, predictor)
-    mv.integrate(model, nodes, nodes, nodes, step_s, rest, rest, predictor=predictor, stations=stations)
+    mv.integrate(model, nodes, nodes, nodes, step_s, rest, rest, predictor=predictor)
 
 
 def link_drive() -> None:
@@ -71,19 +64,6 @@ def wheels() -> None:
     load_machine_kernels()
 
 
-def long_wheels() -> None:
-    """The chain on its wheels above SINGLE_PRECISION_FACTORS_ABOVE_LINKS links: the O(N) damping's
-    factors in single precision (another specialisation of the step)."""
-    from dynamics.models.chain import ChainModel
-    from dynamics.models.clearance_machine import ClearanceMachine
-    from dynamics.models.layout import MachineLayout
-    from dynamics.models.machine_damping import SINGLE_PRECISION_FACTORS_ABOVE_LINKS
-    from dynamics.models.wheels import Wheel
-
-    wheel = Wheel(12, _PITCH_M, 6, 0.688)
-    layout = MachineLayout("wheels", wheel, wheel, None, True)
-    chain = ChainModel(SINGLE_PRECISION_FACTORS_ABOVE_LINKS + 2, 2.03, 9.0092e7, damping_ratio=0.13)
-    _machine_steps(ClearanceMachine.of(chain, layout, None, 94e-6))
-
-
-FAMILIES = {"long_wheels": long_wheels, "wheels": wheels, "link_drive": link_drive, "ring": ring}
+# Not here: the step on the single-precision damping factors (above SINGLE_PRECISION_FACTORS_ABOVE_LINKS
+# links), which only the slow tests call
+FAMILIES = {"wheels": wheels, "link_drive": link_drive, "ring": ring}
