@@ -455,10 +455,10 @@ def run(cfg: RunConfig, progress: Progress, fea_process: Beside | None = None) -
     from stages.tolerance import run_to_tolerance
 
     timing: dict[str, float] = {}
-    if fea_process is not None and (cfg.preset == "mqp2012" or cfg.tolerance is not None):
-        fea_process.cancel()  # these run no FEA beside: it ends now, not with the run
     if cfg.preset == "mqp2012" or cfg.tolerance is not None:
         imports_done()  # these import as they go
+        if fea_process is not None:
+            fea_process.cancel()  # these run no FEA beside: it ends now, not with the run
     if cfg.preset == "mqp2012":
         from reporting.outputs import write_replica_outputs
         from stages.replica import run_replicas
