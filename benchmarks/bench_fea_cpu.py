@@ -48,9 +48,23 @@ STEPS = ("stiffness", "stress study", "images (the rest of the second step)")
 # "the rest" of a step is its CPU outside its depth-0 rows.
 PHASES = {
     "stiffness": (
-        (0, "the part's CAD built and measured (its mirror half kept)", ["geometry.part:_measure"]),
-        (1, "the thin-wall search", ["geometry.part:thin_walls"]),
-        (1, "the symmetry check and the cut", ["geometry.part:symmetry_plane", "geometry.part:keep_positive_half"]),
+        # each under its module of this tree and of trees before geometry.measure (then geometry.part's)
+        (
+            0,
+            "the part's CAD built and measured (its mirror half kept)",
+            ["geometry.measure:measure", "geometry.part:_measure"],
+        ),
+        (1, "the thin-wall search", ["geometry.measure:thin_walls", "geometry.part:thin_walls"]),
+        (
+            1,
+            "the symmetry check and the cut",
+            [
+                "geometry.measure:symmetry_plane",
+                "geometry.measure:keep_positive_half",
+                "geometry.part:symmetry_plane",
+                "geometry.part:keep_positive_half",
+            ],
+        ),
         (0, "the CAD built again (the coarse level)", ["geometry.part:Part.load_body"]),
         (0, "the solid cut at the loaded bore", ["geometry.load:split_at_loaded_half"]),
         (0, "meshing (geometry.meshing.mesh_volumes)", ["geometry.load:mesh_volumes"]),
@@ -202,7 +216,10 @@ for step_name, phases in PHASES.items():
         for target in targets:
             module_name, _, qualname = target.partition(":")
             *path, name = qualname.split(".")
-            owner = importlib.import_module(module_name)
+            try:
+                owner = importlib.import_module(module_name)
+            except ModuleNotFoundError:  # a module this tree does not have
+                continue
             for attribute in path:
                 owner = getattr(owner, attribute, None)
             if owner is not None and hasattr(owner, name):  # a phase this tree does not have is left out
@@ -229,8 +246,11 @@ print(json.dumps({"cpu_s": cpu, "k": {m: r["stiffness_N_per_m"] for m, r in stif
 
 
 GEOMETRY_CHILD = """
-import hashlib, json, time
+import hashlib, importlib, importlib.util, json, time
 import fem, geometry
+for name in ("geometry.load", "geometry.measure"):  # imported before the clock, as stages.fea.FEA_MODULES has them
+    if importlib.util.find_spec(name) is not None:  # geometry.measure: trees since it was split from geometry.part
+        importlib.import_module(name)
 from fem import study
 from fem.settings import FeaSettings
 from stages.fea import _solve_stiffness

@@ -67,7 +67,7 @@ class MeshFeatures:
     area_m2: float  # the whole boundary
     pin_bores: tuple[Hole, Hole]
     small_holes: tuple[Hole, ...]  # every other full hole
-    walls: tuple[WallFeature, ...] = ()  # thin walls (geometry.part.WALL_SEARCH_DIAGONALS)
+    walls: tuple[WallFeature, ...] = ()  # thin walls (geometry.measure.WALL_SEARCH_DIAGONALS)
     mirror_cut_area_m2: float = 0.0  # the face a mirror half gets on its plane (none: 0)
 
 

@@ -12,10 +12,12 @@ import os
 import re
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from geometry.assembly import LinkSource, PartSummary
 from geometry.errors import GeometryError
-from geometry.pin_pair import BORES_HINT, BoreChoice
+
+if TYPE_CHECKING:  # importing them pulls in gmsh, which the built-in link's run does not need here
+    from geometry.assembly import LinkSource, PartSummary
 
 
 def add_part_arguments(parser: argparse.ArgumentParser) -> None:
@@ -72,6 +74,9 @@ def link_source(path: str | os.PathLike | None, args: argparse.Namespace) -> Lin
         if given:
             raise GeometryError(f"--{given[0].replace('_', '-')}: only for a STEP file; expected a STEP path with it")
         return None
+    from geometry.assembly import LinkSource
+    from geometry.pin_pair import BoreChoice
+
     choice = BoreChoice(
         *_axis_points(args.bores),
         pitch_m=None if args.pitch is None else _positive_mm(args.pitch, "--pitch"),
@@ -113,6 +118,8 @@ def _axis_points(text: str | None):
     except ValueError:
         points = []
     if len(points) != 2 or any(len(p) != 3 or not all(map(math.isfinite, p)) for p in points):
+        from geometry.pin_pair import BORES_HINT
+
         raise GeometryError(f"--bores {text!r}: expected {BORES_HINT}, e.g. 0,0,8:101.6,0,8")
     return points[0], points[1]
 

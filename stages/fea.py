@@ -294,8 +294,18 @@ def _start_drawing(drawings: list) -> Beside:
 
 
 # What the FEA's process imports before its work (stages.fea._fea_steps and what it calls first),
-# for a process started before the run knows that it needs one (`waiting_fea_process`)
-FEA_MODULES = ("stages.fea", "fem.adaptive", "fem.heap", "fem.render", "fem.stress", "fem.study")
+# for a process started before the run knows that it needs one (`waiting_fea_process`); the part's
+# measurement and meshing (gmsh) named too: `geometry` imports them on first use only
+FEA_MODULES = (
+    "stages.fea",
+    "fem.adaptive",
+    "fem.heap",
+    "fem.render",
+    "fem.stress",
+    "fem.study",
+    "geometry.load",
+    "geometry.measure",
+)
 
 
 def waiting_fea_process() -> Beside | None:

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import subprocess
+import sys
 from collections import Counter
 from pathlib import Path
 
@@ -19,7 +21,10 @@ import gmsh
 import pytest
 
 import geometry.assembly
+import geometry.measure
+import geometry.parametric
 import geometry.part
+import geometry.step_io
 import geometry.symmetry
 import pipeline
 from fem import cli as fem_cli
@@ -63,11 +68,13 @@ def calls(monkeypatch) -> Counter:
 
         monkeypatch.setattr(module, name, wrapper)
 
-    counted(geometry.part, "read_step", record=lambda path: ("read_step", str(Path(path).resolve())))
+    counted(geometry.step_io, "read_step", record=lambda path: ("read_step", str(Path(path).resolve())))
     counted(geometry.assembly, "select_pin_bores")  # the pin-bore choice (pick_body)
     counted(geometry.assembly, "find_holes")  # hole detection over the solids
-    counted(geometry.part, "symmetry_plane")
-    counted(geometry.part, "add_link")  # the parametric link built in gmsh
+    counted(geometry.measure, "symmetry_plane")
+    # the parametric link built in gmsh: by the measurement, and by `Part.load_body` (which imports it when called)
+    counted(geometry.measure, "add_link")
+    counted(geometry.parametric, "add_link")
     counted(gmsh.model.occ, "importShapes", record=lambda path, *a, **k: ("importShapes", str(Path(path).resolve())))
     counted(geometry.part.Part, "load_body")  # one per stiffness level
     counted(geometry.part.Part, "load_body_brep")  # the stress study's sub-model, from the measured body's BREP
@@ -131,6 +138,25 @@ def test_the_fingerprint_is_the_content_hash_the_fea_cache_was_keyed_by():
         == hashlib.sha256(Path(EXAMPLE_STEP).read_bytes()).hexdigest()
     )
     assert resolve_part(None, symmetry=False).fingerprint == hashlib.sha256(repr(DEFAULT_LINK).encode()).hexdigest()
+
+
+def test_resolving_the_built_in_link_and_reading_the_part_options_import_no_gmsh():
+    """pipeline.py's own process resolves the part and reads the part options but meshes nothing: it
+    imports neither gmsh nor the geometry modules that mesh or measure (geometry.measure measures on
+    first use of `Part.geometry`, in the FEA's process), as a fresh interpreter shows."""
+    probe = (
+        "import sys, pipeline\n"
+        "from geometry.options import link_source\n"
+        "from stages.geometry import resolve_run_part\n"
+        "cfg = pipeline.parse_cli([])\n"
+        "part = resolve_run_part(cfg)\n"
+        "print(json.dumps([part.fingerprint, sorted(m for m in sys.modules if m == 'gmsh' or m.startswith('geometry'))]))\n"
+    )
+    done = subprocess.run([sys.executable, "-c", "import json\n" + probe], capture_output=True, text=True, check=True)
+    fingerprint, modules = json.loads(done.stdout)
+    assert fingerprint == resolve_part(None).fingerprint
+    assert "gmsh" not in modules and "geometry.measure" not in modules and "geometry.meshing" not in modules
+    assert "geometry.part" in modules and "geometry.options" in modules
 
 
 def test_a_part_meshes_as_its_source_did():
