@@ -49,6 +49,25 @@ def test_image_is_rendered_with_one_sample_per_pixel_as_rgb(tmp_path, solution, 
         assert (image.mode, image.size) == ("RGB", (320, 200))
 
 
+def test_frame_has_no_translucent_geometry(tmp_path, solution, monkeypatch):
+    # a translucent actor makes VTK run its translucency pass every frame (fem.render.EDGE_COLOR)
+    import pyvista
+
+    translucent = []
+
+    class Recording(pyvista.Plotter):
+        def screenshot(self, *args, **kwargs):
+            props = self.renderer.GetViewProps()
+            translucent.append(
+                [props.GetItemAsObject(i).HasTranslucentPolygonalGeometry() for i in range(props.GetNumberOfItems())]
+            )
+            return super().screenshot(*args, **kwargs)
+
+    monkeypatch.setattr(pyvista, "Plotter", Recording)
+    render_deformed(solution, tmp_path / "link.png", window_size=(320, 200))
+    assert len(translucent) == 1 and len(translucent[0]) >= 3 and not any(translucent[0])
+
+
 def test_bad_scalar_and_suffix_are_fem_errors(tmp_path, solution):
     with pytest.raises(FemError, match="scalar"):
         render_deformed(solution, tmp_path / "a.png", scalar="strain")
