@@ -270,6 +270,39 @@ def test_a_reused_figure_holds_the_lines_of_its_own_histories_only(tmp_path):
         plots.close_spare_figures()
 
 
+def test_the_link_versus_input_figure_draws_each_row_on_one_scale_labelled_in_its_first_column(tmp_path):
+    """Every cam law's quantity on the row's one scale (the widest of the cam laws' ranges), the
+    tick labels in the first column only, as the figure is drawn anew and on a kept figure."""
+    import dataclasses
+
+    import numpy as np
+
+    from reporting import plots
+
+    first = _histories("metal a", 1.0)
+    # the second cam law's link moves 3 times as far: its range sets the row's scale
+    h = first[1]
+    first[1] = dataclasses.replace(h, x_m=3.0 * h.x_m, v_m_s=3.0 * h.v_m_s, a_m_s2=3.0 * h.a_m_s2)
+    try:
+        for name in ("new", "kept"):
+            plots.plot_link_vs_input(first, 2, tmp_path / f"{name}.png")
+            (fig,) = plots._SPARE.values()
+            axes = np.array(fig.axes).reshape(3, len(first))
+            fig.canvas.draw()
+            for row in axes:
+                limits = {ax.get_ylim() for ax in row}
+                assert len(limits) == 1
+                low, high = limits.pop()
+                assert low <= min(line.get_ydata().min() for ax in row for line in ax.get_lines())
+                assert high >= max(line.get_ydata().max() for ax in row for line in ax.get_lines())
+                labelled = [
+                    any(label.get_visible() and label.get_text() for label in ax.get_yticklabels()) for ax in row
+                ]
+                assert labelled == [True] + [False] * (len(row) - 1)
+    finally:
+        plots.close_spare_figures()
+
+
 def test_the_in_view_locator_keeps_autolocators_ticks_inside_the_view():
     import matplotlib.ticker
     import numpy as np
