@@ -178,7 +178,7 @@ def _string_drawer(draw_text, bitmaps: dict, strings: dict):
     arguments: one Agg image draw per text instead of one per glyph, and the bitmaps rendered once
     per string instead of once per glyph and sub-pixel offset (the texts of a run's figures stand at
     as many sub-pixel offsets as they have glyphs). A text moves by at most half a pixel each way
-    from where matplotlib 3.11 draws it (matplotlib before 3.6 drew text at whole pixels too).
+    from where matplotlib 3.11 draws it (matplotlib before 3.11 drew text at whole pixels too).
     Mathtext is drawn by `draw_text` (matplotlib's, with the glyph cache)."""
 
     def draw(renderer, gc, x, y, s, prop, angle, ismath=False, mtext=None):
