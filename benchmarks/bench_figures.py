@@ -1,12 +1,13 @@
 """The default run's 15 figures drawn in one process, in CPU seconds, this tree beside another.
 
     python benchmarks/bench_figures.py [--repeats 3] [--old-tree DIR] [--cache-dir CACHE] [--keep DIR]
-                                       [--workers N]
+                                       [--workers N] [--jobs FILE]
 
 First runs `pipeline.py` (the default job; `--cache-dir` a warm FEA cache makes it quicker) in this
 process with `reporting.outputs.draw_figures` replaced by a recorder, and pickles the figure jobs
 it was given (each plot function's module and name, its arguments: the histories, the tension
-maps' free play, the residual vibration). Then, in a fresh process per run, this tree and DIR
+maps' free play, the residual vibration); `--jobs FILE` keeps that recording in FILE, or draws the
+one FILE holds already without running the job again. Then, in a fresh process per run, this tree and DIR
 alternating (the first tree first in odd repeats, last in even ones), imports the tree's `reporting.plots` (not timed), draws every recorded job with the
 tree's own plot functions and `reporting.drawing.draw_figures(jobs, workers=1)` (one process, the
 batches one after the other, as a figure worker draws them), and prints the CPU seconds
@@ -131,16 +132,20 @@ def main(argv=None) -> int:
     parser.add_argument("--cache-dir", type=Path, default=None, help="the FEA cache of the recording run")
     parser.add_argument("--keep", type=Path, default=None, help="keep each tree's last PNGs under DIR/<tree>")
     parser.add_argument("--workers", type=int, default=1, help="draw in N forked workers, as the run does")
+    parser.add_argument("--jobs", type=Path, default=None, help="the recorded jobs: kept here, or reused if there")
     args = parser.parse_args(argv)
     if args.workers < 1:
         parser.error(f"--workers {args.workers}: expected a number of workers of at least 1")
     trees = {"new": ROOT} | ({"old": args.old_tree.resolve()} if args.old_tree else {})
     work = Path(tempfile.mkdtemp(prefix="bench-figures-"))
     try:
-        jobs = work / "jobs.pickle"
-        options = ["--out", str(work / "run"), "-q"]
-        options += ["--cache-dir", str(args.cache_dir if args.cache_dir else work / "cache")]
-        print(f"{record_jobs(options, jobs)} figures recorded from the default run", flush=True)
+        jobs = args.jobs.resolve() if args.jobs else work / "jobs.pickle"
+        if jobs.exists():
+            print(f"{len(pickle.loads(jobs.read_bytes()))} figures recorded in {jobs}", flush=True)
+        else:
+            options = ["--out", str(work / "run"), "-q"]
+            options += ["--cache-dir", str(args.cache_dir if args.cache_dir else work / "cache")]
+            print(f"{record_jobs(options, jobs)} figures recorded from the default run", flush=True)
         folders = {name: (args.keep or work) / name for name in trees}
         runs: dict[str, list[dict]] = {name: [] for name in trees}
         for repeat in range(args.repeats):

@@ -93,17 +93,17 @@ _SPARE: dict[tuple, Figure] = {}
 _LAYOUT_OF: dict[Figure, tuple] = {}
 
 
-def _subplots(nrows: int, ncols: int, figsize: tuple[float, float], sharex: bool = False):
-    """plt.subplots(nrows, ncols, figsize=figsize, sharex=sharex, squeeze=False), every axes with
+def _subplots(nrows: int, ncols: int, figsize: tuple[float, float], sharex: bool = False, sharey: bool | str = False):
+    """plt.subplots(nrows, ncols, figsize=figsize, sharex=sharex, sharey=sharey, squeeze=False), every axes with
     the report's grid (GRID_ALPHA), or the spare figure the last call for the same grid drew (for any
     plot, at any size), emptied (`_emptied`) and set to `figsize` (the axes keep their places as
     fractions of the figure, as a new figure's); `_save` keeps the figure as the spare. The plot
     must set again everything it sets on the axes but their lines, legends and titles (the grid is
     the spare's already: set again on every tick of a spare, about 2 % of the figures' CPU in a profile)."""
-    layout = (nrows, ncols, sharex)
+    layout = (nrows, ncols, sharex, sharey)
     fig = _SPARE.pop(layout, None)
     if fig is None:
-        fig, axes = plt.subplots(nrows, ncols, figsize=figsize, sharex=sharex, squeeze=False)
+        fig, axes = plt.subplots(nrows, ncols, figsize=figsize, sharex=sharex, sharey=sharey, squeeze=False)
         for ax in fig.axes:
             ax.xaxis.set_major_locator(InViewLocator())
             ax.yaxis.set_major_locator(InViewLocator())
@@ -262,8 +262,11 @@ def plot_three_links(histories: list[CamHistory], links: list[int], path: Path) 
 
 
 def plot_link_vs_input(histories: list[CamHistory], link: int, path: Path) -> Path:
-    """One column per cam law: the link's motion over the cam input it follows."""
-    fig, axes = _subplots(3, len(histories), (3.6 * len(histories), 8), sharex=True)
+    """One column per cam law: the link's motion over the cam input it follows, each row's quantity on
+    one scale for every cam law (the laws compared at a glance; the inner columns' tick labels, which
+    overlapped the next axes, are not drawn: about 6 % of the CPU of the default run's 15
+    figures, benchmarks/bench_figures.py)."""
+    fig, axes = _subplots(3, len(histories), (3.6 * len(histories), 8), sharex=True, sharey="row")
     for col, h in enumerate(histories):
         axes[0, col].set_title(h.cam)
         for row, (label, link_value, input_value) in enumerate(QUANTITIES):

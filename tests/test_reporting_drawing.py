@@ -226,6 +226,7 @@ def test_a_figure_drawn_on_the_axes_of_the_one_before_has_the_pixels_of_a_new_on
     from PIL import Image
 
     from reporting import plots
+    from reporting.text_layout import cached_text_layout
 
     first, second = _histories("metal a", 1.0), _histories("metal b", 3.0)
     reused = {}
@@ -235,10 +236,11 @@ def test_a_figure_drawn_on_the_axes_of_the_one_before_has_the_pixels_of_a_new_on
     assert not plots._SPARE and not plots._LAYOUT_OF  # closed at the batch's end
     alone = tmp_path / "alone"
     alone.mkdir()
-    for job in [*_reusing_plots(alone, "a", first), *_reusing_plots(alone, "b", second)]:
-        assert not plots._SPARE
-        job.draw()
-        plots.close_spare_figures()
+    with cached_text_layout():  # the text drawn as draw_figures draws it (at whole pixels)
+        for job in [*_reusing_plots(alone, "a", first), *_reusing_plots(alone, "b", second)]:
+            assert not plots._SPARE
+            job.draw()
+            plots.close_spare_figures()
     for path in drawn.values():
         assert np.array_equal(np.asarray(Image.open(path)), np.asarray(Image.open(alone / path.name))), path.name
 
@@ -264,6 +266,39 @@ def test_a_reused_figure_holds_the_lines_of_its_own_histories_only(tmp_path):
                 assert len(lines) == 2
                 assert np.array_equal(lines[0].get_xdata(), h.t_s) and np.array_equal(lines[0].get_ydata(), z_input)
                 assert np.array_equal(lines[1].get_ydata(), x_link[:, h.column(2)])
+    finally:
+        plots.close_spare_figures()
+
+
+def test_the_link_versus_input_figure_draws_each_row_on_one_scale_labelled_in_its_first_column(tmp_path):
+    """Every cam law's quantity on the row's one scale (the widest of the cam laws' ranges), the
+    tick labels in the first column only, as the figure is drawn anew and on a kept figure."""
+    import dataclasses
+
+    import numpy as np
+
+    from reporting import plots
+
+    first = _histories("metal a", 1.0)
+    # the second cam law's link moves 3 times as far: its range sets the row's scale
+    h = first[1]
+    first[1] = dataclasses.replace(h, x_m=3.0 * h.x_m, v_m_s=3.0 * h.v_m_s, a_m_s2=3.0 * h.a_m_s2)
+    try:
+        for name in ("new", "kept"):
+            plots.plot_link_vs_input(first, 2, tmp_path / f"{name}.png")
+            (fig,) = plots._SPARE.values()
+            axes = np.array(fig.axes).reshape(3, len(first))
+            fig.canvas.draw()
+            for row in axes:
+                limits = {ax.get_ylim() for ax in row}
+                assert len(limits) == 1
+                low, high = limits.pop()
+                assert low <= min(line.get_ydata().min() for ax in row for line in ax.get_lines())
+                assert high >= max(line.get_ydata().max() for ax in row for line in ax.get_lines())
+                labelled = [
+                    any(label.get_visible() and label.get_text() for label in ax.get_yticklabels()) for ax in row
+                ]
+                assert labelled == [True] + [False] * (len(row) - 1)
     finally:
         plots.close_spare_figures()
 

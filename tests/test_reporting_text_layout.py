@@ -1,5 +1,6 @@
 """reporting.text_layout: texts measured and shaped once per key while a batch is drawn, with the
-pixels and extents of matplotlib's own drawing."""
+extents of matplotlib's own drawing and its pixels with each text's origin at the nearest whole
+pixel."""
 
 from __future__ import annotations
 
@@ -61,9 +62,27 @@ def _extents(fig) -> list:
     return [text.get_window_extent(renderer).bounds for text in fig.findobj(Text) if text.get_text()]
 
 
-def test_texts_are_laid_out_and_drawn_as_matplotlib_lays_them_out_and_draws_them():
+def _at_whole_pixels(monkeypatch) -> None:
+    """matplotlib's own text drawing with every (non-math) text's origin rounded to a whole pixel."""
+    from matplotlib.backends.backend_agg import RendererAgg
+
+    draw_text = RendererAgg.draw_text
+
+    def rounded(renderer, gc, x, y, s, prop, angle, ismath=False, mtext=None):
+        if not ismath:
+            x, y = round(x), round(y)
+        return draw_text(renderer, gc, x, y, s, prop, angle, ismath, mtext)
+
+    monkeypatch.setattr(RendererAgg, "draw_text", rounded)
+
+
+def test_texts_are_laid_out_as_matplotlib_lays_them_out_and_drawn_at_whole_pixels(monkeypatch):
     fig = _figure()
-    pixels, extents = _pixels(fig), _extents(fig)
+    with monkeypatch.context() as patch:
+        if text_layout._WHOLE_STRINGS:
+            _at_whole_pixels(patch)
+        pixels = _pixels(fig)
+    extents = _extents(fig)
     with cached_text_layout():
         twice = [(_pixels(fig), _extents(fig)) for _ in range(2)]  # measured, then from the caches
     plt.close(fig)
@@ -98,7 +117,7 @@ def test_a_string_measured_again_is_laid_out_once_and_a_changed_text_anew(monkey
 def test_matplotlib_works_as_before_after_the_batch():
     from matplotlib.backends.backend_agg import RendererAgg
 
-    get_layout, prepare_font = Text._get_layout, RendererAgg._prepare_font
+    get_layout, prepare_font, draw_text = Text._get_layout, RendererAgg._prepare_font, RendererAgg.draw_text
     try:
         with cached_text_layout():
             assert Text._get_layout is not get_layout
@@ -106,23 +125,54 @@ def test_matplotlib_works_as_before_after_the_batch():
     except ValueError:
         pass
     assert Text._get_layout is get_layout and RendererAgg._prepare_font is prepare_font
+    assert RendererAgg.draw_text is draw_text
 
 
-@pytest.mark.skipif(not text_layout._GLYPH_BY_GLYPH, reason="the glyph cache is on for CHECKED_MATPLOTLIB only")
-def test_a_glyph_moved_by_whole_pixels_is_rendered_once_and_drawn_as_matplotlib_draws_it(monkeypatch):
-    """One string at places a whole number of pixels apart (one bitmap per glyph) and at sub-pixel
-    offsets (a bitmap each), upright and turned: the pixels of matplotlib's own drawing."""
+def _rendered_glyphs(monkeypatch) -> list:
     from matplotlib.ft2font import FT2Font
-    from matplotlib.transforms import IdentityTransform
 
     rendered = []
     render = FT2Font._render_glyph
     monkeypatch.setattr(FT2Font, "_render_glyph", lambda font, *args: rendered.append(1) or render(font, *args))
+    return rendered
+
+
+@pytest.mark.skipif(not text_layout._WHOLE_STRINGS, reason="the string cache is on for CHECKED_MATPLOTLIB only")
+def test_a_string_is_rendered_once_per_direction_and_drawn_at_the_nearest_whole_pixel(monkeypatch):
+    """One string at places whole pixels apart and at sub-pixel offsets, upright and turned: its
+    glyphs rendered once per direction, the pixels of matplotlib's own drawing at the rounded places."""
+    from matplotlib.transforms import IdentityTransform
+
+    rendered = _rendered_glyphs(monkeypatch)
     fig = plt.figure(figsize=(3, 3), dpi=110)
     places = [(20.0, 30.0), (57.0, 30.0), (20.0, 91.0), (20.25, 150.5), (140.0, 200.75)]
     for x, y in places:
-        for rotation in (0, 30):
-            fig.text(x + 100 * (rotation > 0), y, "0.25", rotation=rotation, transform=IdentityTransform())
+        for rotation in (0, 30, 90):
+            fig.text(x + 60 * (rotation > 0) + rotation, y, "0.25", rotation=rotation, transform=IdentityTransform())
+    with monkeypatch.context() as patch:
+        _at_whole_pixels(patch)
+        pixels = _pixels(fig)
+    glyphs = len(rendered)
+    with cached_text_layout():
+        rendered.clear()
+        cached = _pixels(fig)
+    plt.close(fig)
+    assert np.array_equal(cached, pixels)
+    # "0.25": 4 glyphs at each of 5 places in 3 directions (60 renders); cached, 4 per direction
+    assert glyphs == 4 * 5 * 3 and len(rendered) == 4 * 3
+
+
+@pytest.mark.skipif(not text_layout._GLYPH_BY_GLYPH, reason="the glyph cache is on for CHECKED_MATPLOTLIB only")
+def test_a_mathtext_glyph_moved_by_whole_pixels_is_rendered_once_and_drawn_as_matplotlib_draws_it(monkeypatch):
+    """Mathtext (drawn glyph by glyph) at places a whole number of pixels apart (one bitmap per
+    glyph) and at sub-pixel offsets (a bitmap each): the pixels of matplotlib's own drawing."""
+    from matplotlib.transforms import IdentityTransform
+
+    rendered = _rendered_glyphs(monkeypatch)
+    fig = plt.figure(figsize=(3, 3), dpi=110)
+    places = [(20.0, 30.0), (57.0, 30.0), (20.0, 91.0), (20.25, 150.5), (140.0, 200.75)]
+    for x, y in places:
+        fig.text(x, y, "$xz$", transform=IdentityTransform())
     pixels = _pixels(fig)
     glyphs = len(rendered)
     with cached_text_layout():
@@ -130,9 +180,28 @@ def test_a_glyph_moved_by_whole_pixels_is_rendered_once_and_drawn_as_matplotlib_
         cached = _pixels(fig)
     plt.close(fig)
     assert np.array_equal(cached, pixels)
-    # "0.25": 4 glyphs at each of 5 places in 2 directions (40 renders); the first three places,
-    # whole pixels apart, share their bitmaps: 4 x 3 renders per direction
-    assert glyphs == 4 * 5 * 2 and len(rendered) == 4 * 3 * 2
+    # 2 glyphs at each of 5 places; the first three places, whole pixels apart, share their bitmaps
+    assert glyphs == 2 * 5 and len(rendered) == 2 * 3
+
+
+def test_overlapping_glyphs_combine_as_one_drawn_over_the_other():
+    """Two glyphs' coverages a and b where they overlap: 1 - (1 - a)(1 - b), as Agg blends the
+    second over the first; the bitmap's corner is the glyphs' top left, rows downwards."""
+    font = object()
+    first, second = np.full((2, 3), 255 // 2, np.uint8), np.full((2, 2), 255, np.uint8)
+    second[1, 0] = 51  # coverage 0.2 over the first's 127/255: 0.6, 153
+
+    def key(glyph, place):
+        return (font, 10.0, 110.0, glyph, 0, 0.0, 1.0, place[0] & 63, place[1] & 63, "flags", True)
+
+    # glyph 1 at the origin, its corner 4 above the baseline; glyph 2 two pixels right, 5 above
+    bitmaps = {key(1, (0, 0)): (first, 0, 4), key(2, (128, 0)): (second, 0, 5)}
+    bitmap, left, top = text_layout.string_bitmap(
+        [(font, 10.0, 1, 0.0, 0.0), (font, 10.0, 2, 2.0, 0.0)], 0, bitmaps, 110.0, "flags", True
+    )
+    assert (left, top) == (0, -5)
+    expected = np.array([[0, 0, 255, 255], [127, 127, 153, 255], [127, 127, 127, 0]], np.uint8)
+    assert np.array_equal(bitmap, expected)
 
 
 def test_caches_switched_on_within_caches_leave_matplotlib_as_it_was_when_the_first_ends():
