@@ -24,6 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import FemError, FemWarning
+from .materials import Material, lame_ratio_low
 from .options import check_linear_solver
 
 AMG_RELATIVE_TOLERANCE = 1e-10  # residual; k is then converged far below discretisation error
@@ -222,6 +223,32 @@ def preconditioned_cg(
         f"preconditioned CG did not converge in {REUSE_MAX_ITERATIONS} iterations "
         f"(estimated relative energy error {np.sqrt(max(rz, 0.0) / (spectrum_low * abs(dot(b, x)) or 1.0)):.1e})"
     )
+
+
+def further_material_cg(
+    K: sp.spmatrix,
+    b: np.ndarray,
+    first_factor: Factorization,
+    first_material: Material,
+    first_u: np.ndarray,
+    material: Material,
+    energy_rtol: float = REUSE_ENERGY_TOLERANCE,
+) -> np.ndarray:
+    """A further material's CG on the first one's factor: K u = b for `material` on the mesh where
+    `first_material`'s system was factorised (`first_factor`) and solved (`first_u`, the same DOFs as
+    b). The start is the first solution scaled by the Young's moduli (exact where the Poisson ratios
+    agree); the first's factor preconditions, and `materials.lame_ratio_low` bounds the spectrum of
+    P^-1 K from below for `preconditioned_cg`'s energy-norm stop at `energy_rtol`."""
+    scale = first_material.youngs_modulus_Pa / material.youngs_modulus_Pa
+    u, _ = preconditioned_cg(
+        K,
+        b,
+        first_factor.solve,
+        first_u * scale,
+        energy_rtol,
+        spectrum_low=lame_ratio_low(material, first_material),
+    )
+    return u
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> float:

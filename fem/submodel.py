@@ -32,11 +32,11 @@ from .link import (
     rim_points_of_triangles,
     straighten_distorted,
 )
-from .materials import Material, lame_ratio_low
+from .materials import Material
 from .tets import CurvedTets, Tets
 
 _CANDIDATES = 12  # nearest cells (by centroid) tried for each point located in the global mesh
-# A further material's CG on the first one's factor (fem.solvers.preconditioned_cg) stops at this
+# A further material's CG on the first one's factor (fem.solvers.further_material_cg) stops at this
 # energy-norm error, tighter than the global's REUSE_ENERGY_TOLERANCE: a sub-model is driven by
 # displacements on its cut, and the energy the CG measures the error against is its free part's
 # with the cut held still, near-rigid motion included, far more than the strain energy its stresses
@@ -245,10 +245,8 @@ def solve_submodel(
                 factor = solvers.Factorization(K_free)
                 u[free] = factor.solve(rhs)
             elif factor is not None:
-                scale = fields[0].material.youngs_modulus_Pa / material.youngs_modulus_Pa
-                low = lame_ratio_low(material, fields[0].material)
-                u[free], _ = solvers.preconditioned_cg(
-                    K_free, rhs, factor.solve, first_u * scale, SUBMODEL_ENERGY_TOLERANCE, spectrum_low=low
+                u[free] = solvers.further_material_cg(
+                    K_free, rhs, factor, fields[0].material, first_u, material, SUBMODEL_ENERGY_TOLERANCE
                 )
             else:
                 u[free] = solvers.solve(K_free, rhs, solver)
