@@ -45,13 +45,20 @@ REUSE_MAX_ITERATIONS = 200
 # thread, medians of 5): analysis 0.88 -> 0.47 s, one solve 0.14 -> 0.07 s, factorisation
 # 1.68 / 1.80 s (unchanged within the spread), relative residual 1.1e-11 / 1.3e-11.
 # - 1 = 1: use the values below, the rest stay 0;
-# - 2 = 2: METIS nested dissection (MKL's default ordering, named because 1 = 1 leaves it at 0);
 # - 37 = -90: let PARDISO find the 3 x 3 nodal blocks of the vector field (variable block rows where
 #   90 % of the pattern agrees): the ordering and symbolic analysis work on 1/9 of the graph;
+# - 2 = 3: METIS nested dissection run in parallel (OpenMP), not 2 = 2's serial METIS (MKL's default);
+# - 24 = 1: the two-level parallel factorisation, not the classic one;
+#   both together, on the default link's two stiffness levels (39k unknowns each, MKL's two threads,
+#   CPU s medians of 4 alternating, load 2.5-3.2): analysis 0.22 / 0.20 against 0.43 / 0.41,
+#   factorisation 0.81 / 0.75 against 0.95 / 1.05, a back-substitution the same (0.04-0.05); the
+#   stiffness step 9.62 against 10.07 CPU s (docs/performance.md); k moves by 2e-12 of itself (the
+#   factor's rounding). 24 = 10 fails on this SPD matrix (error 1); 37 = 0 (no blocks) factorises
+#   in about as little but doubles the analysis;
 # - 8 = 0: no iterative refinement after a solve: for an SPD matrix without pivot perturbation it
 #   does not change the residual's order here and costs extra products and back-substitutions,
 #   which are most of a further material's CG.
-PARDISO_IPARM = {1: 1, 2: 2, 8: 0, 37: -90}
+PARDISO_IPARM = {1: 1, 2: 3, 8: 0, 24: 1, 37: -90}
 PARDISO_SOLVE_PHASE = 33  # forward and backward substitution with the kept factor
 
 
