@@ -124,7 +124,11 @@ PHASES = {
         (1, "scikit-fem's mesh and its straightening", ["fem.submodel:skfem_ball_mesh"]),
         (1, "the basis", ["fem.problem:scalar_basis"]),
         (1, "assembly of the material-free parts", ["fem.submodel:elasticity_parts"]),
-        (1, "the global's displacements on the cut", ["fem.submodel:GlobalField.displacement_m"]),
+        (
+            1,
+            "the global's displacements on the cut",
+            ["fem.submodel:GlobalField.driving_m", "fem.submodel:GlobalField.displacement_m"],
+        ),
         (1, "the bearing load", ["fem.problem:traction_load"]),
         (1, "the trusted points", ["fem.submodel:_TrustedPoints.__init__"]),
         (1, "PARDISO's analysis and factorisation", ["fem.solvers:Factorization.__init__"]),

@@ -30,7 +30,7 @@ from . import locking, problem, quality, solvers
 from .assembly import DIM, elasticity_parts, rigid_body_modes
 from .errors import FemError, FemWarning
 from .fields import NodalFields
-from .materials import Material, lame_ratio_low
+from .materials import Material
 from .problem import JACOBIAN_CHECK_INTORDER
 from .tets import CurvedTets, Tets
 
@@ -507,11 +507,7 @@ def _reuse(
         return first_u[free] * scale  # K is E times a matrix that depends on nu only
     if factor is None:
         return solvers.solve(K, f_free, method, near_nullspace=modes)
-    # the start is the E-scaled first solution; the first's factor bounds the error (lame_ratio_low)
-    u, _ = solvers.preconditioned_cg(
-        K, f_free, factor.solve, first_u[free] * scale, spectrum_low=lame_ratio_low(material, first_material)
-    )
-    return u
+    return solvers.further_material_cg(K, f_free, factor, first_material, first_u[free], material)
 
 
 class _StressPoints:

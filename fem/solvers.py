@@ -24,6 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from .errors import FemError, FemWarning
+from .materials import Material, lame_ratio_low
 from .options import check_linear_solver
 
 AMG_RELATIVE_TOLERANCE = 1e-10  # residual; k is then converged far below discretisation error
@@ -44,13 +45,20 @@ REUSE_MAX_ITERATIONS = 200
 # thread, medians of 5): analysis 0.88 -> 0.47 s, one solve 0.14 -> 0.07 s, factorisation
 # 1.68 / 1.80 s (unchanged within the spread), relative residual 1.1e-11 / 1.3e-11.
 # - 1 = 1: use the values below, the rest stay 0;
-# - 2 = 2: METIS nested dissection (MKL's default ordering, named because 1 = 1 leaves it at 0);
 # - 37 = -90: let PARDISO find the 3 x 3 nodal blocks of the vector field (variable block rows where
 #   90 % of the pattern agrees): the ordering and symbolic analysis work on 1/9 of the graph;
+# - 2 = 3: METIS nested dissection run in parallel (OpenMP), not 2 = 2's serial METIS (MKL's default);
+# - 24 = 1: the two-level parallel factorisation, not the classic one;
+#   both together, on the default link's two stiffness levels (39k unknowns each, MKL's two threads,
+#   CPU s medians of 4 alternating, load 2.5-3.2): analysis 0.22 / 0.20 against 0.43 / 0.41,
+#   factorisation 0.81 / 0.75 against 0.95 / 1.05, a back-substitution the same (0.04-0.05); the
+#   stiffness step 9.62 against 10.07 CPU s (docs/performance.md); k moves by 2e-12 of itself (the
+#   factor's rounding). 24 = 10 fails on this SPD matrix (error 1); 37 = 0 (no blocks) factorises
+#   in about as little but doubles the analysis;
 # - 8 = 0: no iterative refinement after a solve: for an SPD matrix without pivot perturbation it
 #   does not change the residual's order here and costs extra products and back-substitutions,
 #   which are most of a further material's CG.
-PARDISO_IPARM = {1: 1, 2: 2, 8: 0, 37: -90}
+PARDISO_IPARM = {1: 1, 2: 3, 8: 0, 24: 1, 37: -90}
 PARDISO_SOLVE_PHASE = 33  # forward and backward substitution with the kept factor
 
 
@@ -222,6 +230,32 @@ def preconditioned_cg(
         f"preconditioned CG did not converge in {REUSE_MAX_ITERATIONS} iterations "
         f"(estimated relative energy error {np.sqrt(max(rz, 0.0) / (spectrum_low * abs(dot(b, x)) or 1.0)):.1e})"
     )
+
+
+def further_material_cg(
+    K: sp.spmatrix,
+    b: np.ndarray,
+    first_factor: Factorization,
+    first_material: Material,
+    first_u: np.ndarray,
+    material: Material,
+    energy_rtol: float = REUSE_ENERGY_TOLERANCE,
+) -> np.ndarray:
+    """A further material's CG on the first one's factor: K u = b for `material` on the mesh where
+    `first_material`'s system was factorised (`first_factor`) and solved (`first_u`, the same DOFs as
+    b). The start is the first solution scaled by the Young's moduli (exact where the Poisson ratios
+    agree); the first's factor preconditions, and `materials.lame_ratio_low` bounds the spectrum of
+    P^-1 K from below for `preconditioned_cg`'s energy-norm stop at `energy_rtol`."""
+    scale = first_material.youngs_modulus_Pa / material.youngs_modulus_Pa
+    u, _ = preconditioned_cg(
+        K,
+        b,
+        first_factor.solve,
+        first_u * scale,
+        energy_rtol,
+        spectrum_low=lame_ratio_low(material, first_material),
+    )
+    return u
 
 
 def dot(a: np.ndarray, b: np.ndarray) -> float:

@@ -32,17 +32,27 @@ from .link import (
     rim_points_of_triangles,
     straighten_distorted,
 )
-from .materials import Material, lame_ratio_low
+from .materials import Material
 from .tets import CurvedTets, Tets
 
 _CANDIDATES = 12  # nearest cells (by centroid) tried for each point located in the global mesh
-# A further material's CG on the first one's factor (fem.solvers.preconditioned_cg) stops at this
+# A further material's CG on the first one's factor (fem.solvers.further_material_cg) stops at this
 # energy-norm error, tighter than the global's REUSE_ENERGY_TOLERANCE: a sub-model is driven by
 # displacements on its cut, and the energy the CG measures the error against is its free part's
 # with the cut held still, near-rigid motion included, far more than the strain energy its stresses
 # come from. On the default link's loaded-bore ball (tests/test_fem_submodel.py) the displacement's
 # error was 1.8e-4 of the largest at 1e-4, 5.5e-7 at this 1e-6.
 SUBMODEL_ENERGY_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class Interpolation:
+    """A global basis's values at points: each point's cell's DOFs and the basis functions there,
+    (n_local, n) each."""
+
+    basis: Basis
+    dofs: np.ndarray
+    phi: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -75,25 +85,40 @@ class GlobalField:
         link = self.solution.link
         return bearing_traction(link.loaded_bore, link.load_direction, p0_Pa)
 
-    def displacement_m(self, points_m: np.ndarray) -> np.ndarray:
-        """The global displacement (3, n) at points (3, n), at the global's load: the cell holding a
-        point found among the nearest by centroid, its reference coordinates by the cell's own
-        (curved) map; a point just outside the global's faceted boundary gets the nearest cell's
-        polynomial continued (the sub-model's CAD surface and the global's mesh differ by O(h^3))."""
-        basis = self.solution.basis
-        mesh = basis.mesh
-        points_m = np.asarray(points_m, dtype=float)
-        if points_m.shape[1] == 0:
-            return np.zeros((3, 0))
-        best, best_local = _locate(mesh, points_m)
-        if not mesh.affine:
-            best_local = _curved_local(basis.mapping, points_m, best, best_local)
-        values = np.zeros((3, points_m.shape[1]))
-        for i in range(basis.Nbfun):
-            phi = np.asarray(basis.elem.gbasis(basis.mapping, best_local[:, :, None], i, tind=best)[0])[:, 0]
-            dofs = basis.element_dofs[i, best]
+    def displacement_m(self, points_m: np.ndarray, at: Interpolation | None = None) -> np.ndarray:
+        """The global displacement (3, n) at points (3, n), at the global's load (`interpolation`;
+        `at`, that of the same points on this field's basis, where another field on the same mesh
+        has it already)."""
+        at = self.interpolation(points_m) if at is None else at
+        values = np.zeros((3, at.phi.shape[1]))
+        for dofs, phi in zip(at.dofs, at.phi):
             values += self.solution.displacement_m[:, dofs] * phi
         return values
+
+    def interpolation(self, points_m: np.ndarray) -> Interpolation:
+        """Where points (3, n) lie in the global's basis: the cell holding a point found among the
+        nearest by centroid, its reference coordinates by the cell's own (curved) map; a point just
+        outside the global's faceted boundary gets the nearest cell's polynomial continued (the
+        sub-model's CAD surface and the global's mesh differ by O(h^3))."""
+        basis = self.solution.basis
+        points_m = np.asarray(points_m, dtype=float)
+        if points_m.shape[1] == 0:
+            return Interpolation(basis, np.zeros((basis.Nbfun, 0), dtype=np.int64), np.zeros((basis.Nbfun, 0)))
+        best, best_local = _locate(basis.mesh, points_m)
+        if not basis.mesh.affine:
+            best_local = _curved_local(basis.mapping, points_m, best, best_local)
+        phi = [
+            np.asarray(basis.elem.gbasis(basis.mapping, best_local[:, :, None], i, tind=best)[0])[:, 0]
+            for i in range(basis.Nbfun)
+        ]
+        return Interpolation(basis, basis.element_dofs[:, best], np.array(phi))
+
+    def driving_m(self, points_m: np.ndarray, earlier: Interpolation | None) -> tuple[np.ndarray, Interpolation]:
+        """The displacement at points (3, n) and their interpolation, reusing `earlier` (another
+        field's at the same points) where it is on this field's basis: the materials' solutions of
+        one stiffness level share their mesh and basis, so the points are located once."""
+        at = earlier if earlier is not None and earlier.basis is self.solution.basis else self.interpolation(points_m)
+        return self.displacement_m(points_m, at), at
 
     def bearing_pressure_Pa(self) -> float:
         """p0 of the global's bearing pressure at its load (the discrete resultant normalised as
@@ -226,7 +251,8 @@ def solve_submodel(
     unit_bearing = None
     if facets["loaded"].size:
         unit_bearing = problem.traction_load(basis, facets["loaded"], fields[0].bearing_traction(1.0))
-    driving = fields[0].displacement_m(locations[:, cut_scalar])
+    on_cut = locations[:, cut_scalar]
+    driving, at_cut = fields[0].driving_m(on_cut, None)
     results: dict[str, SubModelSolution] = {}
     factor = None
     first_u = None
@@ -234,7 +260,7 @@ def solve_submodel(
         for field in fields:
             material = field.material
             if field is not fields[0]:
-                driving = field.displacement_m(locations[:, cut_scalar])
+                driving, at_cut = field.driving_m(on_cut, at_cut)
             u = np.zeros(DIM * basis.N)
             u[(DIM * cut_scalar[:, None] + np.arange(DIM)).ravel()] = driving.T.ravel()
             f = np.zeros(DIM * basis.N) if unit_bearing is None else unit_bearing * field.bearing_pressure_Pa()
@@ -245,10 +271,8 @@ def solve_submodel(
                 factor = solvers.Factorization(K_free)
                 u[free] = factor.solve(rhs)
             elif factor is not None:
-                scale = fields[0].material.youngs_modulus_Pa / material.youngs_modulus_Pa
-                low = lame_ratio_low(material, fields[0].material)
-                u[free], _ = solvers.preconditioned_cg(
-                    K_free, rhs, factor.solve, first_u * scale, SUBMODEL_ENERGY_TOLERANCE, spectrum_low=low
+                u[free] = solvers.further_material_cg(
+                    K_free, rhs, factor, fields[0].material, first_u, material, SUBMODEL_ENERGY_TOLERANCE
                 )
             else:
                 u[free] = solvers.solve(K_free, rhs, solver)

@@ -95,6 +95,34 @@ def test_cg_preconditioned_with_a_nearby_factor_converges_to_the_exact_solution(
     assert np.linalg.norm(x - exact) <= 5e-10 * np.linalg.norm(exact)
 
 
+def test_a_further_materials_cg_on_the_first_ones_factor_stops_within_its_energy_tolerance():
+    # titanium's elasticity on aluminium's factor (their Poisson ratios differ, so no exact scaling):
+    # the error's energy norm against the direct solve is below the tolerance times the solution's
+    from skfem import Basis, ElementTetP1, MeshTet
+
+    from fem.assembly import elasticity_parts, vector_dofs
+    from fem.materials import get_material
+
+    aluminium, titanium = get_material("al6061-t6"), get_material("ti-grade2")
+    assert aluminium.poisson_ratio != titanium.poisson_ratio
+    grid = np.linspace(0.0, 0.01, 5)
+    basis = Basis(MeshTet.init_tensor(grid, grid, grid), ElementTetP1())
+    held = vector_dofs(np.flatnonzero(basis.mesh.p[0] == 0.0))  # a cube clamped on one face
+    parts = elasticity_parts(basis).restricted(np.setdiff1d(np.arange(3 * basis.N), held))
+    K_first, K = parts.matrix(*aluminium.lame_Pa), parts.matrix(*titanium.lame_Pa)
+    b = np.random.default_rng(5).standard_normal(K.shape[0])
+    exact = scipy.sparse.linalg.spsolve(K.tocsc(), b)
+    factor = solvers.Factorization(K_first)
+    try:
+        first_u = factor.solve(b)
+        for tolerance in (solvers.REUSE_ENERGY_TOLERANCE, 1e-9):
+            u = solvers.further_material_cg(K, b, factor, aluminium, first_u, titanium, tolerance)
+            error = u - exact
+            assert math.sqrt(error @ (K @ error)) <= tolerance * math.sqrt(b @ exact)
+    finally:
+        factor.free()
+
+
 def test_dot_is_the_exact_sum_to_rounding():
     rng = np.random.default_rng(11)
     for n in (1, 17, 10_001, 100_000):
