@@ -6,7 +6,7 @@ process needs only those, its FEA runs in a process of its own (stages.beside), 
 whole package took 1.1 s of a loaded machine's start-up (`python -X importtime`).
 """
 
-from importlib import import_module
+from lazy_imports import lazy_exports
 
 _MODULE_OF = {
     "FemError": "errors",
@@ -29,15 +29,4 @@ _MODULE_OF = {
 }
 
 __all__ = sorted(_MODULE_OF)
-
-
-def __getattr__(name: str):
-    if name not in _MODULE_OF:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(import_module(f"{__name__}.{_MODULE_OF[name]}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_MODULE_OF))
+__getattr__, __dir__ = lazy_exports(__name__, _MODULE_OF)

@@ -8,7 +8,7 @@ process resolves the part and reads the part options (`geometry.part`, `geometry
 searches) took 0.13-0.19 CPU s of its start-up.
 """
 
-from importlib import import_module
+from lazy_imports import lazy_exports
 
 _MODULE_OF = {
     "LinkSource": "assembly",
@@ -38,11 +38,4 @@ _MODULE_OF = {
 }
 
 __all__ = sorted(_MODULE_OF)
-
-
-def __getattr__(name: str):
-    if name not in _MODULE_OF:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(import_module(f"{__name__}.{_MODULE_OF[name]}"), name)
-    globals()[name] = value
-    return value
+__getattr__, __dir__ = lazy_exports(__name__, _MODULE_OF)
