@@ -127,7 +127,7 @@ PHASES = {
         (
             1,
             "the global's displacements on the cut",
-            ["fem.submodel:GlobalField.driving_m", "fem.submodel:GlobalField.displacement_m"],
+            ["fem.submodel:GlobalField.interpolation", "fem.submodel:GlobalField.displacement_m"],
         ),
         (1, "the bearing load", ["fem.problem:traction_load"]),
         (1, "the trusted points", ["fem.submodel:_TrustedPoints.__init__"]),

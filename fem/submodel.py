@@ -86,10 +86,12 @@ class GlobalField:
         return bearing_traction(link.loaded_bore, link.load_direction, p0_Pa)
 
     def displacement_m(self, points_m: np.ndarray, at: Interpolation | None = None) -> np.ndarray:
-        """The global displacement (3, n) at points (3, n), at the global's load (`interpolation`;
-        `at`, that of the same points on this field's basis, where another field on the same mesh
-        has it already)."""
-        at = self.interpolation(points_m) if at is None else at
+        """The global displacement (3, n) at points (3, n), at the global's load. `at`: the points'
+        `interpolation` made by another field, used where it is on this field's basis (one stiffness
+        level's materials share their mesh and basis, so the points are located once), else the
+        points are located again."""
+        if at is None or at.basis is not self.solution.basis:
+            at = self.interpolation(points_m)
         values = np.zeros((3, at.phi.shape[1]))
         for dofs, phi in zip(at.dofs, at.phi):
             values += self.solution.displacement_m[:, dofs] * phi
@@ -112,13 +114,6 @@ class GlobalField:
             for i in range(basis.Nbfun)
         ]
         return Interpolation(basis, basis.element_dofs[:, best], np.array(phi))
-
-    def driving_m(self, points_m: np.ndarray, earlier: Interpolation | None) -> tuple[np.ndarray, Interpolation]:
-        """The displacement at points (3, n) and their interpolation, reusing `earlier` (another
-        field's at the same points) where it is on this field's basis: the materials' solutions of
-        one stiffness level share their mesh and basis, so the points are located once."""
-        at = earlier if earlier is not None and earlier.basis is self.solution.basis else self.interpolation(points_m)
-        return self.displacement_m(points_m, at), at
 
     def bearing_pressure_Pa(self) -> float:
         """p0 of the global's bearing pressure at its load (the discrete resultant normalised as
@@ -252,15 +247,14 @@ def solve_submodel(
     if facets["loaded"].size:
         unit_bearing = problem.traction_load(basis, facets["loaded"], fields[0].bearing_traction(1.0))
     on_cut = locations[:, cut_scalar]
-    driving, at_cut = fields[0].driving_m(on_cut, None)
+    at_cut = fields[0].interpolation(on_cut)
     results: dict[str, SubModelSolution] = {}
     factor = None
     first_u = None
     try:
         for field in fields:
             material = field.material
-            if field is not fields[0]:
-                driving, at_cut = field.driving_m(on_cut, at_cut)
+            driving = field.displacement_m(on_cut, at_cut)
             u = np.zeros(DIM * basis.N)
             u[(DIM * cut_scalar[:, None] + np.arange(DIM)).ravel()] = driving.T.ravel()
             f = np.zeros(DIM * basis.N) if unit_bearing is None else unit_bearing * field.bearing_pressure_Pa()

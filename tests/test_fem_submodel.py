@@ -134,21 +134,25 @@ def test_the_global_field_is_the_global_solution_at_its_nodes_and_inside_its_cel
     assert np.abs(field.displacement_m(points) - expected).max() <= 1e-10 * np.abs(expected).max()
 
 
-def test_a_further_materials_field_reuses_the_points_location_on_the_same_mesh_to_the_bit(global_half):
+def test_a_further_materials_field_reuses_the_points_location_on_the_same_mesh_to_the_bit(global_half, monkeypatch):
     first, second = GlobalField(global_half[ALUMINIUM.name]), GlobalField(global_half[TITANIUM.name])
     assert first.solution.basis is second.solution.basis  # one stiffness level's materials share it
     points = np.asarray(first.solution.basis.doflocs)[:, 3::11] + 1e-4  # inside cells, a few outside
-    _, at = first.driving_m(points, None)
-    reused, same_at = second.driving_m(points, at)
-    assert same_at is at
-    assert np.array_equal(reused, second.displacement_m(points))
+    at = first.interpolation(points)
+    located_anew = second.displacement_m(points)
+    located = []
+    interpolation = GlobalField.interpolation
+    monkeypatch.setattr(GlobalField, "interpolation", lambda self, p: located.append(self) or interpolation(self, p))
+    assert np.array_equal(second.displacement_m(points, at), located_anew)
+    assert located == []  # the same basis: not located again
     other_mesh = GlobalField(
         SimpleNamespace(
             basis=Basis(first.solution.basis.mesh, first.solution.basis.elem),
             displacement_m=second.solution.displacement_m,
         )
     )
-    assert other_mesh.driving_m(points, at)[1] is not at  # another basis: located again
+    other_mesh.displacement_m(points, at)
+    assert located == [other_mesh]  # another basis: located again
 
 
 class PlateField:
@@ -163,12 +167,12 @@ class PlateField:
         self.material = material
         self._eighth = GlobalField(SimpleNamespace(basis=basis, displacement_m=u.reshape(-1, 3).T))
 
-    def displacement_m(self, points_m: np.ndarray) -> np.ndarray:
+    def interpolation(self, points_m: np.ndarray) -> None:
+        return None  # nothing to share: one material
+
+    def displacement_m(self, points_m: np.ndarray, at=None) -> np.ndarray:
         sign = np.where(points_m < 0, -1.0, 1.0)
         return sign * self._eighth.displacement_m(np.abs(points_m))
-
-    def driving_m(self, points_m: np.ndarray, earlier) -> tuple[np.ndarray, None]:
-        return self.displacement_m(points_m), None  # no interpolation to share: one material
 
     def clamp_rim_points_m(self) -> np.ndarray:
         return np.zeros((0, 3))
