@@ -137,6 +137,25 @@ def _rendered_glyphs(monkeypatch) -> list:
     return rendered
 
 
+# texts' origins (pixels): three whole pixels apart, two at sub-pixel offsets
+PLACES_PX = [(20.0, 30.0), (57.0, 30.0), (20.0, 91.0), (20.25, 150.5), (140.0, 200.75)]
+
+
+def _drawn_both_ways(fig, rendered: list, monkeypatch, whole_pixels: bool) -> tuple[np.ndarray, int, np.ndarray, int]:
+    """(pixels, glyph renders) of the figure drawn by matplotlib (each text's origin rounded to a
+    whole pixel where `whole_pixels`), then (pixels, glyph renders) drawn with the caches; closes it."""
+    with monkeypatch.context() as patch:
+        if whole_pixels:
+            _at_whole_pixels(patch)
+        pixels = _pixels(fig)
+    glyphs = len(rendered)
+    with cached_text_layout():
+        rendered.clear()
+        cached = _pixels(fig)
+    plt.close(fig)
+    return pixels, glyphs, cached, len(rendered)
+
+
 @pytest.mark.skipif(not text_layout._WHOLE_STRINGS, reason="the string cache is on for CHECKED_MATPLOTLIB only")
 def test_a_string_is_rendered_once_per_direction_and_drawn_at_the_nearest_whole_pixel(monkeypatch):
     """One string at places whole pixels apart and at sub-pixel offsets, upright and turned: its
@@ -145,21 +164,13 @@ def test_a_string_is_rendered_once_per_direction_and_drawn_at_the_nearest_whole_
 
     rendered = _rendered_glyphs(monkeypatch)
     fig = plt.figure(figsize=(3, 3), dpi=110)
-    places = [(20.0, 30.0), (57.0, 30.0), (20.0, 91.0), (20.25, 150.5), (140.0, 200.75)]
-    for x, y in places:
+    for x, y in PLACES_PX:
         for rotation in (0, 30, 90):
             fig.text(x + 60 * (rotation > 0) + rotation, y, "0.25", rotation=rotation, transform=IdentityTransform())
-    with monkeypatch.context() as patch:
-        _at_whole_pixels(patch)
-        pixels = _pixels(fig)
-    glyphs = len(rendered)
-    with cached_text_layout():
-        rendered.clear()
-        cached = _pixels(fig)
-    plt.close(fig)
+    pixels, glyphs, cached, cached_glyphs = _drawn_both_ways(fig, rendered, monkeypatch, whole_pixels=True)
     assert np.array_equal(cached, pixels)
     # "0.25": 4 glyphs at each of 5 places in 3 directions (60 renders); cached, 4 per direction
-    assert glyphs == 4 * 5 * 3 and len(rendered) == 4 * 3
+    assert glyphs == 4 * 5 * 3 and cached_glyphs == 4 * 3
 
 
 @pytest.mark.skipif(not text_layout._GLYPH_BY_GLYPH, reason="the glyph cache is on for CHECKED_MATPLOTLIB only")
@@ -170,18 +181,12 @@ def test_a_mathtext_glyph_moved_by_whole_pixels_is_rendered_once_and_drawn_as_ma
 
     rendered = _rendered_glyphs(monkeypatch)
     fig = plt.figure(figsize=(3, 3), dpi=110)
-    places = [(20.0, 30.0), (57.0, 30.0), (20.0, 91.0), (20.25, 150.5), (140.0, 200.75)]
-    for x, y in places:
+    for x, y in PLACES_PX:
         fig.text(x, y, "$xz$", transform=IdentityTransform())
-    pixels = _pixels(fig)
-    glyphs = len(rendered)
-    with cached_text_layout():
-        rendered.clear()
-        cached = _pixels(fig)
-    plt.close(fig)
+    pixels, glyphs, cached, cached_glyphs = _drawn_both_ways(fig, rendered, monkeypatch, whole_pixels=False)
     assert np.array_equal(cached, pixels)
     # 2 glyphs at each of 5 places; the first three places, whole pixels apart, share their bitmaps
-    assert glyphs == 2 * 5 and len(rendered) == 2 * 3
+    assert glyphs == 2 * 5 and cached_glyphs == 2 * 3
 
 
 def test_overlapping_glyphs_combine_as_one_drawn_over_the_other():
