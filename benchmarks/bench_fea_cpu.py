@@ -88,7 +88,7 @@ PHASES = {
         ),
         (0, "the levels' FEA (fem.link.analyse_link_materials)", ["fem.study:analyse_link_materials"]),
         (1, "scikit-fem's curved mesh and its straightening", ["fem.link:skfem_mesh"]),
-        (1, "basis, bore facets and the bearing load", ["fem.link:_discretise_curved"]),
+        (1, "basis, bore facets and the bearing load", ["fem.link:_discretise_curved", "fem.link:_discretise"]),
         (2, "of it the basis", ["fem.problem:scalar_basis"]),
         (2, "of it the bearing load", ["fem.problem:traction_load"]),
         (1, "assembly of the material-free parts", ["fem.link:elasticity_parts"]),

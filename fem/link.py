@@ -32,7 +32,7 @@ from .errors import FemError, FemWarning
 from .fields import NodalFields
 from .materials import Material
 from .problem import JACOBIAN_CHECK_INTORDER
-from .tets import CurvedTets, Tets
+from .tets import CurvedTets, Tets, kept
 
 # "Away from the clamp": element nodes farther than this fraction of the fixed bore's radius from
 # the rim curves where the clamped bore surface ends. The clamp's rim is a stress singularity
@@ -42,9 +42,10 @@ from .tets import CurvedTets, Tets
 CLAMP_EXCLUSION_RADIUS_FRACTION = 0.25
 # Curved cells whose Jacobian anywhere falls below this fraction of their straight-sided Jacobian
 # (negative: inverted) are straightened (see straighten_distorted). At 0.2 scikit-fem's inverse
-# facet map still failed on the 1 mm edge-break example; 0.5 fixed it, touching a few cells only.
+# facet map (since replaced by the exact points of fem.problem.facet_reference_points) still failed
+# on the 1 mm edge-break example; 0.5 fixed it, touching a few cells only, and sets the meshes since.
 MIN_CURVED_JACOBIAN_RATIO = 0.5
-# Away from the bore facets (where no facet map is inverted) cells may be straightened only when
+# Away from the bore facets (where the load and the clamp act) cells may be straightened only when
 # nearly folded. Straightening cuts a round off to its chords: at 0.5 everywhere that took 1.0 %
 # of the robot-arm link's volume at 3 mm elements (0.4 % at 1.95 mm) through its 2 mm edge rounds,
 # and k fell outside its estimate; at 0.02 its curved mesh keeps the volume to 0.04 % (0.03 %).
@@ -170,10 +171,22 @@ def skfem_mesh(
 
 def _curved_jacobian_ratio(mesh: MeshTet2) -> np.ndarray:
     """Per element: min over quadrature points and vertices of det J (curved) / det J (straight)."""
-    points = np.hstack([get_quadrature(mesh.elem.refdom, JACOBIAN_CHECK_INTORDER)[0], np.eye(3, 4, 1)])
-    curved = _curved_det_jacobian(mesh, points)
+    points = _jacobian_check_points(mesh)
+    curved = _checked_det_jacobian(mesh)
     straight = Tets(np.ascontiguousarray(mesh.p[:, : mesh.nvertices]), mesh.t)._mapping().detDF(points[:, :1])
     return curved.min(axis=1) / straight[:, 0]
+
+
+def _jacobian_check_points(mesh: MeshTet2) -> np.ndarray:
+    """Where the curved cells' Jacobians are checked: the points of the reference cell's rule of
+    JACOBIAN_CHECK_INTORDER, then its vertices."""
+    return np.hstack([get_quadrature(mesh.elem.refdom, JACOBIAN_CHECK_INTORDER)[0], np.eye(3, 4, 1)])
+
+
+def _checked_det_jacobian(mesh: MeshTet2) -> np.ndarray:
+    """det J of the curved cells at `_jacobian_check_points`, kept on a `CurvedTets` (the last round
+    of straightening, the volume of its result and the stress points' check ask for the same mesh's)."""
+    return kept(mesh, "det J at the check points", lambda: _curved_det_jacobian(mesh, _jacobian_check_points(mesh)))
 
 
 def cells_on_facets(cells: np.ndarray, facets: np.ndarray) -> np.ndarray:
@@ -197,10 +210,9 @@ def closest_to_cad(
     MIN_CURVED_JACOBIAN_RATIO_AWAY away from the bore facets): whichever has its volume nearer the
     CAD volume."""
     candidates = []
-    ratios = _curved_jacobian_ratio(mesh)  # the candidates' first round: the same mesh
     for away in away_ratios:
         try:
-            candidates.append(straighten_distorted(mesh, on_facets=on_facets, away_ratio=away, ratios=ratios))
+            candidates.append(straighten_distorted(mesh, on_facets=on_facets, away_ratio=away))
         except FemError:
             continue
     if not candidates:
@@ -212,8 +224,8 @@ def closest_to_cad(
 
 
 def _curved_volume_m3(mesh: MeshTet2) -> float:
-    points, weights = get_quadrature(mesh.elem.refdom, 4)
-    return float(np.sum(np.abs(_curved_det_jacobian(mesh, points)) @ weights))
+    _, weights = get_quadrature(mesh.elem.refdom, JACOBIAN_CHECK_INTORDER)
+    return float(np.sum(np.abs(_checked_det_jacobian(mesh)[:, : weights.size]) @ weights))
 
 
 def _curved_det_jacobian(mesh: MeshTet2, points: np.ndarray) -> np.ndarray:
@@ -237,7 +249,6 @@ def straighten_distorted(
     min_ratio: float = MIN_CURVED_JACOBIAN_RATIO,
     on_facets: np.ndarray | None = None,
     away_ratio: float = MIN_CURVED_JACOBIAN_RATIO_AWAY,
-    ratios: np.ndarray | None = None,
 ) -> MeshTet2:
     """Move the mid-edge nodes of badly distorted curved cells back onto their chords.
 
@@ -245,13 +256,11 @@ def straighten_distorted(
     1 mm edge break); those break the isoparametric map. Straightening a few cells costs only a
     local O(h^2) geometry error there. With `on_facets` (per cell: it has a face on a loaded or
     clamped facet) only those cells are held to `min_ratio`; the others are straightened below
-    `away_ratio` only (nearly folded), which keeps the rounds they follow. `ratios`: the mesh's
-    `_curved_jacobian_ratio`, if the caller has it.
+    `away_ratio` only (nearly folded), which keeps the rounds they follow.
     """
     limit = min_ratio if on_facets is None else np.where(on_facets, min_ratio, away_ratio)
     for _ in range(STRAIGHTENING_ROUNDS):
-        bad = np.flatnonzero((_curved_jacobian_ratio(mesh) if ratios is None else ratios) < limit)
-        ratios = None
+        bad = np.flatnonzero(_curved_jacobian_ratio(mesh) < limit)
         if len(bad) == 0:
             return mesh
         edges = np.unique(mesh.t2e[:, bad])
@@ -277,26 +286,14 @@ def _facets(mesh, index: np.ndarray, triangles: np.ndarray, name: str) -> np.nda
     return facets
 
 
-def _discretise_curved(link: LinkMesh, sk_mesh, index: np.ndarray, order: int):
-    """`_discretise`, retried with the facet map inverted to round-off (problem.ROUNDOFF_NEWTON_TOL)
-    where scikit-fem's Newton iteration stops short of its tolerance; meshes it inverts as before
-    are discretised as before."""
-    try:
-        return _discretise(link, sk_mesh, index, order)
-    except Exception as exc:  # scikit-fem raises a bare Exception when its inverse map fails
-        if sk_mesh.affine or "Newton iteration" not in str(exc):
-            raise
-        return _discretise(link, sk_mesh, index, order, roundoff_tolerant=True)
-
-
-def _discretise(link: LinkMesh, sk_mesh, index: np.ndarray, order: int, roundoff_tolerant: bool = False):
+def _discretise(link: LinkMesh, sk_mesh, index: np.ndarray, order: int):
     """Basis, clamped facets, the load vector of a unit bearing pressure p0 = 1 Pa, and the scalar
     DOFs on the mirror plane of a half link (none for a whole one)."""
     fixed = _facets(sk_mesh, index, link.fixed_bore_facets, "fixed_bore_facets")
     loaded = _facets(sk_mesh, index, link.loaded_bore_facets, "loaded_bore_facets")
     basis = problem.scalar_basis(sk_mesh, order)
     traction = bearing_traction(link.loaded_bore, link.load_direction, 1.0)
-    unit = problem.traction_load(basis, loaded, traction, roundoff_tolerant=roundoff_tolerant)
+    unit = problem.traction_load(basis, loaded, traction)
     on_plane = np.zeros(0, dtype=np.int64)
     if link.mirror_plane is not None:
         if link.mirror_facets is None:
@@ -397,14 +394,7 @@ def analyse_link_materials(
     if not checked:
         check_mesh_and_materials(mesh, materials, order)
     sk_mesh, index = skfem_mesh(mesh, order, away_ratios=away_ratios)
-    try:
-        basis, fixed, unit, on_plane = _discretise_curved(mesh, sk_mesh, index, order)
-    except Exception as exc:  # scikit-fem raises a bare Exception when its inverse map fails
-        if sk_mesh.affine or "Newton iteration" not in str(exc):
-            raise
-        # Some curved cells too distorted for the isoparametric facet map: use straight cells.
-        sk_mesh, index = skfem_mesh(mesh, order, curved=False)
-        basis, fixed, unit, on_plane = _discretise(mesh, sk_mesh, index, order)
+    basis, fixed, unit, on_plane = _discretise(mesh, sk_mesh, index, order)
     direction = mesh.load_direction
     resultant_per_Pa = float(direction @ problem.as_components(unit).sum(axis=1))
     if not resultant_per_Pa > 0:
@@ -516,7 +506,7 @@ class _StressPoints:
 
     def __init__(self, basis: Basis, sk_mesh, fixed_facets: np.ndarray, fixed_radius_m: float, mirror_plane=None):
         local = basis.elem.doflocs.T
-        self.at_nodes = Basis(basis.mesh, basis.elem, quadrature=(local, np.ones(local.shape[1])))
+        self.at_nodes = Basis(basis.mesh, basis.elem, quadrature=(local, np.ones(local.shape[1])), dofs=basis.dofs)
         self.where = np.asarray(basis.mapping.F(local))  # (3, n_elements, n_local)
         self.exclusion_radius_m = CLAMP_EXCLUSION_RADIUS_FRACTION * fixed_radius_m
         distance, _ = cKDTree(_rim_points(sk_mesh, fixed_facets, mirror_plane)).query(self.where.reshape(3, -1).T)

@@ -192,8 +192,9 @@ def test_a_wall_thinner_than_half_its_own_elements_warns_naming_the_option():
 def test_a_curved_mesh_far_from_the_origin_stays_curved_and_gives_the_same_k(plate):
     # scikit-fem's inverse facet map stops at an absolute 1e-12, which round-off alone exceeds on
     # small cells far from the origin (the arm bar with slots' loaded bore, 370 mm out, fell back to
-    # straight cells); retried to fem.problem.ROUNDOFF_NEWTON_TOL, the same mesh moved 2 m keeps
-    # its curved cells and its k (the move changes nothing but round-off)
+    # straight cells); with the load's points taken on their faces (fem.problem.facet_reference_points)
+    # nothing is inverted: the same mesh moved 2 m keeps its curved cells and its k (the move
+    # changes nothing but round-off)
     from fem import analyse_link, get_material
 
     link = geometry.mesh_part(plate, mesh_size_m=0.0012, order=2, bore_refinement=DEFAULT_BORE_REFINEMENT)

@@ -70,6 +70,27 @@ def test_bearing_pressure_has_the_resultant_F_along_the_load_direction(plate_qua
     assert np.linalg.norm(resultant - 1000.0 * plate_quadratic.load_direction) < 1e-3 * 1000.0
 
 
+@pytest.mark.parametrize("order", [1, 2])
+def test_the_bearing_load_is_scikit_fems_facet_basis_load_to_rounding(plate_quadratic, plate, order):
+    # fem.problem.traction_load takes the facet points' reference coordinates from the faces they
+    # lie on; scikit-fem's FacetBasis inverts the cells' maps at them (Newton's method on the curved
+    # cells): the same load vector to rounding, on curved and on straight cells
+    from skfem import FacetBasis, LinearForm
+
+    link = plate_quadratic if order == 2 else plate
+    mesh, index = skfem_mesh(link, order)
+    assert mesh.affine == (order == 1)
+    loaded = problem.facet_indices(mesh, index[link.loaded_bore_facets])
+    basis = problem.scalar_basis(mesh, order)
+    traction = bearing_traction(link.loaded_bore, link.load_direction, 1.0)
+    ours = problem.traction_load(basis, loaded, traction)
+    facet_basis = FacetBasis(mesh, basis.elem, facets=loaded, intorder=problem.TRACTION_INTORDER)
+    forms = [LinearForm(lambda v, w, c=c: traction(np.asarray(w.x))[c] * v) for c in range(3)]
+    theirs = np.column_stack([form.assemble(facet_basis) for form in forms]).ravel()
+    assert np.count_nonzero(theirs) > 100
+    assert np.max(np.abs(ours - theirs)) <= 1e-13 * np.max(np.abs(theirs))
+
+
 def test_loaded_bore_moves_along_the_load_and_fixed_bore_stays(solution, plate_quadratic):
     x = solution.basis.doflocs
     near_loaded = np.linalg.norm(x - plate_quadratic.loaded_bore.center_m[:, None], axis=0) < 1.01 * 0.008

@@ -1,13 +1,15 @@
-"""fem.tets' edges and facets by integer keys are scikit-fem's own, to the element; fem.link's curved
-cells' Jacobian determinants are scikit-fem's to rounding."""
+"""fem.tets' edges and facets by integer keys are scikit-fem's own, to the element, and so are its
+curved map's arrays and the bases on it, to the bit; fem.link's curved cells' Jacobian determinants
+are scikit-fem's to rounding."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
-from skfem import MeshTet1, MeshTet2
+from skfem import Basis, MeshTet1, MeshTet2
+from skfem.mapping import MappingIsoparametric
 
-from fem.tets import CurvedTets, Tets, build_entities
+from fem.tets import CurvedMapping, CurvedTets, Tets, build_entities
 
 
 def _shuffled_ball() -> MeshTet1:
@@ -45,18 +47,50 @@ def test_keys_that_would_overflow_fall_back_to_scikit_fems_way():
         assert np.array_equal(a, b)
 
 
+def _bent_ball() -> tuple[np.ndarray, np.ndarray]:
+    """Nodes and cells of a P2 ball whose mid-edge nodes are moved off their chords: curved cells."""
+    ball = MeshTet2.init_ball(2)  # its boundary's mid-edge nodes on the sphere
+    rng = np.random.default_rng(4)
+    bent = ball.doflocs + 0.02 * rng.standard_normal(ball.doflocs.shape) * (
+        np.arange(ball.doflocs.shape[1]) >= ball.nvertices
+    )
+    return bent, ball.t
+
+
+def test_the_curved_maps_arrays_are_scikit_fems_to_the_bit():
+    bent, cells = _bent_ball()
+    ours, theirs = CurvedTets(bent, cells)._mapping(), MappingIsoparametric(MeshTet2(bent, cells), MeshTet2.elem())
+    assert isinstance(ours, CurvedMapping)
+    rng = np.random.default_rng(5)
+    some = np.sort(rng.choice(cells.shape[1], 20, replace=False))
+    for X, tind in ((rng.random((3, 6)) / 3, None), (rng.random((3, some.size, 4)) / 3, some)):
+        for name in ("F", "DF", "detDF", "invDF"):
+            for _ in range(2):  # worked out, then kept
+                a, b = getattr(ours, name)(X, tind), getattr(theirs, name)(X, tind)
+                assert a.shape == b.shape and np.array_equal(a, b), name
+        assert np.array_equal(ours.J(2, 1, X, tind), theirs.J(2, 1, X, tind))
+    assert not ours.invDF(X, tind).flags.writeable  # kept arrays are shared: nobody may write them
+
+
+def test_bases_on_curved_tets_are_scikit_fems_to_the_bit():
+    bent, cells = _bent_ball()
+    ours_mesh, theirs_mesh = CurvedTets(bent, cells), MeshTet2(bent, cells)
+    local = MeshTet2.elem.doflocs.T
+    for options in ({"intorder": 2}, {"quadrature": (local, np.ones(local.shape[1]))}):
+        ours, theirs = Basis(ours_mesh, MeshTet2.elem(), **options), Basis(theirs_mesh, MeshTet2.elem(), **options)
+        assert np.array_equal(ours.dx, theirs.dx) and np.array_equal(ours.doflocs, theirs.doflocs)
+        for a, b in zip(ours.basis, theirs.basis):
+            assert np.array_equal(np.asarray(a[0]), np.asarray(b[0])) and np.array_equal(a[0].grad, b[0].grad)
+
+
 def test_the_curved_cells_jacobian_determinants_are_scikit_fems_to_rounding():
     from skfem.quadrature import get_quadrature
 
     from fem.link import _curved_det_jacobian
 
-    ball = MeshTet2.init_ball(2)  # its boundary's mid-edge nodes on the sphere: curved cells
-    rng = np.random.default_rng(4)
-    bent = ball.doflocs + 0.02 * rng.standard_normal(ball.doflocs.shape) * (
-        np.arange(ball.doflocs.shape[1]) >= ball.nvertices
-    )
-    mesh = CurvedTets(bent, ball.t)
+    bent, cells = _bent_ball()
+    mesh = CurvedTets(bent, cells)
     points = np.hstack([get_quadrature(mesh.elem.refdom, 4)[0], np.eye(3, 4, 1)])
-    ours, theirs = _curved_det_jacobian(mesh, points), MeshTet2(bent, ball.t)._mapping().detDF(points)
+    ours, theirs = _curved_det_jacobian(mesh, points), MeshTet2(bent, cells)._mapping().detDF(points)
     assert ours.shape == theirs.shape
     assert np.max(np.abs(ours - theirs)) <= 1e-12 * np.max(np.abs(theirs))
