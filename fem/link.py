@@ -32,7 +32,7 @@ from .errors import FemError, FemWarning
 from .fields import NodalFields
 from .materials import Material
 from .problem import JACOBIAN_CHECK_INTORDER
-from .tets import CurvedTets, Tets, kept
+from .tets import CurvedTets, Tets, kept, with_nodes
 
 # "Away from the clamp": element nodes farther than this fraction of the fixed bore's radius from
 # the rim curves where the clamped bore surface ends. The clamp's rim is a stress singularity
@@ -266,7 +266,7 @@ def straighten_distorted(
         edges = np.unique(mesh.t2e[:, bad])
         doflocs = mesh.doflocs.copy()
         doflocs[:, mesh.nvertices + edges] = 0.5 * (mesh.p[:, mesh.edges[0, edges]] + mesh.p[:, mesh.edges[1, edges]])
-        mesh = replace(mesh, doflocs=doflocs)
+        mesh = with_nodes(mesh, doflocs)
     raise FemError(
         f"LinkMesh.tets10: inverted curved cells remain after {STRAIGHTENING_ROUNDS} rounds of "
         "straightening; pass another --mesh-size MM (or --order 1)"

@@ -14,6 +14,8 @@ the bit, each formed in one pass and kept for the bases of a level that ask for 
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 from skfem import MeshTet1, MeshTet2
 from skfem.mapping import MappingIsoparametric
@@ -62,6 +64,21 @@ class CurvedTets(MeshTet2):
         if not hasattr(self, "_cached_mapping"):
             self._cached_mapping = CurvedMapping(self, self.elem(), self.bndelem)
         return self._cached_mapping
+
+
+# The cells' entities scikit-fem keeps on a mesh once found (`Mesh.edges`, `t2e`, `facets`, ...).
+_ENTITIES = ("_edges", "_t2e", "_facets", "_t2f", "_f2t", "_f2e")
+
+
+def with_nodes(mesh, doflocs: np.ndarray):
+    """The mesh with its nodes moved to `doflocs` (`dataclasses.replace`: a new mesh), given the
+    edges and faces its cells had (moving nodes does not change them) instead of finding them again:
+    0.015 CPU s a default level's straightened mesh."""
+    moved = replace(mesh, doflocs=doflocs)
+    for name in _ENTITIES:
+        if hasattr(mesh, name):
+            setattr(moved, name, getattr(mesh, name))
+    return moved
 
 
 def kept(mesh, name: str, compute):

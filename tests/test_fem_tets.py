@@ -9,7 +9,7 @@ import pytest
 from skfem import Basis, MeshTet1, MeshTet2
 from skfem.mapping import MappingIsoparametric
 
-from fem.tets import CurvedMapping, CurvedTets, Tets, build_entities
+from fem.tets import CurvedMapping, CurvedTets, Tets, build_entities, with_nodes
 
 
 def _shuffled_ball() -> MeshTet1:
@@ -94,3 +94,30 @@ def test_the_curved_cells_jacobian_determinants_are_scikit_fems_to_rounding():
     ours, theirs = _curved_det_jacobian(mesh, points), MeshTet2(bent, cells)._mapping().detDF(points)
     assert ours.shape == theirs.shape
     assert np.max(np.abs(ours - theirs)) <= 1e-12 * np.max(np.abs(theirs))
+
+
+def test_the_check_determinants_are_kept_per_mesh_and_give_its_volume():
+    from dataclasses import replace
+
+    from skfem.quadrature import get_quadrature
+
+    from fem.link import _checked_det_jacobian, _curved_det_jacobian, _curved_volume_m3, straighten_distorted
+
+    bent, cells = _bent_ball()
+    mesh = CurvedTets(bent, cells)
+    assert _checked_det_jacobian(mesh) is _checked_det_jacobian(mesh)  # worked out once
+    assert mesh.f2e.shape == (3, mesh.f2t.shape[1])  # its entities found, to be handed on
+    points, weights = get_quadrature(mesh.elem.refdom, 4)
+    volume = np.sum(np.abs(_curved_det_jacobian(mesh, points)) @ weights)
+    assert _curved_volume_m3(mesh) == pytest.approx(volume, rel=1e-14)
+    # a mesh straightened (a new one, with other mid-edge nodes) has its own
+    vertices = mesh.doflocs[:, : mesh.nvertices]
+    midpoints = 0.5 * (vertices[:, mesh.edges[0]] + vertices[:, mesh.edges[1]])
+    straight = with_nodes(mesh, np.hstack([vertices, midpoints]))
+    assert not np.array_equal(_checked_det_jacobian(straight), _checked_det_jacobian(mesh))
+    # given its cells' edges and faces, which are those it would find itself
+    assert straight.t2e is mesh.t2e
+    found = replace(mesh, doflocs=straight.doflocs)
+    for name in ("edges", "t2e", "facets", "t2f", "f2t", "f2e"):
+        assert np.array_equal(getattr(straight, name), getattr(found, name)), name
+    assert straighten_distorted(straight, min_ratio=0.99) is straight  # straight cells: nothing to do
