@@ -70,8 +70,9 @@ def draw_figures(jobs: dict[Hashable, FigureJob], workers: int | None = None) ->
     # a Dask worker drawing a study's best designs may not start children (processes.may_start_children)
     if workers < 2 or not may_start_children() or "fork" not in multiprocessing.get_all_start_methods():
         from reporting.text_layout import cached_text_layout
+        from reporting.ticks import copied_ticks
 
-        with cached_text_layout():
+        with cached_text_layout(), copied_ticks():
             drawn = {key: path for keys in grouped for key, path in zip(keys, _draw_batch([jobs[k] for k in keys]))}
         return {key: drawn[key] for key in jobs}
     _BATCHES[:] = [[jobs[k] for k in keys] for keys in grouped]
@@ -120,9 +121,11 @@ def _start_worker() -> None:
     until then: about 25 MB for the 15 figures across the workers, while the run's peak is at the
     stiffness levels."""
     from reporting.text_layout import install_text_layout_cache
+    from reporting.ticks import install_tick_copies
 
     gc.disable()
     install_text_layout_cache()
+    install_tick_copies()
 
 
 def _draw_forked_batch(index: int) -> list[Path]:
