@@ -48,7 +48,7 @@ _CHECKED = tuple(int(part) for part in matplotlib.__version__.split(".")[:2]) ==
 
 _TICK_ARTISTS = ("tick1line", "tick2line", "gridline", "label1", "label2")
 
-_installed = False  # matplotlib's Axis.get_major_ticks replaced in this process
+_installed = False  # matplotlib's Axis.get_major_ticks and Axis._get_tick replaced in this process
 _MATPLOTLIB_GET_MAJOR_TICKS = Axis.get_major_ticks
 _MATPLOTLIB_GET_TICK = Axis._get_tick
 # the templates of first ticks, while installed, under their axis class, major or minor and tick parameters
@@ -131,9 +131,10 @@ def _boxed(tick) -> bool:
 
 
 def install_tick_copies() -> Callable[[], None]:
-    """From now on, the ticks an axis lacks are copies of its first (module docstring); returns what
-    puts matplotlib's own `Axis.get_major_ticks` back. Where they are on already, or on a matplotlib
-    other than CHECKED_MATPLOTLIB, nothing changes and the returned function does nothing."""
+    """From now on, ticks are made as copies (module docstring); returns what puts matplotlib's own
+    `Axis.get_major_ticks` and `Axis._get_tick` back and drops the templates. Where they are on
+    already, or on a matplotlib other than CHECKED_MATPLOTLIB, nothing changes and the returned
+    function does nothing."""
     global _installed
     if _installed or not _CHECKED:
         return lambda: None
