@@ -13,7 +13,8 @@ kinds that share a grid) are drawn one after the other in one process, so that e
 axes of the one before (reporting.plots keeps a drawn figure for the next of the same grid):
 creating the axes and their ticks is 40-45 % of drawing the figure that creates them. A worker (or
 this process, drawing the figures itself) lays out and shapes each string and renders each glyph
-once for all its figures (reporting.text_layout).
+once for all its figures (reporting.text_layout), and makes an axis's ticks as copies
+(reporting.ticks).
 """
 
 from __future__ import annotations
@@ -70,8 +71,9 @@ def draw_figures(jobs: dict[Hashable, FigureJob], workers: int | None = None) ->
     # a Dask worker drawing a study's best designs may not start children (processes.may_start_children)
     if workers < 2 or not may_start_children() or "fork" not in multiprocessing.get_all_start_methods():
         from reporting.text_layout import cached_text_layout
+        from reporting.ticks import copied_ticks
 
-        with cached_text_layout():
+        with cached_text_layout(), copied_ticks():
             drawn = {key: path for keys in grouped for key, path in zip(keys, _draw_batch([jobs[k] for k in keys]))}
         return {key: drawn[key] for key in jobs}
     _BATCHES[:] = [[jobs[k] for k in keys] for keys in grouped]
@@ -113,16 +115,18 @@ def _draw_batch(batch: list[FigureJob]) -> list[Path]:
 def _start_worker() -> None:
     """A forked worker's start: its texts laid out, shaped and rendered once for all its batches
     (the worker ends with the draw_figures call; matplotlib's fonts are opened anew after a fork),
-    and the cyclic garbage collector off for its life. Its garbage goes with it: the worker ends
+    its ticks made as copies, and the cyclic garbage collector off for its life. Its garbage goes with it: the worker ends
     with the call and its memory is given back whole, unfreed (multiprocessing ends a forked
     process with os._exit), so collecting each batch's garbage (about 0.15 CPU s of the default
     run's 15 figures, 7 collections of 3,000-34,000 objects) bought nothing but the memory it held
     until then: about 25 MB for the 15 figures across the workers, while the run's peak is at the
     stiffness levels."""
     from reporting.text_layout import install_text_layout_cache
+    from reporting.ticks import install_tick_copies
 
     gc.disable()
     install_text_layout_cache()
+    install_tick_copies()
 
 
 def _draw_forked_batch(index: int) -> list[Path]:

@@ -415,6 +415,26 @@ def test_every_batch_lays_out_its_texts_from_the_drawing_s_cache_and_matplotlib_
     assert methods == {"install_text_layout_cache.<locals>.cached_layout"} and Text._get_layout is before
 
 
+def _write_tick_method(path: Path) -> Path:
+    from matplotlib.axis import Axis
+
+    return _write(Axis.get_major_ticks.__module__, path)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_every_batch_copies_its_ticks_and_matplotlib_makes_them_itself_after(tmp_path, workers):
+    """The tick copies (reporting.ticks) are on for every batch, in the workers or here, and off
+    once the figures are drawn."""
+    from matplotlib.axis import Axis
+
+    from reporting import ticks
+
+    before = Axis.get_major_ticks
+    jobs = {i: FigureJob(_write_tick_method, (tmp_path / f"{i}.txt",)) for i in range(3)}
+    modules = {path.read_text().split()[0] for path in draw_figures(jobs, workers=workers).values()}
+    assert modules == {"reporting.ticks" if ticks._CHECKED else "matplotlib.axis"} and Axis.get_major_ticks is before
+
+
 def _record_collections(path: Path) -> Path:
     import gc
 
