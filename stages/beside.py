@@ -18,7 +18,7 @@ A child can also be started before its work is known (`Beside.waiting`): it impo
 is told to, then waits to be handed its steps (`hand`), so that its interpreter's start-up and its
 imports run while this process is still reading its command line. That child is a plain `python -c`
 of its own (`_WaitingInterpreter`), not multiprocessing's spawn: spawn starts multiprocessing's
-resource tracker, a third interpreter (0.07-0.09 CPU s) watching for semaphores and shared memory
+resource tracker, a third interpreter (0.05-0.09 CPU s) watching for semaphores and shared memory
 that neither process makes, and runs this process's main script again in the child; and the child
 ends with `os._exit` once its last step is handed over, without the interpreter's teardown of its
 libraries (SciPy, scikit-fem, gmsh), which the run waits for before its summary.
