@@ -189,18 +189,18 @@ def _sample(pid: int, run: Run, done: threading.Event, start: float) -> None:
 
 
 def _role(child: psutil.Process, run_command: list[str]) -> str:
-    """Which of ROLES a child of the run is: the FEA's process is a spawned interpreter
-    (stages.beside), a figure worker or the images' process a fork of the run (the run's command
-    line)."""
+    """Which of ROLES a child of the run is: the FEA's process is an interpreter of its own
+    (stages.beside: `_waiting_child`, or multiprocessing's spawn in trees before it), a figure
+    worker or the images' process a fork of the run (the run's command line)."""
     try:
         command = child.cmdline()
     except psutil.Error:
         return "other"
     if command == run_command:
         return "forks (figures, images)"
-    if any("spawn_main" in part for part in command):
+    if any("_waiting_child" in part or "spawn_main" in part for part in command):
         return "FEA"
-    return "other"  # multiprocessing's resource tracker
+    return "other"  # multiprocessing's resource tracker (trees before stages.beside's own child)
 
 
 def peak_line(run: Run) -> str:

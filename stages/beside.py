@@ -16,14 +16,23 @@ is one `BesideError`.
 
 A child can also be started before its work is known (`Beside.waiting`): it imports the modules it
 is told to, then waits to be handed its steps (`hand`), so that its interpreter's start-up and its
-imports run while this process is still reading its command line.
+imports run while this process is still reading its command line. That child is a plain `python -c`
+of its own (`_WaitingInterpreter`), not multiprocessing's spawn: spawn starts multiprocessing's
+resource tracker, a third interpreter (0.05-0.09 CPU s) watching for semaphores and shared memory
+that neither process makes, and runs this process's main script again in the child; and the child
+ends with `os._exit` once its last step is handed over, without the interpreter's teardown of its
+libraries (SciPy, scikit-fem, gmsh), which the run waits for before its summary.
 """
 
 from __future__ import annotations
 
 import importlib
 import multiprocessing
+import os
+import subprocess
+import sys
 from collections.abc import Callable, Iterator
+from multiprocessing.connection import Connection
 
 
 class BesideError(RuntimeError):
@@ -44,13 +53,16 @@ class Beside:
 
     @classmethod
     def waiting(cls, what: str, modules: tuple[str, ...]) -> Beside:
-        """A fresh interpreter (spawn) that imports `modules`, then waits for `hand`. Not handed its
-        steps, it ends when this process closes its end of the pipe (or ends) or at `cancel()`."""
+        """A fresh interpreter that imports `modules`, then waits for `hand`. Not handed its steps,
+        it ends when this process closes its end of the pipe (or ends) or at `cancel()`."""
         beside = cls.__new__(cls)
-        context = multiprocessing.get_context("spawn")
-        receive_steps, beside._hand_over = context.Pipe(duplex=False)
-        beside._start(what, "spawn", _run_handed_child, receive_steps, modules, what)
+        receive_steps, beside._hand_over = _pipe()
+        beside._receive, send = _pipe()
+        beside.what = what
+        beside._process = _WaitingInterpreter(receive_steps, send, what, modules)
         receive_steps.close()
+        send.close()
+        beside._running = True
         return beside
 
     def hand(self, steps: Callable[[], Iterator], what: str) -> None:
@@ -127,6 +139,61 @@ class Beside:
         if code is not None and code < 0:
             return f"signal {-code}" + (", killed: out of memory?" if code == -9 else "")
         return f"exit code {code}"
+
+
+def _pipe() -> tuple[Connection, Connection]:
+    """(receiving end, sending end) of a pipe, as multiprocessing.Pipe(duplex=False) makes one."""
+    receiving, sending = os.pipe()
+    return Connection(receiving, writable=False), Connection(sending, readable=False)
+
+
+class _WaitingInterpreter:
+    """`python -c` running `_waiting_child` with this process's interpreter options and sys.path (as
+    multiprocessing's spawn passes them), the pipes' child ends inherited by their descriptors; with
+    the part of multiprocessing.Process's interface that Beside uses."""
+
+    def __init__(self, receive_steps: Connection, send: Connection, what: str, modules: tuple[str, ...]):
+        code = f"import sys; sys.path[:] = {sys.path!r}; from stages.beside import _waiting_child; _waiting_child()"
+        fds = (receive_steps.fileno(), send.fileno())
+        self._popen = subprocess.Popen(
+            [sys.executable, *subprocess._args_from_interpreter_flags(), "-c", code, *map(str, fds), what, *modules],
+            pass_fds=fds,
+            stdin=subprocess.DEVNULL,  # as multiprocessing's child: the terminal's input stays the run's
+        )
+        self.pid = self._popen.pid
+
+    def is_alive(self) -> bool:
+        return self._popen.poll() is None
+
+    def terminate(self) -> None:
+        self._popen.terminate()
+
+    def join(self, timeout: float | None = None) -> None:
+        try:
+            self._popen.wait(timeout)
+        except subprocess.TimeoutExpired:
+            pass
+
+    @property
+    def exitcode(self) -> int | None:
+        return self._popen.poll()
+
+
+def _waiting_child() -> None:
+    """The main of `_WaitingInterpreter`'s child (its arguments: the descriptors of the steps' pipe
+    and of the pipe back, what it runs, the modules to import): `_run_handed_child`, then the end of
+    the process without the interpreter's teardown, its output flushed."""
+    receive_steps, send, what, *modules = sys.argv[1:]
+    try:
+        _run_handed_child(
+            Connection(int(send), readable=False), Connection(int(receive_steps), writable=False), tuple(modules), what
+        )
+    finally:
+        try:
+            sys.stdout.flush()
+            sys.stderr.flush()
+        finally:
+            os._exit(0)
 
 
 def thread_limits() -> dict[str, int]:

@@ -45,6 +45,16 @@ def test_the_children_of_a_run_are_told_apart_by_how_they_started():
     assert roles == {"spawn": "FEA", "fork": "forks (figures, images)"}
 
 
+def test_the_fea_process_waiting_for_its_steps_is_the_fea():
+    from stages.beside import Beside
+
+    waiting = Beside.waiting("the FEA", ())
+    try:
+        assert load_bench()._role(psutil.Process(waiting.pid), psutil.Process().cmdline()) == "FEA"
+    finally:
+        waiting.cancel()
+
+
 def test_a_runs_line_says_when_and_of_what_its_peak_was():
     bench = load_bench()
     run = bench.Run(peak_pss_by_role={"run": 120e6, "FEA": 600e6, "forks (figures, images)": 230e6}, peak_at_s=7.25)

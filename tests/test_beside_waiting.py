@@ -99,3 +99,39 @@ def test_a_killed_waiting_process_is_one_beside_error_after_gmsh_has_run_here():
     done = subprocess.run([sys.executable, "-c", probe], env=env, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, (done.returncode, done.stderr)
     assert done.stdout.startswith("one line: the work: its process ended early (signal 9")
+
+
+def test_a_waiting_process_starts_no_resource_tracker_and_ends_without_teardown_its_output_flushed():
+    """The waiting child is a plain interpreter (no multiprocessing resource tracker beside it) that
+    ends with os._exit after its last step: an exit handler it registered does not run, what it
+    printed unflushed still comes out. In a fresh process, whose tracker state is its own."""
+    probe = (
+        "from functools import partial\n"
+        "from multiprocessing import resource_tracker\n"
+        "from stages.beside import Beside\n"
+        "beside = Beside.waiting('the work', ())\n"
+        "beside.hand(partial(exit_handler_and_print), 'the work')\n"
+        "print(beside.next(), flush=True)\n"
+        "beside.close()\n"
+        "print('tracker', resource_tracker._resource_tracker._pid, 'exit code', beside._process.exitcode)\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}  # the child's print stays buffered
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1])
+    done = subprocess.run(
+        [sys.executable, "-c", f"from tests.test_beside_waiting import exit_handler_and_print\n{probe}"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, (done.returncode, done.stderr)
+    assert sorted(done.stdout.splitlines()) == ["printed", "stepped", "tracker None exit code 0"]
+
+
+def exit_handler_and_print():
+    """One step, after registering an exit handler that would fail the test and printing unflushed."""
+    import atexit
+
+    atexit.register(print, "the interpreter's teardown ran")
+    sys.stdout.write("printed\n")
+    yield "stepped"
