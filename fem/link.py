@@ -20,6 +20,7 @@ from contextlib import AbstractContextManager, nullcontext
 from dataclasses import dataclass, replace
 
 import numpy as np
+from scipy.spatial import cKDTree
 from skfem import Basis, MeshTet1, MeshTet2
 from skfem.quadrature import get_quadrature
 
@@ -29,7 +30,6 @@ from . import locking, problem, quality, solvers
 from .assembly import DIM, elasticity_parts, rigid_body_modes
 from .errors import FemError, FemWarning
 from .fields import NodalFields
-from .kdtree import cKDTree
 from .materials import Material
 from .problem import JACOBIAN_CHECK_INTORDER
 from .tets import CurvedTets, Tets, kept, with_nodes

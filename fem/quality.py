@@ -154,7 +154,7 @@ def thinnest_wall_m(points_m: np.ndarray, tets: np.ndarray, search_radius_m: flo
     of a mirrored link (`mirror_plane`, a geometry.link_mesh.MirrorPlane) a wall that ends on the
     plane goes on in the other half: it is twice as thick as seen from the half.
     """
-    from .kdtree import cKDTree
+    from scipy.spatial import cKDTree
 
     tri, opposite = boundary_facets(np.asarray(tets))
     a, b, c = (points_m[:, tri[i]].T for i in range(3))

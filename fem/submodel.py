@@ -19,12 +19,12 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 from skfem import Basis
 
 from . import problem, solvers
 from .assembly import DIM, elasticity_parts
 from .errors import FemError
-from .kdtree import cKDTree
 from .link import (
     MIN_CURVED_JACOBIAN_RATIO,
     LinkSolution,

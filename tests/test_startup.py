@@ -134,32 +134,3 @@ def test_the_fea_process_imports_modules_that_exist():
     from stages.fea import FEA_MODULES
 
     assert [m for m in FEA_MODULES if importlib.util.find_spec(m) is None] == []
-
-
-FEA_IMPORTS = """
-import json, sys
-from stages.fea import FEA_MODULES
-for name in FEA_MODULES:
-    __import__(name)
-print(json.dumps(sorted(sys.modules)))
-"""
-
-
-def test_the_fea_process_imports_no_scipy_spatial_beyond_its_kd_tree():
-    """fem.kdtree: the FEA's imports load scipy.spatial's cKDTree alone (not its Delaunay, distances,
-    rotations, nor scipy.special and scipy.constants behind them)."""
-    loaded = _loaded_after(FEA_IMPORTS)
-    assert "scipy.spatial._ckdtree" in loaded
-    assert [m for m in ("scipy.spatial", "scipy.special", "scipy.constants") if m in loaded] == []
-
-
-def test_the_fea_kd_tree_is_scipy_spatials():
-    code = (
-        "from fem.kdtree import cKDTree\n"
-        "import numpy as np, scipy.spatial\n"
-        "points = np.random.default_rng(1).random((200, 3))\n"
-        "here, there = cKDTree(points).query(points + 0.01), scipy.spatial.cKDTree(points).query(points + 0.01)\n"
-        "print(cKDTree is scipy.spatial.cKDTree and all((a == b).all() for a, b in zip(here, there)))\n"
-    )
-    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
-    assert out.stdout.split() == ["True"]
