@@ -31,6 +31,7 @@ import multiprocessing
 import os
 import subprocess
 import sys
+import traceback
 from collections.abc import Callable, Iterator
 from multiprocessing.connection import Connection
 
@@ -184,16 +185,20 @@ def _waiting_child() -> None:
     and of the pipe back, what it runs, the modules to import): `_run_handed_child`, then the end of
     the process without the interpreter's teardown, its output flushed."""
     receive_steps, send, what, *modules = sys.argv[1:]
+    code = 1  # what escapes `_run_handed_child` (its errors go back by the pipe) is a failure
     try:
         _run_handed_child(
             Connection(int(send), readable=False), Connection(int(receive_steps), writable=False), tuple(modules), what
         )
+        code = 0
+    except BaseException:
+        traceback.print_exc()
     finally:
         try:
             sys.stdout.flush()
             sys.stderr.flush()
         finally:
-            os._exit(0)
+            os._exit(code)
 
 
 def thread_limits() -> dict[str, int]:
