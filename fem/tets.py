@@ -91,6 +91,11 @@ def kept(mesh, name: str, compute):
     return mesh.kept_arrays[name]
 
 
+def _array_key(a) -> tuple:
+    a = np.asarray(a)
+    return a.shape, a.dtype.str, a.tobytes()
+
+
 class CurvedMapping(MappingIsoparametric):
     """scikit-fem's isoparametric mapping with each array formed in one pass over the cells' nodes
     and kept per point set.
@@ -109,9 +114,10 @@ class CurvedMapping(MappingIsoparametric):
         self._kept: dict[tuple, np.ndarray] = {}
 
     def _once(self, name: str, X: np.ndarray, tind, compute) -> np.ndarray:
-        X = np.asarray(X)
-        cells = None if tind is None else hash(np.asarray(tind).tobytes())
-        key = (name, X.shape, X.dtype.str, hash(X.tobytes()), cells)
+        # keyed by the arrays' bytes themselves, not a hash of them: no collision can hand back
+        # another point set's array
+        cells = None if tind is None else _array_key(tind)
+        key = (name, _array_key(X), cells)
         if key not in self._kept:
             value = np.asarray(compute())
             value.flags.writeable = False
