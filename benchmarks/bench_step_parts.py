@@ -94,7 +94,10 @@ def _parts(model, mvm, mdm, state, nodes, h):
     red = arr.reduced
     dof_float = np.asfortranarray(arr.dof_float)
     wheel_float = mvm._step_wheels(arr.wheel_float)
-    cmat = np.ascontiguousarray(arr.cmat, dtype=np.float32)
+    if hasattr(mvm, "kernel_damping"):  # the step's damping arguments, one type signature for every machine
+        cmat, kernel_red = mvm.kernel_damping(arr, "single")
+    else:  # a tree before it: the dense C alone, the factors in their own precision
+        cmat, kernel_red = np.ascontiguousarray(arr.cmat, dtype=np.float32), red
     work = mvm._accel_work(n, wheel_float, cmat)
     t_el, ed, e_out, a = np.zeros(ns), np.zeros(ns), np.zeros(ns), np.zeros(n)
     contact = np.zeros(ns, dtype=np.bool_)
@@ -131,7 +134,7 @@ def _parts(model, mvm, mdm, state, nodes, h):
             wheel_float,
             arr.par,
             cmat,
-            red,
+            kernel_red,
             work,
             t_el,
             ed,

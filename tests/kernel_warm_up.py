@@ -37,33 +37,22 @@ def ring() -> None:
             )
 
 
-def _machine_steps(model, predictor: str = "ab2") -> None:
-    from dynamics.solvers import machine_verlet as mv
-
-    nodes = np.zeros(_STEPS + 1)
-    rest = np.zeros(model.n_state)
-    step_s = 0.5 * mv.stable_step_s(model, 1.0, predictor)
-    mv.integrate(model, nodes, nodes, nodes, step_s, rest, rest, predictor=predictor)
-
-
-def link_drive() -> None:
-    """The machine's step on the single-link drive (the ring on the topology kernel: C in double)."""
+def machine() -> None:
+    """The machine's step kernel, one specialisation for every machine (machine_verlet.kernel_damping):
+    the chain on its wheels (C in single precision) with its stations' peaks, the pipeline's own
+    warm-up (dynamics.warm_up, which every default run and study point calls), then the single-link
+    drive (the ring on the topology kernel: C in double), which loads what the first compiled."""
     from dynamics.models.chain import ChainModel
     from dynamics.models.clearance_machine import ClearanceMachine
     from dynamics.models.layout import LINK_DRIVE
-
-    chain = ChainModel(8, 2.03, 9.331e7, friction_coefficient=0.35)
-    _machine_steps(ClearanceMachine.of(chain, LINK_DRIVE, None, 94e-6))
-
-
-def wheels() -> None:
-    """The chain on its wheels (C in single precision) with its stations' peaks: the pipeline's
-    own warm-up (dynamics.warm_up), which every default run and study point calls."""
+    from dynamics.solvers import machine_verlet as mv
     from dynamics.warm_up import load_machine_kernels
 
     load_machine_kernels()
+    model = ClearanceMachine.of(ChainModel(8, 2.03, 9.331e7, friction_coefficient=0.35), LINK_DRIVE, None, 94e-6)
+    nodes = np.zeros(_STEPS + 1)
+    rest = np.zeros(model.n_state)
+    mv.integrate(model, nodes, nodes, nodes, 0.5 * mv.stable_step_s(model, 1.0, "ab2"), rest, rest, predictor="ab2")
 
 
-# Not here: the step on the single-precision damping factors (above SINGLE_PRECISION_FACTORS_ABOVE_LINKS
-# links), which only the slow tests call
-FAMILIES = {"wheels": wheels, "link_drive": link_drive, "ring": ring}
+FAMILIES = {"machine": machine, "ring": ring}

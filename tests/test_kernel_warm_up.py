@@ -21,6 +21,7 @@ import kernel_warm_up
 from dynamics.models.chain import ChainModel
 from dynamics.models.clearance import ClearanceChain, Tensioner
 from dynamics.models.clearance_machine import ClearanceMachine
+from dynamics.models import machine_damping
 from dynamics.models.layout import MachineLayout
 from dynamics.models.wheels import Wheel
 from dynamics.solvers import clearance_verlet as cv
@@ -40,9 +41,14 @@ for law, predictor in (("global", "ab2"), ("kelvin-voigt", "euler")):
     cv.integrate(ring, nodes, nodes, h, np.zeros(30), np.zeros(30), predictor=predictor)
     ring_on_topology.integrate(ring, nodes, nodes, h, np.zeros(30), np.zeros(30), predictor=predictor, stations=[0, 5])
 wheel = Wheel(17, 0.1, 4, 0.3)
-for links, law in ((30, "kelvin-voigt"), (500, "global"), (2000, "global")):
+above = machine_damping.SINGLE_PRECISION_FACTORS_ABOVE_LINKS
+for links, law, single_factors in ((30, "kelvin-voigt", False), (500, "global", False), (2000, "global", False), (500, "global", True)):
+    # the long chains' single-precision damping factors (above SINGLE_PRECISION_FACTORS_ABOVE_LINKS), forced
+    machine_damping.SINGLE_PRECISION_FACTORS_ABOVE_LINKS = 0 if single_factors else above
     chain = ChainModel(links, 2.03, 9e7, damping_ratio=0.1, friction_coefficient=0.2)
     model = ClearanceMachine.of(chain, MachineLayout("wheels", wheel, wheel, None, True), tensioner, 50e-6, law)
+    if single_factors:
+        assert model.reduced_damping and model.arrays.reduced[3].dtype == np.float32
     predictor = cv.default_predictor(model)
     rest = np.zeros(model.n_state)
     h = 0.5 * mv.stable_step_s(model, 1.0, predictor)
@@ -67,7 +73,7 @@ def test_the_families_load_every_step_kernel_specialisation_the_solvers_call():
         check=True,
     )
     counts = json.loads(out.stdout.strip().splitlines()[-1])
-    # the machine's step: C in double (the link drive) and in single (on its wheels, the O(N) damping's
-    # factors in double up to SINGLE_PRECISION_FACTORS_ABOVE_LINKS links)
-    assert counts["warm"] == {"ring": 1, "machine": 2, "peaks": 1}
+    # the machine's step: one specialisation for C in double (the link drive) and in single (on its
+    # wheels) and the O(N) damping's factors in either precision (machine_verlet.kernel_damping)
+    assert counts["warm"] == {"ring": 1, "machine": 1, "peaks": 1}
     assert counts["after"] == counts["warm"]

@@ -415,9 +415,7 @@ def test_the_linear_machine_settles_in_a_few_cycles_with_its_slowest_mode_just_a
     as the default run decides the model with it, finds its steady state in a few cycles (4 measured;
     with the cap, NEWTON_EVERY_SLOW_MODE_UP_TO_DECAY below the decay, it had not in 20: 0.18). The
     default link's figures showed it at 2,500 links (0.91; 3 cycles, none in 60 with the cap); here
-    2,000 links with zeta 0.10 put the slowest mode in the same band on the double-precision damping
-    factors, whose step kernel the suite compiles anyway (above SINGLE_PRECISION_FACTORS_ABOVE_LINKS
-    the single-precision factors' kernel is one more compilation, about 90 CPU s, for this test alone)."""
+    2,000 links with zeta 0.10 put the slowest mode in the same band with a fifth fewer links to step."""
     from dynamics import machine_scene
     from dynamics.solvers import clearance_verlet as verlet
 

@@ -120,19 +120,17 @@ def test_the_steps_friction_is_the_tanh_law_in_and_out_of_saturation(law):
     assert arr.par[8] > 0.0 and np.count_nonzero(arr.dof_float[:, 4]) > 20  # tooth springs, friction
     n, ns = arr.dof_float.shape[0], arr.span_int.shape[0]
     dof_float, wheels = np.asfortranarray(arr.dof_float), mv._step_wheels(arr.wheel_float)
-    cmat = np.ascontiguousarray(arr.cmat, dtype=np.float32)
+    cmat, red = mv.kernel_damping(arr, "single")
     rng = np.random.default_rng(5)
     q, v = 1e-5 * rng.standard_normal(n), 1e-3 * rng.standard_normal(n)
     fc, inv_vs = arr.par[5], arr.par[6]
 
     def accelerations(par, zd):
-        nw = wheels.shape[0]
-        work = [np.zeros(nw), np.zeros(nw), np.zeros(nw), np.zeros(n), np.zeros(cmat.shape[1], np.float32)]
-        work += [np.zeros(cmat.shape[0]), np.zeros(3), np.zeros(cmat.shape[1], np.float32), np.zeros(n)]
+        work = mv._accel_work(n, wheels, cmat)
         spans = [np.zeros(ns), np.zeros(ns), np.zeros(ns, dtype=np.bool_), np.zeros(ns)]
         a = np.zeros(n)
-        args = (q, v, 0.01, zd, 3.0, arr.span_int, arr.span_float, dof_float, wheels, par, cmat, arr.reduced)
-        mv._accel_into(*args, tuple(work), *spans, a)
+        args = (q, v, 0.01, zd, 3.0, arr.span_int, arr.span_float, dof_float, wheels, par, cmat, red)
+        mv._accel_into(*args, work, *spans, a)
         return a, work[6][2]
 
     frictionless = arr.par.copy()

@@ -182,25 +182,18 @@ def _accel_into(
         wv, cw = scratch[4], scratch[5]
         for i in range(dofs.shape[0]):
             wv[i] = v[dofs[i]]
-        chain_damping_into(red[1], red[2], red[3], red[4], red[5], red[7], wv, cw, scratch)
+        # its factors in one precision, the other's array empty (`kernel_damping`)
+        if red[8].shape[1] > 0:
+            chain_damping_into(red[1], red[2], red[8], red[4], red[5], red[7], wv, cw, scratch)
+        else:
+            chain_damping_into(red[1], red[2], red[3], red[4], red[5], red[7], wv, cw, scratch)
         for i in range(dofs.shape[0]):
             f[dofs[i]] -= cw[i]
             p_damp += wv[i] * cw[i]
-    elif not kv and par.shape[0] > N_PAR:  # the ring's C in its mirror blocks (`mirror_packed`): the ring's product
-        rs, links = int(par[N_PAR]), int(par[N_PAR + 1])
-        cw = work[8]
-        _mirror_product(cmat[:rs], cmat[rs:], links, v, work[4], work[7], work[5][:rs], work[5][rs:], cw)
-        for i in range(links):
-            f[i] -= cw[i]
-            p_damp += v[i] * cw[i]
-    elif not kv:  # C v, four rows at a time on the padded C in its own precision (`_rows_times`)
-        vp, cv_out = work[4], work[5]
-        for i in range(n):
-            vp[i] = v[i]
-        _rows_times(cmat, vp, cv_out)
-        for i in range(n):
-            f[i] -= cv_out[i]
-            p_damp += v[i] * cv_out[i]
+    elif not kv and cmat[1].shape[0] > 0:  # the dense C in single precision (`kernel_damping`)
+        p_damp += _dense_damping_into(cmat[1], par, v, work[9], work[10], work[5], work[8], f)
+    elif not kv:
+        p_damp += _dense_damping_into(cmat[0], par, v, work[4], work[7], work[5], work[8], f)
     if par[8] > 0.0:  # tooth springs k_t (y - u - offset), Kelvin-Voigt: their dashpot beta k_t (y' - u')
         for i in range(n):
             if dof_float[i, 8] > 0.0:
@@ -235,6 +228,28 @@ def _accel_into(
     powers[0] = zd * (cam + p_poly)
     powers[1] = p_damp
     powers[2] = p_fric
+
+
+def _dense_damping_into(cmat, par, v, ws, wa, cv_out, cw, f):
+    """f -= C v by the dense C in its own precision (ws, wa: padded columns of that precision): the
+    ring's mirror blocks (`mirror_packed`) where par has them, else four rows at a time on the
+    padded C (`_rows_times`); returns the damping's power C v . v."""
+    p_damp = 0.0
+    if par.shape[0] > N_PAR:  # the ring's C in its mirror blocks: the ring's product
+        rs, links = int(par[N_PAR]), int(par[N_PAR + 1])
+        _mirror_product(cmat[:rs], cmat[rs:], links, v, ws, wa, cv_out[:rs], cv_out[rs:], cw)
+        for i in range(links):
+            f[i] -= cw[i]
+            p_damp += v[i] * cw[i]
+        return p_damp
+    n = v.shape[0]
+    for i in range(n):
+        ws[i] = v[i]
+    _rows_times(cmat, ws, cv_out)
+    for i in range(n):
+        f[i] -= cv_out[i]
+        p_damp += v[i] * cv_out[i]
+    return p_damp
 
 
 def _friction_into(v, zd, inv_vs, fc, dof_float, f):
@@ -356,19 +371,22 @@ def _switches_at_stations(e_old, e_new, par, span_int, wheel_float, stations, sw
 
 
 def _accel_work(n, wheel_float, cmat):
-    """The scratch arrays `_accel_into` takes as `work`, for n DOFs, the wheels' rows and the damping's
-    `cmat` (its dtype: the single-precision factors above their limit)."""
+    """The scratch arrays `_accel_into` takes as `work`, for n DOFs, the wheels' rows and the dense
+    damping's (double, single) pair `cmat` (`kernel_damping`): each precision's padded columns."""
     nw = max(wheel_float.shape[0], 1)
+    double, single = cmat
     return (
         np.zeros(nw),
         np.zeros(nw),
         np.zeros(nw),
         np.zeros(n),
-        np.zeros(cmat.shape[1], dtype=cmat.dtype),
-        np.zeros(cmat.shape[0]),
+        np.zeros(double.shape[1]),
+        np.zeros(max(double.shape[0], single.shape[0])),
         np.zeros(3),
-        np.zeros(cmat.shape[1], dtype=cmat.dtype),  # the mirror product's antisymmetric columns
+        np.zeros(double.shape[1]),  # the mirror product's antisymmetric columns
         np.zeros(n),  # and its C v
+        np.zeros(single.shape[1], dtype=np.float32),  # the same two in single precision
+        np.zeros(single.shape[1], dtype=np.float32),
     )
 
 
@@ -706,6 +724,7 @@ if numba is not None:
     ):
         globals()[_name] = numba.njit(cache=True, fastmath=FASTMATH, inline="always")(globals()[_name])
     _friction_into = numba.njit(cache=True, fastmath=FASTMATH, error_model="numpy")(_friction_into)
+    _dense_damping_into = numba.njit(cache=True, fastmath=FASTMATH)(_dense_damping_into)
     _run = numba.njit(cache=True, fastmath=FASTMATH)(_run_loops)
 else:  # pragma: no cover
     _run = _run_loops
@@ -832,8 +851,7 @@ def integrate(
             np.asfortranarray(arr.dof_float),  # its columns contiguous: the DOF loops run as vectors
             _step_wheels(arr.wheel_float),
             arr.par,
-            np.ascontiguousarray(arr.cmat, dtype=DAMPING_PRODUCT_PRECISIONS[precision]),
-            arr.reduced,
+            *kernel_damping(arr, precision),
             1e6 * scale,
             *out,
             stats,
@@ -868,6 +886,23 @@ def integrate(
         station_peaks=None if stations is None else step_peaks(station_values, zdd, flags, switches, interpolate_peaks),
         station_moments=None if stations is None else step_moments(station_values, (zr, zd, zdd), step_s, out_every),
     )
+
+
+def kernel_damping(arrays, precision: str) -> tuple:
+    """(cmat, red) as the compiled step takes them (`_accel_into`): the dense C as a (double, single)
+    pair, the `precision` one filled and the other empty, and the O(N) form's arrays
+    (MachineArrays.reduced) with its factors likewise a pair, red[3] double and red[8] single. One type
+    signature for every machine, so one compiled specialisation of the step serves the link drive,
+    the wheels and the long chains' single-precision factors (each a compilation of about a minute
+    of CPU on an empty cache: a first run above SINGLE_PRECISION_FACTORS_ABOVE_LINKS links paid it)."""
+    dense = np.ascontiguousarray(arrays.cmat, dtype=DAMPING_PRODUCT_PRECISIONS[precision])
+    empty = {dtype: np.zeros((0, 0), dtype=dtype) for dtype in (np.float64, np.float32)}
+    cmat = (dense, empty[np.float32]) if dense.dtype == np.float64 else (empty[np.float64], dense)
+    red = arrays.reduced
+    factors = red[3]
+    unused = np.zeros((3, 0, 0), dtype=np.float32 if factors.dtype == np.float64 else np.float64)
+    pair = (factors, unused) if factors.dtype == np.float64 else (unused, factors)
+    return cmat, (*red[:3], pair[0], *red[4:], pair[1])
 
 
 def _step_wheels(wheel_float: np.ndarray) -> np.ndarray:
