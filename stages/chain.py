@@ -248,7 +248,6 @@ def run_dynamics(
 ) -> tuple[dict[str, MaterialChain], dict[tuple[str, str], Scenario]]:
     """Simulate every material x cam law; returns each material's chain and the scenarios. The
     chain needs the FEA's stiffness, mass and pitch only (a `MaterialFea` is one too)."""
-    from dynamics.models.reduction import modes_to_keep
     from stages.machine import machine_parts
 
     chains, models, scenarios = {}, {}, {}
@@ -268,16 +267,31 @@ def run_dynamics(
                     f"{100 * sc.rel_error_estimate['time_step']:.2g} %, k {100 * sc.rel_error_estimate['stiffness']:.2g} %)"
                 )
                 _say_seating_switch(sc, f"{name} / {cam_id}", progress)
-        scene = scene_that_ran(chain_scene(cfg, result.pitch_m), [scenarios[name, cam_id] for cam_id in cfg.cams])
+        ran = [scenarios[name, cam_id] for cam_id in cfg.cams]
+        scene = scene_that_ran(chain_scene(cfg, result.pitch_m), ran)
         chains[name] = MaterialChain(
             models[name], natural_frequencies_Hz(scene, models[name]), machine_parts(scene, models[name])
         )
         progress(
             f"dynamics {name}: {len(cfg.cams)} cam laws, N = {cfg.links}, "
-            f"f1 = {chains[name].natural_frequencies_Hz[0]:.1f} Hz"
-            + ("" if modes_to_keep(cfg.links) is None else f", solved in its {modes_to_keep(cfg.links)} lowest modes")
+            f"f1 = {chains[name].natural_frequencies_Hz[0]:.1f} Hz" + _modal_note(cfg.links, scene, ran)
         )
     return chains, scenarios
+
+
+def _modal_note(links: int, scene: Scene, scenarios: list[Scenario]) -> str:
+    """The progress line's note on the scenarios whose answer is the linear chain solved in its lowest
+    modes (the single-link drive above DENSE_LINK_LIMIT links, where the linear chain is the answer:
+    the chain on its wheels and the clearance chain are not solved in modes), "" where none is."""
+    from dynamics.models.reduction import modes_to_keep
+    from dynamics.scene import ChainModelKind
+
+    modes = modes_to_keep(links)
+    modal = sum(sc.contact.model == ChainModelKind.LINEAR for sc in scenarios)
+    if modes is None or scene.layout.on_wheels or not modal:
+        return ""
+    which = "" if modal == len(scenarios) else f" ({modal} of {len(scenarios)} cam laws)"
+    return f", the linear chain solved in its {modes} lowest modes{which}"
 
 
 def scene_that_ran(scene: Scene, scenarios: list[Scenario]) -> Scene:
