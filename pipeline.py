@@ -104,8 +104,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--serial",
         action="store_true",
-        help="run the FEA's stress study and images before the dynamics, in this process (default: in a "
-        "second process beside the dynamics and the figures; the same results, more memory at once)",
+        help="run everything in this process: the FEA's stress study and images before the dynamics, a long "
+        "chain's scenarios one after the other (default: the FEA in a second process beside the dynamics and "
+        "the figures, above 400 links the scenarios in one worker process per core; the same results, more "
+        "memory at once)",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     p.add_argument(
@@ -395,6 +397,7 @@ def parse_cli(argv: list[str] | None) -> RunConfig:
         out=args.out,
         images=not args.no_images,
         stress_beside=not args.serial,
+        scenario_workers=not args.serial,
         quiet=args.quiet,
         mesh_size_m=d.mesh_size_m if args.mesh_size is None else mm_to_m(args.mesh_size),
         order=args.order,

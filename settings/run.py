@@ -77,6 +77,8 @@ class RunConfig:
     out: Path = Path("results")
     images: bool = True
     stress_beside: bool = True  # FEA stress study and images in a process beside the dynamics (pipeline.py)
+    # a long chain's scenarios (material x cam law) in worker processes, one per core (stages.chain)
+    scenario_workers: bool = True
     quiet: bool = False
     mesh_size_m: float | None = None  # finest FEA level; None: chosen for < 1 % error in k
     order: int = 2

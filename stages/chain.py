@@ -250,23 +250,17 @@ def run_dynamics(
     chain needs the FEA's stiffness, mass and pitch only (a `MaterialFea` is one too)."""
     from stages.machine import machine_parts
 
-    chains, models, scenarios = {}, {}, {}
+    models = {name: chain_model(cfg, result) for name, result in fea.items()}
+    tasks = [(name, cam_id) for name in fea for cam_id in cfg.cams]
+    if _in_workers(cfg, len(tasks)):
+        scenarios = _scenarios_in_workers(cfg, fea, models, tasks, progress)
+    else:
+        scenarios = {}
+        for name, cam_id in tasks:
+            scenarios[name, cam_id] = _scenario(cfg, fea[name], models[name], name, cam_id)
+            _say_scenario(cfg, scenarios[name, cam_id], name, cam_id, progress)
+    chains = {}
     for name, result in fea.items():
-        models[name] = chain_model(cfg, result)
-        for cam_id in cfg.cams:
-            if cfg.tolerance is None:
-                scenarios[name, cam_id] = simulate_scenario(
-                    cfg, models[name], name, cam_id, result.pitch_m, cfg.samples_per_degree
-                )
-                _say_seating_switch(scenarios[name, cam_id], f"{name} / {cam_id}", progress)
-            else:
-                scenarios[name, cam_id] = sc = scenario_to_tolerance(cfg, result, name, cam_id)
-                progress(
-                    f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
-                    f"estimated error {100 * sc.rel_error_estimate['total']:.2g} % (time step "
-                    f"{100 * sc.rel_error_estimate['time_step']:.2g} %, k {100 * sc.rel_error_estimate['stiffness']:.2g} %)"
-                )
-                _say_seating_switch(sc, f"{name} / {cam_id}", progress)
         ran = [scenarios[name, cam_id] for cam_id in cfg.cams]
         scene = scene_that_ran(chain_scene(cfg, result.pitch_m), ran)
         chains[name] = MaterialChain(
@@ -277,6 +271,96 @@ def run_dynamics(
             f"f1 = {chains[name].natural_frequencies_Hz[0]:.1f} Hz" + _modal_note(cfg.links, scene, ran)
         )
     return chains, scenarios
+
+
+def _scenario(cfg: RunConfig, result: MaterialStiffness, model, name: str, cam_id: str) -> Scenario:
+    """One material x cam law: at the default samples per degree, or to --tolerance."""
+    if cfg.tolerance is None:
+        return simulate_scenario(cfg, model, name, cam_id, result.pitch_m, cfg.samples_per_degree)
+    return scenario_to_tolerance(cfg, result, name, cam_id)
+
+
+def _say_scenario(cfg: RunConfig, sc: Scenario, name: str, cam_id: str, progress: Progress) -> None:
+    """A scenario's progress lines: its estimated error (--tolerance) and its seating switch."""
+    if cfg.tolerance is not None:
+        progress(
+            f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
+            f"estimated error {100 * sc.rel_error_estimate['total']:.2g} % (time step "
+            f"{100 * sc.rel_error_estimate['time_step']:.2g} %, k {100 * sc.rel_error_estimate['stiffness']:.2g} %)"
+        )
+    _say_seating_switch(sc, f"{name} / {cam_id}", progress)
+
+
+# Above this many links the dynamics stage runs its scenarios in worker processes forked from the run,
+# one per core (`_scenarios_in_workers`): a scenario there takes seconds to minutes (the chain on its
+# wheels with its O(N) damping and steady-state search; the link drive's 400 modes) against the fork
+# and its result's pickling, a fraction of a second; at and below it a scenario takes about 0.1 s and
+# runs here. Measured: docs/performance.md "Long chains' scenarios in workers".
+SCENARIO_WORKERS_ABOVE_LINKS = 400
+
+
+def _in_workers(cfg: RunConfig, scenarios: int) -> bool:
+    """Whether the scenarios run in worker processes: a long chain, more than one scenario, more than
+    one core, --serial not given, and a process that may fork children (not a Dask worker)."""
+    import multiprocessing
+
+    from processes import may_start_children, usable_cores
+
+    return (
+        cfg.scenario_workers
+        and cfg.links > SCENARIO_WORKERS_ABOVE_LINKS
+        and scenarios > 1
+        and usable_cores() > 1
+        and may_start_children()
+        and "fork" in multiprocessing.get_all_start_methods()
+    )
+
+
+# The scenarios of the _scenarios_in_workers call in progress, for its forked workers (set before they
+# fork: a worker is sent a scenario's number, not the models and settings)
+_TASKS: list = []
+
+
+def _scenarios_in_workers(cfg: RunConfig, fea, models, tasks, progress: Progress) -> dict:
+    """{(material, cam law): Scenario} of every task, each in a worker process forked from this one (the
+    kernels and modules loaded here, nothing imported again), one worker per core; each scenario's
+    progress lines as it ends, with how many have; the dict in the tasks' order, as the serial loop
+    makes it. The workers run the same code on the same inputs: the same results to the bit."""
+    import multiprocessing
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    from dynamics.errors import DynamicsError
+    from processes import usable_cores
+
+    _TASKS[:] = [(cfg, fea[name], models[name], name, cam_id) for name, cam_id in tasks]
+    try:
+        with ProcessPoolExecutor(
+            min(usable_cores(), len(tasks)), mp_context=multiprocessing.get_context("fork")
+        ) as pool:
+            pending = {pool.submit(_scenario_of_task, i): i for i in range(len(tasks))}
+            done = {}
+            while pending:
+                finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    i = pending.pop(future)
+                    done[i] = future.result()
+                    name, cam_id = tasks[i]
+                    progress(f"dynamics {name} / {cam_id}: done ({len(done)} of {len(tasks)} scenarios)")
+                    _say_scenario(cfg, done[i], name, cam_id, progress)
+    except BrokenProcessPool as e:
+        raise DynamicsError(
+            f"the dynamics: a scenario's worker process ended early ({e}); rerun with --serial to run the "
+            "scenarios one after the other in one process (less memory at once)"
+        ) from None
+    finally:
+        _TASKS.clear()
+    return {task: done[i] for i, task in enumerate(tasks)}
+
+
+def _scenario_of_task(index: int) -> Scenario:
+    """In a forked worker: the index-th scenario of the _scenarios_in_workers call that forked it."""
+    return _scenario(*_TASKS[index])
 
 
 def _modal_note(links: int, scene: Scene, scenarios: list[Scenario]) -> str:
