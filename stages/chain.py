@@ -258,6 +258,8 @@ def run_dynamics(
         scenarios = {}
         for name, cam_id in tasks:
             scenarios[name, cam_id] = _scenario(cfg, fea[name], models[name], name, cam_id)
+            if cfg.links > SCENARIO_WORKERS_ABOVE_LINKS:  # a long chain's scenario takes seconds to minutes
+                progress(f"dynamics {name} / {cam_id}: done ({len(scenarios)} of {len(tasks)} scenarios)")
             _say_scenario(cfg, scenarios[name, cam_id], name, cam_id, progress)
     chains = {}
     for name, result in fea.items():

@@ -1,7 +1,7 @@
 """A long chain's scenarios in forked worker processes (stages.chain._scenarios_in_workers, above
 SCENARIO_WORKERS_ABOVE_LINKS links): the same scenarios as one after the other in one process, to the
-bit, in the same order; a progress line as each ends; --serial runs them here; a worker that dies is
-one DynamicsError naming --serial."""
+bit, in the same order; a progress line as each ends (one after the other too); --serial runs them
+here; a worker that dies is one DynamicsError naming --serial."""
 
 from __future__ import annotations
 
@@ -61,11 +61,12 @@ def test_the_workers_give_the_serial_scenarios_to_the_bit_in_order():
     np.testing.assert_array_equal(
         chains["al6061-t6"].natural_frequencies_Hz, serial_chains["al6061-t6"].natural_frequencies_Hz
     )
-    # one line as each ends, in the order they end
-    done = [line for line in lines if "scenarios)" in line]
-    assert [line.rsplit("(", 1)[1] for line in done] == ["1 of 2 scenarios)", "2 of 2 scenarios)"]
-    assert sorted(line.split(" / ")[1].split(":")[0] for line in done) == sorted(CAMS)
-    assert not any("scenarios)" in line for line in serial_lines)
+    # one line as each ends, in the order they end (one after the other: the tasks' order)
+    for said in (lines, serial_lines):
+        done = [line for line in said if "scenarios)" in line]
+        assert [line.rsplit("(", 1)[1] for line in done] == ["1 of 2 scenarios)", "2 of 2 scenarios)"]
+        assert sorted(line.split(" / ")[1].split(":")[0] for line in done) == sorted(CAMS)
+    assert [line.split(" / ")[1].split(":")[0] for line in serial_lines if "scenarios)" in line] == list(CAMS)
 
 
 def test_short_chains_and_one_scenario_run_here():
