@@ -293,11 +293,13 @@ def _say_scenario(cfg: RunConfig, sc: Scenario, name: str, cam_id: str, progress
     _say_seating_switch(sc, f"{name} / {cam_id}", progress)
 
 
-# Above this many links the dynamics stage runs its scenarios in worker processes forked from the run,
-# one per core (`_scenarios_in_workers`): a scenario there takes seconds to minutes (the chain on its
-# wheels with its O(N) damping and steady-state search; the link drive's 400 modes) against the fork
-# and its result's pickling, a fraction of a second; at and below it a scenario takes about 0.1 s and
-# runs here. Measured: docs/performance.md "Long chains' scenarios in workers".
+# Above this many links (the O(N) damping's range) the dynamics stage runs its scenarios in worker
+# processes forked from the run, one per core (`_scenarios_in_workers`): a scenario there takes from
+# about 0.8 s (500 links) to minutes (10,000), the fork and its result's pickling hundredths of a
+# second; the dynamics stage 5.6 against 8.2 s at 500 links, 12.8 against 20.3 s at 1,000 (docs/
+# performance.md, "The pipeline at long lengths: a scenario per core"). The default job's 85-link
+# scenarios (about 0.1 s each) run here while the FEA's stress study and images take the other core;
+# between 85 and 400 links not measured.
 SCENARIO_WORKERS_ABOVE_LINKS = 400
 
 
