@@ -297,9 +297,10 @@ def _say_scenario(cfg: RunConfig, sc: Scenario, name: str, cam_id: str, progress
 # processes forked from the run, one per core (`_scenarios_in_workers`): a scenario there takes from
 # about 0.8 s (500 links) to minutes (10,000), the fork and its result's pickling hundredths of a
 # second; the dynamics stage 5.6 against 8.2 s at 500 links, 12.8 against 20.3 s at 1,000 (docs/
-# performance.md, "The pipeline at long lengths: a scenario per core"). The default job's 85-link
-# scenarios (about 0.1 s each) run here while the FEA's stress study and images take the other core;
-# between 85 and 400 links not measured.
+# performance.md, "The pipeline at long lengths: a scenario per core"). Shorter chains gain too where
+# the FEA is cached (the dynamics stage 1.0 against 1.6 s at 85 links, 9.2 against 15.5 s at 400), but
+# not the default job from an empty cache, whose stress study and images take the other core beside
+# the dynamics (9.67 against 9.19 s, everything in workers against this rule): they run here.
 SCENARIO_WORKERS_ABOVE_LINKS = 400
 
 
