@@ -20,6 +20,12 @@ def may_start_children() -> bool:
     return not multiprocessing.current_process().daemon
 
 
+def may_fork_children() -> bool:
+    """Whether a child process can be forked here: one may be started (`may_start_children`) and the
+    platform has the fork start method (the workers that share this process's loaded modules)."""
+    return may_start_children() and "fork" in multiprocessing.get_all_start_methods()
+
+
 def usable_cores() -> int:
     """The cores this process may run on."""
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1

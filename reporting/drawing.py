@@ -26,7 +26,7 @@ from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
-from processes import may_start_children, usable_cores
+from processes import may_fork_children, usable_cores
 
 
 @dataclass(frozen=True)
@@ -68,8 +68,8 @@ def draw_figures(jobs: dict[Hashable, FigureJob], workers: int | None = None) ->
     one after the other); returns each job's PNG path under its key, in the jobs' order."""
     grouped = batches(jobs)
     workers = min(usable_cores() if workers is None else workers, len(grouped))
-    # a Dask worker drawing a study's best designs may not start children (processes.may_start_children)
-    if workers < 2 or not may_start_children() or "fork" not in multiprocessing.get_all_start_methods():
+    # a Dask worker drawing a study's best designs may not start children (processes.may_fork_children)
+    if workers < 2 or not may_fork_children():
         from reporting.text_layout import cached_text_layout
         from reporting.ticks import copied_ticks
 

@@ -415,11 +415,9 @@ def start_fea(
     is stored in the cache then.
     `process`: a process started for the FEA already (`waiting_fea_process`): handed the FEA's steps
     where they run beside, else cancelled here (every material cached, or without `beside`)."""
-    import multiprocessing
-
     from fem import load_materials
     from fem.cache import FeaCache, cache_key
-    from processes import may_start_children
+    from processes import may_fork_children, may_start_children
     from stages.beside import Beside
 
     library = load_materials(cfg.materials_file)
@@ -450,11 +448,7 @@ def start_fea(
     if not missing:
         return FeaInProgress.done(out)
     # the images drawn by a process forked from this one, beside the dynamics (see _start_drawing)
-    draw_beside = (
-        beside
-        and any(images[m.name] is not None for m in missing)
-        and "fork" in multiprocessing.get_all_start_methods()
-    )
+    draw_beside = beside and any(images[m.name] is not None for m in missing) and may_fork_children()
     steps = partial(
         _fea_steps,
         part,
