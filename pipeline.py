@@ -106,7 +106,7 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="run everything in this process: the FEA's stress study and images before the dynamics, a long "
         "chain's scenarios one after the other (default: the FEA in a second process beside the dynamics and "
-        "the figures, above 400 links the scenarios in one worker process per core; the same results, more "
+        "the figures, a long chain's scenarios in one worker process per core; the same results, more "
         "memory at once)",
     )
     p.add_argument("-q", "--quiet", action="store_true", help="no progress lines")

@@ -258,9 +258,7 @@ def run_dynamics(
         scenarios = {}
         for name, cam_id in tasks:
             scenarios[name, cam_id] = _scenario(cfg, fea[name], models[name], name, cam_id)
-            if cfg.links > SCENARIO_WORKERS_ABOVE_LINKS:  # a long chain's scenario takes seconds to minutes
-                progress(f"dynamics {name} / {cam_id}: done ({len(scenarios)} of {len(tasks)} scenarios)")
-            _say_scenario(cfg, scenarios[name, cam_id], name, cam_id, progress)
+            _say_scenario(cfg, scenarios[name, cam_id], name, cam_id, (len(scenarios), len(tasks)), progress)
     chains = {}
     for name, result in fea.items():
         ran = [scenarios[name, cam_id] for cam_id in cfg.cams]
@@ -282,8 +280,14 @@ def _scenario(cfg: RunConfig, result: MaterialStiffness, model, name: str, cam_i
     return scenario_to_tolerance(cfg, result, name, cam_id)
 
 
-def _say_scenario(cfg: RunConfig, sc: Scenario, name: str, cam_id: str, progress: Progress) -> None:
-    """A scenario's progress lines: its estimated error (--tolerance) and its seating switch."""
+def _say_scenario(
+    cfg: RunConfig, sc: Scenario, name: str, cam_id: str, count: tuple[int, int], progress: Progress
+) -> None:
+    """A scenario's progress lines: on a long chain (above SCENARIO_WORKERS_ABOVE_LINKS links, seconds
+    to minutes a scenario) that it is done, `count` = (scenarios done, of); its estimated error
+    (--tolerance); its seating switch."""
+    if cfg.links > SCENARIO_WORKERS_ABOVE_LINKS:
+        progress(f"dynamics {name} / {cam_id}: done ({count[0]} of {count[1]} scenarios)")
     if cfg.tolerance is not None:
         progress(
             f"dynamics {name} / {cam_id}: {sc.samples_per_degree} samples per degree, "
@@ -307,17 +311,14 @@ SCENARIO_WORKERS_ABOVE_LINKS = 400
 def _in_workers(cfg: RunConfig, scenarios: int) -> bool:
     """Whether the scenarios run in worker processes: a long chain, more than one scenario, more than
     one core, --serial not given, and a process that may fork children (not a Dask worker)."""
-    import multiprocessing
-
-    from processes import may_start_children, usable_cores
+    from processes import may_fork_children, usable_cores
 
     return (
         cfg.scenario_workers
         and cfg.links > SCENARIO_WORKERS_ABOVE_LINKS
         and scenarios > 1
         and usable_cores() > 1
-        and may_start_children()
-        and "fork" in multiprocessing.get_all_start_methods()
+        and may_fork_children()
     )
 
 
@@ -350,9 +351,7 @@ def _scenarios_in_workers(cfg: RunConfig, fea, models, tasks, progress: Progress
                 for future in finished:
                     i = pending.pop(future)
                     done[i] = future.result()
-                    name, cam_id = tasks[i]
-                    progress(f"dynamics {name} / {cam_id}: done ({len(done)} of {len(tasks)} scenarios)")
-                    _say_scenario(cfg, done[i], name, cam_id, progress)
+                    _say_scenario(cfg, done[i], *tasks[i], (len(done), len(tasks)), progress)
     except BrokenProcessPool as e:
         raise DynamicsError(
             f"the dynamics: a scenario's worker process ended early ({e}); rerun with --serial to run the "

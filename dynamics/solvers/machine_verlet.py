@@ -896,13 +896,16 @@ def kernel_damping(arrays, precision: str) -> tuple:
     the wheels and the long chains' single-precision factors (each a compilation of about a minute
     of CPU on an empty cache: a first run above SINGLE_PRECISION_FACTORS_ABOVE_LINKS links paid it)."""
     dense = np.ascontiguousarray(arrays.cmat, dtype=DAMPING_PRODUCT_PRECISIONS[precision])
-    empty = {dtype: np.zeros((0, 0), dtype=dtype) for dtype in (np.float64, np.float32)}
-    cmat = (dense, empty[np.float32]) if dense.dtype == np.float64 else (empty[np.float64], dense)
     red = arrays.reduced
-    factors = red[3]
-    unused = np.zeros((3, 0, 0), dtype=np.float32 if factors.dtype == np.float64 else np.float64)
-    pair = (factors, unused) if factors.dtype == np.float64 else (unused, factors)
-    return cmat, (*red[:3], pair[0], *red[4:], pair[1])
+    double, single = _precision_pair(red[3], (3, 0, 0))
+    return _precision_pair(dense, (0, 0)), (*red[:3], double, *red[4:], single)
+
+
+def _precision_pair(array: np.ndarray, empty_shape: tuple) -> tuple[np.ndarray, np.ndarray]:
+    """(double, single): `array` in the slot of its precision, an empty array of `empty_shape` in the other."""
+    if array.dtype == np.float64:
+        return array, np.zeros(empty_shape, dtype=np.float32)
+    return np.zeros(empty_shape), array
 
 
 def _step_wheels(wheel_float: np.ndarray) -> np.ndarray:
