@@ -1,8 +1,10 @@
-"""What the running process may use beside itself: child processes, and its cores; and the cyclic
-garbage collector paused while a process imports its libraries.
+"""What the running process may use beside itself: child processes, and its cores; work mapped over
+processes forked from it; and the cyclic garbage collector paused while a process imports its
+libraries.
 
-Both the FEA beside the run (stages.beside) and the figure workers (reporting.drawing) start
-children; this module is below both, so that reporting does not import the stages.
+The FEA beside the run (stages.beside), the figure workers (reporting.drawing) and a long chain's
+scenario workers (stages.chain) start children; this module is below them all, so that reporting
+does not import the stages.
 """
 
 from __future__ import annotations
@@ -29,6 +31,53 @@ def may_fork_children() -> bool:
 def usable_cores() -> int:
     """The cores this process may run on."""
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+# The forked_map call in progress, (function, items), for its forked workers: set before they fork,
+# so that a worker is sent an item's number, not the item
+_FORKED: list = []
+
+
+def forked_map(function, items, workers: int, *, initializer=None, on_each=None, freeze_collector=False) -> list:
+    """[function(item) for item in items], the calls spread over `workers` processes forked from this
+    one: the modules and objects loaded here are the workers' at the fork (nothing imported again,
+    nothing pickled to them but an item's number), each result is pickled back. `function`: a
+    module-level function (the workers look it up by name). `initializer`: run once in each worker
+    as it starts. `on_each(i, result)`: called here as each call ends, in the order they end (a
+    progress line). `freeze_collector`: this process's objects moved out of the cyclic collector's
+    sight while the workers run (gc.freeze): a worker's collections would otherwise touch every one of
+    them and copy the pages they are on (copy on write). Returns the results in the items' order; a
+    worker that dies raises concurrent.futures.process.BrokenProcessPool. Only where
+    `may_fork_children`."""
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+
+    _FORKED[:] = [function, list(items)]
+    if freeze_collector:
+        gc.freeze()
+    try:
+        with ProcessPoolExecutor(
+            workers, mp_context=multiprocessing.get_context("fork"), initializer=initializer
+        ) as pool:
+            pending = {pool.submit(_forked_call, i): i for i in range(len(_FORKED[1]))}
+            results = {}
+            while pending:
+                finished, _ = wait(pending, return_when=FIRST_COMPLETED)
+                for future in finished:
+                    i = pending.pop(future)
+                    results[i] = future.result()
+                    if on_each is not None:
+                        on_each(i, results[i])
+        return [results[i] for i in range(len(results))]
+    finally:
+        if freeze_collector:
+            gc.unfreeze()
+        _FORKED.clear()
+
+
+def _forked_call(index: int):
+    """In a forked worker: the function of the forked_map call that forked it, on its index-th item."""
+    function, items = _FORKED
+    return function(items[index])
 
 
 def pause_collector_for_imports() -> None:

@@ -20,13 +20,11 @@ once for all its figures (reporting.text_layout), and makes an axis's ticks as c
 from __future__ import annotations
 
 import gc
-import multiprocessing
 from collections.abc import Callable, Hashable
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
-from processes import may_fork_children, usable_cores
+from processes import forked_map, may_fork_children, usable_cores
 
 
 @dataclass(frozen=True)
@@ -41,10 +39,6 @@ class FigureJob:
 
     def draw(self) -> Path:
         return self.plot(*self.args)
-
-
-# The batches of the draw_figures call in progress, for its forked workers (set before they fork)
-_BATCHES: list[list[FigureJob]] = []
 
 
 def batches(jobs: dict[Hashable, FigureJob]) -> list[list[Hashable]]:
@@ -76,20 +70,17 @@ def draw_figures(jobs: dict[Hashable, FigureJob], workers: int | None = None) ->
         with cached_text_layout(), copied_ticks():
             drawn = {key: path for keys in grouped for key, path in zip(keys, _draw_batch([jobs[k] for k in keys]))}
         return {key: drawn[key] for key in jobs}
-    _BATCHES[:] = [[jobs[k] for k in keys] for keys in grouped]
-    # the run's objects moved out of the collector's sight: a worker's collections would otherwise
-    # touch every one of them and copy the run's pages into the worker (copy on write)
-    gc.freeze()
-    try:
-        with ProcessPoolExecutor(
-            workers, mp_context=multiprocessing.get_context("fork"), initializer=_start_worker
-        ) as pool:
-            pending = [(keys, pool.submit(_draw_forked_batch, i)) for i, keys in enumerate(grouped)]
-            drawn = {key: path for keys, future in pending for key, path in zip(keys, future.result())}
-        return {key: drawn[key] for key in jobs}
-    finally:
-        gc.unfreeze()
-        _BATCHES.clear()
+    # the run's objects out of the collector's sight: the workers make garbage by the thousand, and their
+    # collections would copy the run's pages into each of them
+    paths = forked_map(
+        _draw_batch,
+        [[jobs[k] for k in keys] for keys in grouped],
+        workers,
+        initializer=_start_worker,
+        freeze_collector=True,
+    )
+    drawn = {key: path for keys, batch in zip(grouped, paths) for key, path in zip(keys, batch)}
+    return {key: drawn[key] for key in jobs}
 
 
 def _draw_batch(batch: list[FigureJob]) -> list[Path]:
@@ -127,8 +118,3 @@ def _start_worker() -> None:
     gc.disable()
     install_text_layout_cache()
     install_tick_copies()
-
-
-def _draw_forked_batch(index: int) -> list[Path]:
-    """In a forked worker: the index-th batch of the draw_figures call that forked it."""
-    return _draw_batch(_BATCHES[index])

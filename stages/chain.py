@@ -322,49 +322,41 @@ def _in_workers(cfg: RunConfig, scenarios: int) -> bool:
     )
 
 
-# The scenarios of the _scenarios_in_workers call in progress, for its forked workers (set before they
-# fork: a worker is sent a scenario's number, not the models and settings)
-_TASKS: list = []
-
-
 def _scenarios_in_workers(cfg: RunConfig, fea, models, tasks, progress: Progress) -> dict:
-    """{(material, cam law): Scenario} of every task, each in a worker process forked from this one (the
-    kernels and modules loaded here, nothing imported again), one worker per core; each scenario's
-    progress lines as it ends, with how many have; the dict in the tasks' order, as the serial loop
-    makes it. The workers run the same code on the same inputs: the same results to the bit."""
-    import multiprocessing
-    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+    """{(material, cam law): Scenario} of every task, each in a worker process forked from this one
+    (processes.forked_map: the kernels and modules loaded here, nothing imported again), one worker
+    per core; each scenario's progress lines as it ends, with how many have; the dict in the tasks'
+    order, as the serial loop makes it. The workers run the same code on the same inputs: the same
+    results to the bit."""
     from concurrent.futures.process import BrokenProcessPool
 
     from dynamics.errors import DynamicsError
-    from processes import usable_cores
+    from processes import forked_map, usable_cores
 
-    _TASKS[:] = [(cfg, fea[name], models[name], name, cam_id) for name, cam_id in tasks]
+    ended = []
+
+    def say(i: int, scenario: Scenario) -> None:
+        ended.append(i)
+        _say_scenario(cfg, scenario, *tasks[i], (len(ended), len(tasks)), progress)
+
     try:
-        with ProcessPoolExecutor(
-            min(usable_cores(), len(tasks)), mp_context=multiprocessing.get_context("fork")
-        ) as pool:
-            pending = {pool.submit(_scenario_of_task, i): i for i in range(len(tasks))}
-            done = {}
-            while pending:
-                finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-                for future in finished:
-                    i = pending.pop(future)
-                    done[i] = future.result()
-                    _say_scenario(cfg, done[i], *tasks[i], (len(done), len(tasks)), progress)
+        scenarios = forked_map(
+            _scenario_of_task,
+            [(cfg, fea[name], models[name], name, cam_id) for name, cam_id in tasks],
+            min(usable_cores(), len(tasks)),
+            on_each=say,
+        )
     except BrokenProcessPool as e:
         raise DynamicsError(
             f"the dynamics: a scenario's worker process ended early ({e}); rerun with --serial to run the "
             "scenarios one after the other in one process (less memory at once)"
         ) from None
-    finally:
-        _TASKS.clear()
-    return {task: done[i] for i, task in enumerate(tasks)}
+    return dict(zip(tasks, scenarios))
 
 
-def _scenario_of_task(index: int) -> Scenario:
-    """In a forked worker: the index-th scenario of the _scenarios_in_workers call that forked it."""
-    return _scenario(*_TASKS[index])
+def _scenario_of_task(task: tuple) -> Scenario:
+    """In a forked worker: one scenario of _scenarios_in_workers, (cfg, FEA result, model, material, cam)."""
+    return _scenario(*task)
 
 
 def _modal_note(links: int, scene: Scene, scenarios: list[Scenario]) -> str:
