@@ -33,7 +33,8 @@ a sprocket held to the cam, the strand-end tensions' difference plus the seated 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
+from functools import partial
 
 import numpy as np
 
@@ -58,6 +59,7 @@ from dynamics.scene import (
     nearest_resonance,
     station_values,
 )
+from dynamics.search_progress import SearchProgress
 from dynamics.solvers import clearance_verlet as verlet
 from dynamics.solvers import machine_modes, machine_shooting
 from dynamics.solvers import machine_verlet as mv
@@ -175,7 +177,8 @@ def simulate_machine(
 ) -> tuple[ChainResponse, ContactSummary]:
     """The response of the machine at t_eval_s (index cycles from an index's start, equally spaced,
     a whole number of samples per cycle) at `links` (None: every link) and what it says about contact
-    and seating. `settings`: _run_machine's (choice, steady_state, safety, predictor, tol, max_cycles)."""
+    and seating. `settings`: _run_machine's (choice, steady_state, safety, predictor, tol, max_cycles,
+    progress)."""
     out = _run_machine(model, cam, t_eval_s, **settings)
     return _response(out, cam, links), _summary(out, cam)
 
@@ -208,10 +211,12 @@ def _run_machine(
     predictor: str | None = None,
     tol: float = DEFAULT_TOL,
     max_cycles: int = DEFAULT_MAX_CYCLES,
+    progress: SearchProgress | None = None,
 ) -> _Outcome:
     """The machine stepped over t_eval_s as the module docstring says: the model `choice` ("auto",
     "linear", "clearance"), in its relabelled steady state (searched to `tol` in `max_cycles` index
-    cycles) or from rest, the step's `safety` and `predictor` (None: the defaults, SearchSettings.of)."""
+    cycles) or from rest, the step's `safety` and `predictor` (None: the defaults, SearchSettings.of);
+    `progress` hears of the long chains' searches (SearchSettings.progress)."""
     t = np.asarray(t_eval_s, dtype=float)
     period = getattr(cam, "period_s", None)
     if period is None:
@@ -223,7 +228,7 @@ def _run_machine(
     if abs(t[0] / period - round(t[0] / period)) > 1e-9:
         raise DynamicsError("t_eval_s: the machine's output window must start at an index's start (the dwell's end)")
     linear = linear_machine(model)
-    options = dict(tol=tol, max_cycles=max_cycles, steady_state=steady_state)
+    options = dict(tol=tol, max_cycles=max_cycles, steady_state=steady_state, progress=progress)
     lin_search = SearchSettings.of(linear, predictor, safety, **options)
     lin_pred = lin_search.predictor
     n_state = model.n_state  # the DOFs, and a tooth model's seat offsets
@@ -293,8 +298,9 @@ class SearchSettings:
     search accepts (`tol`, relative to the largest |q| and |q'| over the cycle) and its cycles
     (`max_cycles`); `steady_state` False: no search, the window from the state given (from rest).
     `default_step`: the safety is the default one, so the search runs at SEARCH_SAFETY and the window
-    at safety / WINDOW_REFINEMENT (a safety given steps everything at it). `of` takes each default from
-    its home."""
+    at safety / WINDOW_REFINEMENT (a safety given steps everything at it). `progress`: told of every
+    index cycle of a long chain's search (its accelerated one, above DENSE_LINK_LIMIT links; it does
+    not change the search). `of` takes each default from its home."""
 
     predictor: str
     safety: float
@@ -302,6 +308,7 @@ class SearchSettings:
     max_cycles: int = DEFAULT_MAX_CYCLES
     steady_state: bool = True
     default_step: bool = True
+    progress: SearchProgress | None = field(default=None, compare=False)
 
     @classmethod
     def of(cls, model, predictor: str | None = None, safety: float | None = None, **settings) -> SearchSettings:
@@ -380,10 +387,31 @@ def _settle_by_defect_correction(model, cam, h_out, per_cycle, steps, state, sea
         tol=search.tol,
         max_cycles=search.max_cycles,
         predictor=search.predictor,
+        on_cycle=_defect_correction_observer(model, search, h_out / settle),
     )
     ss = _steady_state(two.found, two.cycles, two.residual, search.tol)
     found = (two.q0, two.v0)
     return (found if two.settled is not None else None), found, ss
+
+
+def _defect_correction_observer(model, search: SearchSettings, settle_step_s: float):
+    """The defect correction's `on_cycle` (None without `search.progress`): every cycle counted, and
+    said (`_observer`) where its change is the search's measure: the coarse search's cycles, and
+    after them the cycles at the settle step (`settle_step_s`), which accept the state. The
+    corrected coarse cycles between those are counted only: their plain change is the two steps'
+    offset (about 6e-3 at 10,000 links), not how far the corrected search still is."""
+    if search.progress is None:
+        return None
+    said, counted = _observer(model, search), _observer(model, search, quiet=True)
+    settling = False
+
+    def on_cycle(change: float, end, run, step_s: float) -> None:
+        nonlocal settling
+        at_settle_step = step_s == settle_step_s
+        settling |= at_settle_step
+        (said if at_settle_step or not settling else counted)(change)
+
+    return on_cycle
 
 
 # how a coarse steady state is carried to the settle step's fixed point, by `_settle_kind`
@@ -455,7 +483,10 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
     # numbers were computed (the accelerated search lands on the same fixed point to its tolerance,
     # which moves the 85-link station metrics by up to 6e-6 and the linear machine's minimum tension,
     # found to CHOICE_TOL, by up to 9e-5)
-    search = machine_shooting.relabelled_periodic_state if model.reduced_damping else mv.relabelled_periodic_state
+    observe = _observer(model, search)
+    search = mv.relabelled_periodic_state
+    if model.reduced_damping:
+        search = partial(machine_shooting.relabelled_periodic_state, on_cycle=observe)
     coarse_cycles = 0
     coarse = _coarse_substeps(model, h_out, sub, predictor)
     if coarse_done is not None:
@@ -478,6 +509,15 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
         predictor=predictor,
     )
     return (q0, v0), _steady_state(found, coarse_cycles + cycles, residual, tol), last
+
+
+def _observer(model, search: SearchSettings, quiet: bool = False):
+    """The `on_cycle` of `model`'s search (None without `search.progress`): the linear machine's
+    cycles counted apart from those of the machine with free play; `quiet`: counted, not said."""
+    if search.progress is None:
+        return None
+    name = "with free play" if model.clearance_m > 0 else "of the linear machine"
+    return search.progress.observer(name, search.tol, quiet=quiet)
 
 
 def _steady_state(found: bool, cycles: int, residual: float, tol: float) -> SteadyState:

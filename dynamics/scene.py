@@ -721,14 +721,16 @@ def scene_model(scene: Scene, chain) -> ClearanceChain:
 
 
 def simulate_scene(
-    scene: Scene, chain, cam, t_eval_s, *, links=None, n_modes=None
+    scene: Scene, chain, cam, t_eval_s, *, links=None, n_modes=None, progress=None
 ) -> tuple[ChainResponse, ContactSummary]:
-    """What the orchestrators call: the scene's model (auto, linear or clearance) for one cam."""
+    """What the orchestrators call: the scene's model (auto, linear or clearance) for one cam.
+    `progress` (a dynamics.search_progress.SearchProgress): told how a long chain's steady-state
+    search goes on the wheels (the single-link drive says nothing)."""
     if scene.layout.on_wheels:
         from dynamics.machine_scene import machine_model, simulate_machine, simulate_machine_to_accuracy
 
         model = machine_model(scene, chain)
-        options = dict(choice=scene.model, steady_state=scene.steady_state, links=links)
+        options = dict(choice=scene.model, steady_state=scene.steady_state, links=links, progress=progress)
         if scene.accuracy is None:
             return simulate_machine(model, cam, t_eval_s, **options)
         return simulate_machine_to_accuracy(model, cam, t_eval_s, accuracy=scene.accuracy, **options)

@@ -16,6 +16,7 @@ if TYPE_CHECKING:  # numpy, scipy and the dynamics load when a stage runs, not w
     from dynamics.response.metrics import LinkMetrics, StationMetrics, TensionExtremes
     from dynamics.response.sweep import SweepResult
     from dynamics.scene import ContactSummary, Scene
+    from dynamics.search_progress import SearchProgress
     from reporting.history import CamHistory
     from stages.machine import MachineCycle, MachineParts
 
@@ -137,8 +138,16 @@ def chain_model(cfg: RunConfig, result: MaterialStiffness, stiffness_N_per_m: fl
 
 
 def simulate_scenario(
-    cfg: RunConfig, model, material: str, cam_id: str, pitch_m: float, samples_per_degree: int
+    cfg: RunConfig,
+    model,
+    material: str,
+    cam_id: str,
+    pitch_m: float,
+    samples_per_degree: int,
+    search_progress: SearchProgress | None = None,
 ) -> Scenario:
+    """One material x cam law at `samples_per_degree`; `search_progress` told how a long chain's
+    steady-state search goes (dynamics.search_progress)."""
     from dataclasses import replace
 
     import numpy as np
@@ -168,6 +177,7 @@ def simulate_scenario(
         t,
         links=None if kept is None else [link - 1 for link in kept],
         n_modes=modes_to_keep(cfg.links),
+        progress=search_progress,
     )
     history = CamHistory(
         material,
@@ -209,8 +219,15 @@ def _cam_peaks(response) -> tuple[float, float]:
     return float(np.max(np.abs(response.zdot_m_s))), float(np.max(np.abs(response.zddot_m_s2)))
 
 
-def scenario_to_tolerance(cfg: RunConfig, result: MaterialStiffness, material: str, cam_id: str) -> Scenario:
-    """Finest sampling the tolerance needs, with the error estimate from the step and from k."""
+def scenario_to_tolerance(
+    cfg: RunConfig,
+    result: MaterialStiffness,
+    material: str,
+    cam_id: str,
+    search_progress: SearchProgress | None = None,
+) -> Scenario:
+    """Finest sampling the tolerance needs, with the error estimate from the step and from k;
+    `search_progress` as simulate_scenario's."""
     from dataclasses import replace
 
     from dynamics.response.fidelity import choose_samples_per_degree, stiffness_sensitivity
@@ -219,7 +236,7 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialStiffness, material: s
     runs: dict[int, Scenario] = {}
 
     def stations_at(spd: int):
-        runs[spd] = simulate_scenario(cfg, model, material, cam_id, result.pitch_m, spd)
+        runs[spd] = simulate_scenario(cfg, model, material, cam_id, result.pitch_m, spd, search_progress)
         return runs[spd].stations
 
     # the time step's half of the tolerance: the output sampling's, less the clearance chain step's share
@@ -227,7 +244,11 @@ def scenario_to_tolerance(cfg: RunConfig, result: MaterialStiffness, material: s
     choice, stations = choose_samples_per_degree(stations_at, cfg.tolerance / 2 - integrator_share)
     spd = choice.samples_per_degree
     k_error = stiffness_sensitivity(
-        lambda k: simulate_scenario(cfg, chain_model(cfg, result, k), material, cam_id, result.pitch_m, spd).stations,
+        lambda k: (
+            simulate_scenario(
+                cfg, chain_model(cfg, result, k), material, cam_id, result.pitch_m, spd, search_progress
+            ).stations
+        ),
         result.stiffness_N_per_m,
         result.stiffness_rel_error_estimate,
         stations,
@@ -257,7 +278,7 @@ def run_dynamics(
     else:
         scenarios = {}
         for name, cam_id in tasks:
-            scenarios[name, cam_id] = _scenario(cfg, fea[name], models[name], name, cam_id)
+            scenarios[name, cam_id] = _scenario(cfg, fea[name], models[name], name, cam_id, progress)
             _say_scenario(cfg, scenarios[name, cam_id], name, cam_id, (len(scenarios), len(tasks)), progress)
     chains = {}
     for name, result in fea.items():
@@ -273,11 +294,15 @@ def run_dynamics(
     return chains, scenarios
 
 
-def _scenario(cfg: RunConfig, result: MaterialStiffness, model, name: str, cam_id: str) -> Scenario:
-    """One material x cam law: at the default samples per degree, or to --tolerance."""
+def _scenario(cfg: RunConfig, result: MaterialStiffness, model, name: str, cam_id: str, progress: Progress) -> Scenario:
+    """One material x cam law: at the default samples per degree, or to --tolerance; a long search's
+    progress lines (dynamics.search_progress) named by the scenario."""
+    from dynamics.search_progress import SearchProgress
+
+    search_progress = SearchProgress(lambda line: progress(f"dynamics {name} / {cam_id}: {line}"))
     if cfg.tolerance is None:
-        return simulate_scenario(cfg, model, name, cam_id, result.pitch_m, cfg.samples_per_degree)
-    return scenario_to_tolerance(cfg, result, name, cam_id)
+        return simulate_scenario(cfg, model, name, cam_id, result.pitch_m, cfg.samples_per_degree, search_progress)
+    return scenario_to_tolerance(cfg, result, name, cam_id, search_progress)
 
 
 def _say_scenario(
@@ -342,7 +367,7 @@ def _scenarios_in_workers(cfg: RunConfig, fea, models, tasks, progress: Progress
     try:
         scenarios = forked_map(
             _scenario_of_task,
-            [(cfg, fea[name], models[name], name, cam_id) for name, cam_id in tasks],
+            [(cfg, fea[name], models[name], name, cam_id, progress) for name, cam_id in tasks],
             min(usable_cores(), len(tasks)),
             on_each=say,
         )
@@ -355,7 +380,8 @@ def _scenarios_in_workers(cfg: RunConfig, fea, models, tasks, progress: Progress
 
 
 def _scenario_of_task(task: tuple) -> Scenario:
-    """In a forked worker: one scenario of _scenarios_in_workers, (cfg, FEA result, model, material, cam)."""
+    """In a forked worker: one scenario of _scenarios_in_workers, (cfg, FEA result, model, material, cam,
+    progress: its lines written from the worker)."""
     return _scenario(*task)
 
 

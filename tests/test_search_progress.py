@@ -1,0 +1,134 @@
+"""A long chain's steady-state search says how it goes (dynamics.search_progress): at most a line every
+PROGRESS_EVERY_S seconds, none before, each search's index cycles counted on across its steps; heard
+from the machine's searches without changing them (the same state to the bit); and in the pipeline,
+from the scenarios' worker processes, named by the scenario."""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pytest
+
+import dynamics.search_progress as search_progress
+from dynamics.cams import CamProgram
+from dynamics.machine_scene import machine_model, simulate_machine
+from dynamics.search_progress import SearchProgress
+from processes import usable_cores
+from settings import RunConfig
+from stages.chain import SCENARIO_WORKERS_ABOVE_LINKS, chain_model, chain_scene, output_times_s, run_dynamics
+from stages.fea import MaterialStiffness
+from stages.progress import Progress
+
+LINKS = SCENARIO_WORKERS_ABOVE_LINKS + 20  # the scenarios in workers, the accelerated search
+CAMS = ("modified-sine", "cycloidal")
+# a link's FEA figures, given (k about the default aluminium link's): the dynamics need no FEA here
+FEA = {"al6061-t6": MaterialStiffness("al6061-t6", 9.325e7, 0.005, 0.60, 2.2e-4, 0.1, 0.0127)}
+
+
+class Clock:
+    def __init__(self):
+        self.now_s = 100.0
+
+    def __call__(self) -> float:
+        return self.now_s
+
+
+def test_a_line_at_most_every_interval_and_none_before_the_first():
+    clock, lines = Clock(), []
+    said = SearchProgress(lines.append, every_s=10.0, clock=clock)
+    linear = said.observer("of the linear machine", 1e-3)
+    for change in (0.5, 0.2, 0.1):  # 3 s a cycle: nothing until 10 s have passed
+        clock.now_s += 3.0
+        linear(change, None, None)
+    assert lines == []
+    clock.now_s += 3.0
+    linear(0.05, None, None)  # 12 s
+    clock.now_s += 3.0
+    linear(0.02, None, None)  # 15 s: 3 s after the last line
+    assert lines == [
+        "steady-state search of the linear machine: 4 index cycles so far, change per cycle 5.0e-02 (accepted at 1.0e-03)"
+    ]
+
+
+def test_a_search_continued_at_another_step_counts_on_and_another_counts_apart():
+    clock, lines = Clock(), []
+    said = SearchProgress(lines.append, every_s=0.0, clock=clock)
+    said.observer("of the linear machine", 1e-3)(0.1)
+    coarse = said.observer("with free play", 1e-5)
+    coarse(0.2)
+    coarse(0.1)
+    said.observer("with free play", 1e-5)(2e-6, None, None, 1e-5)  # the settle's fine step: on_cycle's step too
+    counts = [
+        (line.split(":")[0].removeprefix("steady-state search "), int(line.split(": ")[1].split()[0])) for line in lines
+    ]
+    assert counts == [("of the linear machine", 1), ("with free play", 1), ("with free play", 2), ("with free play", 3)]
+
+
+def _long_machine_run(progress):
+    cfg = RunConfig(links=LINKS, materials=tuple(FEA), samples_per_degree=1)
+    fea = FEA["al6061-t6"]
+    cam = CamProgram.indexing("modified-sine", pitch_m=fea.pitch_m, rpm=cfg.rpm)
+    model = machine_model(chain_scene(cfg, fea.pitch_m), chain_model(cfg, fea))
+    return simulate_machine(model, cam, output_times_s(cfg.rpm, 1), progress=progress)
+
+
+def test_the_machines_searches_are_heard_and_not_changed():
+    lines = []
+    heard, heard_summary = _long_machine_run(SearchProgress(lines.append, every_s=0.0))
+    quiet, quiet_summary = _long_machine_run(None)
+    for name in ("x_m", "v_m_s", "a_m_s2", "tension_N"):
+        np.testing.assert_array_equal(getattr(heard, name), getattr(quiet, name))
+    assert heard_summary.steady_state == quiet_summary.steady_state
+    pattern = re.compile(
+        r"steady-state search (of the linear machine|with free play): (\d+) index cycles? so far, "
+        r"change per cycle (\S+) \(accepted at (\S+)\)"
+    )
+    said = [pattern.fullmatch(line).groups() for line in lines]
+    names = [name for name, *_ in said]
+    # the linear machine decides the model first, then the machine with free play is searched
+    first_free_play = names.index("with free play")
+    assert set(names[:first_free_play]) == {"of the linear machine"} and first_free_play > 0
+    assert set(names[first_free_play:]) == {"with free play"}
+    for name in set(names):
+        counts = [int(n) for who, n, *_ in said if who == name]
+        assert counts == list(range(1, len(counts) + 1))
+    # the last cycle heard is the one that accepts the state: its change within the tolerance it names
+    *_, change, tol = said[-1]
+    assert quiet_summary.steady_state.found and float(change) <= float(tol)
+
+
+@pytest.mark.skipif(usable_cores() < 2, reason="the workers run only where there are two cores")
+def test_the_pipelines_scenario_workers_say_it_named_by_the_scenario(monkeypatch, capfd):
+    monkeypatch.setattr(search_progress, "PROGRESS_EVERY_S", 0.0)
+    cfg = RunConfig(links=LINKS, cams=CAMS, materials=tuple(FEA), samples_per_degree=1)
+    run_dynamics(cfg, FEA, Progress(quiet=False))
+    err = capfd.readouterr().err
+    for cam in CAMS:
+        assert re.search(rf"dynamics al6061-t6 / {cam}: steady-state search with free play: 1 index cycle so far", err)
+
+
+def test_a_quiet_run_says_nothing(monkeypatch, capfd):
+    monkeypatch.setattr(search_progress, "PROGRESS_EVERY_S", 0.0)
+    cfg = RunConfig(links=LINKS, cams=CAMS[:1], materials=tuple(FEA), samples_per_degree=1)
+    run_dynamics(cfg, FEA, Progress(quiet=True))
+    assert capfd.readouterr().err == ""
+
+
+def test_the_defect_correction_says_its_coarse_search_and_its_settle_steps_cycles_only():
+    from types import SimpleNamespace
+
+    from dynamics.machine_scene import SearchSettings, _defect_correction_observer
+
+    lines = []
+    search = SearchSettings("euler", 0.25, 1e-5, 60, progress=SearchProgress(lines.append, every_s=0.0))
+    coarse_s, settle_s = 4e-5, 1e-5
+    on_cycle = _defect_correction_observer(SimpleNamespace(clearance_m=1e-4), search, settle_s)
+    # the coarse search, the first cycle at the settle step, a corrected coarse cycle (its plain change
+    # the steps' offset), the next at the settle step
+    for change, step_s in ((0.1, coarse_s), (1e-3, coarse_s), (6e-3, settle_s), (6e-3, coarse_s), (4e-6, settle_s)):
+        on_cycle(change, None, None, step_s)
+    said = [
+        (int(line.split(": ")[1].split()[0]), float(line.split("change per cycle ")[1].split()[0])) for line in lines
+    ]
+    assert said == [(1, 0.1), (2, 1e-3), (3, 6e-3), (5, 4e-6)]
