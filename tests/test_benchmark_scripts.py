@@ -1,7 +1,7 @@
 """The small measurement scripts the docs' commands run (docs/performance.md, docs/verification.md),
 on tiny inputs: benchmarks/run_cpu.py, benchmarks/compare_summaries.py, bench_long_wheels.py's
-comparison of two trees at one N and bench_machine.py's window, each tree in its own process; and
-which benchmarks and charts `--only` selects."""
+comparison of two trees at one N and bench_machine.py's window, each tree in its own process,
+bench_long_floor.py's cycles; and which benchmarks and charts `--only` selects."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import pipeline
-from benchmarks import bench_long_wheels, bench_machine, compare_summaries, run_cpu
+from benchmarks import bench_long_floor, bench_long_wheels, bench_machine, compare_summaries, run_cpu
 
 BURN = "import time\nt = time.process_time()\nwhile time.process_time() - t < 0.2:\n    pass"
 
@@ -212,3 +212,15 @@ def test_charts_only_selects_whole_chart_names(capsys, tmp_path):
     err = capsys.readouterr().err
     assert err.startswith("benchmarks/charts.py: error: --only dynamics: ") and "dynamics_workprecision" in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_bench_long_floor_times_each_step_and_what_the_budget_leaves(capsys):
+    bench_long_floor.main(["--links", "60", "--repeats", "1"])
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("60 links: the coarse search from rest to 1e-3") and out[0].endswith("(found: True)")
+    cpu = [float(line.rsplit(": ", 1)[1].split()[0]) for line in out[1:4]]
+    names = [line.split(":")[0].split(" (")[0] for line in out[1:4]]
+    assert names == ["a coarse cycle", "a cycle at the window's step", "the window"]
+    assert all(c > 0 for c in cpu)
+    floor = float(out[4].split("): ")[1].split()[0])
+    assert floor == pytest.approx(cpu[1] + cpu[2], abs=0.06)  # the window and one accepting cycle
