@@ -70,8 +70,8 @@ def draw_figures(jobs: dict[Hashable, FigureJob], workers: int | None = None) ->
         with cached_text_layout(), copied_ticks():
             drawn = {key: path for keys in grouped for key, path in zip(keys, _draw_batch([jobs[k] for k in keys]))}
         return {key: drawn[key] for key in jobs}
-    # the run's objects out of the collector's sight: the workers make garbage by the thousand, and their
-    # collections would copy the run's pages into each of them
+    # the run's objects out of the collector's sight: a collection in a worker would otherwise touch every
+    # one of them and copy the run's pages into it (copy on write)
     paths = forked_map(
         _draw_batch,
         [[jobs[k] for k in keys] for keys in grouped],
