@@ -390,6 +390,7 @@ def simulate_chain(
     predictor: str | None = None,
     accuracy: float | None = None,
     kernel: str = "ring",
+    progress=None,
 ) -> tuple[ChainResponse, ContactSummary]:
     """The response of the scene's model at t_eval_s and what it says about contact. The clearance
     chain's step: a fraction `safety` (default `verlet.default_safety`) of the stability limit of the
@@ -397,7 +398,8 @@ def simulate_chain(
     step halved until the station metrics change by at most it (ContactSummary.step_error_estimate).
     `kernel`: the compiled step, the ring's own (dynamics.solvers.clearance_verlet) or the machine's on
     the ring's topology (dynamics.solvers.ring_on_topology: what it does not give yet is listed there,
-    so the pipeline keeps the ring's)."""
+    so the pipeline keeps the ring's). `progress` (a dynamics.search_progress.SearchProgress): told
+    of every cam cycle of the clearance chain's periodic-state search."""
     if kernel not in ring_on_topology.KERNELS:
         raise DynamicsError(f"kernel: expected one of {', '.join(ring_on_topology.KERNELS)}, got {kernel!r}")
     t = np.asarray(t_eval_s, dtype=float)
@@ -450,6 +452,7 @@ def simulate_chain(
             predictor,
             accuracy,
             kernel,
+            progress,
         )
 
 
@@ -470,7 +473,21 @@ def _integrator(kernel: str):
 
 
 def _clearance_response(
-    model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, needed, predictor, accuracy, kernel
+    model,
+    cam,
+    t,
+    lin,
+    links,
+    steady_state,
+    safety,
+    tol,
+    max_cycles,
+    chosen,
+    needed,
+    predictor,
+    accuracy,
+    kernel,
+    progress,
 ):
     h_out = np.diff(t)
     if np.max(np.abs(h_out - h_out[0])) > 1e-9 * h_out[0]:
@@ -480,11 +497,12 @@ def _clearance_response(
     y0 = lin.x_m[0] - lin.z_m[0]
     w0 = lin.v_m_s[0] - lin.zdot_m_s[0]
     start = (y0, w0, 0.0, 0.0)
-    level = _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor, kernel)
+    on_cycle = None if progress is None else progress.observer("with free play", tol)
+    level = _window_run(model, cam, t, sub, start, steady_state, tol, max_cycles, predictor, kernel, on_cycle=on_cycle)
     estimate = None
     if accuracy is not None:
         level, estimate = _controlled(
-            model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy, kernel
+            model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy, kernel, on_cycle
         )
     sub, run, ss = level.sub, level.run, level.steady_state
     h = float(h_out[0]) / sub
@@ -545,16 +563,26 @@ class _Level(NamedTuple):
 
 
 def _window_run(
-    model, cam, t, sub, start, steady_state, tol, max_cycles, predictor, kernel="ring", cycles_before=0
+    model, cam, t, sub, start, steady_state, tol, max_cycles, predictor, kernel="ring", cycles_before=0, on_cycle=None
 ) -> _Level:
     """The output window at `sub` steps per output sample, from the periodic state at that step
-    (searched from `start`, its SteadyState counting `cycles_before` cycles stepped before the search:
-    `_periodic_state`) or, without steady state, from `start` itself."""
+    (searched from `start`, its SteadyState counting `cycles_before` cycles stepped before the search,
+    `on_cycle` told of each: `_periodic_state`) or, without steady state, from `start` itself."""
     h = float(t[1] - t[0]) / sub
     state, ss = start, None
     if steady_state:
         state, ss = _periodic_state(
-            model, cam, t[0], h, start, tol, max_cycles, predictor, kernel=kernel, cycles_before=cycles_before
+            model,
+            cam,
+            t[0],
+            h,
+            start,
+            tol,
+            max_cycles,
+            predictor,
+            kernel=kernel,
+            cycles_before=cycles_before,
+            on_cycle=on_cycle,
         )
     zd, zdd = _cam_nodes(cam, t[0], h, sub * (t.size - 1))
     run = _integrator(kernel)(
@@ -563,7 +591,9 @@ def _window_run(
     return _Level(sub, run, state, ss)
 
 
-def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy, kernel="ring"):
+def _controlled(
+    model, cam, t, level, start, steady_state, tol, max_cycles, predictor, accuracy, kernel="ring", on_cycle=None
+):
     """Step doubling on the output window until the station metrics' estimated error is within
     `accuracy` (or MAX_STEP_DOUBLINGS are spent): returns the finest level and its estimate, the
     change from step h to h/2. The scheme is second order, so that change is about 3x the error left
@@ -571,7 +601,8 @@ def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, pred
     predictor's error is not monotone in the step before it (benchmarks/bench_accuracy.py). The finer
     level's periodic state is searched from the coarser one's (a few cycles: they differ by the
     coarser step's error); without steady state both start where the run starts. The finest level's
-    SteadyState counts the cam cycles every level's search stepped (SteadyState.cycles)."""
+    SteadyState counts the cam cycles every level's search stepped (SteadyState.cycles); `on_cycle`
+    told of each (`_periodic_state`)."""
     coarse = _station_values(model, cam, t, level.run)
     estimate = np.inf
     for _ in range(MAX_STEP_DOUBLINGS):
@@ -581,7 +612,9 @@ def _controlled(model, cam, t, level, start, steady_state, tol, max_cycles, pred
         search = steady_state and previous.steady_state.found
         begin = previous.state if steady_state else start
         before = previous.steady_state.cycles if search else 0
-        level = _window_run(model, cam, t, 2 * previous.sub, begin, search, tol, max_cycles, predictor, kernel, before)
+        level = _window_run(
+            model, cam, t, 2 * previous.sub, begin, search, tol, max_cycles, predictor, kernel, before, on_cycle
+        )
         if steady_state and not search:  # no search at this level: the coarser level's steady state stands
             level = level._replace(steady_state=previous.steady_state)
         fine = _station_values(model, cam, t, level.run)
@@ -627,10 +660,13 @@ def _periodic_state(
     depth=shooting.DEFAULT_DEPTH,
     kernel="ring",
     cycles_before=0,
+    on_cycle=None,
 ):
     """(the state at the period's start, SteadyState) of the periodic state searched from `state` at the
     step h (the module docstring); the SteadyState counts the cam cycles this search stepped plus
-    `cycles_before`, those the step control's coarser levels stepped before it (SteadyState.cycles)."""
+    `cycles_before`, those the step control's coarser levels stepped before it (SteadyState.cycles).
+    `on_cycle(change)`: called after every cam cycle with its change per cycle (the acceptance test's
+    measure; dynamics.search_progress); it does not change the search."""
     period = getattr(cam, "period_s", None)
     if period is None:
         raise DynamicsError("steady_state: the cam program is not periodic (period_s is None); use steady_state=False")
@@ -645,7 +681,10 @@ def _periodic_state(
             model, zd, zdd, h_p, x[:n], x[n : 2 * n], u0=x[-2], ud0=x[-1], out_every=every, predictor=predictor
         )
         end = np.concatenate([run.y[-1], run.w[-1], [run.u[-1], run.ud[-1]]])
-        return end, _scale(run, n)
+        scale = _scale(run, n)
+        if on_cycle is not None:
+            on_cycle(float(np.max(np.abs(end - x) / scale)))
+        return end, scale
 
     x0 = np.concatenate([state[0], state[1], [state[2], state[3]]])
     precondition = _slow_mode_newton(model, period) if depth else None
@@ -724,8 +763,7 @@ def simulate_scene(
     scene: Scene, chain, cam, t_eval_s, *, links=None, n_modes=None, progress=None
 ) -> tuple[ChainResponse, ContactSummary]:
     """What the orchestrators call: the scene's model (auto, linear or clearance) for one cam.
-    `progress` (a dynamics.search_progress.SearchProgress): told how a long chain's steady-state
-    search goes on the wheels (the single-link drive says nothing)."""
+    `progress` (a dynamics.search_progress.SearchProgress): told how the steady-state search goes."""
     if scene.layout.on_wheels:
         from dynamics.machine_scene import machine_model, simulate_machine, simulate_machine_to_accuracy
 
@@ -744,4 +782,5 @@ def simulate_scene(
         n_modes=n_modes,
         method=scene.solver,
         accuracy=scene.accuracy,
+        progress=progress,
     )

@@ -3,7 +3,8 @@
 A long chain's scenario is minutes of index cycles (about two at 10,000 links on the wheels: a
 coarse search of the linear machine, then of the machine with free play, then the settle at the
 window's step), which the run's progress lines otherwise pass in silence. `SearchProgress` is
-handed down to the searches (dynamics.machine_scene, `progress=`) and says, at most every
+handed down to the searches (`progress=`: dynamics.machine_scene's on the wheels, dynamics.scene's
+periodic state of the single-link drive's clearance chain) and says, at most every
 `every_s` seconds, how far the search in progress has come: its index cycles so far, its last
 change per cycle and the change it accepts. Its first line comes `every_s` after it is made, so a
 scenario shorter than that (every scenario of the default run) says nothing. It only listens: a
@@ -37,8 +38,7 @@ class SearchProgress:
         self._last_s = self.clock()
 
     def observer(self, search: str, tol: float, *, quiet: bool = False) -> Callable[..., None]:
-        """The `on_cycle` of one search (dynamics.solvers.machine_shooting: called with the cycle's
-        change per cycle first): `search` names it in the line ("of the linear machine", ...), and
+        """The `on_cycle` of one search (called after each cycle with its change per cycle first): `search` names it in the line ("of the linear machine", ...), and
         its cycles are counted on from the last observer of that name (a search continued at
         another step is one search to the reader). `quiet`: its cycles counted, never said (cycles
         whose change is not what the search accepts by)."""

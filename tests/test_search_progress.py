@@ -1,7 +1,7 @@
 """A long chain's steady-state search says how it goes (dynamics.search_progress): at most a line every
 PROGRESS_EVERY_S seconds, none before, each search's index cycles counted on across its steps; heard
-from the machine's searches without changing them (the same state to the bit); and in the pipeline,
-from the scenarios' worker processes, named by the scenario."""
+from the machine's searches and the single-link drive's without changing them (the same state to the
+bit); and in the pipeline, from the scenarios' worker processes, named by the scenario."""
 
 from __future__ import annotations
 
@@ -132,3 +132,28 @@ def test_the_defect_correction_says_its_coarse_search_and_its_settle_steps_cycle
         (int(line.split(": ")[1].split()[0]), float(line.split("change per cycle ")[1].split()[0])) for line in lines
     ]
     assert said == [(1, 0.1), (2, 1e-3), (3, 6e-3), (5, 4e-6)]
+
+
+def test_the_link_drives_search_is_heard_and_not_changed():
+    from stages.chain import simulate_scenario
+
+    cfg = RunConfig(links=40, drive="link", materials=tuple(FEA), samples_per_degree=1)
+    fea = FEA["al6061-t6"]
+    lines = []
+
+    def scenario(progress):
+        return simulate_scenario(cfg, chain_model(cfg, fea), "al6061-t6", "modified-sine", fea.pitch_m, 1, progress)
+
+    heard, quiet = scenario(SearchProgress(lines.append, every_s=0.0)), scenario(None)
+    np.testing.assert_array_equal(heard.history.a_m_s2, quiet.history.a_m_s2)
+    assert heard.contact.steady_state == quiet.contact.steady_state and quiet.contact.steady_state.found
+    said = [
+        re.fullmatch(
+            r"steady-state search with free play: (\d+) index cycles? so far, change per cycle (\S+) \(accepted at (\S+)\)",
+            line,
+        ).groups()
+        for line in lines
+    ]
+    assert said and [int(n) for n, *_ in said] == list(range(1, len(said) + 1))
+    assert len(said) == quiet.contact.steady_state.cycles  # every cam cycle the search stepped
+    assert float(said[-1][1]) <= float(said[-1][2])  # the last one accepted the state
