@@ -414,8 +414,7 @@ def simulate_chain(
             n_modes=n_modes,
             links=None if choice != "linear" else links,
         )
-    preload = model.chain.preload_N
-    needed = max(preload - lin.min_tension_N, 0.0)
+    needed = _preload_for_full_contact(model, lin)
     chosen = choose_model(model, choice, lin.min_tension_N)
     if chosen.model == ChainModelKind.LINEAR:
         out = lin if links is None or choice == "linear" else _select(lin, links)
@@ -448,12 +447,16 @@ def simulate_chain(
             tol,
             max_cycles,
             chosen,
-            needed,
             predictor,
             accuracy,
             kernel,
             progress,
         )
+
+
+def _preload_for_full_contact(model: ClearanceChain, lin: ChainResponse) -> float:
+    """The preload that would keep every span in contact: the linear response's minimum tension below 0."""
+    return max(model.chain.preload_N - lin.min_tension_N, 0.0)
 
 
 def _select(r: ChainResponse, links) -> ChainResponse:
@@ -473,22 +476,9 @@ def _integrator(kernel: str):
 
 
 def _clearance_response(
-    model,
-    cam,
-    t,
-    lin,
-    links,
-    steady_state,
-    safety,
-    tol,
-    max_cycles,
-    chosen,
-    needed,
-    predictor,
-    accuracy,
-    kernel,
-    progress,
+    model, cam, t, lin, links, steady_state, safety, tol, max_cycles, chosen, predictor, accuracy, kernel, progress
 ):
+    needed = _preload_for_full_contact(model, lin)
     h_out = np.diff(t)
     if np.max(np.abs(h_out - h_out[0])) > 1e-9 * h_out[0]:
         raise DynamicsError("t_eval_s: the clearance model needs equally spaced output times")
