@@ -82,12 +82,13 @@ def main(argv=None) -> None:
     settle_s = _cpu_s(cycle(fine), args.repeats)
     window_s = _cpu_s(lambda: ms._window(model, cam, t, per_cycle, fine, (q0, v0), pred, True), args.repeats)
     floor_s = settle_s + window_s
-    print(f"a coarse cycle ({coarse * per_cycle} steps): {coarse_s:.2f} CPU s")
-    print(f"a cycle at the window's step ({fine * per_cycle} steps): {settle_s:.2f} CPU s")
-    print(f"the window: {window_s:.2f} CPU s")
+    print(f"a coarse cycle ({coarse * per_cycle} steps): {coarse_s:.3g} CPU s")
+    print(f"a cycle at the window's step ({fine * per_cycle} steps): {settle_s:.3g} CPU s")
+    print(f"the window: {window_s:.3g} CPU s")
+    left_s = max(BUDGET_S - floor_s, 0.0)
     print(
-        f"floor (the window and one accepting cycle): {floor_s:.1f} CPU s; of {BUDGET_S:g} s that leaves "
-        f"{max(BUDGET_S - floor_s, 0.0):.1f} s, {max(BUDGET_S - floor_s, 0.0) / coarse_s:.0f} coarse cycles for the searches"
+        f"floor (the window and one accepting cycle): {floor_s:.3g} CPU s; of {BUDGET_S:g} s that leaves "
+        f"{left_s:.3g} s, {left_s / coarse_s:.0f} coarse cycles for the searches"
     )
 
 
