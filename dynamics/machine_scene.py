@@ -387,31 +387,11 @@ def _settle_by_defect_correction(model, cam, h_out, per_cycle, steps, state, sea
         tol=search.tol,
         max_cycles=search.max_cycles,
         predictor=search.predictor,
-        on_cycle=_defect_correction_observer(model, search, h_out / settle),
+        on_period=_observer(model, search),
     )
     ss = _steady_state(two.found, two.cycles, two.residual, search.tol)
     found = (two.q0, two.v0)
     return (found if two.settled is not None else None), found, ss
-
-
-def _defect_correction_observer(model, search: SearchSettings, settle_step_s: float):
-    """The defect correction's `on_cycle` (None without `search.progress`): every cycle counted, and
-    said (`_observer`) where its change is the search's measure: the coarse search's cycles, and
-    after them the cycles at the settle step (`settle_step_s`), which accept the state. The
-    corrected coarse cycles between those are counted only: their plain change is the two steps'
-    offset (about 6e-3 at 10,000 links), not how far the corrected search still is."""
-    if search.progress is None:
-        return None
-    said, counted = _observer(model, search), _observer(model, search, quiet=True)
-    settling = False
-
-    def on_cycle(change: float, end, run, step_s: float) -> None:
-        nonlocal settling
-        at_settle_step = step_s == settle_step_s
-        settling |= at_settle_step
-        (said if at_settle_step or not settling else counted)(change)
-
-    return on_cycle
 
 
 # how a coarse steady state is carried to the settle step's fixed point, by `_settle_kind`
@@ -483,10 +463,9 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
     # numbers were computed (the accelerated search lands on the same fixed point to its tolerance,
     # which moves the 85-link station metrics by up to 6e-6 and the linear machine's minimum tension,
     # found to CHOICE_TOL, by up to 9e-5)
-    observe = _observer(model, search)
-    search = mv.relabelled_periodic_state
+    find = mv.relabelled_periodic_state
     if model.reduced_damping:
-        search = partial(machine_shooting.relabelled_periodic_state, on_cycle=observe)
+        find = partial(machine_shooting.relabelled_periodic_state, on_period=_observer(model, search))
     coarse_cycles = 0
     coarse = _coarse_substeps(model, h_out, sub, predictor)
     if coarse_done is not None:
@@ -494,11 +473,11 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
     elif coarse is not None:
         # most of the search at the coarsest step the search takes, the rest at `sub` from there: the
         # two fixed points differ by the step's error only, and the state is accepted by the test at `sub`
-        q0, v0, coarse_cycles, *_ = search(
+        q0, v0, coarse_cycles, *_ = find(
             model, cam, h_out / coarse, per_cycle * coarse, *state, tol=tol, max_cycles=max_cycles, predictor=predictor
         )
         state = (q0, v0)
-    q0, v0, cycles, residual, found, last = search(
+    q0, v0, cycles, residual, found, last = find(
         model,
         cam,
         h_out / sub,
@@ -511,13 +490,13 @@ def start_state(model, cam, h_out, per_cycle, sub, state, search: SearchSettings
     return (q0, v0), _steady_state(found, coarse_cycles + cycles, residual, tol), last
 
 
-def _observer(model, search: SearchSettings, quiet: bool = False):
-    """The `on_cycle` of `model`'s search (None without `search.progress`): the linear machine's
-    cycles counted apart from those of the machine with free play; `quiet`: counted, not said."""
+def _observer(model, search: SearchSettings):
+    """The `on_period` of `model`'s search (None without `search.progress`): the linear machine's
+    cycles counted apart from those of the machine with free play."""
     if search.progress is None:
         return None
     name = "with free play" if model.clearance_m > 0 else "of the linear machine"
-    return search.progress.observer(name, search.tol, quiet=quiet)
+    return search.progress.observer(name, search.tol)
 
 
 def _steady_state(found: bool, cycles: int, residual: float, tol: float) -> SteadyState:

@@ -655,8 +655,8 @@ def _periodic_state(
     """(the state at the period's start, SteadyState) of the periodic state searched from `state` at the
     step h (the module docstring); the SteadyState counts the cam cycles this search stepped plus
     `cycles_before`, those the step control's coarser levels stepped before it (SteadyState.cycles).
-    `on_cycle(change)`: called after every cam cycle with its change per cycle (the acceptance test's
-    measure; dynamics.search_progress); it does not change the search."""
+    `on_cycle(change)`: the search's `on_period` (shooting.accelerated_fixed_point: after every cam
+    cycle with its change per cycle; dynamics.search_progress)."""
     period = getattr(cam, "period_s", None)
     if period is None:
         raise DynamicsError("steady_state: the cam program is not periodic (period_s is None); use steady_state=False")
@@ -671,15 +671,12 @@ def _periodic_state(
             model, zd, zdd, h_p, x[:n], x[n : 2 * n], u0=x[-2], ud0=x[-1], out_every=every, predictor=predictor
         )
         end = np.concatenate([run.y[-1], run.w[-1], [run.u[-1], run.ud[-1]]])
-        scale = _scale(run, n)
-        if on_cycle is not None:
-            on_cycle(float(np.max(np.abs(end - x) / scale)))
-        return end, scale
+        return end, _scale(run, n)
 
     x0 = np.concatenate([state[0], state[1], [state[2], state[3]]])
     precondition = _slow_mode_newton(model, period) if depth else None
     search = shooting.accelerated_fixed_point(
-        one_period, x0, tol=tol, max_periods=max_cycles, depth=depth, precondition=precondition
+        one_period, x0, tol=tol, max_periods=max_cycles, depth=depth, precondition=precondition, on_period=on_cycle
     )
     end = search.state
     state = (end[:n], end[n : 2 * n], float(end[-2]), float(end[-1]))

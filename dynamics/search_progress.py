@@ -37,17 +37,17 @@ class SearchProgress:
     def __post_init__(self) -> None:
         self._last_s = self.clock()
 
-    def observer(self, search: str, tol: float, *, quiet: bool = False) -> Callable[..., None]:
-        """The `on_cycle` of one search (called after each cycle with its change per cycle first): `search` names it in the line ("of the linear machine", ...), and
-        its cycles are counted on from the last observer of that name (a search continued at
-        another step is one search to the reader). `quiet`: its cycles counted, never said (cycles
-        whose change is not what the search accepts by)."""
+    def observer(self, search: str, tol: float) -> Callable[[float], None]:
+        """The `on_period` of one search (dynamics.solvers.shooting: called after each cycle with
+        the change per cycle it accepts by): `search` names it in the line ("of the linear
+        machine", ...), and its cycles are counted on from the last observer of that name (a search
+        continued at another step is one search to the reader)."""
         self._cycles.setdefault(search, 0)
 
-        def on_cycle(change: float, *_) -> None:
+        def on_period(change: float) -> None:
             self._cycles[search] += 1
             now = self.clock()
-            if not quiet and now - self._last_s >= self.every_s:
+            if now - self._last_s >= self.every_s:
                 self._last_s = now
                 cycles = self._cycles[search]
                 self.say(
@@ -55,4 +55,4 @@ class SearchProgress:
                     f"change per cycle {change:.1e} (accepted at {tol:.1e})"
                 )
 
-        return on_cycle
+        return on_period

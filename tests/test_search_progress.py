@@ -40,12 +40,12 @@ def test_a_line_at_most_every_interval_and_none_before_the_first():
     linear = said.observer("of the linear machine", 1e-3)
     for change in (0.5, 0.2, 0.1):  # 3 s a cycle: nothing until 10 s have passed
         clock.now_s += 3.0
-        linear(change, None, None)
+        linear(change)
     assert lines == []
     clock.now_s += 3.0
-    linear(0.05, None, None)  # 12 s
+    linear(0.05)  # 12 s
     clock.now_s += 3.0
-    linear(0.02, None, None)  # 15 s: 3 s after the last line
+    linear(0.02)  # 15 s: 3 s after the last line
     assert lines == [
         "steady-state search of the linear machine: 4 index cycles so far, change per cycle 5.0e-02 (accepted at 1.0e-03)"
     ]
@@ -58,7 +58,7 @@ def test_a_search_continued_at_another_step_counts_on_and_another_counts_apart()
     coarse = said.observer("with free play", 1e-5)
     coarse(0.2)
     coarse(0.1)
-    said.observer("with free play", 1e-5)(2e-6, None, None, 1e-5)  # the settle's fine step: on_cycle's step too
+    said.observer("with free play", 1e-5)(2e-6)  # the settle at another step: the same search
     counts = [
         (line.split(":")[0].removeprefix("steady-state search "), int(line.split(": ")[1].split()[0])) for line in lines
     ]
@@ -93,7 +93,9 @@ def test_the_machines_searches_are_heard_and_not_changed():
     for name in set(names):
         counts = [int(n) for who, n, *_ in said if who == name]
         assert counts == list(range(1, len(counts) + 1))
-    # the last cycle heard is the one that accepts the state: its change within the tolerance it names
+    # every cycle the steady state counts is heard, the last the one that accepts the state: its change
+    # within the tolerance it names
+    assert names.count("with free play") == quiet_summary.steady_state.cycles
     *_, change, tol = said[-1]
     assert quiet_summary.steady_state.found and float(change) <= float(tol)
 
@@ -115,23 +117,30 @@ def test_a_quiet_run_says_nothing(monkeypatch, capfd):
     assert capfd.readouterr().err == ""
 
 
-def test_the_defect_correction_says_its_coarse_search_and_its_settle_steps_cycles_only():
-    from types import SimpleNamespace
+def test_every_period_of_a_defect_corrected_search_is_heard_with_what_it_accepts_by():
+    """shooting's searches call on_period once per period stepped (not for the period handed in as
+    `first`), with the residual each search accepts by: the coarse search's, the fine map's, and the
+    corrected map's (coarse + defect) between them, not the coarse map's plain change (the offset)."""
+    from dynamics.solvers import shooting
 
-    from dynamics.machine_scene import SearchSettings, _defect_correction_observer
+    target_coarse, target_fine = np.array([1.0, -2.0, 0.5]), np.array([1.1, -2.1, 0.6])
 
-    lines = []
-    search = SearchSettings("euler", 0.25, 1e-5, 60, progress=SearchProgress(lines.append, every_s=0.0))
-    coarse_s, settle_s = 4e-5, 1e-5
-    on_cycle = _defect_correction_observer(SimpleNamespace(clearance_m=1e-4), search, settle_s)
-    # the coarse search, the first cycle at the settle step, a corrected coarse cycle (its plain change
-    # the steps' offset), the next at the settle step
-    for change, step_s in ((0.1, coarse_s), (1e-3, coarse_s), (6e-3, settle_s), (6e-3, coarse_s), (4e-6, settle_s)):
-        on_cycle(change, None, None, step_s)
-    said = [
-        (int(line.split(": ")[1].split()[0]), float(line.split("change per cycle ")[1].split()[0])) for line in lines
-    ]
-    assert said == [(1, 0.1), (2, 1e-3), (3, 6e-3), (5, 4e-6)]
+    def contraction(target):
+        return lambda x: (target + 0.3 * (x - target), np.ones(3))
+
+    heard = []
+    found = shooting.accelerated_fixed_point(
+        contraction(target_coarse), np.zeros(3), tol=1e-6, max_periods=30, on_period=heard.append
+    )
+    assert found.converged and len(heard) == found.periods and heard[-1] <= 1e-6
+    heard.clear()
+    settled = shooting.defect_corrected_fixed_point(
+        contraction(target_coarse), contraction(target_fine), found, tol=1e-8, max_periods=30, on_period=heard.append
+    )
+    assert settled.search.converged
+    assert len(heard) == settled.coarse_periods + settled.fine_periods
+    assert heard[0] == pytest.approx(0.7 * 0.1)  # the first fine period at the coarse fixed point: its offset
+    assert max(heard[1:]) < heard[0] and heard[-1] <= 1e-8
 
 
 def test_the_link_drives_search_is_heard_and_not_changed():

@@ -86,7 +86,19 @@ DEFECT_COARSE_TOL_FACTOR = 10.0
 
 
 def relabelled_periodic_state(
-    model, cam, step_s, n_steps, q0, v0, *, tol, max_cycles, predictor, depth: int | None = None, on_cycle=None
+    model,
+    cam,
+    step_s,
+    n_steps,
+    q0,
+    v0,
+    *,
+    tol,
+    max_cycles,
+    predictor,
+    depth: int | None = None,
+    on_cycle=None,
+    on_period=None,
 ):
     """As dynamics.solvers.machine_verlet.relabelled_periodic_state (same arguments, same return:
     (q0, v0, cycles, residual, found, the last cycle's MachineRun)), the cycling accelerated.
@@ -94,20 +106,21 @@ def relabelled_periodic_state(
     Newton step, FREE_PLAY_DEPTH where the search goes without it (above NEWTON_FREE_PLAY_LINKS).
     `on_cycle(residual, end, run)`: called after every index cycle stepped with its change per cycle
     (the acceptance test's measure), its end state (q, q') after the seat change and its MachineRun,
-    for measuring a search (benchmarks/bench_long_search.py); it does not change the search."""
+    for measuring a search (benchmarks/bench_long_search.py); it does not change the search.
+    `on_period(residual)`: shooting.accelerated_fixed_point's (a progress line)."""
     n = np.asarray(q0).size
     last = {}
     one_cycle = _cycle_map(model, cam, step_s, n_steps, n, predictor, last, on_cycle)
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
     search = shooting.accelerated_fixed_point(
-        one_cycle, x0, tol=tol, max_periods=max_cycles, **_search_options(model, cam, depth)
+        one_cycle, x0, tol=tol, max_periods=max_cycles, on_period=on_period, **_search_options(model, cam, depth)
     )
     end = search.state
     return end[:n].copy(), end[n:].copy(), search.periods, search.residual, search.converged, last["run"]
 
 
 def defect_corrected_periodic_state(
-    model, cam, coarse, fine, q0, v0, *, tol, max_cycles, predictor, on_cycle=None
+    model, cam, coarse, fine, q0, v0, *, tol, max_cycles, predictor, on_cycle=None, on_period=None
 ) -> DefectCorrectedState:
     """The relabelled steady state at the fine step searched mostly at the coarse one: the accelerated
     search (relabelled_periodic_state's) at `coarse` (step_s, steps per index cycle) from (q0, v0) to
@@ -118,7 +131,9 @@ def defect_corrected_periodic_state(
     the settle's (coarse and fine together), as a settle's cycles are apart from the search's
     budget elsewhere (dynamics.machine_scene): at 10,000 links the coarse search takes 39 of the
     default 60 and the settle about 23. `on_cycle(residual,
-    end, run, step_s)`: as relabelled_periodic_state's, with the cycle's step."""
+    end, run, step_s)`: as relabelled_periodic_state's, with the cycle's step; `on_period(residual)`:
+    after every cycle, with the residual its search accepts by (shooting.defect_corrected_fixed_point's:
+    the corrected map's for the settle's coarse cycles)."""
     n = np.asarray(q0).size
     last = {}
 
@@ -130,11 +145,13 @@ def defect_corrected_periodic_state(
     coarse_cycle = cycle_map(coarse)
     x0 = np.concatenate([np.asarray(q0, dtype=float), np.asarray(v0, dtype=float)])
     coarse_tol = DEFECT_COARSE_TOL_FACTOR * tol
-    found = shooting.accelerated_fixed_point(coarse_cycle, x0, tol=coarse_tol, max_periods=max_cycles, **options)
+    found = shooting.accelerated_fixed_point(
+        coarse_cycle, x0, tol=coarse_tol, max_periods=max_cycles, on_period=on_period, **options
+    )
     if not found.converged:
         return DefectCorrectedState(found.state[:n].copy(), found.state[n:].copy(), found, None, last["run"])
     settled = shooting.defect_corrected_fixed_point(
-        coarse_cycle, cycle_map(fine), found, tol=tol, max_periods=max_cycles, **options
+        coarse_cycle, cycle_map(fine), found, tol=tol, max_periods=max_cycles, on_period=on_period, **options
     )
     end = settled.search.state
     return DefectCorrectedState(end[:n].copy(), end[n:].copy(), found, settled, last["run"])

@@ -96,11 +96,14 @@ def accelerated_fixed_point(
     precondition=None,
     history: tuple = ((), ()),
     first=None,
+    on_period=None,
 ) -> FixedPointSearch:
     """Fixed point of `one_period(x) -> (P(x), scale)` (scale: per-component positive scale of the
     residual, from that period's motion), by Anderson acceleration with plain periods as the
     fallback (module docstring). `history`: secant pairs to start from (a FixedPointSearch's, of a map
-    with the same differences); `first`: (P(x0), scale) already stepped, not stepped again nor counted."""
+    with the same differences); `first`: (P(x0), scale) already stepped, not stepped again nor counted.
+    `on_period(residual)`: called after every period stepped with its residual, the measure the
+    search accepts by (a progress line, dynamics.search_progress); it does not change the search."""
     x = np.array(x0, dtype=float)
     d_f: deque = deque(history[0], maxlen=depth)  # differences of scaled residuals
     d_g: deque = deque(history[1], maxlen=depth)  # differences of images
@@ -139,6 +142,8 @@ def accelerated_fixed_point(
         last_image, start = image, x
         f = (image - x) / scale
         residual = float(np.max(np.abs(f)))
+        if stepped > 0 and on_period is not None:
+            on_period(residual)
         if residual <= tol:
             plain_ends.append(image)
             if accelerating:
@@ -184,6 +189,7 @@ def defect_corrected_fixed_point(
     depth: int = DEFAULT_DEPTH,
     stall: int = DEFAULT_STALL,
     precondition=None,
+    on_period=None,
 ) -> DefectCorrectedSearch:
     """Fixed point of the fine map `fine_period(x) -> (F_d(x), scale)` searched with the coarse map
     `coarse_period` (the same period at a coarser step, whose accelerated search `found` converged),
@@ -195,13 +201,16 @@ def defect_corrected_fixed_point(
     state returned is that period's end. The defect is renewed at each G fixed point (searched to
     DEFECT_INNER_TOL_FRACTION of `tol`); the outer iteration contracts by about
     |(I - J_c)^-1 (J_d - J_c)|, small where both maps remove the fast directions in a period.
-    `max_periods` bounds both maps' periods together."""
+    `max_periods` bounds both maps' periods together. `on_period(residual)`: after every period of
+    either map, with the residual its search accepts by (the fine map's; G's for the coarse periods)."""
     x, coarse_image, history = found.start, found.state, found.history
     coarse_periods = fine_periods = 0
     while True:
         image, scale = fine_period(x)
         fine_periods += 1
         residual = float(np.max(np.abs((image - x) / scale)))
+        if on_period is not None:
+            on_period(residual)
         converged = residual <= tol
         # the corrected search keeps one period of the budget for the fine test at its fixed point
         left = max_periods - coarse_periods - fine_periods - 1
@@ -226,6 +235,7 @@ def defect_corrected_fixed_point(
             precondition=precondition,
             history=history,
             first=(image, scale),
+            on_period=on_period,
         )
         coarse_periods += inner.periods
         x, coarse_image, history = inner.start, inner.state - defect, inner.history
